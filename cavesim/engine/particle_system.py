@@ -1,0 +1,225 @@
+"""The particle system of one wall node on one GL context.
+
+A frame (`step`) is two transform-feedback passes into the back buffers, then a swap:
+  1. particle pass: survivors of the particle stream, moved, packed in input order;
+  2. emitter pass: the emitter stream updates its accumulators, then appends this frame's
+     new particles after the survivors, drawing them from the shared random texture
+     through the frame's matrix.
+Only the scene's features are compiled in and allocated (see `programs.py`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from cavesim.emitters import EmitterTable
+from cavesim.engine.checksum import GpuChecksum, StateChecksum
+from cavesim.engine.frame import FrameInput
+from cavesim.engine.layout import (
+    EMITTER_BYTES,
+    EMITTER_DTYPE,
+    EMITTER_VERTEX_FORMAT,
+    PARTICLE_BYTES,
+    PARTICLE_DTYPE,
+    PARTICLE_VERTEX_FORMAT,
+    PARTICLE_WORDS,
+)
+from cavesim.engine.programs import (
+    EMIT_BATCH,
+    emit_program,
+    emitter_update_program,
+    particle_update_program,
+)
+from cavesim.engine.uniforms import emitter_uniforms, physics_uniforms, write_uniforms
+from cavesim.fields import FieldGrid, build_field
+from cavesim.heightfield import HeightGrid, load_heightfield
+from cavesim.random_texture import random_words
+from cavesim.scene.model import CollisionKind, FieldSampling, Scene
+
+FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT = 0, 1, 2
+MAX_SSBO_BYTES = 2**27  # GL_MAX_SHADER_STORAGE_BLOCK_SIZE on llvmpipe; the checksum binds SSBOs
+
+
+class ParticleSystem:
+    """Emitter and particle streams of one scene, stepped frame by frame on the GPU."""
+
+    def __init__(self, ctx: moderngl.Context, scene: Scene) -> None:
+        if scene.capacity * PARTICLE_BYTES > MAX_SSBO_BYTES:
+            raise ValueError(f"capacity={scene.capacity} needs "
+                             f"{scene.capacity * PARTICLE_BYTES} bytes, more than the "
+                             f"{MAX_SSBO_BYTES} a storage buffer may hold")
+        self.ctx = ctx
+        self.scene = scene
+        self.emitters = EmitterTable.from_scene(scene)
+        self.resources: dict[str, moderngl.Buffer | moderngl.Texture | moderngl.Texture3D] = {}
+        self._live = 0
+        self._current = 0  # index of the front buffers
+        self._query = ctx.query(primitives=True)
+        self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
+                                  for i in range(2)]
+        self.field_grid: FieldGrid | None = None
+        self.ground_grid: HeightGrid | None = None
+        self._textures_for_physics()
+        self._update = particle_update_program(ctx, scene)
+        write_uniforms(self._update, physics_uniforms(scene, self.field_grid, self.ground_grid))
+        self._bind_samplers(self._update)
+        self._update_vaos = [self._vao(self._update, b, PARTICLE_VERTEX_FORMAT,
+                                       "in_a", "in_b", "in_c")
+                             for b in self._particle_buffers]
+        if len(self.emitters):
+            self._build_emission()
+        self._checksum = GpuChecksum(ctx, max(scene.capacity * PARTICLE_WORDS, 1))
+
+    # -- construction -----------------------------------------------------------------
+
+    def _buffer(self, name: str, size: int) -> moderngl.Buffer:
+        buffer = self.ctx.buffer(reserve=max(size, 4))  # GL has no empty buffers
+        self.resources[name] = buffer
+        return buffer
+
+    def _vao(self, program, buffer, layout: str, *names: str) -> moderngl.VertexArray:
+        return self.ctx.vertex_array(program, [(buffer, layout, *names)])
+
+    def _textures_for_physics(self) -> None:
+        scene = self.scene
+        if scene.forces.drag is not None:
+            grid = build_field(scene.field)
+            texture = self.ctx.texture3d(grid.resolution, 3, grid.velocity.tobytes(), dtype="f4")
+            hardware = scene.field.sampling is FieldSampling.HARDWARE
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR) if hardware else (
+                moderngl.NEAREST, moderngl.NEAREST)
+            texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+            self.resources["flow_field"] = texture
+            self.field_grid = grid
+        if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
+            ground = load_heightfield(scene.collision.file)
+            ny, nx = ground.height.shape
+            texture = self.ctx.texture((nx, ny), 1, ground.height.tobytes(), dtype="f4")
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            texture.repeat_x = texture.repeat_y = False
+            self.resources["ground_height"] = texture
+            self.ground_grid = ground
+
+    def _bind_samplers(self, program) -> None:
+        for name, unit in (("flow_field", FIELD_UNIT), ("ground_height", GROUND_UNIT),
+                           ("random_texture", RANDOM_UNIT)):
+            if name in self.resources:
+                self.resources[name].use(unit)
+                if name in program:
+                    program[name].value = unit
+
+    def _build_emission(self) -> None:
+        scene, count = self.scene, len(self.emitters)
+        size = scene.random_texture_size
+        random = self.ctx.texture((size, size), 4, random_words(scene.seed, size).tobytes(),
+                                  dtype="u4")
+        random.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.resources["random_texture"] = random
+        self._emitter_buffers = [self._buffer(f"emitters_{i}", count * EMITTER_BYTES)
+                                 for i in range(2)]
+        self._emitter_update = emitter_update_program(self.ctx, scene)
+        self._emit = emit_program(self.ctx, scene)
+        for program in (self._emitter_update, self._emit):
+            write_uniforms(program, emitter_uniforms(self.emitters))
+        self._bind_samplers(self._emit)
+        self._emitter_update_vaos = [self._vao(self._emitter_update, b, EMITTER_VERTEX_FORMAT,
+                                               "in_state") for b in self._emitter_buffers]
+        self._emit_vaos = [self._vao(self._emit, b, EMITTER_VERTEX_FORMAT, "in_state")
+                           for b in self._emitter_buffers]
+
+    # -- the frame ----------------------------------------------------------------------
+
+    @property
+    def live_count(self) -> int:
+        return self._live
+
+    @property
+    def capacity(self) -> int:
+        return self.scene.capacity
+
+    def step(self, frame: FrameInput) -> None:
+        """Advance one frame with exactly the inputs every other node gets."""
+        front, back = self._current, 1 - self._current
+        self._bind_samplers(self._update)
+        survivors = self._particle_pass(front, back, frame.dt)
+        emitted = self._emitter_pass(front, back, survivors, frame) if len(self.emitters) else 0
+        self._live = survivors + emitted
+        self._current = back
+
+    def _particle_pass(self, front: int, back: int, dt: np.float32) -> int:
+        if self._live == 0:
+            return 0
+        write_uniforms(self._update, {"dt": dt})
+        with self._query:
+            self._update_vaos[front].transform(self._particle_buffers[back], moderngl.POINTS,
+                                               vertices=self._live)
+        return self._query.primitives
+
+    def _emitter_pass(self, front: int, back: int, survivors: int, frame: FrameInput) -> int:
+        max_emit = self.emitters.max_emit(frame.dt, self.capacity)
+        write_uniforms(self._emitter_update, {"dt": frame.dt, "emitter_max_emit": max_emit})
+        self._emitter_update_vaos[front].transform(self._emitter_buffers[back], moderngl.POINTS,
+                                                   vertices=len(self.emitters))
+        room = self.capacity - survivors
+        batches = math.ceil(int(max_emit.max()) / EMIT_BATCH)
+        if room <= 0 or batches == 0:
+            return 0
+        write_uniforms(self._emit, {"random_transform": frame.random_transform.T})
+        self._bind_samplers(self._emit)
+        # Transform feedback records only what fits after `buffer_offset`; the query counts
+        # every generated particle, including the ones dropped (DESIGN: live = min(...)).
+        with self._query:
+            self._emit_vaos[back].transform(self._particle_buffers[back], moderngl.POINTS,
+                                            vertices=len(self.emitters), instances=batches,
+                                            buffer_offset=survivors * PARTICLE_BYTES)
+        return min(self._query.primitives, room)
+
+    # -- state ----------------------------------------------------------------------------
+
+    def checksum(self) -> StateChecksum:
+        """Digest of the live particle and emitter streams, computed on the GPU."""
+        emitters = self._emitter_buffers[self._current] if len(self.emitters) else None
+        return self._checksum.state(
+            self._particle_buffers[self._current], self._live * PARTICLE_WORDS, self._live,
+            emitters, len(self.emitters) * EMITTER_BYTES // 4, len(self.emitters))
+
+    def read_particles(self) -> np.ndarray:
+        """A copy of the live particle stream (PARTICLE_DTYPE), in stream order."""
+        data = self._particle_buffers[self._current].read(self._live * PARTICLE_BYTES)
+        return np.frombuffer(data, dtype=PARTICLE_DTYPE).copy()
+
+    def write_particles(self, particles: np.ndarray) -> None:
+        """Replace the live particle stream (a snapshot load or a test's setup)."""
+        particles = _checked_records(particles, PARTICLE_DTYPE, self.capacity, "particles")
+        if len(particles):
+            self._particle_buffers[self._current].write(particles.tobytes())
+        self._live = len(particles)
+
+    def read_emitters(self) -> np.ndarray:
+        """A copy of the emitter stream (EMITTER_DTYPE)."""
+        if not len(self.emitters):
+            return np.zeros(0, dtype=EMITTER_DTYPE)
+        data = self._emitter_buffers[self._current].read(len(self.emitters) * EMITTER_BYTES)
+        return np.frombuffer(data, dtype=EMITTER_DTYPE).copy()
+
+    def write_emitters(self, emitters: np.ndarray) -> None:
+        """Replace the emitter stream's state (same length as the scene's emitters)."""
+        count = len(self.emitters)
+        emitters = _checked_records(emitters, EMITTER_DTYPE, count, "emitters")
+        if len(emitters) != count:
+            raise ValueError(f"emitters: expected {count} records, got {len(emitters)}")
+        if count:
+            self._emitter_buffers[self._current].write(emitters.tobytes())
+
+
+def _checked_records(records: np.ndarray, dtype: np.dtype, limit: int, what: str) -> np.ndarray:
+    records = np.asarray(records)
+    if records.dtype != dtype or records.ndim != 1:
+        raise ValueError(f"{what}: expected a 1-D array of dtype {dtype}, "
+                         f"got shape {records.shape} of dtype {records.dtype}")
+    if len(records) > limit:
+        raise ValueError(f"{what}: {len(records)} records exceed the limit of {limit}")
+    return np.ascontiguousarray(records)

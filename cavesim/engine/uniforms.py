@@ -1,0 +1,77 @@
+"""Uniform values of the engine's programs, computed once from the scene as float32 bits."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import moderngl
+import numpy as np
+
+from cavesim.emitters import EmitterTable
+from cavesim.fields import FieldGrid
+from cavesim.heightfield import HeightGrid
+from cavesim.scene.model import CollisionKind, Scene
+
+
+def physics_uniforms(scene: Scene, field: FieldGrid | None,
+                     ground: HeightGrid | None) -> dict[str, object]:
+    """The particle pass's constants for the scene's compiled-in features."""
+    values: dict[str, object] = {}
+    forces = scene.forces
+    if forces.gravity is not None:
+        values["gravity"] = np.array(forces.gravity, dtype=np.float32)
+    if forces.damping is not None:
+        values["damping"] = np.float32(forces.damping)
+    if forces.drag is not None:
+        values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
+                                     dtype=np.float32)
+        values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
+        values["field_index_scale"] = index_scale(field.box_min, field.box_max,
+                                                  field.resolution)
+    collision = scene.collision
+    if collision is not None:
+        values["friction"] = np.float32(collision.friction)
+        values["resilience"] = np.float32(collision.resilience)
+        values["friction_min_speed"] = np.float32(collision.friction_min_speed)
+        if collision.kind is CollisionKind.PLANE:
+            values["ground_z"] = np.float32(collision.height)
+        else:
+            ny, nx = ground.height.shape
+            values["ground_box_min"] = np.array(ground.box_min, dtype=np.float32)
+            values["ground_index_scale"] = index_scale(ground.box_min, ground.box_max, (nx, ny))
+    return values
+
+
+def index_scale(box_min, box_max, resolution) -> np.ndarray:
+    """(resolution - 1) / (box_max - box_min) per axis, as float32: world to grid index."""
+    size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
+    return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)
+
+
+def emitter_uniforms(table: EmitterTable) -> dict[str, object]:
+    """The emitter programs' per-emitter arrays."""
+    return {
+        "emitter_rate": table.rate,
+        "emitter_position": table.position,
+        "emitter_extent": table.extent,
+        "emitter_axis": table.axis,
+        "emitter_tangent": table.tangent,
+        "emitter_bitangent": table.bitangent,
+        "emitter_versine_spread": table.versine_spread,
+        "emitter_speed": table.speed,
+        "emitter_speed_spread": table.speed_spread,
+        "emitter_lifetime": table.lifetime,
+        "emitter_class": table.class_id,
+        "emitter_random_base": table.random_base,
+    }
+
+
+def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> None:
+    """Write each value's exact bytes to the uniform of that name the program uses.
+
+    A name the compiler optimized out of this program (the emitter programs share one
+    table) is skipped; dtype decides the bits, so float32 and uint32 go up untouched.
+    """
+    for name, value in values.items():
+        if name in program:
+            program[name].write(np.ascontiguousarray(value).tobytes())

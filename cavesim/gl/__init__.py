@@ -1,0 +1,1 @@
+"""OpenGL plumbing shared by the engine and, later, the renderer."""

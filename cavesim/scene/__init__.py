@@ -1,0 +1,42 @@
+"""Scenes: the typed description of one simulated world and its TOML loader.
+
+`load_scene("config/scenes/dust_devil.toml")` is where a scene enters; the engine, the
+shader specializer and the numpy twin only ever see the frozen objects re-exported here.
+"""
+
+from cavesim.scene.loader import load_scene, parse_scene
+from cavesim.scene.model import (
+    AIR_VISCOSITY,
+    Collision,
+    CollisionKind,
+    Drag,
+    Emitter,
+    Field,
+    FieldKind,
+    FieldSampling,
+    Forces,
+    Integrator,
+    OutOfDomain,
+    ParticleClass,
+    Scene,
+    Vec3,
+)
+
+__all__ = [
+    "AIR_VISCOSITY",
+    "Collision",
+    "CollisionKind",
+    "Drag",
+    "Emitter",
+    "Field",
+    "FieldKind",
+    "FieldSampling",
+    "Forces",
+    "Integrator",
+    "OutOfDomain",
+    "ParticleClass",
+    "Scene",
+    "Vec3",
+    "load_scene",
+    "parse_scene",
+]

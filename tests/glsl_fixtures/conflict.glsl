@@ -1,0 +1,2 @@
+// local override the caller cannot see
+#define SPEED 2.0

@@ -1,0 +1,1 @@
+#define VERTEX_SHADER

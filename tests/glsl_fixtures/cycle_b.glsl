@@ -1,0 +1,2 @@
+// b pulls a back in
+#include "cycle_a.glsl"

@@ -1,0 +1,6 @@
+#if defined VERTEX_SHADER
+#include "lib/common.glsl"
+#else
+float other;
+#endif
+void main() {}

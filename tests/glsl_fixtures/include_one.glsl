@@ -1,0 +1,3 @@
+// uses the common helpers
+#include "lib/common.glsl"
+void main() {}

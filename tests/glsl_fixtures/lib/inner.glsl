@@ -1,0 +1,1 @@
+float inner() { return 1.0; }

@@ -1,0 +1,2 @@
+#pragma once
+struct Particle { vec3 p; };

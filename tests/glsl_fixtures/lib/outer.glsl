@@ -1,0 +1,3 @@
+#include "inner.glsl"
+#include "/lib/common.glsl"
+float outer() { return inner(); }

@@ -1,0 +1,2 @@
+#include "lib/outer.glsl"
+void main() {}
