@@ -133,6 +133,11 @@ class ParticleSystem:
     # -- the frame ----------------------------------------------------------------------
 
     @property
+    def particle_program(self) -> moderngl.Program:
+        """The particle pass's program (its uniforms show what the scene compiled in)."""
+        return self._update
+
+    @property
     def live_count(self) -> int:
         return self._live
 

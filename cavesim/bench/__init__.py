@@ -1,0 +1,12 @@
+"""`cavesim bench`: throughput of the GS/TF step against its numpy twin and compute bound.
+
+`run_bench` measures every size on one GL context and writes `bench.json` (machine-readable
+first, see DESIGN "Reports") and `bench.md` next to the table it prints.
+"""
+
+from cavesim.bench.runner import run_bench
+
+from cavesim.bench.figures import TARGETS, SizeFigures, Target
+from cavesim.bench.measure import BenchError
+
+__all__ = ["TARGETS", "BenchError", "SizeFigures", "Target", "run_bench"]

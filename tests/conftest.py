@@ -1,0 +1,20 @@
+"""One headless GL context for the whole session; every GL test checks ctx.error around it."""
+
+import pytest
+
+from cavesim.gl.context import create_context
+
+
+@pytest.fixture(scope="session")
+def gl_session():
+    ctx = create_context()
+    yield ctx
+    ctx.release()
+
+
+@pytest.fixture
+def ctx(gl_session):
+    assert gl_session.error == "GL_NO_ERROR", "a previous test left a GL error behind"
+    yield gl_session
+    assert gl_session.error == "GL_NO_ERROR"
+    gl_session.extra["framebuffer"].use()

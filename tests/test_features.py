@@ -1,0 +1,112 @@
+"""A feature the scene lacks compiles to no code and allocates nothing."""
+
+import re
+from pathlib import Path
+
+import moderngl
+from scenes import FOUNTAIN, make_scene
+
+from cavesim.engine import ParticleSystem
+from cavesim.engine.programs import PHYSICS_DEFINES, physics_defines
+from cavesim.scene import load_scene
+from cavesim.shader_source import assemble
+
+SCENES = Path(__file__).parents[1] / "config" / "scenes"
+FEATURE_CODE = {  # what each feature puts in the compiled particle pass
+    "drag": ("flow_field", "texelFetch", "inv_tau"),
+    "damping": ("damping",),
+    "collision": ("friction", "resilience", "collide"),
+    "heightfield": ("ground_height",),
+    "exponential": ("exponential_weights",),
+}
+
+
+def compiled_text(scene) -> str:
+    """The particle pass's vertex stage as the compiler sees it, inactive branches removed."""
+    source = assemble("particles/update.glsl", "vertex", physics_defines(scene),
+                      PHYSICS_DEFINES).text
+    return _active_lines(source)
+
+
+def mentions(text: str, word: str) -> bool:
+    return re.search(rf"\b{word}\b", text) is not None
+
+
+def uniforms(program) -> set[str]:
+    return {name for name in program if isinstance(program[name], moderngl.Uniform)}
+
+
+def _active_lines(source: str) -> str:
+    macros: dict[str, str] = {}
+    stack: list[tuple[bool, bool]] = []  # (this branch active, some branch already taken)
+    out = []
+    for line in source.splitlines():
+        directive = re.match(r"\s*#\s*(if|elif|else|endif|define)\b\s*(.*)", line)
+        active = all(a for a, _ in stack)
+        if not directive:
+            if active:
+                out.append(line)
+            continue
+        kind, rest = directive.groups()
+        if kind == "define" and active:
+            name, _, value = rest.partition(" ")
+            macros[name] = value.strip()
+        elif kind == "if":
+            taken = active and _holds(rest, macros)
+            stack.append((taken, taken))
+        elif kind in ("elif", "else"):
+            _, taken = stack.pop()
+            parent = all(a for a, _ in stack)
+            now = parent and not taken and (kind == "else" or _holds(rest, macros))
+            stack.append((now, taken or now))
+        elif kind == "endif":
+            stack.pop()
+    return "\n".join(out)
+
+
+def _holds(condition: str, macros: dict[str, str]) -> bool:
+    condition = condition.split("//")[0].strip()
+    if condition.startswith("defined"):
+        return condition.split()[-1] in macros
+    match = re.fullmatch(r"(\w+)\s*(==|!=)\s*(\w+)", condition)
+    if match:
+        left, op, right = match.groups()
+        equal = macros.get(left, left) == macros.get(right, right)
+        return equal if op == "==" else not equal
+    return macros.get(condition, "0") != "0"
+
+
+def test_minimal_scene_compiles_to_gravity_and_nothing_else():
+    scene = load_scene(SCENES / "minimal.toml")
+    text = compiled_text(scene)
+    assert mentions(text, "gravity")
+    for feature, words in FEATURE_CODE.items():
+        for word in words:
+            assert not mentions(text, word), f"{feature}: {word!r} is in the minimal scene"
+
+
+def test_full_scene_compiles_its_features(tmp_path):
+    text = compiled_text(make_scene(integrator="exponential", damping=0.2, collision={
+        "kind": "plane", "friction": 0.1, "resilience": 0.5}))
+    for feature in ("drag", "damping", "collision", "exponential"):
+        for word in FEATURE_CODE[feature]:
+            assert mentions(text, word), f"{feature}: {word!r} missing"
+
+
+def test_minimal_scene_allocates_no_field_ground_or_extra_uniforms(ctx):
+    system = ParticleSystem(ctx, load_scene(SCENES / "minimal.toml"))
+    assert set(system.resources) == {"particles_0", "particles_1", "emitters_0", "emitters_1",
+                                     "random_texture"}
+    assert uniforms(system.particle_program) == {"dt", "gravity"}
+
+
+def test_scene_without_emitters_has_no_emitter_stream_or_random_texture(ctx):
+    system = ParticleSystem(ctx, make_scene(drag=False))
+    assert set(system.resources) == {"particles_0", "particles_1"}
+
+
+def test_drag_and_ground_allocate_their_textures(ctx, tmp_path):
+    system = ParticleSystem(ctx, make_scene(emitters=[FOUNTAIN], collision={
+        "kind": "plane", "friction": 0.1, "resilience": 0.5}))
+    assert {"flow_field", "random_texture"} <= set(system.resources)
+    assert {"flow_field", "inv_tau", "friction", "ground_z"} <= uniforms(system.particle_program)
