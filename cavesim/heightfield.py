@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from cavesim._grids import cells, check_box, corner_of, float_grid, mix, read_npz
 from cavesim.errors import FieldError
-from cavesim.fields import _cells, _check_box, _corner, _float_grid, _mix, _read_npz
 
 MAX_HEIGHT_NODES = 4096  # per axis, a common GL_MAX_TEXTURE_SIZE floor
 
@@ -38,7 +38,7 @@ class HeightGrid:
             raise FieldError(f"height grid has shape {height.shape}, expected (ny, nx) with at "
                              "least 2 nodes per axis")
         height.flags.writeable = False
-        box_min, box_max = _check_box(self.box_min, self.box_max, 2, "height field")
+        box_min, box_max = check_box(self.box_min, self.box_max, 2, "height field")
         object.__setattr__(self, "height", height)
         object.__setattr__(self, "box_min", box_min)
         object.__setattr__(self, "box_max", box_max)
@@ -53,10 +53,10 @@ class HeightGrid:
 def load_heightfield(path) -> HeightGrid:
     """Read an .npz with "height" (ny, nx) of floats and "box_min", "box_max" (x, y) each."""
     path = Path(path)
-    arrays = _read_npz(path, required=("height", "box_min", "box_max"))
-    height = _float_grid(path, "height", arrays["height"], "(ny, nx)", MAX_HEIGHT_NODES)
-    box_min = _corner(path, "box_min", arrays["box_min"], 2)
-    box_max = _corner(path, "box_max", arrays["box_max"], 2)
+    arrays = read_npz(path, required=("height", "box_min", "box_max"))
+    height = float_grid(path, "height", arrays["height"], "(ny, nx)", MAX_HEIGHT_NODES)
+    box_min = corner_of(path, "box_min", arrays["box_min"], 2)
+    box_max = corner_of(path, "box_max", arrays["box_max"], 2)
     if not all(a < b for a, b in zip(box_min, box_max, strict=True)):
         raise FieldError(f"{path}: arrays 'box_min' = {box_min} and 'box_max' = {box_max}, "
                          "expected box_max > box_min on both axes")
@@ -92,7 +92,7 @@ def sample_height(grid: HeightGrid, xy, dtype=np.float64) -> tuple[np.ndarray, n
     flat = p.reshape(-1, 2)
     lo, hi = np.asarray(grid.box_min, dtype), np.asarray(grid.box_max, dtype)
     res = grid.resolution
-    i0, t, f = _cells(flat, lo, hi, res, dtype)
+    i0, t, f = cells(flat, lo, hi, res, dtype)
     (ix, iy), (tx, ty) = i0.T, t.T
     heights = grid.height
 
@@ -100,11 +100,11 @@ def sample_height(grid: HeightGrid, xy, dtype=np.float64) -> tuple[np.ndarray, n
         return heights[iy + dy, ix + dx].astype(dtype)
 
     h00, h01, h10, h11 = node(0, 0), node(0, 1), node(1, 0), node(1, 1)
-    height = _mix(_mix(h00, h01, tx), _mix(h10, h11, tx), ty)
+    height = mix(mix(h00, h01, tx), mix(h10, h11, tx), ty)
     per_metre = (np.asarray(res, dtype) - 1) / (hi - lo)
     inside = (f >= 0) & (f <= np.asarray(res, dtype) - 1)
-    dh_dx = np.where(inside[:, 0], _mix(h01 - h00, h11 - h10, ty) * per_metre[0], 0)
-    dh_dy = np.where(inside[:, 1], _mix(h10 - h00, h11 - h01, tx) * per_metre[1], 0)
+    dh_dx = np.where(inside[:, 0], mix(h01 - h00, h11 - h10, ty) * per_metre[0], 0)
+    dh_dy = np.where(inside[:, 1], mix(h10 - h00, h11 - h01, tx) * per_metre[1], 0)
     normal = np.stack([-dh_dx, -dh_dy, np.ones_like(dh_dx)], axis=-1)
     normal /= np.sqrt(dh_dx * dh_dx + dh_dy * dh_dy + 1)[:, None]
     lost = np.isnan(flat).any(axis=1)

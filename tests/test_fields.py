@@ -8,14 +8,8 @@ import numpy as np
 import pytest
 
 from cavesim.errors import FieldError
-from cavesim.fields import (
-    FieldGrid,
-    build_field,
-    downwash_velocity,
-    sample_field,
-    save_field,
-    vortex_velocity,
-)
+from cavesim.fields import FieldGrid, build_field, sample_field, save_field
+from cavesim.flows import downwash_velocity, vortex_velocity
 from cavesim.heightfield import HeightGrid, load_heightfield, sample_height, save_heightfield
 from cavesim.scene.model import Field, FieldKind, OutOfDomain
 
