@@ -4,9 +4,8 @@
 first, see DESIGN "Reports") and `bench.md` next to the table it prints.
 """
 
-from cavesim.bench.runner import run_bench
-
 from cavesim.bench.figures import TARGETS, SizeFigures, Target
 from cavesim.bench.measure import BenchError
+from cavesim.bench.runner import run_bench
 
 __all__ = ["TARGETS", "BenchError", "SizeFigures", "Target", "run_bench"]

@@ -1,6 +1,7 @@
 """Checksum of a node's live state, computed on the GPU (no full read-back per frame).
 
-The compute shader reduces each buffer's live words to a few kilobytes of workgroup sums;
+The compute shader reduces each buffer's live words to one pair of sums per invocation
+(313 KB for a million particles);
 the host hashes those sums with the live counts into one digest (BLAKE2b-128). Only the
 live range is hashed (determinism rule 4): bytes past the count were never written.
 """
@@ -13,11 +14,15 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from cavesim.engine.programs import CHECKSUM_WORDS_PER_THREAD, checksum_program
+from cavesim.engine.programs import (
+    CHECKSUM_WORDS_PER_THREAD,
+    CHECKSUM_WORKGROUP_SIZE,
+    checksum_program,
+)
 
-WORKGROUP_SIZE = 256
-WORDS_PER_GROUP = WORKGROUP_SIZE * CHECKSUM_WORDS_PER_THREAD
-PARTIAL_BYTES = 8  # two uint32 sums per workgroup
+WORDS_PER_GROUP = CHECKSUM_WORKGROUP_SIZE * CHECKSUM_WORDS_PER_THREAD
+PARTIAL_BYTES = 8  # two uint32 sums per invocation
+GROUP_BYTES = CHECKSUM_WORKGROUP_SIZE * PARTIAL_BYTES
 
 
 @dataclass(frozen=True)
@@ -33,10 +38,10 @@ class GpuChecksum:
     def __init__(self, ctx: moderngl.Context, max_words: int) -> None:
         self._program = checksum_program(ctx)
         groups = max(1, -(-max_words // WORDS_PER_GROUP))
-        self._partials = ctx.buffer(reserve=groups * PARTIAL_BYTES)
+        self._partials = ctx.buffer(reserve=groups * GROUP_BYTES)
 
     def buffer_sums(self, buffer: moderngl.Buffer, word_count: int) -> bytes:
-        """Workgroup sums of the first `word_count` words of `buffer` (empty when 0)."""
+        """Per-invocation sums of the first `word_count` words of `buffer` (empty when 0)."""
         if word_count == 0:
             return b""
         groups = -(-word_count // WORDS_PER_GROUP)
@@ -44,7 +49,7 @@ class GpuChecksum:
         self._partials.bind_to_storage_buffer(1)
         self._program["word_count"].value = word_count
         self._program.run(groups)
-        return self._partials.read(groups * PARTIAL_BYTES)
+        return self._partials.read(groups * GROUP_BYTES)
 
     def state(self, particles: moderngl.Buffer, particle_words: int, particle_count: int,
               emitters: moderngl.Buffer | None, emitter_words: int,
@@ -59,7 +64,7 @@ class GpuChecksum:
 
 
 def reference_sums(words: np.ndarray) -> bytes:
-    """The shader's workgroup sums computed with numpy, for tests of the GPU checksum."""
+    """The shader's per-invocation sums computed with numpy, for tests of the GPU checksum."""
     words = np.asarray(words, dtype=np.uint32)
     index = np.arange(words.size, dtype=np.uint32)
     h = words ^ (index * np.uint32(0x9E3779B9))
@@ -67,7 +72,9 @@ def reference_sums(words: np.ndarray) -> bytes:
     groups = -(-words.size // WORDS_PER_GROUP)
     padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)
     padded[: words.size] = lanes
-    sums = padded.reshape(groups, WORDS_PER_GROUP, 2).sum(axis=1, dtype=np.uint64)
+    # invocation t of group g reads words g·WORDS_PER_GROUP + k·WORKGROUP_SIZE + t
+    by_invocation = padded.reshape(groups, CHECKSUM_WORDS_PER_THREAD, CHECKSUM_WORKGROUP_SIZE, 2)
+    sums = by_invocation.sum(axis=1, dtype=np.uint64)
     return (sums & 0xFFFFFFFF).astype("<u4").tobytes()
 
 

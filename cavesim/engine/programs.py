@@ -24,7 +24,8 @@ OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
 
 EMIT_BATCH = 64  # particles per GS invocation: 64 x 10 components fits the GL minimum of 1024
-CHECKSUM_WORDS_PER_THREAD = 16
+CHECKSUM_WORKGROUP_SIZE = 64
+CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 313 KB of sums to read
 
 PHYSICS_DEFINES = ("HAS_GRAVITY", "HAS_DRAG", "HAS_DAMPING", "COLLISION", "INTEGRATOR",
                    "FIELD_OUT_OF_DOMAIN", "FIELD_SAMPLING", "CLASS_COUNT")
@@ -77,4 +78,6 @@ def emit_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
 
 def checksum_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
     return build_program(ctx, "checksum/checksum.glsl", ("compute",),
-                         {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD}, ("WORDS_PER_THREAD",))
+                         {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
+                          "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE},
+                         ("WORDS_PER_THREAD", "WORKGROUP_SIZE"))

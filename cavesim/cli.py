@@ -1,0 +1,126 @@
+"""The `cavesim` command line: argument parsing only; each subcommand calls a typed function.
+
+Every subcommand is one `add_<name>` function registering its parser and its handler.
+Bad input ends with a one-line error naming the flag, its value and what is allowed
+(exit code 2); an error while running exits with 1; neither prints a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NoReturn
+
+from rich.console import Console
+
+from cavesim.errors import CavesimError, SceneError
+
+REPO_ROOT = Path(__file__).resolve().parents[1]  # cavesim/ is a namespace package: no __init__
+BENCH_SCENE = "config/scenes/bench.toml"
+BENCH_SIZES = "100000,300000,1000000"
+MAX_BENCH_PARTICLES = 3_000_000  # 120 MB per pool, below the 128 MiB storage-buffer limit
+USAGE_ERROR, RUN_ERROR = 2, 1
+PIPED_WIDTH = 120  # columns of output that is not a terminal
+
+
+class UsageError(Exception):
+    """Bad command-line input; the message is the whole line to print."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:  # argparse would print the usage and exit
+        raise UsageError(f"{self.prog}: error: {message}")
+
+
+def particle_counts(text: str) -> list[int]:
+    """'100000,300000' -> [100000, 300000]; each count in 1..MAX_BENCH_PARTICLES."""
+    allowed = f"comma-separated particle counts, each 1..{MAX_BENCH_PARTICLES}"
+    try:
+        counts = [int(part) for part in text.split(",")]
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from e
+    if not all(1 <= count <= MAX_BENCH_PARTICLES for count in counts):
+        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}")
+    return counts
+
+
+def frame_count(text: str) -> int:
+    try:
+        frames = int(text)
+    except ValueError:
+        frames = 0
+    if frames < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number of frames >= 1, got {text!r}")
+    return frames
+
+
+def scene_file(text: str) -> Path:
+    """An existing scene file: relative to the current directory, else to the repository."""
+    path = Path(text)
+    for candidate in (path, REPO_ROOT / path):
+        if candidate.is_file():
+            return candidate
+    raise argparse.ArgumentTypeError(
+        f"no scene file {text!r} in the current directory or in {REPO_ROOT}; "
+        f"give the path of a scene .toml file")
+
+
+def add_bench(commands) -> None:
+    parser = commands.add_parser(
+        "bench", help="throughput of the GS/TF step against numpy and a compute-shader bound")
+    parser.add_argument("--scene", type=scene_file, default=BENCH_SCENE,
+                        help=f"scene file (default: {BENCH_SCENE})")
+    parser.add_argument("--sizes", type=particle_counts, default=BENCH_SIZES,
+                        help=f"comma-separated particle counts (default: {BENCH_SIZES})")
+    parser.add_argument("--frames", type=frame_count, default=10,
+                        help="timed frames per path after 2 warm-up frames (default: 10)")
+    parser.add_argument("--out", type=Path, default=Path("out/bench"),
+                        help="directory for bench.json and bench.md (default: out/bench)")
+    parser.set_defaults(handler=bench)
+
+
+def bench(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench`: check the scene and the output directory, then `run_bench`."""
+    from cavesim.bench import run_bench  # GL and numpy load only for the commands that use them
+    from cavesim.scene import load_scene
+
+    try:
+        scene = load_scene(args.scene)
+    except SceneError as e:
+        raise UsageError(f"cavesim bench: error: argument --scene: {e}") from e
+    try:  # before measuring, so a bad --out costs no benchmark run
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"cavesim bench: error: argument --out: cannot make directory "
+                         f"{str(args.out)!r}: {e.strerror or e}; give a writable directory") from e
+    run_bench(scene, args.sizes, args.frames, args.out, console)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="cavesim", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True, metavar="command")
+    add_bench(commands)
+    return parser
+
+
+def _console() -> Console:
+    console = Console()
+    if not console.is_terminal:  # a log or a pipe: rich would squeeze wide tables into 80
+        console.width = max(console.width, PIPED_WIDTH)
+    return console
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one `cavesim` command; return its exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        return args.handler(args, _console())
+    except UsageError as e:
+        print(e, file=sys.stderr)
+        return USAGE_ERROR
+    except CavesimError as e:
+        print(f"cavesim: error: {e}", file=sys.stderr)
+        return RUN_ERROR

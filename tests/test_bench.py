@@ -1,0 +1,116 @@
+"""`cavesim bench`: the reports it writes, the figures in them, and its answer to bad flags.
+
+The benchmark runs `cavesim.cli.main` in a child process: it opens its own EGL context, and
+a second context in the test process would become current in place of `gl_session`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from cavesim.bench import TARGETS, SizeFigures
+from cavesim.bench.figures import evaluate_targets
+from cavesim.cli import main
+
+SIZES = (2000, 5000)
+RUN_MAIN = "import sys; from cavesim.cli import main; sys.exit(main(sys.argv[1:]))"
+
+
+@pytest.fixture(scope="module")
+def bench_run(tmp_path_factory):
+    """One small benchmark run from a directory outside the repository (default scene)."""
+    work = tmp_path_factory.mktemp("bench")
+    out = work / "reports"
+    argv = ["bench", "--sizes", ",".join(map(str, SIZES)), "--frames", "2", "--out", str(out)]
+    done = subprocess.run([sys.executable, "-c", RUN_MAIN, *argv], cwd=work,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    return done, out, json.loads((out / "bench.json").read_text())
+
+
+def test_prints_the_table_targets_and_paths(bench_run):
+    done, out, _ = bench_run
+    assert "vs numpy" in done.stdout and "5,000" in done.stdout
+    assert done.stdout.count(" particles: measured ") == len(TARGETS)
+    assert f"wrote {out / 'bench.json'}" in done.stdout
+    assert f"wrote {out / 'bench.md'}" in done.stdout
+
+
+def test_json_has_every_size_with_positive_finite_figures(bench_run):
+    _, _, report = bench_run
+    assert report["command"] == "bench" and report["scene"]["name"] == "bench"
+    assert report["frames"] == 2 and report["gl"]["renderer"]
+    assert [size["particles"] for size in report["sizes"]] == list(SIZES)
+    for size in report["sizes"]:
+        figures = [*size["seconds"].values(), *size["particles_per_s"].values(),
+                   *size["ratios"].values()]
+        assert len(figures) == 11
+        assert all(math.isfinite(x) and x > 0 for x in figures), size
+        assert size["live_after_gs_tf"] == size["particles"]
+
+
+def test_ratios_and_rates_follow_from_the_times(bench_run):
+    _, _, report = bench_run
+    for size in report["sizes"]:
+        s, ratios = size["seconds"], size["ratios"]
+        assert ratios["gs_tf_vs_numpy"] == pytest.approx(s["numpy"] / s["gs_tf"])
+        assert ratios["gs_tf_vs_compute"] == pytest.approx(s["gs_tf"] / s["compute"])
+        assert ratios["checksum_share"] == pytest.approx(s["checksum"] / s["gs_tf"])
+        for path, seconds in s.items():
+            assert size["particles_per_s"][path] == pytest.approx(size["particles"] / seconds)
+
+
+def test_every_target_is_judged_at_the_largest_size(bench_run):
+    _, _, report = bench_run
+    assert [t["name"] for t in report["targets"]] == [t.ratio for t in TARGETS]
+    largest = report["sizes"][-1]
+    for target in report["targets"]:
+        assert target["particles"] == max(SIZES)
+        assert target["measured"] == largest["ratios"][target["name"]]
+        bound, measured = target["target"], target["measured"]
+        assert target["met"] == (measured >= bound if target["comparison"] == ">="
+                                 else measured <= bound)
+
+
+def test_markdown_has_the_table_and_targets(bench_run):
+    _, out, _ = bench_run
+    text = (out / "bench.md").read_text()
+    assert "| particles | GS/TF ms |" in text
+    assert "| 2,000 |" in text and "| 5,000 |" in text
+    assert all(t.ratio in text for t in TARGETS)
+
+
+def test_targets_use_one_million_particles_when_measured():
+    def figures(particles):
+        return SizeFigures(particles, gs_tf_s=1.0, compute_s=0.5, numpy_s=20.0,
+                           checksum_s=0.05, gpu_frames=2, numpy_frames=2, live_after=particles)
+    judged = evaluate_targets([figures(1_000_000), figures(2_000_000)])
+    assert {t["particles"] for t in judged} == {1_000_000}
+    assert [t["met"] for t in judged] == [True, False, True]  # 20x, 2x slower, 5 %
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["--sizes", "0"], "--sizes"),
+    (["--sizes", "abc"], "--sizes"),
+    (["--sizes", "1000,3000001"], "--sizes"),
+    (["--frames", "0"], "--frames"),
+    (["--scene", "/nonexistent.toml"], "--scene"),
+])
+def test_bad_flags_exit_2_with_one_line_naming_the_flag(capsys, tmp_path, argv, flag):
+    assert main(["bench", *argv, "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and flag in err and repr(argv[1]) in err
+    assert not any(tmp_path.iterdir())
+
+
+def test_an_out_path_that_is_a_file_exits_2(capsys, tmp_path):
+    taken = tmp_path / "bench.json"
+    taken.write_text("{}")
+    assert main(["bench", "--out", str(taken)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--out" in err and repr(str(taken)) in err
