@@ -80,7 +80,7 @@ def measure_size(ctx: moderngl.Context, scene: Scene, count: int, frames: int,
         compute = _compute_bound_seconds(ctx, scene, system, records, frames, tick)
         live_after = system.live_count
     finally:
-        _release(system)
+        system.release()
     numpy_s = _numpy_twin_seconds(scene, records, frames, tick)
     if (error := ctx.error) != "GL_NO_ERROR":
         raise BenchError(f"GL reported {error} while benchmarking {count} particles")
@@ -122,10 +122,3 @@ def _numpy_twin_seconds(scene: Scene, records: np.ndarray, frames: int, tick: Ti
     inputs = iter(frame_inputs(scene, NUMPY_WARMUP_FRAMES + numpy_frames(frames)))
     return median_seconds(lambda: twin.step(next(inputs)), NUMPY_WARMUP_FRAMES,
                           numpy_frames(frames), lambda: tick("numpy twin"))
-
-
-def _release(system: ParticleSystem) -> None:
-    """Free the system's buffers and textures now (ParticleSystem has no release of its own);
-    without this every size would keep its pools on the context until the run ends."""
-    for resource in system.resources.values():
-        resource.release()

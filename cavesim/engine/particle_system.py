@@ -182,6 +182,12 @@ class ParticleSystem:
                                             buffer_offset=survivors * PARTICLE_BYTES)
         return min(self._query.primitives, room)
 
+    def release(self) -> None:
+        """Free the GPU buffers and textures now instead of at garbage collection."""
+        for resource in self.resources.values():
+            resource.release()
+        self.resources.clear()
+
     # -- state ----------------------------------------------------------------------------
 
     def checksum(self) -> StateChecksum:

@@ -3,6 +3,10 @@
 A surfaceless EGL context has no default framebuffer, and Mesa refuses transform-feedback
 draws without one (GL_INVALID_FRAMEBUFFER_OPERATION, nothing written), so the context is
 handed out with a 1x1 framebuffer bound.
+
+One context per process: creating a context makes it current, and moderngl does not
+switch back, so a second context in the same process takes over the first one's calls.
+That is the CAVE's own shape anyway: one wall node process, one context.
 """
 
 from __future__ import annotations
