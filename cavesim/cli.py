@@ -17,7 +17,7 @@ from rich.console import Console
 
 from cavesim.errors import CavesimError, SceneError
 
-REPO_ROOT = Path(__file__).resolve().parents[1]  # cavesim/ is a namespace package: no __init__
+REPO_ROOT = Path(__file__).resolve().parents[1]
 BENCH_SCENE = "config/scenes/bench.toml"
 BENCH_SIZES = "100000,300000,1000000"
 MAX_BENCH_PARTICLES = 3_000_000  # 120 MB per pool, below the 128 MiB storage-buffer limit
@@ -103,6 +103,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="cavesim", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True, metavar="command")
     add_bench(commands)
+    from nodes import commands as cluster  # nodes/ builds on cavesim/, so imported late
+
+    for add in (cluster.add_run, cluster.add_master, cluster.add_node):
+        add(commands)
     return parser
 
 

@@ -19,3 +19,11 @@ class ContextError(CavesimError, RuntimeError):
 
 class FieldError(CavesimError, ValueError):
     """A vector field or height field is malformed (shape, dtype, non-finite values)."""
+
+
+class ProtocolError(CavesimError, ValueError):
+    """A wire message was rejected; `reason` is a short stable name for counting."""
+
+    def __init__(self, reason: str, detail: str) -> None:
+        super().__init__(f"{reason}: {detail}")
+        self.reason = reason

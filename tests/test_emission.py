@@ -116,3 +116,13 @@ def test_capacity_overflow_drops_the_same_particles_as_the_twin(ctx):
     assert gpu.live_count == 500
     np.testing.assert_array_equal(gpu.read_particles()["age"], twin.particles.age)
     np.testing.assert_allclose(gpu.read_particles()["pos"], twin.particles.pos, atol=1e-4)
+
+
+def test_reseed_gives_what_a_fresh_system_of_that_seed_gives(ctx):
+    wrong = ParticleSystem(ctx, make_scene(emitters=[emitter()], seed=5))
+    right = ParticleSystem(ctx, make_scene(emitters=[emitter()], seed=8))
+    wrong.reseed(8)
+    for frame in frames(10):
+        wrong.step(frame)
+        right.step(frame)
+    assert wrong.checksum() == right.checksum()

@@ -10,6 +10,7 @@ Only the scene's features are compiled in and allocated (see `programs.py`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import moderngl
@@ -181,6 +182,20 @@ class ParticleSystem:
                                             vertices=len(self.emitters), instances=batches,
                                             buffer_offset=survivors * PARTICLE_BYTES)
         return min(self._query.primitives, room)
+
+    def reseed(self, seed: int) -> None:
+        """Rebuild what the scene's seed decides: the random texture and emitter bases.
+
+        A node started with a wrong seed heals this way when it loads a snapshot.
+        """
+        self.scene = dataclasses.replace(self.scene, seed=seed)
+        self.emitters = EmitterTable.from_scene(self.scene)
+        if not len(self.emitters):
+            return
+        size = self.scene.random_texture_size
+        self.resources["random_texture"].write(random_words(seed, size).tobytes())
+        for program in (self._emitter_update, self._emit):
+            write_uniforms(program, emitter_uniforms(self.emitters))
 
     def release(self) -> None:
         """Free the GPU buffers and textures now instead of at garbage collection."""

@@ -1,0 +1,16 @@
+"""The wire between master and wall nodes: key expressions and binary messages."""
+
+from cavesim.wire.keys import SessionKeys
+from cavesim.wire.messages import (
+    Command,
+    ControlMessage,
+    FrameMessage,
+    ReportMessage,
+    StateMessage,
+    WandState,
+    decode,
+    encode,
+)
+
+__all__ = ["Command", "ControlMessage", "FrameMessage", "ReportMessage", "SessionKeys",
+           "StateMessage", "WandState", "decode", "encode"]

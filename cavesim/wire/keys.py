@@ -1,0 +1,52 @@
+"""Zenoh key expressions of one cavesim session: every key lives under its prefix."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+_NAME = re.compile(r"[A-Za-z0-9_-]{1,32}")
+
+
+def check_name(what: str, name: str) -> str:
+    """A session or wall name: 1-32 of letters, digits, '_' and '-' (safe in key expressions)."""
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise ValueError(f"{what} must be 1-32 letters, digits, '_' or '-', got {name!r}")
+    return name
+
+
+@dataclass(frozen=True)
+class SessionKeys:
+    session: str
+
+    def __post_init__(self) -> None:
+        check_name("session", self.session)
+
+    @property
+    def prefix(self) -> str:
+        return f"cavesim/{self.session}"
+
+    @property
+    def frame(self) -> str:
+        return f"{self.prefix}/frame"
+
+    @property
+    def control(self) -> str:
+        return f"{self.prefix}/control"
+
+    @property
+    def wand(self) -> str:
+        return f"{self.prefix}/wand"
+
+    def report(self, node: str = "*") -> str:
+        return f"{self.prefix}/report/{node}"
+
+    def state(self, node: str = "*") -> str:
+        return f"{self.prefix}/state/{node}"
+
+    def alive(self, node: str = "*") -> str:
+        return f"{self.prefix}/alive/{node}"
+
+    def node_of(self, key: str) -> str:
+        """The wall name at the end of a report, state or alive key."""
+        return str(key).rsplit("/", 1)[-1]

@@ -1,0 +1,264 @@
+"""Versioned fixed binary layouts of the messages between master and wall nodes.
+
+Every message: a 28-byte header (magic, version, kind, flags, session id, frame number,
+payload length), the payload, and, when the session has a shared key, an HMAC-SHA256 of
+all that. `decode` checks everything before trusting anything and raises `ProtocolError`
+with a short reason the receivers count; it never returns a half-checked message.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import math
+import struct
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+from cavesim.engine.frame import FrameInput
+from cavesim.engine.layout import EMITTER_DTYPE, PARTICLE_DTYPE
+from cavesim.errors import ProtocolError
+from cavesim.wire.keys import check_name
+
+MAGIC = b"CVSM"
+VERSION = 1
+HEADER = struct.Struct("<4sBBBxQQI")
+SIGNATURE_BYTES = 32
+SIGNED = 0x01
+MAX_PARAMS = 32
+MAX_STATE_PARTICLES = 3_000_000
+MAX_STATE_EMITTERS = 4096
+
+_FRAME = struct.Struct("<I9f3f4fI4fH")  # dt bits, matrix, wand pos, quat, buttons, axes, n
+_REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
+_STATE = struct.Struct("<QII")  # seed, particles, emitters
+
+
+class Kind(IntEnum):
+    FRAME = 1
+    REPORT = 2
+    CONTROL = 3
+    STATE = 4
+
+
+class Command(IntEnum):
+    RESYNC = 1  # target loads the state of `source`
+    STOP = 2  # every node ends cleanly
+
+
+class Status(IntEnum):
+    STEPPED = 0  # the node stepped this frame
+    RESYNCED = 1  # the node loaded a snapshot of this frame
+    REPEATED = 2  # a repeat of an earlier report (the frame came again)
+
+
+@dataclass(frozen=True)
+class WandState:
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # quaternion xyzw
+    buttons: int = 0
+    axes: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class FrameMessage:
+    frame: int
+    inputs: FrameInput
+    wand: WandState = WandState()
+    params: tuple[float, ...] = ()  # the scene's time-varying parameters
+
+
+@dataclass(frozen=True)
+class ReportMessage:
+    frame: int
+    node: str
+    digest: str  # 32 hex digits
+    particles: int
+    emitters: int
+    step_us: int
+    checksum_us: int
+    rejected: int = 0  # messages this node has rejected so far
+    status: Status = Status.STEPPED
+
+
+@dataclass(frozen=True)
+class ControlMessage:
+    frame: int
+    command: Command
+    target: str = ""
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class StateMessage:
+    frame: int
+    seed: int
+    particles: np.ndarray = field(repr=False)  # PARTICLE_DTYPE
+    emitters: np.ndarray = field(repr=False)  # EMITTER_DTYPE
+
+
+Message = FrameMessage | ReportMessage | ControlMessage | StateMessage
+
+
+def session_id(session: str) -> int:
+    """64-bit id of a session name, carried in every header."""
+    return int.from_bytes(hashlib.blake2b(session.encode(), digest_size=8).digest(), "little")
+
+
+def encode(message: Message, session: str, key: bytes | None = None) -> bytes:
+    """The message's bytes, signed when a key is given."""
+    kind, payload = _PAYLOAD_WRITERS[type(message)](message)
+    flags = SIGNED if key else 0
+    data = HEADER.pack(MAGIC, VERSION, kind, flags, session_id(session), message.frame,
+                       len(payload)) + payload
+    return data + _signature(key, data) if key else data
+
+
+def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
+    """Check and parse one message of `session`; ProtocolError names what is wrong."""
+    data = bytes(data)
+    if len(data) < HEADER.size:
+        raise ProtocolError("truncated", f"{len(data)} bytes, a header alone is {HEADER.size}")
+    magic, version, kind, flags, sid, frame, length = HEADER.unpack_from(data)
+    if magic != MAGIC:
+        raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
+    if version != VERSION:
+        raise ProtocolError("bad-version", f"version {version}, this build speaks {VERSION}")
+    if kind not in Kind.__members__.values():
+        raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
+    if sid != session_id(session):
+        raise ProtocolError("wrong-session", f"session id {sid:#x} is not {session!r}'s")
+    signed = bool(flags & SIGNED)
+    if flags & ~SIGNED:
+        raise ProtocolError("bad-flags", f"flags {flags:#x}, only {SIGNED:#x} is defined")
+    expected = HEADER.size + length + (SIGNATURE_BYTES if signed else 0)
+    if len(data) != expected:
+        raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces {expected}")
+    if key is not None:
+        if not signed:
+            raise ProtocolError("unsigned", "the session requires an HMAC and none is attached")
+        body, signature = data[:-SIGNATURE_BYTES], data[-SIGNATURE_BYTES:]
+        if not hmac.compare_digest(signature, _signature(key, body)):
+            raise ProtocolError("bad-signature", "the HMAC does not match the session's key")
+    elif signed:
+        raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
+    payload = data[HEADER.size:HEADER.size + length]
+    return _PAYLOAD_READERS[Kind(kind)](frame, payload)
+
+
+def _signature(key: bytes, data: bytes) -> bytes:
+    return hmac.new(key, data, hashlib.sha256).digest()
+
+
+# -- payloads ----------------------------------------------------------------------------
+
+def _write_frame(m: FrameMessage) -> tuple[Kind, bytes]:
+    if len(m.params) > MAX_PARAMS:
+        raise ValueError(f"at most {MAX_PARAMS} scene parameters, got {len(m.params)}")
+    dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
+    w = m.wand
+    body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *w.position,
+                       *w.orientation, w.buttons, *w.axes, len(m.params))
+    return Kind.FRAME, body + np.asarray(m.params, dtype="<f4").tobytes()
+
+
+def _read_frame(frame: int, payload: bytes) -> FrameMessage:
+    if len(payload) < _FRAME.size:
+        raise ProtocolError("bad-payload", f"frame payload of {len(payload)} bytes is too short")
+    values = _FRAME.unpack_from(payload)
+    count = values[-1]
+    if count > MAX_PARAMS or len(payload) != _FRAME.size + 4 * count:
+        raise ProtocolError("bad-payload", f"frame announces {count} parameters in a payload "
+                                           f"of {len(payload)} bytes (at most {MAX_PARAMS})")
+    dt = np.array([values[0]], dtype=np.uint32).view(np.float32)[0]
+    matrix = np.array(values[1:10], dtype=np.float32).reshape(3, 3)
+    wand_values = values[10:17] + values[18:22]
+    params = np.frombuffer(payload, dtype="<f4", offset=_FRAME.size, count=count)
+    if not all(math.isfinite(v) for v in (*wand_values, *params.tolist())):
+        raise ProtocolError("bad-value", "wand state and scene parameters must be finite")
+    try:
+        inputs = FrameInput(dt, matrix)
+    except ValueError as e:
+        raise ProtocolError("bad-value", str(e)) from e
+    wand = WandState(values[10:13], values[13:17], values[17], values[18:22])
+    return FrameMessage(frame, inputs, wand, tuple(params.tolist()))
+
+
+def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
+    return Kind.REPORT, _name_bytes(m.node) + _REPORT.pack(
+        bytes.fromhex(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
+        m.status)
+
+
+def _read_report(frame: int, payload: bytes) -> ReportMessage:
+    node, rest = _read_name(payload)
+    if len(rest) != _REPORT.size:
+        raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
+                                           f"expected {_REPORT.size}")
+    digest, particles, emitters, step_us, checksum_us, rejected, status = _REPORT.unpack(rest)
+    if status not in Status.__members__.values():
+        raise ProtocolError("bad-value", f"report status {status} is unknown")
+    return ReportMessage(frame, node, digest.hex(), particles, emitters, step_us, checksum_us,
+                         rejected, Status(status))
+
+
+def _write_control(m: ControlMessage) -> tuple[Kind, bytes]:
+    return Kind.CONTROL, bytes([m.command]) + _name_bytes(m.target, True) + _name_bytes(
+        m.source, True)
+
+
+def _read_control(frame: int, payload: bytes) -> ControlMessage:
+    if not payload or payload[0] not in Command.__members__.values():
+        raise ProtocolError("bad-payload", "control message without a known command")
+    target, rest = _read_name(payload[1:], optional=True)
+    source, rest = _read_name(rest, optional=True)
+    if rest:
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after a control message")
+    return ControlMessage(frame, Command(payload[0]), target, source)
+
+
+def _write_state(m: StateMessage) -> tuple[Kind, bytes]:
+    particles = np.ascontiguousarray(m.particles, dtype=PARTICLE_DTYPE)
+    emitters = np.ascontiguousarray(m.emitters, dtype=EMITTER_DTYPE)
+    return Kind.STATE, (_STATE.pack(m.seed, len(particles), len(emitters))
+                        + particles.tobytes() + emitters.tobytes())
+
+
+def _read_state(frame: int, payload: bytes) -> StateMessage:
+    if len(payload) < _STATE.size:
+        raise ProtocolError("bad-payload", f"state payload of {len(payload)} bytes is too short")
+    seed, particles, emitters = _STATE.unpack_from(payload)
+    size = _STATE.size + particles * PARTICLE_DTYPE.itemsize + emitters * EMITTER_DTYPE.itemsize
+    if particles > MAX_STATE_PARTICLES or emitters > MAX_STATE_EMITTERS or len(payload) != size:
+        raise ProtocolError("bad-payload", f"state of {particles} particles and {emitters} "
+                                           f"emitters does not fit {len(payload)} bytes")
+    p = np.frombuffer(payload, PARTICLE_DTYPE, particles, _STATE.size)
+    e = np.frombuffer(payload, EMITTER_DTYPE, emitters, _STATE.size + p.nbytes)
+    return StateMessage(frame, seed, p.copy(), e.copy())
+
+
+def _name_bytes(name: str, optional: bool = False) -> bytes:
+    if not (optional and name == ""):
+        check_name("node name", name)
+    return bytes([len(name)]) + name.encode()
+
+
+def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
+    if not data or len(data) < 1 + data[0]:
+        raise ProtocolError("bad-payload", "a node name runs past the end of the message")
+    raw, rest = data[1:1 + data[0]], data[1 + data[0]:]
+    try:
+        name = raw.decode("ascii")
+        if not (optional and name == ""):
+            check_name("node name", name)
+    except (UnicodeDecodeError, ValueError) as e:
+        raise ProtocolError("bad-payload", f"node name {raw!r} is not allowed") from e
+    return name, rest
+
+
+_PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
+                    ControlMessage: _write_control, StateMessage: _write_state}
+_PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
+                    Kind.CONTROL: _read_control, Kind.STATE: _read_state}

@@ -1,0 +1,162 @@
+"""Command-line edges of the cluster processes: flags in, typed configs out.
+
+`cavesim master`, `cavesim node`, `cavesim run`, `cavesim replay` and `cavesim check`
+register here; cavesim/cli.py owns the parser and the error handling.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+
+from cavesim.cli import UsageError, frame_count, scene_file
+from cavesim.wire.keys import check_name
+from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
+from nodes.faults import parse_fault
+
+DEFAULT_SCENE = "config/scenes/dust_devil.toml"
+CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
+
+
+def wall_names(count: int) -> tuple[str, ...]:
+    """Names of `count` walls: the CAVE's own names first, then wall7, wall8, ..."""
+    return tuple(CAVE_WALL_NAMES[i] if i < len(CAVE_WALL_NAMES) else f"wall{i + 1}"
+                 for i in range(count))
+
+
+def wall_list(text: str) -> tuple[str, ...]:
+    try:
+        walls = tuple(check_name("wall", name) for name in text.split(","))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected comma-separated wall names: {e}") from e
+    if len(set(walls)) != len(walls):
+        raise argparse.ArgumentTypeError(f"wall names must be unique, got {text!r}")
+    return walls
+
+
+def wall_count(text: str) -> int:
+    count = frame_count(text)
+    if count > 64:
+        raise argparse.ArgumentTypeError(f"expected 1..64 walls, got {text!r}")
+    return count
+
+
+def seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0 < value <= 3600:
+        raise argparse.ArgumentTypeError(f"expected seconds in (0, 3600], got {text!r}")
+    return value
+
+
+def fault(text: str):
+    try:
+        return parse_fault(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
+
+
+def _configure_logging(verbose: bool) -> None:
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, stream=sys.stderr,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+
+
+def _network(args: argparse.Namespace, command: str):
+    try:
+        return network_from_arguments(args), read_key(args.key_file)
+    except ValueError as e:
+        raise UsageError(f"cavesim {command}: error: {e}") from e
+
+
+def add_master(commands) -> None:
+    parser = commands.add_parser("master", help="the clock, the barrier and divergence handling")
+    parser.add_argument("--walls", type=wall_list, required=True, help="e.g. front,left,floor")
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=600)
+    parser.add_argument("--barrier-timeout", type=seconds, default=2.0)
+    parser.add_argument("--join-timeout", type=seconds, default=60.0)
+    parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
+    parser.add_argument("--check-every", type=frame_count, default=1,
+                        help="compare checksums every K frames (default: every frame)")
+    parser.add_argument("--clock-seed", type=int, default=0)
+    parser.add_argument("--report", type=Path, help="write the run's JSON report here")
+    parser.add_argument("--frame-log", type=Path, help="record every frame's inputs here")
+    parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
+    parser.add_argument("--verbose", action="store_true")
+    add_network_arguments(parser)
+    parser.set_defaults(handler=master)
+
+
+def master(args: argparse.Namespace, console) -> int:
+    from nodes.master import MasterConfig
+    from nodes.master import main as run_master
+
+    _configure_logging(args.verbose)
+    network, key = _network(args, "master")
+    config = MasterConfig(args.walls, args.scene, args.frames, args.session, network, key,
+                          barrier_timeout=args.barrier_timeout, join_timeout=args.join_timeout,
+                          on_loss=args.on_loss, check_every=args.check_every,
+                          clock_seed=args.clock_seed, frame_log=args.frame_log)
+
+    def progress(k: int, live: int) -> None:
+        if args.progress:
+            print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
+
+    record = run_master(config, progress)
+    summary = record.summary()
+    if args.report:
+        args.report.parent.mkdir(parents=True, exist_ok=True)
+        args.report.write_text(json.dumps(summary, indent=2) + "\n")
+    return 130 if record.interrupted else 0
+
+
+def add_node(commands) -> None:
+    parser = commands.add_parser("node", help="one wall: a GL context stepping in lock-step")
+    parser.add_argument("--wall", type=lambda t: wall_list(t)[0], required=True)
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--inject", type=fault, action="append", default=[],
+                        help="fault to inject into this node, KIND@FRAME (testing)")
+    parser.add_argument("--slow-delay", type=seconds, default=1.5)
+    parser.add_argument("--verbose", action="store_true")
+    add_network_arguments(parser)
+    parser.set_defaults(handler=node)
+
+
+def node(args: argparse.Namespace, console) -> int:
+    from nodes.node import NodeConfig
+    from nodes.node import main as run_node
+
+    _configure_logging(args.verbose)
+    network, key = _network(args, "node")
+    config = NodeConfig(args.wall, args.scene, args.session, network, key,
+                        tuple(args.inject), args.slow_delay)
+    return run_node(config)
+
+
+def add_run(commands) -> None:
+    parser = commands.add_parser("run", help="master + one node per wall on this machine")
+    parser.add_argument("--walls", type=wall_count, default=4, help="number of walls (4)")
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=600)
+    parser.add_argument("--out", type=Path, default=Path("out"))
+    parser.add_argument("--session", default="run")
+    parser.add_argument("--key-file", type=Path)
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace, console) -> int:
+    from nodes.run import RunPlan, run_cluster
+
+    try:
+        check_name("session", args.session)
+        read_key(args.key_file)
+    except ValueError as e:
+        raise UsageError(f"cavesim run: error: {e}") from e
+    report = run_cluster(RunPlan(wall_names(args.walls), args.scene, args.frames, args.out,
+                                 args.session, args.key_file), console)
+    return 130 if report["interrupted"] else 0

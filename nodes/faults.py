@@ -1,0 +1,30 @@
+"""Faults the consistency harness injects: `KIND@FRAME[:NODE]`."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow")  # the node does them to itself
+HARNESS_FAULTS = ("kill", "rogue")  # the harness does them from outside
+KINDS = NODE_FAULTS + HARNESS_FAULTS
+_SPEC = re.compile(r"(?P<kind>[a-z]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
+
+
+@dataclass(frozen=True)
+class Fault:
+    kind: str
+    frame: int
+    node: str | None = None
+
+    def __str__(self) -> str:
+        return f"{self.kind}@{self.frame}" + (f":{self.node}" if self.node else "")
+
+
+def parse_fault(spec: str) -> Fault:
+    """`bitflip@40:left` -> Fault("bitflip", 40, "left"); ValueError names what is allowed."""
+    match = _SPEC.fullmatch(spec.strip())
+    if not match or match["kind"] not in KINDS or int(match["frame"]) < 1:
+        raise ValueError(f"fault {spec!r} must be KIND@FRAME[:NODE] with KIND one of "
+                         f"{', '.join(KINDS)} and FRAME >= 1")
+    return Fault(match["kind"], int(match["frame"]), match["node"])

@@ -1,0 +1,212 @@
+"""A wall node: one GL context, one ParticleSystem, stepped in lock-step with the cluster.
+
+Zenoh callbacks only enqueue; the main thread, which owns the GL context, does all work:
+frame k -> step, checksum, report k; a repeated frame -> repeat the report; a frame
+ahead of us -> wait for a resync; RESYNC -> fetch a healthy node's snapshot and load
+it; a state query -> answer with our snapshot; STOP -> leave cleanly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import queue
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import zenoh
+
+from cavesim.engine import FrameInput, ParticleSystem
+from cavesim.errors import ProtocolError
+from cavesim.gl.context import create_context
+from cavesim.scene import load_scene
+from cavesim.wire import (
+    Command,
+    ControlMessage,
+    FrameMessage,
+    ReportMessage,
+    SessionKeys,
+    StateMessage,
+    decode,
+    encode,
+)
+from cavesim.wire.messages import Status
+from cavesim.wire.network import NetworkConfig
+from cavesim.wire.rejects import RejectCounter
+from nodes.faults import Fault
+
+log = logging.getLogger("cavesim.node")
+SNAPSHOT_TIMEOUT = 10.0  # s to fetch a snapshot from a healthy node
+SLOW_DELAY = 1.5  # s a `slow` fault holds a report back (tests use a shorter barrier)
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    wall: str
+    scene: Path
+    session: str = "default"
+    network: NetworkConfig = NetworkConfig()
+    key: bytes | None = None
+    faults: tuple[Fault, ...] = ()
+    slow_delay: float = SLOW_DELAY
+
+
+class WallNode:
+    """The node's state machine; `run` is its loop."""
+
+    def __init__(self, config: NodeConfig, session: zenoh.Session) -> None:
+        self.config = config
+        self.keys = SessionKeys(config.session)
+        scene = load_scene(config.scene)
+        if self._fault("seed"):
+            scene = dataclasses.replace(scene, seed=scene.seed + 1)
+        self.ctx = create_context()
+        self.system = ParticleSystem(self.ctx, scene)
+        self.session = session
+        self.rejects = RejectCounter(f"node {config.wall}")
+        self.done = 0  # last frame whose state we hold
+        self.last_report: ReportMessage | None = None
+        self.previous_inputs: FrameInput | None = None
+        self.dropped: set[int] = set()
+        self.events: queue.Queue = queue.Queue()
+        self.running = True
+
+    def _fault(self, kind: str, frame: int | None = None) -> bool:
+        return any(f.kind == kind and (frame is None or f.frame == frame)
+                   for f in self.config.faults)
+
+    def declare(self) -> list:
+        """Subscribe, answer state queries, then announce ourselves (liveliness last)."""
+        put = self.events.put
+        keys, wall = self.keys, self.config.wall
+        self.report_publisher = self.session.declare_publisher(keys.report(wall), express=True)
+        return [
+            self.session.declare_subscriber(keys.frame, lambda s: put(("frame", s))),
+            self.session.declare_subscriber(keys.control, lambda s: put(("control", s))),
+            self.session.declare_queryable(keys.state(wall), lambda q: put(("query", q))),
+            self.session.liveliness().declare_token(keys.alive(wall)),
+        ]
+
+    def run(self) -> None:
+        while self.running:
+            kind, item = self.events.get()
+            if kind == "query":
+                self._answer(item)
+                continue
+            try:
+                message = decode(item.payload.to_bytes(), self.config.session, self.config.key)
+            except ProtocolError as e:
+                self.rejects.reject(e, str(item.key_expr))
+                continue
+            if isinstance(message, FrameMessage):
+                self._on_frame(message)
+            elif isinstance(message, ControlMessage):
+                self._on_control(message)
+
+    # -- frames --------------------------------------------------------------------------
+
+    def _on_frame(self, message: FrameMessage) -> None:
+        k = message.frame
+        if k == self.done and self.last_report is not None:
+            self._publish(dataclasses.replace(self.last_report, status=Status.REPEATED))
+        elif k == self.done + 1:
+            if self._fault("drop", k) and k not in self.dropped:
+                self.dropped.add(k)  # lose this copy; the master's retransmit gets through
+                log.warning("%s: fault: dropped frame %d", self.config.wall, k)
+                return
+            self._step(k, message.inputs)
+        elif k > self.done + 1:
+            log.info("%s: frame %d is ahead of our frame %d; waiting for a resync",
+                     self.config.wall, k, self.done)
+
+    def _step(self, k: int, inputs: FrameInput) -> None:
+        used = inputs
+        if self._fault("stale", k) and self.previous_inputs is not None:
+            used = FrameInput(inputs.dt, self.previous_inputs.random_transform)
+        started = time.perf_counter()
+        self.system.step(used)
+        stepped = time.perf_counter()
+        if self._fault("bitflip", k) and self.system.live_count:
+            self._flip_one_bit()
+        self.previous_inputs = inputs
+        self.done = k
+        state = self.system.checksum()
+        finished = time.perf_counter()
+        if self._fault("slow", k):
+            time.sleep(self.config.slow_delay)
+        self._publish(ReportMessage(k, self.config.wall, state.digest, state.particles,
+                                    state.emitters, int((stepped - started) * 1e6),
+                                    int((finished - stepped) * 1e6), self.rejects.total))
+
+    def _flip_one_bit(self) -> None:
+        particles = self.system.read_particles()
+        words = particles.view(np.uint32)
+        words[len(words) // 2] ^= np.uint32(1 << 20)
+        self.system.write_particles(particles)
+        log.warning("%s: fault: flipped one bit of the particle buffer", self.config.wall)
+
+    def _publish(self, report: ReportMessage) -> None:
+        self.last_report = report
+        self.report_publisher.put(encode(report, self.config.session, self.config.key))
+
+    # -- control and snapshots -------------------------------------------------------------
+
+    def _on_control(self, message: ControlMessage) -> None:
+        if message.command is Command.STOP:
+            self.running = False
+        elif message.command is Command.RESYNC and message.target == self.config.wall:
+            self._resync(message.source)
+
+    def _resync(self, source: str) -> None:
+        """Load the snapshot of `source` (a healthy node) and report its frame."""
+        for reply in self.session.get(self.keys.state(source), timeout=SNAPSHOT_TIMEOUT):
+            if reply.ok is None:
+                continue
+            try:
+                snapshot = decode(reply.ok.payload.to_bytes(), self.config.session,
+                                  self.config.key)
+            except ProtocolError as e:
+                self.rejects.reject(e, self.keys.state(source))
+                continue
+            if isinstance(snapshot, StateMessage):
+                self._load(snapshot)
+                return
+        log.error("%s: no snapshot from %s within %.0f s", self.config.wall, source,
+                  SNAPSHOT_TIMEOUT)
+
+    def _load(self, snapshot: StateMessage) -> None:
+        if snapshot.seed != self.system.scene.seed:
+            self.system.reseed(snapshot.seed)
+        self.system.write_particles(snapshot.particles)
+        self.system.write_emitters(snapshot.emitters)
+        self.done = snapshot.frame
+        state = self.system.checksum()
+        log.info("%s: resynced to frame %d", self.config.wall, snapshot.frame)
+        self._publish(ReportMessage(snapshot.frame, self.config.wall, state.digest,
+                                    state.particles, state.emitters, 0, 0, self.rejects.total,
+                                    Status.RESYNCED))
+
+    def _answer(self, query: zenoh.Query) -> None:
+        snapshot = StateMessage(self.done, self.system.scene.seed, self.system.read_particles(),
+                                self.system.read_emitters())
+        query.reply(self.keys.state(self.config.wall),
+                    encode(snapshot, self.config.session, self.config.key))
+        query.drop()
+
+
+def main(config: NodeConfig) -> int:
+    """Run one wall node until the master says STOP (or the process is told to end)."""
+    with zenoh.open(config.network.zenoh_config()) as session:
+        node = WallNode(config, session)
+        declarations = node.declare()
+        log.info("%s: up, %s", config.wall, node.ctx.info["GL_RENDERER"])
+        try:
+            node.run()
+        except KeyboardInterrupt:
+            log.info("%s: interrupted", config.wall)
+        finally:
+            for declaration in reversed(declarations):
+                declaration.undeclare()
+    return 0

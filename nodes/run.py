@@ -1,0 +1,73 @@
+"""`cavesim run`: the master and one node per wall on this machine, with a progress bar."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from nodes.launcher import LocalCluster
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    walls: tuple[str, ...]
+    scene: Path
+    frames: int
+    out: Path
+    session: str = "run"
+    key_file: Path | None = None
+    master_args: tuple[str, ...] = ()
+
+
+def run_cluster(plan: RunPlan, console: Console) -> dict:
+    """Run the cluster to the end (or Ctrl-C); return report.json's content."""
+    plan.out.mkdir(parents=True, exist_ok=True)
+    with LocalCluster(plan.scene, plan.out, plan.session, key_file=plan.key_file) as cluster:
+        for wall in plan.walls:
+            cluster.start_node(wall)
+        master = cluster.start_master(plan.walls, plan.frames, plan.master_args)
+        columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                   TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
+        with Progress(*columns, console=console, transient=False) as progress:
+            task = progress.add_task(f"{len(plan.walls)} walls", total=plan.frames, live=0)
+            try:
+                for line in master.stdout:
+                    update = json.loads(line)
+                    progress.update(task, completed=update["frame"], live=update["live"])
+            except KeyboardInterrupt:
+                console.print("[yellow]interrupted: stopping the cluster")
+        master.wait()
+    report_path = plan.out / "report.json"
+    if not report_path.exists():
+        raise RuntimeError(f"the master wrote no report; see {plan.out / 'logs' / 'master.log'}")
+    report = json.loads(report_path.read_text())
+    console.print(summary_table(report))
+    console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
+    return report
+
+
+def summary_table(report: dict) -> Table:
+    table = Table(title="cavesim run")
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    rows = [
+        ("frames", report["frames"]),
+        ("walls", ", ".join(report["nodes"])),
+        ("frames per second", report["frames_per_second"]),
+        ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
+        ("live particles (last / max)",
+         f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
+        ("divergences", len(report["divergences"])),
+        ("resyncs", len(report["resyncs"])),
+        ("stalls", len(report["stalls"])),
+        ("rejected messages", sum(report["rejected_messages"]["master"].values())
+         + sum(report["rejected_messages"]["nodes"].values())),
+    ]
+    for name, value in rows:
+        table.add_row(name, str(value))
+    return table
