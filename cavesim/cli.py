@@ -105,7 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_bench(commands)
     from nodes import commands as cluster  # nodes/ builds on cavesim/, so imported late
 
-    for add in (cluster.add_run, cluster.add_master, cluster.add_node):
+    for add in (cluster.add_run, cluster.add_master, cluster.add_node, cluster.add_replay,
+                cluster.add_check):
         add(commands)
     return parser
 

@@ -160,3 +160,77 @@ def run(args: argparse.Namespace, console) -> int:
     report = run_cluster(RunPlan(wall_names(args.walls), args.scene, args.frames, args.out,
                                  args.session, args.key_file), console)
     return 130 if report["interrupted"] else 0
+
+
+def add_replay(commands) -> None:
+    parser = commands.add_parser("replay", help="re-run a frame log; every checksum must match")
+    parser.add_argument("log", type=Path, help="frames.log written by the master")
+    parser.add_argument("--scene", type=scene_file, help="override the scene named in the log")
+    parser.add_argument("--out", type=Path, help="write replay.json here (a directory)")
+    parser.set_defaults(handler=replay)
+
+
+def replay(args: argparse.Namespace, console) -> int:
+    from rich.progress import Progress
+
+    from cavesim.replay import replay as replay_log
+
+    if not args.log.is_file():
+        raise UsageError(f"cavesim replay: error: argument log: no file {str(args.log)!r}")
+    try:
+        with Progress(console=console) as progress:
+            task = progress.add_task("replaying", total=None)
+            result = replay_log(args.log, args.scene,
+                                progress=lambda k: progress.update(task, completed=k))
+    except ValueError as e:
+        raise UsageError(f"cavesim replay: error: argument log: {e}") from e
+    summary = result.summary()
+    if args.out:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "replay.json").write_text(json.dumps(summary, indent=2) + "\n")
+    verdict = "[green]every checksum reproduced" if result.equal else \
+        f"[red]{len(result.mismatches)} frame(s) differ, first at {result.mismatches[0]['frame']}"
+    console.print(f"{result.frames} frames replayed: {verdict}")
+    return 0 if result.equal else 1
+
+
+def add_check(commands) -> None:
+    parser = commands.add_parser("check", help="consistency harness: inject faults, prove "
+                                               "each is detected and healed")
+    parser.add_argument("--walls", type=wall_count, default=3)
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=300)
+    parser.add_argument("--inject", type=fault, action="append", default=[],
+                        metavar="KIND@FRAME[:NODE]",
+                        help="bitflip, seed, drop, stale, kill, slow or rogue (repeatable)")
+    parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
+    parser.add_argument("--out", type=Path, default=Path("out/check"))
+    parser.add_argument("--session", default="check")
+    parser.set_defaults(handler=check)
+
+
+def check(args: argparse.Namespace, console) -> int:
+    from rich.progress import Progress
+
+    from nodes.check import CheckPlan, run_check
+    from nodes.check_report import check_table
+
+    walls = wall_names(args.walls)
+    for f in args.inject:
+        if f.node is not None and f.node not in walls:
+            raise UsageError(f"cavesim check: error: argument --inject: node {f.node!r} of "
+                             f"{f} is not one of the walls {', '.join(walls)}")
+        if f.frame > args.frames:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
+                             f"last frame {args.frames}")
+    _configure_logging(False)
+    plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
+                     args.session, args.barrier_timeout)
+    with Progress(console=console) as progress:
+        task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
+        report = run_check(plan, lambda k, live: progress.update(task, completed=k))
+    (args.out / "check.json").write_text(json.dumps(report, indent=2) + "\n")
+    console.print(check_table(report))
+    console.print(f"wrote {args.out / 'check.json'}")
+    healthy = report["final"].get("agree") and report["all_detected"] and report["all_healed"]
+    return 0 if healthy and (args.inject or report["divergences"] == 0) else 1

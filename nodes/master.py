@@ -83,6 +83,7 @@ class Master:
         self.last_received: dict[str, int] = {}
         self.rejects = RejectCounter("master")
         self.state = Membership()
+        self.stopping = False
         self.record = RunRecord(config.walls)
 
     def declare(self) -> list:
@@ -128,7 +129,7 @@ class Master:
             self.state.alive.add(node)
             return
         self.state.alive.discard(node)
-        if node in self.state.members:
+        if node in self.state.members and not self.stopping:
             self.record.loss(node, max(self.last_sent.values(), default=0), "liveliness")
             log.warning("lost node %s", node)
             self.state.lost.add(node)
@@ -172,10 +173,20 @@ class Master:
             self.record.seconds = time.monotonic() - started
             if log_writer is not None:
                 log_writer.close()
+        self._record_final_agreement()
         return self.record
+
+    def _record_final_agreement(self) -> None:
+        last = self.record.frames
+        digests = {n: self.reports[(last, n)].digest for n in self.state.members
+                   if (last, n) in self.reports}
+        self.record.final = {"frame": last, "members": list(self.state.members),
+                             "all_walls_in": set(digests) == set(self.config.walls),
+                             "agree": len(set(digests.values())) == 1}
 
     def stop(self, wait: float = 5.0) -> None:
         """Tell every node to STOP, and wait (on liveliness) until they have left."""
+        self.stopping = True
         self._control(ControlMessage(self.record.frames, Command.STOP))
         deadline = time.monotonic() + wait
         while self.state.alive and time.monotonic() < deadline:

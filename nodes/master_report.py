@@ -20,6 +20,7 @@ class RunRecord:
     stalls: list[dict] = field(default_factory=list)
     losses: list[dict] = field(default_factory=list)
     joins: list[dict] = field(default_factory=list)
+    final: dict = field(default_factory=dict)  # last frame: members and whether they agree
     node_rejected: dict[str, int] = field(default_factory=dict)
     master_rejected: dict[str, int] = field(default_factory=dict)
 
@@ -63,5 +64,6 @@ class RunRecord:
             "stalls": self.stalls,
             "losses": self.losses,
             "joins": self.joins,
+            "final": self.final,
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
         }

@@ -1,0 +1,157 @@
+"""The consistency harness: run a cluster, inject faults, and prove each one was caught.
+
+Nodes run as child processes (node faults are passed to them as --inject); the master
+runs in this process so the harness can act between frames: kill and restart a node,
+or publish forged frames from a foreign session. Afterwards every fault is matched with
+what the master recorded: when it was detected, which node was named, when it healed.
+"""
+
+from __future__ import annotations
+
+import secrets
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import zenoh
+
+from cavesim.engine import FrameInput
+from cavesim.wire import FrameMessage, SessionKeys, encode
+from cavesim.wire.network import NetworkConfig
+from nodes.faults import NODE_FAULTS, Fault
+from nodes.launcher import LocalCluster
+from nodes.master import MasterConfig
+from nodes.master import main as run_master
+from nodes.master_report import RunRecord
+
+ROGUE_MESSAGES = 4  # forged frames a `rogue` fault publishes
+
+
+@dataclass(frozen=True)
+class CheckPlan:
+    walls: tuple[str, ...]
+    scene: Path
+    frames: int
+    faults: tuple[Fault, ...]
+    out: Path
+    session: str = "check"
+    barrier_timeout: float = 0.5
+    slow_delay: float = 1.5
+
+
+def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, n: None
+              ) -> dict:
+    """Run the plan; return the JSON report (faults, detection, resyncs, final agreement)."""
+    plan.out.mkdir(parents=True, exist_ok=True)
+    key_file = plan.out / "session.key"
+    key_file.write_text(secrets.token_hex(32))
+    faults = tuple(f if f.node or f.kind == "rogue" else Fault(f.kind, f.frame, plan.walls[-1])
+                   for f in plan.faults)
+    with LocalCluster(plan.scene, plan.out, plan.session, key_file=key_file) as cluster:
+        node_args = ("--slow-delay", str(plan.slow_delay))
+        for wall in plan.walls:
+            cluster.start_node(wall, tuple(f for f in faults
+                                           if f.node == wall and f.kind in NODE_FAULTS),
+                               node_args)
+        config = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
+                              NetworkConfig(listen=(cluster.master_endpoint,)),
+                              key_file.read_bytes().strip(),
+                              barrier_timeout=plan.barrier_timeout,
+                              frame_log=plan.out / "frames.log")
+        harness = _Harness(cluster, faults, node_args)
+        record = run_master(config, progress, harness.before_frame)
+        harness.close()
+    return _report(plan, faults, record, harness.rogue_sent)
+
+
+class _Harness:
+    """Does the faults that come from outside the nodes, just before their frame."""
+
+    def __init__(self, cluster: LocalCluster, faults: tuple[Fault, ...], node_args) -> None:
+        self.cluster = cluster
+        self.faults = faults
+        self.node_args = node_args
+        self.rogue_sent = 0
+        self._rogue_session: zenoh.Session | None = None
+
+    def before_frame(self, k: int) -> None:
+        for fault in self.faults:
+            if fault.frame != k:
+                continue
+            if fault.kind == "kill":
+                self.cluster.kill_node(fault.node)
+                self.cluster.start_node(fault.node, (), self.node_args)  # restarts, rejoins
+            elif fault.kind == "rogue":
+                self._forge(k)
+
+    def _forge(self, k: int) -> None:
+        """Frames from a foreign publisher: unsigned, wrongly signed, or of another session."""
+        if self._rogue_session is None:
+            network = NetworkConfig(connect=(self.cluster.master_endpoint,))
+            self._rogue_session = zenoh.open(network.zenoh_config())
+        session = self.cluster.session
+        forged = FrameMessage(k + 1, FrameInput(1.0, np.eye(3)))
+        for data in (encode(forged, session), encode(forged, session, b"not-the-key" * 3),
+                     encode(forged, "another-session", b"not-the-key" * 3),
+                     b"\x00" * 64):
+            self._rogue_session.put(SessionKeys(session).frame, data)
+            self.rogue_sent += 1
+
+    def close(self) -> None:
+        if self._rogue_session is not None:
+            self._rogue_session.close()
+
+
+def _report(plan: CheckPlan, faults: tuple[Fault, ...], record: RunRecord,
+            rogue_sent: int) -> dict:
+    summary = record.summary()
+    outcomes = [_outcome(fault, record) for fault in faults]
+    return {
+        "command": "check",
+        "walls": list(plan.walls),
+        "frames": record.frames,
+        "faults": outcomes,
+        "all_detected": all(o["detected_frame"] is not None for o in outcomes),
+        "all_healed": all(o["healed"] for o in outcomes),
+        "divergences": len(summary["divergences"]),
+        "rogue_messages_sent": rogue_sent,
+        "final": summary["final"],
+        "run": summary,
+    }
+
+
+def _outcome(fault: Fault, record: RunRecord) -> dict:
+    """When the master noticed `fault`, whom it named, and when the node was whole again."""
+    detected, named, healed_at = None, [], None
+    if fault.kind in ("bitflip", "seed", "stale"):
+        hit = next((d for d in record.divergences
+                    if d["frame"] >= fault.frame and fault.node in d["nodes"]), None)
+        if hit:
+            detected, named = hit["frame"], hit["nodes"]
+            healed_at = _resynced(record, fault.node, hit["frame"])
+    elif fault.kind in ("drop", "slow"):
+        hit = next((s for s in record.stalls
+                    if s["frame"] == fault.frame and fault.node in s["nodes"]), None)
+        if hit:
+            detected, named = hit["frame"], sorted(hit["nodes"])
+            healed_at = fault.frame if record.frames > fault.frame else None
+    elif fault.kind == "kill":
+        hit = next((loss for loss in record.losses
+                    if loss["node"] == fault.node and loss["frame"] >= fault.frame - 1), None)
+        if hit:
+            detected, named = hit["frame"], [fault.node]
+            healed_at = next((j["frame"] for j in record.joins
+                              if j["node"] == fault.node and j["frame"] >= hit["frame"]), None)
+    elif fault.kind == "rogue":
+        rejected = sum(record.node_rejected.values())
+        if rejected:
+            detected, healed_at = fault.frame, fault.frame
+    return {"fault": str(fault), "kind": fault.kind, "frame": fault.frame, "node": fault.node,
+            "detected_frame": detected, "named": named, "healed_frame": healed_at,
+            "healed": healed_at is not None and bool(record.final.get("agree"))}
+
+
+def _resynced(record: RunRecord, node: str, frame: int) -> int | None:
+    return next((r["frame"] for r in record.resyncs
+                 if r["node"] == node and r["frame"] >= frame and r["ok"]), None)
