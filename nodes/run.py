@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import signal
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -39,8 +40,9 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
                 for line in master.stdout:
                     update = json.loads(line)
                     progress.update(task, completed=update["frame"], live=update["live"])
-            except KeyboardInterrupt:
+            except KeyboardInterrupt:  # the children run in sessions of their own: pass it on
                 console.print("[yellow]interrupted: stopping the cluster")
+                master.send_signal(signal.SIGINT)
         master.wait()
     report_path = plan.out / "report.json"
     if not report_path.exists():

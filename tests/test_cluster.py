@@ -1,0 +1,113 @@
+"""The lock-step cluster as processes on loopback: faults, soak, replay, shutdown, sessions."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from cavesim.replay import replay
+from nodes.check import CheckPlan, run_check
+from nodes.faults import parse_fault
+from nodes.launcher import LocalCluster
+
+ROOT = Path(__file__).parents[1]
+DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"
+MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
+WALLS = ("front", "left", "right")
+
+pytestmark = pytest.mark.slow
+
+
+def check(tmp_path, faults, walls=WALLS, frames=150, session="t"):
+    plan = CheckPlan(walls, DUST_DEVIL, frames, tuple(map(parse_fault, faults)), tmp_path,
+                     session=f"{session}{os.getpid()}")
+    return run_check(plan)
+
+
+def assert_each_fault_caught(report, faults):
+    by_fault = {o["fault"]: o for o in report["faults"]}
+    for spec in faults:
+        outcome = by_fault[spec]
+        assert outcome["detected_frame"] == int(spec.split("@")[1].split(":")[0]), outcome
+        if outcome["node"]:
+            assert outcome["named"] == [outcome["node"]], outcome
+        assert outcome["healed"], outcome
+    assert report["final"]["agree"] and report["final"]["all_walls_in"]
+
+
+def test_state_faults_are_named_by_majority_and_resynced(tmp_path):
+    faults = ["bitflip@20:left", "stale@40:right", "drop@60:front", "seed@1:right"]
+    report = check(tmp_path, faults)
+    assert_each_fault_caught(report, faults)
+    assert report["divergences"] == 3  # bitflip, stale, seed; a drop only stalls
+
+
+def test_process_faults_are_detected_and_healed(tmp_path):
+    faults = ["kill@20:left", "slow@60:right", "rogue@70"]
+    report = check(tmp_path, faults, walls=("front", "left", "right", "floor"), frames=200)
+    assert_each_fault_caught(report, faults)
+    assert report["divergences"] == 0
+    assert report["rogue_messages_sent"] == 4
+    assert sum(report["run"]["rejected_messages"]["nodes"].values()) >= 4 * 3
+
+
+def test_two_nodes_name_both_on_a_divergence(tmp_path):
+    report = check(tmp_path, ["bitflip@10:left"], walls=("front", "left"), frames=40)
+    (divergence,) = report["run"]["divergences"]
+    assert divergence["nodes"] == ["front", "left"]
+    assert report["final"]["agree"]
+
+
+def test_healthy_soak_of_1000_frames_has_no_divergence_and_replays(tmp_path, ctx):
+    report = check(tmp_path, [], frames=1000, session="soak")
+    run = report["run"]
+    assert run["frames"] == 1000 and run["divergences"] == [] and run["resyncs"] == []
+    assert run["live_particles"]["max"] > 50_000
+    assert report["final"]["agree"] and report["final"]["all_walls_in"]
+    result = replay(tmp_path / "frames.log", DUST_DEVIL, ctx=ctx)
+    assert result.frames == 1000 and result.equal, result.mismatches[:3]
+
+
+def test_ctrl_c_stops_every_process_and_still_writes_the_report(tmp_path):
+    command = [sys.executable, "-m", "cavesim", "run", "--walls", "2", "--frames", "100000",
+               "--scene", str(MINIMAL), "--out", str(tmp_path), "--session", f"c{os.getpid()}"]
+    run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           start_new_session=True)
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "frames.log").exists() or (tmp_path / "frames.log").stat().st_size < 2000:
+        assert time.monotonic() < deadline and run.poll() is None, run.stdout.read()
+        time.sleep(0.1)
+    os.kill(run.pid, signal.SIGINT)
+    assert run.wait(timeout=60) == 130
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["interrupted"] and 0 < report["frames"] < 100000
+    assert report["divergences"] == []
+    leftovers = subprocess.run(["pgrep", "-f", f"--session c{os.getpid()}"],
+                               capture_output=True, text=True).stdout
+    assert leftovers == ""
+
+
+def test_sessions_with_different_prefixes_never_interfere(tmp_path):
+    """Two clusters on one zenoh mesh: each runs clean, neither sees the other's messages."""
+    first = LocalCluster(MINIMAL, tmp_path / "a", f"a{os.getpid()}")
+    second = LocalCluster(MINIMAL, tmp_path / "b", f"b{os.getpid()}")
+    with first, second:
+        for cluster in (first, second):
+            for wall in ("front", "left"):
+                cluster.start_node(wall)
+        masters = [first.start_master(("front", "left"), 300),
+                   second.start_master(("front", "left"), 300,
+                                       ("--connect", first.master_endpoint))]
+        for master in masters:
+            master.stdout.read()
+            assert master.wait(timeout=120) == 0
+    for out in (tmp_path / "a", tmp_path / "b"):
+        report = json.loads((out / "report.json").read_text())
+        assert report["frames"] == 300 and report["divergences"] == []
+        assert not report["rejected_messages"]["master"]
+        assert not any(report["rejected_messages"]["nodes"].values())
