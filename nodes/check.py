@@ -38,6 +38,8 @@ class CheckPlan:
     session: str = "check"
     barrier_timeout: float = 0.5
     slow_delay: float = 1.5
+    on_loss: str = "continue"
+    check_every: int = 1
 
 
 def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, n: None
@@ -57,8 +59,8 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
         config = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
                               NetworkConfig(listen=(cluster.master_endpoint,)),
                               key_file.read_bytes().strip(),
-                              barrier_timeout=plan.barrier_timeout,
-                              frame_log=plan.out / "frames.log")
+                              barrier_timeout=plan.barrier_timeout, on_loss=plan.on_loss,
+                              check_every=plan.check_every, frame_log=plan.out / "frames.log")
         harness = _Harness(cluster, faults, node_args)
         record = run_master(config, progress, harness.before_frame)
         harness.close()
@@ -142,7 +144,8 @@ def _outcome(fault: Fault, record: RunRecord) -> dict:
         if hit:
             detected, named = hit["frame"], [fault.node]
             healed_at = next((j["frame"] for j in record.joins
-                              if j["node"] == fault.node and j["frame"] >= hit["frame"]), None)
+                              if j["node"] == fault.node and j["frame"] >= hit["frame"]),
+                             _resynced(record, fault.node, hit["frame"]))
     elif fault.kind == "rogue":
         rejected = sum(record.node_rejected.values())
         if rejected:

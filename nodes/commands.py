@@ -204,6 +204,8 @@ def add_check(commands) -> None:
                         metavar="KIND@FRAME[:NODE]",
                         help="bitflip, seed, drop, stale, kill, slow or rogue (repeatable)")
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
+    parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
+    parser.add_argument("--check-every", type=frame_count, default=1)
     parser.add_argument("--out", type=Path, default=Path("out/check"))
     parser.add_argument("--session", default="check")
     parser.set_defaults(handler=check)
@@ -225,7 +227,8 @@ def check(args: argparse.Namespace, console) -> int:
                              f"last frame {args.frames}")
     _configure_logging(False)
     plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
-                     args.session, args.barrier_timeout)
+                     args.session, args.barrier_timeout, on_loss=args.on_loss,
+                     check_every=args.check_every)
     with Progress(console=console) as progress:
         task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
         report = run_check(plan, lambda k, live: progress.update(task, completed=k))

@@ -23,9 +23,9 @@ WALLS = ("front", "left", "right")
 pytestmark = pytest.mark.slow
 
 
-def check(tmp_path, faults, walls=WALLS, frames=150, session="t"):
+def check(tmp_path, faults, walls=WALLS, frames=150, session="t", **options):
     plan = CheckPlan(walls, DUST_DEVIL, frames, tuple(map(parse_fault, faults)), tmp_path,
-                     session=f"{session}{os.getpid()}")
+                     session=f"{session}{os.getpid()}", **options)
     return run_check(plan)
 
 
@@ -60,6 +60,23 @@ def test_two_nodes_name_both_on_a_divergence(tmp_path):
     report = check(tmp_path, ["bitflip@10:left"], walls=("front", "left"), frames=40)
     (divergence,) = report["run"]["divergences"]
     assert divergence["nodes"] == ["front", "left"]
+    assert report["final"]["agree"]
+
+
+def test_pause_policy_holds_the_barrier_until_the_lost_node_is_back(tmp_path):
+    report = check(tmp_path, ["kill@15:left"], frames=60, on_loss="pause")
+    assert_each_fault_caught(report, ["kill@15:left"])
+    run = report["run"]
+    assert run["joins"] == [], "under pause the node never left the membership"
+    assert any(s["frame"] == 15 and "left" in s["nodes"] for s in run["stalls"])
+    (resync,) = run["resyncs"]
+    assert resync["frame"] == 15 and resync["ok"]
+
+
+def test_checking_every_k_frames_finds_the_divergence_at_the_next_check(tmp_path):
+    report = check(tmp_path, ["bitflip@12:left"], frames=40, check_every=5)
+    (divergence,) = report["run"]["divergences"]
+    assert divergence["frame"] == 15 and divergence["nodes"] == ["left"]
     assert report["final"]["agree"]
 
 
