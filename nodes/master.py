@@ -114,8 +114,11 @@ class Master:
         except ProtocolError as e:
             self.rejects.reject(e, str(sample.key_expr))
             return
-        if not isinstance(report, ReportMessage) or report.node not in self.config.walls:
-            self.rejects.reject(ProtocolError("unexpected", f"{report!r} on a report key"),
+        sender = self.keys.node_of(sample.key_expr)
+        if not isinstance(report, ReportMessage) or report.node != sender \
+                or sender not in self.config.walls:
+            self.rejects.reject(ProtocolError("unexpected", f"{type(report).__name__} from "
+                                              f"{sender!r} on a report key"),
                                 str(sample.key_expr))
             return
         self.reports[(report.frame, report.node)] = report

@@ -100,9 +100,13 @@ class WallNode:
             except ProtocolError as e:
                 self.rejects.reject(e, str(item.key_expr))
                 continue
-            if isinstance(message, FrameMessage):
+            expected = FrameMessage if kind == "frame" else ControlMessage
+            if not isinstance(message, expected):
+                self.rejects.reject(ProtocolError("unexpected", f"a {type(message).__name__} "
+                                                  f"on the {kind} key"), str(item.key_expr))
+            elif kind == "frame":
                 self._on_frame(message)
-            elif isinstance(message, ControlMessage):
+            else:
                 self._on_control(message)
 
     # -- frames --------------------------------------------------------------------------

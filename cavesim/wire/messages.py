@@ -24,7 +24,7 @@ from cavesim.wire.keys import check_name
 
 MAGIC = b"CVSM"
 VERSION = 1
-HEADER = struct.Struct("<4sBBBxQQI")
+HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
 MAX_PARAMS = 32
@@ -109,11 +109,13 @@ def session_id(session: str) -> int:
 
 def encode(message: Message, session: str, key: bytes | None = None) -> bytes:
     """The message's bytes, signed when a key is given."""
+    if not 0 <= message.frame < 2**64:
+        raise ValueError(f"frame must be in [0, 2**64), got {message.frame}")
     kind, payload = _PAYLOAD_WRITERS[type(message)](message)
-    flags = SIGNED if key else 0
-    data = HEADER.pack(MAGIC, VERSION, kind, flags, session_id(session), message.frame,
+    flags = SIGNED if key is not None else 0
+    data = HEADER.pack(MAGIC, VERSION, kind, flags, 0, session_id(session), message.frame,
                        len(payload)) + payload
-    return data + _signature(key, data) if key else data
+    return data + _signature(key, data) if key is not None else data
 
 
 def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
@@ -121,7 +123,7 @@ def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
     data = bytes(data)
     if len(data) < HEADER.size:
         raise ProtocolError("truncated", f"{len(data)} bytes, a header alone is {HEADER.size}")
-    magic, version, kind, flags, sid, frame, length = HEADER.unpack_from(data)
+    magic, version, kind, flags, reserved, sid, frame, length = HEADER.unpack_from(data)
     if magic != MAGIC:
         raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
     if version != VERSION:
@@ -131,8 +133,9 @@ def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
     if sid != session_id(session):
         raise ProtocolError("wrong-session", f"session id {sid:#x} is not {session!r}'s")
     signed = bool(flags & SIGNED)
-    if flags & ~SIGNED:
-        raise ProtocolError("bad-flags", f"flags {flags:#x}, only {SIGNED:#x} is defined")
+    if flags & ~SIGNED or reserved:
+        raise ProtocolError("bad-flags", f"flags {flags:#x} and reserved byte {reserved:#x}; "
+                                         f"only flag {SIGNED:#x} is defined, reserved must be 0")
     expected = HEADER.size + length + (SIGNATURE_BYTES if signed else 0)
     if len(data) != expected:
         raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces {expected}")
@@ -157,8 +160,12 @@ def _signature(key: bytes, data: bytes) -> bytes:
 def _write_frame(m: FrameMessage) -> tuple[Kind, bytes]:
     if len(m.params) > MAX_PARAMS:
         raise ValueError(f"at most {MAX_PARAMS} scene parameters, got {len(m.params)}")
-    dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
     w = m.wand
+    values = np.array([*w.position, *w.orientation, *w.axes, *m.params], dtype=np.float64)
+    if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
+        raise ValueError(f"wand state and scene parameters must be finite float32 values, "
+                         f"got {w} and {m.params}")
+    dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
     body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *w.position,
                        *w.orientation, w.buttons, *w.axes, len(m.params))
     return Kind.FRAME, body + np.asarray(m.params, dtype="<f4").tobytes()
@@ -187,6 +194,8 @@ def _read_frame(frame: int, payload: bytes) -> FrameMessage:
 
 
 def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
+    if len(m.digest) != 32 or any(c not in "0123456789abcdef" for c in m.digest):
+        raise ValueError(f"digest must be 32 lower-case hex digits, got {m.digest!r}")
     return Kind.REPORT, _name_bytes(m.node) + _REPORT.pack(
         bytes.fromhex(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
         m.status)

@@ -1,0 +1,117 @@
+"""Hypothesis strategies for wire messages and byte mutations, shared by the wire tests and
+the fuzz test of a running cluster.
+
+`messages()` draws any valid message (every kind, edge values included); `Mutation` is a
+change of a byte string chosen before the bytes are known (the cluster fuzzer mutates
+messages it captures during the run), and never gives back the bytes it was handed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from hypothesis import strategies as st
+
+from cavesim.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput
+from cavesim.wire.messages import (
+    MAX_PARAMS,
+    Command,
+    ControlMessage,
+    FrameMessage,
+    ReportMessage,
+    StateMessage,
+    Status,
+    WandState,
+)
+
+U32 = 2**32 - 1
+U64 = 2**64 - 1
+MAX_MATRIX_ENTRY = 2**24 - 1  # validate_transform: integer entries below 2**24
+
+names = st.from_regex(r"[A-Za-z0-9_-]{1,32}", fullmatch=True)
+frame_numbers = st.integers(0, U64)
+f32 = st.floats(width=32, allow_nan=False, allow_infinity=False)
+dts = st.floats(min_value=0.0, width=32, allow_infinity=False)  # subnormals and max included
+hmac_keys = st.binary(min_size=16, max_size=64)
+
+
+@st.composite
+def transforms(draw) -> np.ndarray:
+    """A random-texture transform that FrameInput accepts: integers, last row [0, 0, 1]."""
+    top = draw(st.lists(st.integers(-MAX_MATRIX_ENTRY, MAX_MATRIX_ENTRY), min_size=6,
+                        max_size=6))
+    return np.array([top[:3], top[3:], [0, 0, 1]], dtype=np.float32)
+
+
+wands = st.builds(WandState, st.tuples(f32, f32, f32), st.tuples(f32, f32, f32, f32),
+                  st.integers(0, U32), st.tuples(f32, f32, f32, f32))
+
+frame_messages = st.builds(
+    FrameMessage, frame_numbers, st.builds(FrameInput, dts, transforms()), wands,
+    st.lists(f32, max_size=MAX_PARAMS).map(tuple))
+
+report_messages = st.builds(
+    ReportMessage, frame_numbers, names, st.binary(min_size=16, max_size=16).map(bytes.hex),
+    st.integers(0, U32), st.integers(0, U32), st.integers(0, U32), st.integers(0, U32),
+    st.integers(0, U32), st.sampled_from(Status))
+
+optional_names = st.just("") | names
+control_messages = st.builds(ControlMessage, frame_numbers, st.sampled_from(Command),
+                             optional_names, optional_names)
+
+
+def records(dtype: np.dtype, max_count: int) -> st.SearchStrategy[np.ndarray]:
+    """Arrays of `dtype` holding arbitrary bytes (NaN payloads and all)."""
+    return st.integers(0, max_count).flatmap(
+        lambda n: st.binary(min_size=n * dtype.itemsize, max_size=n * dtype.itemsize)).map(
+        lambda raw: np.frombuffer(raw, dtype).copy())
+
+
+state_messages = st.builds(StateMessage, frame_numbers, st.integers(0, U64),
+                           records(PARTICLE_DTYPE, 8), records(EMITTER_DTYPE, 4))
+
+
+def messages() -> st.SearchStrategy:
+    """Any valid message of any kind."""
+    return st.one_of(frame_messages, report_messages, control_messages, state_messages)
+
+
+MUTATIONS = ("flip", "insert", "delete", "truncate")
+
+
+@dataclass(frozen=True)
+class Mutation:
+    """One change of a byte string: at `where` (a fraction of its length) `op` with `value`.
+
+    flip: XOR the byte with value (1..255); insert: put value there; delete: drop the byte;
+    truncate: cut the bytes off there. The result always differs from the input.
+    """
+
+    op: str
+    where: float  # in [0, 1)
+    value: int  # 1..255
+
+    def apply(self, data: bytes) -> bytes:
+        if not data:
+            return bytes([self.value])
+        at = min(int(self.where * len(data)), len(data) - 1)
+        if self.op == "flip":
+            return data[:at] + bytes([data[at] ^ self.value]) + data[at + 1:]
+        if self.op == "insert":
+            return data[:at] + bytes([self.value]) + data[at:]
+        if self.op == "delete":
+            return data[:at] + data[at + 1:]
+        if self.op == "truncate":
+            return data[:at]
+        raise ValueError(f"mutation op must be one of {MUTATIONS}, got {self.op!r}")
+
+
+mutations = st.builds(Mutation, st.sampled_from(MUTATIONS),
+                      st.floats(0.0, 1.0, exclude_max=True), st.integers(1, 255))
+
+
+def mutate(data: bytes, changes: list[Mutation]) -> bytes:
+    for change in changes:
+        data = change.apply(data)
+    return data
