@@ -9,6 +9,7 @@ what the master recorded: when it was detected, which node was named, when it he
 from __future__ import annotations
 
 import secrets
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -92,6 +93,7 @@ class _Harness:
         if self._rogue_session is None:
             network = NetworkConfig(connect=(self.cluster.master_endpoint,))
             self._rogue_session = zenoh.open(network.zenoh_config())
+            self._await_walls(self._rogue_session)
         session = self.cluster.session
         forged = FrameMessage(k + 1, FrameInput(1.0, np.eye(3)))
         for data in (encode(forged, session), encode(forged, session, b"not-the-key" * 3),
@@ -99,6 +101,17 @@ class _Harness:
                      b"\x00" * 64):
             self._rogue_session.put(SessionKeys(session).frame, data)
             self.rogue_sent += 1
+
+    def _await_walls(self, rogue: zenoh.Session, timeout: float = 10.0) -> None:
+        """Wait until the rogue session sees every wall's liveliness token (it is connected)."""
+        keys = SessionKeys(self.cluster.session)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            seen = {keys.node_of(reply.ok.key_expr)
+                    for reply in rogue.liveliness().get(keys.alive(), timeout=1.0) if reply.ok}
+            if seen >= set(self.cluster.nodes):
+                return
+        raise TimeoutError(f"the rogue publisher did not reach the walls within {timeout} s")
 
     def close(self) -> None:
         if self._rogue_session is not None:
