@@ -20,6 +20,10 @@ from cavesim.errors import CavesimError, SceneError
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BENCH_SCENE = "config/scenes/bench.toml"
 BENCH_SIZES = "100000,300000,1000000"
+BENCH_FRAMES = 10
+CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
+CLUSTER_FRAMES = 300
+MAX_NODES = 64
 MAX_BENCH_PARTICLES = 3_000_000  # 120 MB per pool, below the 128 MiB storage-buffer limit
 USAGE_ERROR, RUN_ERROR = 2, 1
 PIPED_WIDTH = 120  # columns of output that is not a terminal
@@ -42,6 +46,18 @@ def particle_counts(text: str) -> list[int]:
     except ValueError as e:
         raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from e
     if not all(1 <= count <= MAX_BENCH_PARTICLES for count in counts):
+        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}")
+    return counts
+
+
+def node_counts(text: str) -> list[int]:
+    """'2,4,8' -> [2, 4, 8]; each count in 1..MAX_NODES."""
+    allowed = f"comma-separated node counts, each 1..{MAX_NODES}"
+    try:
+        counts = [int(part) for part in text.split(",")]
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from e
+    if not all(1 <= count <= MAX_NODES for count in counts):
         raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}")
     return counts
 
@@ -70,32 +86,73 @@ def scene_file(text: str) -> Path:
 def add_bench(commands) -> None:
     parser = commands.add_parser(
         "bench", help="throughput of the GS/TF step against numpy and a compute-shader bound")
-    parser.add_argument("--scene", type=scene_file, default=BENCH_SCENE,
-                        help=f"scene file (default: {BENCH_SCENE})")
-    parser.add_argument("--sizes", type=particle_counts, default=BENCH_SIZES,
+    parser.add_argument("--scene", type=scene_file,
+                        help=f"scene file (default: {BENCH_SCENE}; with --cluster: the "
+                             f"lock-step run's scene, default config/scenes/dust_devil.toml)")
+    parser.add_argument("--sizes", type=particle_counts,
                         help=f"comma-separated particle counts (default: {BENCH_SIZES})")
-    parser.add_argument("--frames", type=frame_count, default=10,
-                        help="timed frames per path after 2 warm-up frames (default: 10)")
+    parser.add_argument("--frames", type=frame_count,
+                        help=f"timed frames per path after 2 warm-up frames (default: "
+                             f"{BENCH_FRAMES}); with --cluster: frames per run "
+                             f"(default: {CLUSTER_FRAMES})")
     parser.add_argument("--out", type=Path, default=Path("out/bench"),
-                        help="directory for bench.json and bench.md (default: out/bench)")
+                        help="directory for bench.json and bench.md, or cluster.json and "
+                             "cluster.md (default: out/bench)")
+    parser.add_argument("--cluster", action="store_true",
+                        help="lock-step figures instead: barrier round trip with 2, 4 and 8 "
+                             "nodes, and a 4-wall run against four systems back to back")
+    parser.add_argument("--nodes", type=node_counts,
+                        help=f"with --cluster: node counts of the barrier runs "
+                             f"(default: {CLUSTER_NODES})")
     parser.set_defaults(handler=bench)
 
 
-def bench(args: argparse.Namespace, console: Console) -> int:
-    """`cavesim bench`: check the scene and the output directory, then `run_bench`."""
-    from cavesim.bench import run_bench  # GL and numpy load only for the commands that use them
-    from cavesim.scene import load_scene
-
-    try:
-        scene = load_scene(args.scene)
-    except SceneError as e:
-        raise UsageError(f"cavesim bench: error: argument --scene: {e}") from e
+def _bench_out(args: argparse.Namespace) -> None:
     try:  # before measuring, so a bad --out costs no benchmark run
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise UsageError(f"cavesim bench: error: argument --out: cannot make directory "
                          f"{str(args.out)!r}: {e.strerror or e}; give a writable directory") from e
-    run_bench(scene, args.sizes, args.frames, args.out, console)
+
+
+def _bench_scene(path: Path):
+    from cavesim.scene import load_scene
+
+    try:
+        return load_scene(path)
+    except SceneError as e:
+        raise UsageError(f"cavesim bench: error: argument --scene: {e}") from e
+
+
+def bench(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench`: check the scene and the output directory, then `run_bench`
+    (or, with --cluster, `bench_cluster`)."""
+    if args.cluster:
+        return bench_cluster(args, console)
+    if args.nodes is not None:
+        raise UsageError("cavesim bench: error: argument --nodes: only with --cluster")
+    from cavesim.bench import run_bench  # GL and numpy load only for the commands that use them
+
+    scene = _bench_scene(args.scene or scene_file(BENCH_SCENE))
+    _bench_out(args)
+    run_bench(scene, args.sizes or particle_counts(BENCH_SIZES), args.frames or BENCH_FRAMES,
+              args.out, console)
+    return 0
+
+
+def bench_cluster(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench --cluster`: check the flags, then `run_cluster_bench`."""
+    from cavesim.bench.cluster import BARRIER_SCENE, LOCKSTEP_SCENE, run_cluster_bench
+
+    if args.sizes is not None:
+        raise UsageError("cavesim bench: error: argument --sizes: not with --cluster "
+                         "(the barrier runs use --nodes)")
+    lockstep_scene = args.scene or scene_file(LOCKSTEP_SCENE)
+    _bench_scene(lockstep_scene)
+    _bench_out(args)
+    run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene,
+                      args.nodes or node_counts(CLUSTER_NODES), args.frames or CLUSTER_FRAMES,
+                      args.out, console)
     return 0
 
 

@@ -1,0 +1,304 @@
+"""`cavesim bench --cluster`: what keeping the walls in lock-step costs, on loopback.
+
+Two figures, each held to the issue's target (benchmark figures, not timed tests):
+
+- the barrier round trip per frame with 2, 4 and 8 wall nodes of a tiny scene: the master's
+  `barrier_ms` from the run's report.json (publish frame k -> every node's report of k in);
+- the lock-step cost: a 4-wall cluster's frames per second against the same four
+  simulations stepped back to back in one process on one GL context,
+  cost = 1 - cluster_fps / back_to_back_fps.
+
+The cluster runs keep their report.json, frames.log and logs under OUT/cluster/; the
+figures go to OUT/cluster.json and OUT/cluster.md. The processes live in nodes/, so this
+module imports nodes.* only inside the functions that start them.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import json
+import operator
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+import moderngl
+import numpy as np
+from rich.console import Console
+from rich.table import Table
+
+from cavesim.bench.display import progress_bar
+from cavesim.bench.measure import BenchError
+from cavesim.engine import FrameInput, ParticleSystem
+from cavesim.gl.context import create_context, describe
+from cavesim.random_texture import draw_transform
+from cavesim.scene import load_scene
+
+BARRIER_SCENE = "config/scenes/minimal.toml"  # a few hundred to 2,000 live particles
+LOCKSTEP_SCENE = "config/scenes/dust_devil.toml"
+NODE_COUNTS = (2, 4, 8)
+LOCKSTEP_WALLS = 4
+FRAMES = 300
+FRAME_DT = 1 / 60  # the master's dt and clock seed: back to back steps the cluster's frames
+CLOCK_SEED = 0
+
+Tick = Callable[[int], None]  # called with the number of frames done so far in one run
+
+
+@dataclass(frozen=True)
+class ClusterTarget:
+    name: str
+    comparison: str  # "<" or "<="
+    bound: float
+    meaning: str
+
+    def judge(self, measured: float, **where: object) -> dict[str, object]:
+        met = {"<": operator.lt, "<=": operator.le}[self.comparison](measured, self.bound)
+        return {"name": self.name, "meaning": self.meaning, "comparison": self.comparison,
+                "target": self.bound, "measured": measured, "met": met, **where}
+
+
+# The issue's targets on loopback
+TARGETS = (
+    ClusterTarget("barrier_p99_ms", "<", 2.0, "barrier round trip per frame, 99th percentile"),
+    ClusterTarget("lockstep_cost", "<=", 0.15,
+                  "throughput lost to lock-step: 1 - cluster fps / back-to-back fps"),
+)
+
+NOTES = (
+    "barrier round trip: the master's time from publishing frame k to holding every node's "
+    "report of k; it includes each node's step and checksum of the tiny scene, not only "
+    "the network",
+    "one node's step + checksum: the tiny scene's frames stepped and checksummed by one "
+    "ParticleSystem in this process, the node's own share of each round trip",
+    "the master and every node run on this machine and share its cores",
+    "cluster fps: frames / seconds of the master's frame loop once every wall has joined "
+    "(report.json frames_per_second); back-to-back fps: frames / seconds of one process "
+    "stepping and checksumming the four ParticleSystems on one GL context, after building them",
+    "both step the same frames: dt 1/60 and random transforms drawn from PCG64(0), the "
+    "master's default clock, so both must end on the same checksum",
+    "lockstep_cost = 1 - cluster_fps / back_to_back_fps; negative: the cluster was faster. "
+    "On llvmpipe one process steps on about one core (the GS/TF passes run on the calling "
+    "thread), while the cluster's processes overlap on all of them",
+)
+
+
+def run_cluster_bench(barrier_scene: Path, lockstep_scene: Path, node_counts: list[int],
+                      frames: int, out_dir: Path, console: Console) -> dict[str, object]:
+    """Measure, print the tables and targets, write cluster.json and cluster.md."""
+    runs_dir = out_dir / "cluster"
+    with progress_bar(console) as progress:
+        task = progress.add_task("cluster bench", total=frames * (len(node_counts) + 3))
+        done = 0
+
+        def ticker(label: str) -> Tick:
+            def tick(k: int) -> None:
+                progress.update(task, completed=done + k, description=label)
+            return tick
+
+        runs = []
+        for n in node_counts:
+            runs.append(_cluster_run(barrier_scene, n, frames, runs_dir / f"barrier-{n}",
+                                     ticker(f"barrier, {n} nodes")))
+            done += frames
+        cluster = _cluster_run(lockstep_scene, LOCKSTEP_WALLS, frames,
+                               runs_dir / f"lockstep-{LOCKSTEP_WALLS}",
+                               ticker(f"lock-step, {LOCKSTEP_WALLS} walls"))
+        done += frames
+        ctx = create_context()
+        try:
+            gl = describe(ctx)
+            one_node = _in_process(ctx, barrier_scene, 1, frames, ticker("one node's work"))
+            done += frames
+            back_to_back = _in_process(ctx, lockstep_scene, LOCKSTEP_WALLS, frames,
+                                       ticker(f"back to back, {LOCKSTEP_WALLS} systems"))
+        finally:
+            ctx.release()
+    report = build_report({"scene": str(barrier_scene), "runs": runs, "one_node": one_node},
+                          cluster, back_to_back, gl, frames)
+    show(report, console)
+    for path in write_reports(report, out_dir):
+        console.print(f"wrote {path}", markup=False, highlight=False, soft_wrap=True)
+    return report
+
+
+def _cluster_run(scene: Path, walls: int, frames: int, run_dir: Path,
+                 tick: Tick) -> dict[str, object]:
+    """One LocalCluster run to the end; the figures of its report.json."""
+    from cavesim.framelog import read_frame_log
+    from nodes.commands import wall_names
+    from nodes.launcher import LocalCluster
+
+    names = wall_names(walls)
+    session = f"bench-{os.getpid()}-{run_dir.name}"
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with LocalCluster(scene, run_dir, session) as cluster:
+        for wall in names:
+            cluster.start_node(wall)
+        master = cluster.start_master(names, frames)
+        for line in master.stdout:
+            tick(json.loads(line)["frame"])
+        code = master.wait()
+    report_path = run_dir / "report.json"
+    if code != 0 or not report_path.exists():
+        raise BenchError(f"the {walls}-node cluster run ended with exit code {code}; "
+                         f"see {run_dir / 'logs'}")
+    report = json.loads(report_path.read_text())
+    *_, last = read_frame_log(run_dir / "frames.log")[1]
+    return {"nodes": walls, "scene": str(scene), "frames": report["frames"],
+            "frames_per_second": report["frames_per_second"],
+            "barrier_ms": report["barrier_ms"],
+            "live_particles_max": report["live_particles"]["max"],
+            "divergences": len(report["divergences"]), "stalls": len(report["stalls"]),
+            "final_checksum": last.digest, "report": str(report_path)}
+
+
+def _in_process(ctx: moderngl.Context, scene_path: Path, systems: int, frames: int,
+                tick: Tick) -> dict[str, object]:
+    """`systems` copies of the scene stepped one after another per frame, each checksummed."""
+    scene = load_scene(scene_path)
+    clock = np.random.Generator(np.random.PCG64(CLOCK_SEED))
+    copies = []
+    try:
+        copies = [ParticleSystem(ctx, scene) for _ in range(systems)]
+        disagreements, times = 0, []
+        for k in range(1, frames + 1):
+            started = time.perf_counter()
+            inputs = FrameInput(FRAME_DT, draw_transform(clock, scene.random_texture_size))
+            digests = set()
+            for system in copies:
+                system.step(inputs)
+                digests.add(system.checksum().digest)
+            times.append(time.perf_counter() - started)
+            disagreements += len(digests) > 1
+            tick(k)
+        live = copies[0].live_count
+        if (error := ctx.error) != "GL_NO_ERROR":
+            raise BenchError(f"GL reported {error} while stepping {systems} systems in process")
+    finally:
+        for system in copies:
+            system.release()
+    ms = np.array(times) * 1e3
+    return {"systems": systems, "scene": str(scene_path), "frames": frames,
+            "seconds": float(sum(times)), "frames_per_second": frames / sum(times),
+            "frame_ms": {"p50": float(np.percentile(ms, 50)), "p99": float(np.percentile(ms, 99))},
+            "live_particles_last": live, "frames_with_unequal_systems": disagreements,
+            "final_checksum": digests.pop()}
+
+
+def build_report(barrier: dict, cluster: dict, back_to_back: dict, gl: dict[str, str],
+                 frames: int) -> dict[str, object]:
+    """`barrier`: {"scene", "runs": one per node count, "one_node": a node's work in process}."""
+    cluster_fps, serial_fps = cluster["frames_per_second"], back_to_back["frames_per_second"]
+    lockstep = {"walls": cluster["nodes"], "cluster": cluster, "back_to_back": back_to_back,
+                "cluster_fps": cluster_fps, "back_to_back_fps": serial_fps,
+                "lockstep_cost": 1 - cluster_fps / serial_fps,
+                "same_final_checksum": cluster["final_checksum"]
+                == back_to_back["final_checksum"]}
+    p99, cost = TARGETS
+    targets = [p99.judge(run["barrier_ms"]["p99"], nodes=run["nodes"])
+               for run in barrier["runs"]]
+    targets.append(cost.judge(lockstep["lockstep_cost"], nodes=cluster["nodes"]))
+    return {
+        "command": "bench --cluster",
+        "gl": gl,
+        "cpu_count": os.cpu_count(),
+        "versions": {"eclipse-zenoh": importlib.metadata.version("eclipse-zenoh"),
+                     "numpy": np.__version__},
+        "frames": frames,
+        "barrier": barrier,
+        "lockstep": lockstep,
+        "targets": targets,
+        "notes": list(NOTES),
+        "created": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+
+
+# -- the human side: tables, target lines, markdown ---------------------------------------
+
+BARRIER_HEADERS = ("nodes", "p50 ms", "p99 ms", "max ms", "frames/s", "live max",
+                   "divergences")
+LOCKSTEP_HEADERS = ("walls", "cluster frames/s", "back-to-back frames/s", "lock-step cost",
+                    "same final checksum")
+
+
+def barrier_rows(report: dict) -> list[tuple[str, ...]]:
+    return [(str(run["nodes"]), *(f"{run['barrier_ms'][q]:.3f}" for q in ("p50", "p99", "max")),
+             f"{run['frames_per_second']:.1f}", f"{run['live_particles_max']:,}",
+             str(run["divergences"])) for run in report["barrier"]["runs"]]
+
+
+def one_node_line(report: dict) -> str:
+    """What a node's own work takes of the round trip, measured in this process."""
+    ms = report["barrier"]["one_node"]["frame_ms"]
+    return (f"one node's step + checksum of the same frames in one process: p50 "
+            f"{ms['p50']:.3f} ms, p99 {ms['p99']:.3f} ms")
+
+
+def lockstep_row(report: dict) -> tuple[str, ...]:
+    step = report["lockstep"]
+    return (str(step["walls"]), f"{step['cluster_fps']:.1f}", f"{step['back_to_back_fps']:.1f}",
+            f"{step['lockstep_cost']:.1%}", "yes" if step["same_final_checksum"] else "NO")
+
+
+def target_line(target: dict) -> str:
+    """'barrier_p99_ms < 2 with 4 nodes: measured 3.412 - NOT met'."""
+    measured = (f"{target['measured']:.1%}" if target["name"] == "lockstep_cost"
+                else f"{target['measured']:.3f} ms")
+    verdict = "met" if target["met"] else "NOT met"
+    bound = f"{target['target']:.0%}" if target["name"] == "lockstep_cost" else \
+        f"{target['target']:g} ms"
+    return (f"{target['name']} {target['comparison']} {bound} with {target['nodes']} nodes: "
+            f"measured {measured} - {verdict}")
+
+
+def show(report: dict, console: Console) -> None:
+    scenes = report["barrier"]["scene"], report["lockstep"]["cluster"]["scene"]
+    for title, headers, rows in (
+            (f"barrier round trip - {scenes[0]}, {report['frames']} frames", BARRIER_HEADERS,
+             barrier_rows(report)),
+            (f"lock-step vs back to back - {scenes[1]}, {report['frames']} frames",
+             LOCKSTEP_HEADERS, [lockstep_row(report)])):
+        table = Table(title=title)
+        for header in headers:
+            table.add_column(header, justify="right")
+        for row in rows:
+            table.add_row(*row)
+        console.print(table)
+        if headers is BARRIER_HEADERS:
+            console.print(one_node_line(report))
+    console.print("targets:")
+    for target in report["targets"]:
+        console.print(f"  {target_line(target)}", style="green" if target["met"] else "bold red")
+
+
+def _markdown_table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
+    return ["| " + " | ".join(headers) + " |", "|" + "|".join("---:" for _ in headers) + "|",
+            *("| " + " | ".join(row) + " |" for row in rows)]
+
+
+def markdown(report: dict) -> str:
+    gl = report["gl"]
+    lines = ["# cavesim bench --cluster", "",
+             f"{gl['renderer']} ({gl['version']}), {report['cpu_count']} CPUs, "
+             f"{report['frames']} frames per run, {report['created']}", "",
+             f"## Barrier round trip ({report['barrier']['scene']})", "",
+             *_markdown_table(BARRIER_HEADERS, barrier_rows(report)), "",
+             one_node_line(report), "",
+             f"## Lock-step vs back to back ({report['lockstep']['cluster']['scene']})", "",
+             *_markdown_table(LOCKSTEP_HEADERS, [lockstep_row(report)]), "",
+             "## Targets", "", *(f"- {target_line(t)}" for t in report["targets"]), "",
+             "## Notes", "", *(f"- {note}" for note in report["notes"])]
+    return "\n".join(lines) + "\n"
+
+
+def write_reports(report: dict, out_dir: Path) -> list[Path]:
+    """Write cluster.json and cluster.md into `out_dir`; return their paths."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    json_path, md_path = out_dir / "cluster.json", out_dir / "cluster.md"
+    json_path.write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
+    md_path.write_text(markdown(report), encoding="utf-8")
+    return [json_path, md_path]
