@@ -14,7 +14,8 @@ import sys
 
 import pytest
 
-from cavesim.bench.cluster import TARGETS, build_report, target_line
+from cavesim.bench.cluster import TARGETS, build_report
+from cavesim.bench.cluster_report import target_line
 from cavesim.cli import main
 
 RUN_MAIN = "import sys; from cavesim.cli import main; sys.exit(main(sys.argv[1:]))"
