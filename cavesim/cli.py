@@ -38,38 +38,38 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: error: {message}")
 
 
-def particle_counts(text: str) -> list[int]:
-    """'100000,300000' -> [100000, 300000]; each count in 1..MAX_BENCH_PARTICLES."""
-    allowed = f"comma-separated particle counts, each 1..{MAX_BENCH_PARTICLES}"
-    try:
-        counts = [int(part) for part in text.split(",")]
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from e
-    if not all(1 <= count <= MAX_BENCH_PARTICLES for count in counts):
-        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}")
-    return counts
+def number_in(parse: type, low: float, high: float, what: str):
+    """An argparse type: one number parsed by `parse` in [low, high], named `what`."""
+
+    def check(text: str):
+        try:
+            value = parse(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} in [{low}, {high}], got {text!r}")
+        return value
+
+    return check
 
 
-def node_counts(text: str) -> list[int]:
-    """'2,4,8' -> [2, 4, 8]; each count in 1..MAX_NODES."""
-    allowed = f"comma-separated node counts, each 1..{MAX_NODES}"
-    try:
-        counts = [int(part) for part in text.split(",")]
-    except ValueError as e:
-        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}") from e
-    if not all(1 <= count <= MAX_NODES for count in counts):
-        raise argparse.ArgumentTypeError(f"expected {allowed}, got {text!r}")
-    return counts
+def count_list(high: int, what: str):
+    """An argparse type: comma-separated whole numbers, each in 1..high."""
+    one = number_in(int, 1, high, what)
+
+    def check(text: str) -> list[int]:
+        try:
+            return [one(part) for part in text.split(",")]
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated {what}, each 1..{high}, got {text!r}") from e
+
+    return check
 
 
-def frame_count(text: str) -> int:
-    try:
-        frames = int(text)
-    except ValueError:
-        frames = 0
-    if frames < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number of frames >= 1, got {text!r}")
-    return frames
+particle_counts = count_list(MAX_BENCH_PARTICLES, "particle counts")
+node_counts = count_list(MAX_NODES, "node counts")
+frame_count = number_in(int, 1, 10**9, "a whole number of frames")
 
 
 def scene_file(text: str) -> Path:

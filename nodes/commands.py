@@ -12,7 +12,7 @@ import logging
 import sys
 from pathlib import Path
 
-from cavesim.cli import UsageError, frame_count, scene_file
+from cavesim.cli import UsageError, frame_count, number_in, scene_file
 from cavesim.wire.keys import check_name
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
 from nodes.faults import parse_fault
@@ -37,21 +37,8 @@ def wall_list(text: str) -> tuple[str, ...]:
     return walls
 
 
-def wall_count(text: str) -> int:
-    count = frame_count(text)
-    if count > 64:
-        raise argparse.ArgumentTypeError(f"expected 1..64 walls, got {text!r}")
-    return count
-
-
-def seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = -1.0
-    if not 0 < value <= 3600:
-        raise argparse.ArgumentTypeError(f"expected seconds in (0, 3600], got {text!r}")
-    return value
+wall_count = number_in(int, 1, 64, "a number of walls")
+seconds = number_in(float, 1e-3, 3600.0, "seconds")
 
 
 def fault(text: str):
