@@ -19,6 +19,7 @@ from cavesim.wire.messages import (
     Command,
     ControlMessage,
     FrameMessage,
+    HeadState,
     ReportMessage,
     StateMessage,
     Status,
@@ -47,9 +48,11 @@ def transforms(draw) -> np.ndarray:
 wands = st.builds(WandState, st.tuples(f32, f32, f32), st.tuples(f32, f32, f32, f32),
                   st.integers(0, U32), st.tuples(f32, f32, f32, f32))
 
+heads = st.builds(HeadState, st.tuples(f32, f32, f32), st.tuples(f32, f32, f32, f32))
+
 frame_messages = st.builds(
     FrameMessage, frame_numbers, st.builds(FrameInput, dts, transforms()), wands,
-    st.lists(f32, max_size=MAX_PARAMS).map(tuple))
+    st.lists(f32, max_size=MAX_PARAMS).map(tuple), heads)
 
 report_messages = st.builds(
     ReportMessage, frame_numbers, names, st.binary(min_size=16, max_size=16).map(bytes.hex),

@@ -37,6 +37,7 @@ from cavesim.errors import ProtocolError
 from cavesim.wire import messages as wire
 from cavesim.wire.messages import (
     MAX_PARAMS,
+    VERSION,
     Command,
     ControlMessage,
     FrameMessage,
@@ -54,14 +55,14 @@ SESSION = "wiretest"
 KEY = b"0123456789abcdef0123456789abcdef"
 OTHER_KEY = b"fedcba9876543210fedcba9876543210"
 HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved, session, ...
-FRAME_BODY = struct.Struct("<I9f3f4fI4fH")  # dt bits, matrix, wand, param count
+FRAME_BODY = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, param count
 IDENTITY = np.eye(3, dtype=np.float32)
 MATRIX = np.array([[3, -2, 17], [5, 1, 250], [0, 0, 1]], dtype=np.float32)
 DIGEST = "00112233445566778899aabbccddeeff"
 
 
 def craft(kind: int, payload: bytes, *, frame: int = 1, session: str = SESSION, flags=None,
-          key: bytes | None = None, magic: bytes = b"CVSM", version: int = 1,
+          key: bytes | None = None, magic: bytes = b"CVSM", version: int = VERSION,
           length: int | None = None) -> bytes:
     """A message built by hand from the layout; signed when a key is given."""
     flags = (1 if key else 0) if flags is None else flags
@@ -72,11 +73,13 @@ def craft(kind: int, payload: bytes, *, frame: int = 1, session: str = SESSION, 
 
 def frame_body(dt_bits: int = 0x3C888889, matrix=IDENTITY, position=(0.0, 0.0, 0.0),
                orientation=(0.0, 0.0, 0.0, 1.0), buttons: int = 0, axes=(0.0,) * 4,
-               params=(), count: int | None = None) -> bytes:
+               params=(), count: int | None = None, head_position=(0.0, 0.0, 1.7),
+               head_orientation=(0.0, 0.0, 0.0, 1.0)) -> bytes:
     """A frame payload; `count` may disagree with the parameters that follow."""
     count = len(params) if count is None else count
     return FRAME_BODY.pack(dt_bits, *np.asarray(matrix, np.float32).ravel().tolist(),
-                           *position, *orientation, buttons, *axes, count) + \
+                           *head_position, *head_orientation, *position, *orientation,
+                           buttons, *axes, count) + \
         struct.pack(f"<{len(params)}f", *params)
 
 
@@ -102,7 +105,8 @@ def comparable(m) -> tuple:
     if isinstance(m, FrameMessage):
         w = m.wand
         return (type(m), m.frame, f32_bits(m.inputs.dt), m.inputs.random_transform.tobytes(),
-                bits(w.position), bits(w.orientation), w.buttons, bits(w.axes), bits(m.params))
+                bits(w.position), bits(w.orientation), w.buttons, bits(w.axes), bits(m.params),
+                bits(m.head.position), bits(m.head.orientation))
     if isinstance(m, StateMessage):
         return (type(m), m.frame, m.seed, m.particles.dtype, m.particles.tobytes(),
                 m.emitters.dtype, m.emitters.tobytes())
@@ -203,7 +207,8 @@ REJECTIONS = [
     ("magic", b"CVSN" + STOP[4:], None, "bad-magic"),
     ("magic-lowercase", b"cvsm" + STOP[4:], KEY, "bad-magic"),
     ("version-0", craft(Kind.CONTROL, b"\x02\x00\x00", version=0), None, "bad-version"),
-    ("version-2", craft(Kind.CONTROL, b"\x02\x00\x00", version=2), None, "bad-version"),
+    ("version-next", craft(Kind.CONTROL, b"\x02\x00\x00", version=VERSION + 1), None,
+     "bad-version"),
     ("kind-0", craft(0, b"\x02\x00\x00"), None, "bad-kind"),
     ("kind-5", craft(5, b"\x02\x00\x00"), None, "bad-kind"),
     ("kind-255", craft(255, b"\x02\x00\x00", key=KEY), KEY, "bad-kind"),

@@ -139,6 +139,11 @@ class ParticleSystem:
         return self._update
 
     @property
+    def front_particle_buffer_name(self) -> str:
+        """Name (in `resources`) of the buffer holding the current particle stream."""
+        return f"particles_{self._current}"
+
+    @property
     def live_count(self) -> int:
         return self._live
 

@@ -5,6 +5,7 @@ from cavesim.wire.messages import (
     Command,
     ControlMessage,
     FrameMessage,
+    HeadState,
     ReportMessage,
     StateMessage,
     WandState,
@@ -12,5 +13,5 @@ from cavesim.wire.messages import (
     encode,
 )
 
-__all__ = ["Command", "ControlMessage", "FrameMessage", "ReportMessage", "SessionKeys",
+__all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "ReportMessage", "SessionKeys",
            "StateMessage", "WandState", "decode", "encode"]

@@ -23,7 +23,7 @@ from cavesim.errors import ProtocolError
 from cavesim.wire.keys import check_name
 
 MAGIC = b"CVSM"
-VERSION = 1
+VERSION = 2  # 2: frames carry the head pose
 HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
@@ -31,7 +31,7 @@ MAX_PARAMS = 32
 MAX_STATE_PARTICLES = 3_000_000
 MAX_STATE_EMITTERS = 4096
 
-_FRAME = struct.Struct("<I9f3f4fI4fH")  # dt bits, matrix, wand pos, quat, buttons, axes, n
+_FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
 _STATE = struct.Struct("<QII")  # seed, particles, emitters
 
@@ -63,11 +63,18 @@ class WandState:
 
 
 @dataclass(frozen=True)
+class HeadState:
+    position: tuple[float, float, float] = (0.0, 0.0, 1.7)  # room metres, eyes' midpoint
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # quaternion xyzw
+
+
+@dataclass(frozen=True)
 class FrameMessage:
     frame: int
     inputs: FrameInput
     wand: WandState = WandState()
     params: tuple[float, ...] = ()  # the scene's time-varying parameters
+    head: HeadState = HeadState()  # tracked or scripted, sampled once by the master
 
 
 @dataclass(frozen=True)
@@ -160,14 +167,16 @@ def _signature(key: bytes, data: bytes) -> bytes:
 def _write_frame(m: FrameMessage) -> tuple[Kind, bytes]:
     if len(m.params) > MAX_PARAMS:
         raise ValueError(f"at most {MAX_PARAMS} scene parameters, got {len(m.params)}")
-    w = m.wand
-    values = np.array([*w.position, *w.orientation, *w.axes, *m.params], dtype=np.float64)
+    w, h = m.wand, m.head
+    values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes,
+                       *m.params], dtype=np.float64)
     if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
-        raise ValueError(f"wand state and scene parameters must be finite float32 values, "
-                         f"got {w} and {m.params}")
+        raise ValueError(f"head, wand and scene parameters must be finite float32 values, "
+                         f"got {h}, {w} and {m.params}")
     dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
-    body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *w.position,
-                       *w.orientation, w.buttons, *w.axes, len(m.params))
+    body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *h.position,
+                       *h.orientation, *w.position, *w.orientation, w.buttons, *w.axes,
+                       len(m.params))
     return Kind.FRAME, body + np.asarray(m.params, dtype="<f4").tobytes()
 
 
@@ -181,16 +190,16 @@ def _read_frame(frame: int, payload: bytes) -> FrameMessage:
                                            f"of {len(payload)} bytes (at most {MAX_PARAMS})")
     dt = np.array([values[0]], dtype=np.uint32).view(np.float32)[0]
     matrix = np.array(values[1:10], dtype=np.float32).reshape(3, 3)
-    wand_values = values[10:17] + values[18:22]
+    head, wand, buttons, axes = values[10:17], values[17:24], values[24], values[25:29]
     params = np.frombuffer(payload, dtype="<f4", offset=_FRAME.size, count=count)
-    if not all(math.isfinite(v) for v in (*wand_values, *params.tolist())):
-        raise ProtocolError("bad-value", "wand state and scene parameters must be finite")
+    if not all(math.isfinite(v) for v in (*head, *wand, *axes, *params.tolist())):
+        raise ProtocolError("bad-value", "head, wand and scene parameters must be finite")
     try:
         inputs = FrameInput(dt, matrix)
     except ValueError as e:
         raise ProtocolError("bad-value", str(e)) from e
-    wand = WandState(values[10:13], values[13:17], values[17], values[18:22])
-    return FrameMessage(frame, inputs, wand, tuple(params.tolist()))
+    return FrameMessage(frame, inputs, WandState(wand[:3], wand[3:], buttons, axes),
+                        tuple(params.tolist()), HeadState(head[:3], head[3:]))
 
 
 def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
