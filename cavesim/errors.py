@@ -9,6 +9,10 @@ class SceneError(CavesimError, ValueError):
     """A scene file or scene value is malformed: names file, key, value and what is allowed."""
 
 
+class CaveError(CavesimError, ValueError):
+    """A CAVE geometry file is malformed: names file, wall key, value and what is allowed."""
+
+
 class ShaderError(CavesimError):
     """GLSL source could not be assembled or compiled."""
 

@@ -18,6 +18,7 @@ from cavesim.wire.network import add_network_arguments, network_from_arguments, 
 from nodes.faults import parse_fault
 
 DEFAULT_SCENE = "config/scenes/dust_devil.toml"
+DEFAULT_CAVE = "config/cave/flex4.toml"
 CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
 
 
@@ -109,6 +110,11 @@ def add_node(commands) -> None:
     parser.add_argument("--inject", type=fault, action="append", default=[],
                         help="fault to inject into this node, KIND@FRAME (testing)")
     parser.add_argument("--slow-delay", type=seconds, default=1.5)
+    parser.add_argument("--cave", type=scene_file, help="CAVE geometry (.toml) to draw the wall of")
+    parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
+                        help="draw the wall every K frames (0: never)")
+    parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")
+    parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
@@ -120,14 +126,24 @@ def node(args: argparse.Namespace, console) -> int:
 
     _configure_logging(args.verbose)
     network, key = _network(args, "node")
+    if args.render_every and (args.cave is None or args.images is None):
+        raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
+                         "and --images too")
     config = NodeConfig(args.wall, args.scene, args.session, network, key,
-                        tuple(args.inject), args.slow_delay)
+                        tuple(args.inject), args.slow_delay, args.cave, args.render_every,
+                        args.images, args.stereo)
     return run_node(config)
 
 
 def add_run(commands) -> None:
     parser = commands.add_parser("run", help="master + one node per wall on this machine")
-    parser.add_argument("--walls", type=wall_count, default=4, help="number of walls (4)")
+    walls = parser.add_mutually_exclusive_group()
+    walls.add_argument("--cave", type=scene_file, default=DEFAULT_CAVE,
+                       help=f"CAVE geometry whose walls are drawn (default: {DEFAULT_CAVE})")
+    walls.add_argument("--walls", type=wall_count, help="N undrawn walls instead of a CAVE")
+    parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
+                        help="each wall writes its picture every K frames (default 10; 0: never)")
+    parser.add_argument("--stereo", action="store_true")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--frames", type=frame_count, default=600)
     parser.add_argument("--out", type=Path, default=Path("out"))
@@ -144,8 +160,17 @@ def run(args: argparse.Namespace, console) -> int:
         read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim run: error: {e}") from e
-    report = run_cluster(RunPlan(wall_names(args.walls), args.scene, args.frames, args.out,
-                                 args.session, args.key_file), console)
+    if args.walls:
+        plan = RunPlan(wall_names(args.walls), args.scene, args.frames, args.out, args.session,
+                       args.key_file)
+    else:
+        from cavesim.cave.geometry import load_cave
+
+        cave = load_cave(args.cave)
+        plan = RunPlan(cave.names, args.scene, args.frames, args.out, args.session,
+                       args.key_file, cave=args.cave, render_every=args.render_every,
+                       stereo=args.stereo)
+    report = run_cluster(plan, console)
     return 130 if report["interrupted"] else 0
 
 

@@ -38,6 +38,7 @@ from cavesim.wire.messages import Status
 from cavesim.wire.network import NetworkConfig
 from cavesim.wire.rejects import RejectCounter
 from nodes.master_report import RunRecord
+from nodes.script import ScriptedView
 
 log = logging.getLogger("cavesim.master")
 LOSS_POLICIES = ("continue", "pause")
@@ -83,6 +84,7 @@ class Master:
         self.last_received: dict[str, int] = {}
         self.rejects = RejectCounter("master")
         self.state = Membership()
+        self.view = ScriptedView()
         self.stopping = False
         self.record = RunRecord(config.walls)
 
@@ -161,8 +163,10 @@ class Master:
         try:
             for k in range(1, self.config.frames + 1):
                 self.before_frame(k)
+                t = k * self.config.dt
                 message = FrameMessage(k, FrameInput(self.config.dt, draw_transform(
-                    self.clock, self.texture_size)), WandState())
+                    self.clock, self.texture_size)), WandState(), self.view.params(t),
+                    self.view.head(t))
                 latency = self._barrier(k, encode(message, self.config.session, self.config.key))
                 self.record.barrier_seconds.append(latency)
                 digest, live = self._agree(k)

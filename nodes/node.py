@@ -36,6 +36,7 @@ from cavesim.wire.messages import Status
 from cavesim.wire.network import NetworkConfig
 from cavesim.wire.rejects import RejectCounter
 from nodes.faults import Fault
+from nodes.painter import WallPainter
 
 log = logging.getLogger("cavesim.node")
 SNAPSHOT_TIMEOUT = 10.0  # s to fetch a snapshot from a healthy node
@@ -51,6 +52,10 @@ class NodeConfig:
     key: bytes | None = None
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
+    cave: Path | None = None  # draw this node's wall of this CAVE ...
+    render_every: int = 0  # ... every K frames (0: never) ...
+    images: Path | None = None  # ... into images/<wall>/frame_<k>.png
+    stereo: bool = False
 
 
 class WallNode:
@@ -65,6 +70,7 @@ class WallNode:
         self.ctx = create_context()
         self.system = ParticleSystem(self.ctx, scene)
         self.session = session
+        self.painter = WallPainter(config, self.ctx, self.system) if config.render_every else None
         self.rejects = RejectCounter(f"node {config.wall}")
         self.done = 0  # last frame whose state we hold
         self.last_report: ReportMessage | None = None
@@ -121,6 +127,8 @@ class WallNode:
                 log.warning("%s: fault: dropped frame %d", self.config.wall, k)
                 return
             self._step(k, message.inputs)
+            if self.painter is not None and k % self.config.render_every == 0:
+                self.painter.paint(k, message)
         elif k > self.done + 1:
             log.info("%s: frame %d is ahead of our frame %d; waiting for a resync",
                      self.config.wall, k, self.done)

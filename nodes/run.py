@@ -23,6 +23,15 @@ class RunPlan:
     session: str = "run"
     key_file: Path | None = None
     master_args: tuple[str, ...] = ()
+    cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
+    render_every: int = 0
+    stereo: bool = False
+
+    def node_args(self) -> tuple[str, ...]:
+        if self.cave is None or not self.render_every:
+            return ()
+        return ("--cave", str(self.cave), "--render-every", str(self.render_every),
+                "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()))
 
 
 def run_cluster(plan: RunPlan, console: Console) -> dict:
@@ -30,7 +39,7 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
     plan.out.mkdir(parents=True, exist_ok=True)
     with LocalCluster(plan.scene, plan.out, plan.session, key_file=plan.key_file) as cluster:
         for wall in plan.walls:
-            cluster.start_node(wall)
+            cluster.start_node(wall, extra=plan.node_args())
         master = cluster.start_master(plan.walls, plan.frames, plan.master_args)
         columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                    TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
@@ -48,9 +57,28 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
     if not report_path.exists():
         raise RuntimeError(f"the master wrote no report; see {plan.out / 'logs' / 'master.log'}")
     report = json.loads(report_path.read_text())
+    if plan.node_args():
+        report["images"] = assemble_images(plan, console)
+        report_path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(summary_table(report))
     console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
     return report
+
+
+def assemble_images(plan: RunPlan, console: Console) -> dict:
+    """Unfolded-CAVE composites of every saved frame, and an animation of the run."""
+    from cavesim.cave.geometry import load_cave
+    from cavesim.render.animation import write_animation
+    from cavesim.render.composite import compose_run
+
+    composites = compose_run(load_cave(plan.cave), plan.out / "walls",
+                             plan.out / "composites")
+    images = {"walls": str(plan.out / "walls"), "composites": len(composites)}
+    if composites:
+        images["animation"] = str(write_animation(composites, plan.out / "run.gif"))
+        images["last_composite"] = str(composites[-1])
+        console.print(f"wrote {len(composites)} composites and {images['animation']}")
+    return images
 
 
 def summary_table(report: dict) -> Table:

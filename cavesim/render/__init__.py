@@ -1,0 +1,6 @@
+"""Pictures of a run: each wall's view, the unfolded-CAVE composite, the run's animation."""
+
+from cavesim.render.animation import write_animation
+from cavesim.render.composite import compose, compose_run, unfold_layout
+
+__all__ = ["compose", "compose_run", "unfold_layout", "write_animation"]

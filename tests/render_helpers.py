@@ -1,0 +1,55 @@
+"""Rendering test helpers: a tiny CAVE, particle clouds placed on purpose, golden images.
+
+Golden images live in tests/golden/. To update them after an intended change of the
+picture, run the tests with CAVESIM_UPDATE_GOLDEN=1 and look at the new PNGs before
+committing them.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from cavesim.cave.geometry import parse_cave
+from cavesim.engine.layout import PARTICLE_DTYPE
+
+GOLDEN = Path(__file__).parent / "golden"
+
+
+def small_cave(resolution=(96, 96), left_resolution=None):
+    """The FLEX CAVE's front, left and floor walls at a test resolution."""
+    walls = [
+        {"name": "front", "lower_left": [-1.5, 1.5, 0.0], "lower_right": [1.5, 1.5, 0.0],
+         "upper_left": [-1.5, 1.5, 3.0], "resolution": list(resolution)},
+        {"name": "left", "lower_left": [-1.5, -1.5, 0.0], "lower_right": [-1.5, 1.5, 0.0],
+         "upper_left": [-1.5, -1.5, 3.0], "resolution": list(left_resolution or resolution)},
+        {"name": "floor", "lower_left": [-1.5, -1.5, 0.0], "lower_right": [1.5, -1.5, 0.0],
+         "upper_left": [-1.5, 1.5, 0.0], "resolution": list(resolution)},
+    ]
+    return parse_cave({"name": "test", "wall": walls})
+
+
+def particles_at(points, class_id: int = 0) -> np.ndarray:
+    records = np.zeros(len(points), dtype=PARTICLE_DTYPE)
+    records["pos"] = points
+    records["lifetime"] = 1e6
+    records["class_id"] = class_id
+    return records
+
+
+def assert_matches_golden(image: np.ndarray, name: str, pixel_tolerance: int = 8,
+                          max_differing: float = 0.002) -> None:
+    """Compare with tests/golden/<name>.png: at most `max_differing` of the pixels may
+    differ by more than `pixel_tolerance` in any channel (software GL is stable, but a
+    Mesa update may move an edge by a pixel)."""
+    path = GOLDEN / f"{name}.png"
+    if os.environ.get("CAVESIM_UPDATE_GOLDEN") == "1":
+        Image.fromarray(image).save(path)
+    golden = np.asarray(Image.open(path).convert("RGB"))
+    assert golden.shape == image.shape, f"{name}: shape {image.shape}, golden {golden.shape}"
+    differing = (np.abs(golden.astype(int) - image.astype(int)).max(axis=2) > pixel_tolerance)
+    assert differing.mean() <= max_differing, (
+        f"{name}: {differing.sum()} pixels differ by more than {pixel_tolerance}")

@@ -1,0 +1,111 @@
+"""Wall rendering: seams, the hash untouched, identical pixels, non-blank, goldens."""
+
+import hashlib
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+from render_helpers import assert_matches_golden, particles_at, small_cave
+from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict
+
+from cavesim.engine import FrameInput, ParticleSystem
+from cavesim.random_texture import draw_transform
+from cavesim.render.view import HelicopterPose
+from cavesim.render.wall_renderer import RenderSettings, WallRenderer
+
+EYE = np.array([0.2, -0.3, 1.6])
+HELICOPTER = HelicopterPose((0.0, 9.0, 5.0), -np.pi / 2, 0.4)
+PLANE = {"kind": "plane", "friction": 0.3, "resilience": 0.4}
+
+
+def blob_heights(column: np.ndarray, sky) -> list[float]:
+    """Vertical centroids (px from the top) of the dust blobs along one pixel column."""
+    weight = np.abs(column.astype(float) - np.asarray(sky) * 255).sum(axis=1)
+    weight[weight < 6] = 0
+    rows = np.arange(len(weight))
+    edges = np.flatnonzero(np.diff(np.r_[0, (weight > 0).astype(int), 0]))
+    return [float((rows[a:b] * weight[a:b]).sum() / weight[a:b].sum())
+            for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+def test_a_cloud_on_the_seam_meets_itself_on_both_walls(ctx):
+    """Particles on rays through the front/left edge: same heights on both sides."""
+    cave = small_cave(resolution=(480, 480))
+    edge = [np.array([-1.5, 1.5, z]) for z in (0.5, 1.1, 1.7, 2.3, 2.8)]
+    points = [EYE + 1.3 * (e - EYE) for e in edge]
+    system = ParticleSystem(ctx, make_scene(drag=False, capacity=100))
+    system.write_particles(particles_at(points))
+    settings = RenderSettings()
+    front = WallRenderer(ctx, system, cave.wall("front")).render(EYE, None)
+    left = WallRenderer(ctx, system, cave.wall("left")).render(EYE, None)
+    front_heights = blob_heights(front[:, 0], settings.sky)
+    left_heights = blob_heights(left[:, -1], settings.sky)
+    assert len(front_heights) == len(edge) == len(left_heights)
+    np.testing.assert_allclose(front_heights, left_heights, atol=1.0)
+
+
+def test_rendering_leaves_the_checksum_alone(ctx):
+    system = ParticleSystem(ctx, make_scene(emitters=[FOUNTAIN], collision=PLANE))
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        system.step(FrameInput(1 / 60, draw_transform(rng, 64)))
+    before = system.checksum()
+    renderer = WallRenderer(ctx, system, small_cave().wall("front"))
+    renderer.render(EYE, HELICOPTER)
+    assert system.checksum() == before
+    system.step(FrameInput(1 / 60, draw_transform(rng, 64)))  # the engine still steps
+    assert system.live_count > before.particles
+
+
+def test_pictures_show_dust_helicopter_and_ground(ctx):
+    system = ParticleSystem(ctx, make_scene(collision=PLANE, capacity=3000))
+    system.write_particles(particle_cloud(3000, box=((-1, 3, 0.5), (1, 6, 3))))
+    renderer = WallRenderer(ctx, system, small_cave().wall("front"))
+    full = renderer.render(EYE, HELICOPTER).astype(int)
+    no_helicopter = renderer.render(EYE, None).astype(int)
+    system.write_particles(particle_cloud(0))
+    no_dust = renderer.render(EYE, HELICOPTER).astype(int)
+    sky = np.array(RenderSettings().sky) * 255
+    upper = full[10:40]  # sky above the horizon, in front of the cloud
+    assert (np.abs(upper - sky).max(axis=2) > 3).mean() > 0.05, "dust against the sky"
+    assert (np.abs(full - no_dust).max(axis=2) > 10).mean() > 0.05, "dust is drawn"
+    assert (np.abs(full - no_helicopter).max(axis=2) > 10).sum() > 20, "helicopter is drawn"
+    ground = no_dust[-10:].mean(axis=(0, 1))
+    assert ground[0] > ground[2] + 30, "sandy ground at the bottom of the front wall"
+
+
+def test_same_state_same_pixels_and_golden(ctx):
+    scene = make_scene(emitters=[FOUNTAIN], collision=PLANE, seed=3)
+    system = ParticleSystem(ctx, scene)
+    rng = np.random.default_rng(5)
+    for _ in range(30):
+        system.step(FrameInput(1 / 60, draw_transform(rng, 64)))
+    renderer = WallRenderer(ctx, system, small_cave().wall("front"))
+    first = renderer.render(EYE, HELICOPTER)
+    assert np.array_equal(first, renderer.render(EYE, HELICOPTER))
+    assert_matches_golden(first, "front_fountain_96")
+    floor = WallRenderer(ctx, system, small_cave().wall("floor")).render(EYE, HELICOPTER)
+    assert_matches_golden(floor, "floor_fountain_96")
+
+
+def render_in_a_process(frames: int) -> str:
+    """A fresh process: step the fountain scene and hash the front wall's pixels."""
+    from cavesim.gl.context import create_context
+    from cavesim.scene import parse_scene
+
+    ctx = create_context()
+    scene = parse_scene(scene_dict(emitters=[FOUNTAIN], collision=PLANE, seed=3), name="t")
+    system = ParticleSystem(ctx, scene)
+    rng = np.random.default_rng(5)
+    for _ in range(frames):
+        system.step(FrameInput(1 / 60, draw_transform(rng, 64)))
+    pixels = WallRenderer(ctx, system, small_cave().wall("front")).render(EYE, HELICOPTER)
+    return hashlib.sha256(pixels.tobytes()).hexdigest()
+
+
+@pytest.mark.slow
+def test_two_processes_draw_identical_pixels():
+    with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
+        a, b = pool.map(render_in_a_process, [40, 40])
+    assert a == b
