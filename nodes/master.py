@@ -30,6 +30,7 @@ from cavesim.wire import (
     FrameMessage,
     ReportMessage,
     SessionKeys,
+    TrackingMessage,
     WandState,
     decode,
     encode,
@@ -85,6 +86,7 @@ class Master:
         self.rejects = RejectCounter("master")
         self.state = Membership()
         self.view = ScriptedView()
+        self.tracked: TrackingMessage | None = None
         self.stopping = False
         self.record = RunRecord(config.walls)
 
@@ -94,6 +96,7 @@ class Master:
         self.control_publisher = self.session.declare_publisher(self.keys.control, express=True)
         return [
             self.session.declare_subscriber(self.keys.report(), lambda s: put(("report", s))),
+            self.session.declare_subscriber(self.keys.tracking, lambda s: put(("tracking", s))),
             self.session.liveliness().declare_subscriber(self.keys.alive(),
                                                          lambda s: put(("alive", s)),
                                                          history=True),
@@ -116,6 +119,9 @@ class Master:
         except ProtocolError as e:
             self.rejects.reject(e, str(sample.key_expr))
             return
+        if kind == "tracking":
+            self._on_tracking(report, str(sample.key_expr))
+            return
         sender = self.keys.node_of(sample.key_expr)
         if not isinstance(report, ReportMessage) or report.node != sender \
                 or sender not in self.config.walls:
@@ -126,6 +132,13 @@ class Master:
         self.reports[(report.frame, report.node)] = report
         self.last_received[report.node] = report.frame
         self.record.node_rejected[report.node] = report.rejected
+
+    def _on_tracking(self, message, key: str) -> None:
+        if isinstance(message, TrackingMessage):
+            self.tracked = message  # sampled once, when the next frame is made
+        else:
+            self.rejects.reject(ProtocolError("unexpected", f"a {type(message).__name__} on "
+                                              "the tracking key"), key)
 
     def _on_alive(self, node: str, alive: bool) -> None:
         if node not in self.config.walls:
@@ -163,10 +176,7 @@ class Master:
         try:
             for k in range(1, self.config.frames + 1):
                 self.before_frame(k)
-                t = k * self.config.dt
-                message = FrameMessage(k, FrameInput(self.config.dt, draw_transform(
-                    self.clock, self.texture_size)), WandState(), self.view.params(t),
-                    self.view.head(t))
+                message = self._make_frame(k)
                 latency = self._barrier(k, encode(message, self.config.session, self.config.key))
                 self.record.barrier_seconds.append(latency)
                 digest, live = self._agree(k)
@@ -182,6 +192,16 @@ class Master:
                 log_writer.close()
         self._record_final_agreement()
         return self.record
+
+    def _make_frame(self, k: int) -> FrameMessage:
+        """Frame k's inputs, drawn and sampled once: the clock's matrix, the tracked head
+        and wand (or the script's when no tracker has spoken), the scene parameters."""
+        t = k * self.config.dt
+        tracked = self.tracked
+        head = tracked.head if tracked else self.view.head(t)
+        wand = tracked.wand if tracked else WandState()
+        inputs = FrameInput(self.config.dt, draw_transform(self.clock, self.texture_size))
+        return FrameMessage(k, inputs, wand, self.view.params(t), head)
 
     def _record_final_agreement(self) -> None:
         last = self.record.frames

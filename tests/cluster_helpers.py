@@ -23,6 +23,7 @@ from cavesim.wire.messages import (
     ReportMessage,
     StateMessage,
     Status,
+    TrackingMessage,
     WandState,
 )
 
@@ -75,9 +76,13 @@ state_messages = st.builds(StateMessage, frame_numbers, st.integers(0, U64),
                            records(PARTICLE_DTYPE, 8), records(EMITTER_DTYPE, 4))
 
 
+tracking_messages = st.builds(TrackingMessage, frame_numbers, heads, wands)
+
+
 def messages() -> st.SearchStrategy:
     """Any valid message of any kind."""
-    return st.one_of(frame_messages, report_messages, control_messages, state_messages)
+    return st.one_of(frame_messages, report_messages, control_messages, state_messages,
+                     tracking_messages)
 
 
 MUTATIONS = ("flip", "insert", "delete", "truncate")

@@ -41,10 +41,12 @@ from cavesim.wire.messages import (
     Command,
     ControlMessage,
     FrameMessage,
+    HeadState,
     Kind,
     ReportMessage,
     StateMessage,
     Status,
+    TrackingMessage,
     WandState,
     decode,
     encode,
@@ -137,6 +139,9 @@ EDGE_MESSAGES = {
     "state-empty": StateMessage(5, 1, np.zeros(0, PARTICLE_DTYPE), np.zeros(0, EMITTER_DTYPE)),
     "state": StateMessage(U64, U64, np.arange(3 * 10, dtype="<u4").view(PARTICLE_DTYPE),
                           np.arange(2 * 4, dtype="<u4").view(EMITTER_DTYPE)),
+    "tracking": TrackingMessage(12, HeadState((0.25, -0.5, 1.75), (0.0, 0.0, 0.5, 0.75)),
+                                WandState((1.0, 2.0, 1.25), (0.5, 0.0, 0.0, 0.5), 5,
+                                          (0.25, -1.0, 0.0, 0.5))),
 }
 
 
@@ -210,7 +215,7 @@ REJECTIONS = [
     ("version-next", craft(Kind.CONTROL, b"\x02\x00\x00", version=VERSION + 1), None,
      "bad-version"),
     ("kind-0", craft(0, b"\x02\x00\x00"), None, "bad-kind"),
-    ("kind-5", craft(5, b"\x02\x00\x00"), None, "bad-kind"),
+    ("kind-next", craft(max(Kind) + 1, b"\x02\x00\x00"), None, "bad-kind"),
     ("kind-255", craft(255, b"\x02\x00\x00", key=KEY), KEY, "bad-kind"),
     ("other-session", craft(Kind.CONTROL, b"\x02\x00\x00", session="other"), None,
      "wrong-session"),

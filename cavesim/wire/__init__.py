@@ -8,10 +8,11 @@ from cavesim.wire.messages import (
     HeadState,
     ReportMessage,
     StateMessage,
+    TrackingMessage,
     WandState,
     decode,
     encode,
 )
 
 __all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "ReportMessage", "SessionKeys",
-           "StateMessage", "WandState", "decode", "encode"]
+           "StateMessage", "TrackingMessage", "WandState", "decode", "encode"]

@@ -35,8 +35,9 @@ class SessionKeys:
         return f"{self.prefix}/control"
 
     @property
-    def wand(self) -> str:
-        return f"{self.prefix}/wand"
+    def tracking(self) -> str:
+        """Where trackers publish head and wand; the master samples it once per frame."""
+        return f"{self.prefix}/tracking"
 
     def report(self, node: str = "*") -> str:
         return f"{self.prefix}/report/{node}"

@@ -34,6 +34,7 @@ MAX_STATE_EMITTERS = 4096
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
 _STATE = struct.Struct("<QII")  # seed, particles, emitters
+_TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
 
 
 class Kind(IntEnum):
@@ -41,6 +42,7 @@ class Kind(IntEnum):
     REPORT = 2
     CONTROL = 3
     STATE = 4
+    TRACKING = 5
 
 
 class Command(IntEnum):
@@ -106,7 +108,16 @@ class StateMessage:
     emitters: np.ndarray = field(repr=False)  # EMITTER_DTYPE
 
 
-Message = FrameMessage | ReportMessage | ControlMessage | StateMessage
+@dataclass(frozen=True)
+class TrackingMessage:
+    """A tracker's (or a script's, or a keyboard bridge's) latest head and wand state."""
+
+    frame: int  # the sender's own counter; the master ignores it
+    head: HeadState
+    wand: WandState
+
+
+Message = FrameMessage | ReportMessage | ControlMessage | StateMessage | TrackingMessage
 
 
 def session_id(session: str) -> int:
@@ -257,6 +268,26 @@ def _read_state(frame: int, payload: bytes) -> StateMessage:
     return StateMessage(frame, seed, p.copy(), e.copy())
 
 
+def _write_tracking(m: TrackingMessage) -> tuple[Kind, bytes]:
+    h, w = m.head, m.wand
+    values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes])
+    if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
+        raise ValueError(f"tracking values must be finite float32 values, got {h} and {w}")
+    return Kind.TRACKING, _TRACKING.pack(*h.position, *h.orientation, *w.position,
+                                         *w.orientation, w.buttons, *w.axes)
+
+
+def _read_tracking(frame: int, payload: bytes) -> TrackingMessage:
+    if len(payload) != _TRACKING.size:
+        raise ProtocolError("bad-payload", f"tracking payload of {len(payload)} bytes, "
+                                           f"expected {_TRACKING.size}")
+    v = _TRACKING.unpack(payload)
+    if not all(math.isfinite(x) for x in (*v[:14], *v[15:])):
+        raise ProtocolError("bad-value", "head and wand values must be finite")
+    return TrackingMessage(frame, HeadState(v[0:3], v[3:7]), WandState(v[7:10], v[10:14], v[14],
+                                                                         v[15:19]))
+
+
 def _name_bytes(name: str, optional: bool = False) -> bytes:
     if not (optional and name == ""):
         check_name("node name", name)
@@ -277,6 +308,8 @@ def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
 
 
 _PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
-                    ControlMessage: _write_control, StateMessage: _write_state}
+                    ControlMessage: _write_control, StateMessage: _write_state,
+                    TrackingMessage: _write_tracking}
 _PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
-                    Kind.CONTROL: _read_control, Kind.STATE: _read_state}
+                    Kind.CONTROL: _read_control, Kind.STATE: _read_state,
+                    Kind.TRACKING: _read_tracking}
