@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from PIL import Image
 
@@ -54,7 +55,7 @@ def test_walls_at_different_resolutions_stay_consistent(tmp_path):
 
 def test_cavesim_run_writes_walls_composites_and_an_animation(tmp_path):
     command = [sys.executable, "-m", "cavesim", "run", "--frames", "40", "--render-every",
-               "20", "--out", str(tmp_path), "--session", f"pics{os.getpid()}"]
+               "20", "--stereo", "--out", str(tmp_path), "--session", f"pics{os.getpid()}"]
     result = subprocess.run(command, capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert result.returncode == 0, result.stdout + result.stderr
     report = json.loads((tmp_path / "report.json").read_text())
@@ -64,4 +65,6 @@ def test_cavesim_run_writes_walls_composites_and_an_animation(tmp_path):
     animation = Image.open(tmp_path / "run.gif")
     assert animation.n_frames == 2
     for wall in ("front", "left", "right", "floor"):
-        assert (tmp_path / "walls" / wall / "frame_000040.png").exists()
+        left_eye = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000040.png"))
+        right_eye = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000040_right.png"))
+        assert left_eye.shape == right_eye.shape and not np.array_equal(left_eye, right_eye)

@@ -11,7 +11,7 @@ import zenoh
 from cavesim.framelog import read_frame_log
 from cavesim.wire import HeadState, SessionKeys, TrackingMessage, WandState, encode
 from cavesim.wire.network import NetworkConfig
-from nodes.launcher import LocalCluster
+from nodes.launcher import LocalCluster, free_port
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
 TRACKED = HeadState((0.5, -0.25, 1.5), (0.0, 0.0, 0.0, 1.0))
@@ -20,17 +20,18 @@ TRACKED = HeadState((0.5, -0.25, 1.5), (0.0, 0.0, 0.0, 1.0))
 @pytest.mark.slow
 def test_tracked_head_and_wand_travel_in_the_frames(tmp_path):
     session = f"track{os.getpid()}"
-    with LocalCluster(MINIMAL, tmp_path, session) as cluster:
-        cluster.start_node("front")
-        master = cluster.start_master(("front",), 300)
-        network = NetworkConfig(connect=(cluster.master_endpoint,))
-        with zenoh.open(network.zenoh_config()) as tracker:
-            tracking = encode(TrackingMessage(0, TRACKED, WandState(buttons=3)), session)
-            for count, line in enumerate(master.stdout):
-                if count >= 50:  # the first 50 frames go out scripted
-                    tracker.put(SessionKeys(session).tracking, tracking)
-                    tracker.put(SessionKeys(session).tracking, b"not a message")
-                assert json.loads(line)["frame"] == count + 1
+    tracker_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    network = NetworkConfig(listen=(tracker_endpoint,))
+    with LocalCluster(MINIMAL, tmp_path, session) as cluster, \
+            zenoh.open(network.zenoh_config()) as tracker:
+        cluster.start_node("front")  # the master connects to the tracker as it starts
+        master = cluster.start_master(("front",), 300, ("--connect", tracker_endpoint))
+        tracking = encode(TrackingMessage(0, TRACKED, WandState(buttons=3)), session)
+        for count, line in enumerate(master.stdout):
+            if count >= 50:  # the first 50 frames go out scripted
+                tracker.put(SessionKeys(session).tracking, tracking)
+                tracker.put(SessionKeys(session).tracking, b"not a message")
+            assert json.loads(line)["frame"] == count + 1
         assert master.wait(timeout=60) == 0
     _, frames = read_frame_log(tmp_path / "frames.log")
     heads = [(f.message.head.position, f.message.wand.buttons) for f in frames]
