@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from cavesim._toml import read_toml
 from cavesim.errors import CaveError
 
 TOP_KEYS = ("name", "wall")
@@ -133,16 +133,7 @@ class Cave:
 def load_cave(path: str | Path) -> Cave:
     """Read and check the CAVE geometry file at `path` (see config/cave/*.toml)."""
     path = Path(path)
-    try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
-    except OSError as e:
-        raise CaveError(f"{path}: cannot read cave file: {e.strerror or e}") from e
-    except UnicodeDecodeError as e:
-        raise CaveError(f"{path}: not valid TOML: the file must be UTF-8 ({e})") from e
-    except tomllib.TOMLDecodeError as e:
-        raise CaveError(f"{path}: not valid TOML: {e}") from e
-    return parse_cave(data, path)
+    return parse_cave(read_toml(path, CaveError, "cave file"), path)
 
 
 def parse_cave(data: Mapping[str, Any], source: Path | None = None) -> Cave:

@@ -7,11 +7,11 @@ names the file, the dotted key, the value and what is allowed.
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from cavesim._toml import read_toml
 from cavesim.errors import SceneError
 from cavesim.scene import _sections
 from cavesim.scene._checks import Table
@@ -23,16 +23,7 @@ TOP_KEYS = ("name", "simulation", "particle_class", "emitter", "forces", "field"
 def load_scene(path: str | Path) -> Scene:
     """Read and check the scene file at `path`; `Scene.source` is `path` as given."""
     path = Path(path)
-    try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
-    except OSError as e:
-        raise SceneError(f"{path}: cannot read scene file: {e.strerror or e}") from e
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{path}: not valid TOML: the file must be UTF-8 ({e})") from e
-    except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{path}: not valid TOML: {e}") from e
-    return parse_scene(data, path, path.stem)
+    return parse_scene(read_toml(path, SceneError, "scene file"), path, path.stem)
 
 
 def parse_scene(data: Mapping[str, Any], source: Path | None = None,
