@@ -60,13 +60,19 @@ class EmitterTable:
     def __len__(self) -> int:
         return len(self.rate)
 
-    def max_emit(self, dt: np.float32, capacity: int) -> np.ndarray:
+    def frame_rates(self, factors: np.ndarray | None = None) -> np.ndarray:
+        """Per emitter, rate × this frame's factor in float64, in the GPU's order of ops."""
+        rates = self.rate.astype(np.float64)
+        return rates if factors is None else rates * np.asarray(factors, np.float32)
+
+    def max_emit(self, dt: np.float32, capacity: int,
+                 factors: np.ndarray | None = None) -> np.ndarray:
         """Per emitter, a bound on this frame's count, capped at the capacity (uint32).
 
         The accumulator is below 1 before the frame, so the count floor(acc + rate·dt) is at
         most floor(1 + rate·dt), computed here in the same float64 arithmetic as the GPU.
         """
-        bound = np.floor(1.0 + self.rate.astype(np.float64) * np.float64(dt))
+        bound = np.floor(1.0 + self.frame_rates(factors) * np.float64(dt))
         return np.minimum(bound, capacity).astype(np.uint32)
 
 

@@ -37,7 +37,7 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
     system = ParticleSystem(ctx or create_context(), load_scene(scene_path))
     result = ReplayResult(str(log_path), str(scene_path))
     for logged in frames:
-        system.step(logged.message.inputs)
+        system.step(logged.message.inputs, logged.message.params)
         state = system.checksum()
         result.frames += 1
         if state.digest != logged.digest or state.particles != logged.particles:

@@ -17,7 +17,8 @@ from cavesim.wire.keys import check_name
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
 from nodes.faults import parse_fault
 
-DEFAULT_SCENE = "config/scenes/dust_devil.toml"
+DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
+CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faults show at once
 DEFAULT_CAVE = "config/cave/flex4.toml"
 CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
 
@@ -135,6 +136,16 @@ def node(args: argparse.Namespace, console) -> int:
     return run_node(config)
 
 
+def default_frames(scene_path: Path, dt: float = 1 / 60) -> int:
+    """Frames to play a scene's wand timeline to its end (600 without a timeline)."""
+    from cavesim.scene import load_scene
+
+    helicopter = load_scene(scene_path).helicopter
+    if helicopter is None or not helicopter.timeline:
+        return 600
+    return round(helicopter.timeline[-1].t / dt)
+
+
 def add_run(commands) -> None:
     parser = commands.add_parser("run", help="master + one node per wall on this machine")
     walls = parser.add_mutually_exclusive_group()
@@ -145,7 +156,8 @@ def add_run(commands) -> None:
                         help="each wall writes its picture every K frames (default 10; 0: never)")
     parser.add_argument("--stereo", action="store_true")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
-    parser.add_argument("--frames", type=frame_count, default=600)
+    parser.add_argument("--frames", type=frame_count,
+                        help="default: the scene's wand timeline to its end, else 600")
     parser.add_argument("--out", type=Path, default=Path("out"))
     parser.add_argument("--session", default="run")
     parser.add_argument("--key-file", type=Path)
@@ -160,14 +172,15 @@ def run(args: argparse.Namespace, console) -> int:
         read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim run: error: {e}") from e
+    frames = args.frames or default_frames(args.scene)
     if args.walls:
-        plan = RunPlan(wall_names(args.walls), args.scene, args.frames, args.out, args.session,
+        plan = RunPlan(wall_names(args.walls), args.scene, frames, args.out, args.session,
                        args.key_file)
     else:
         from cavesim.cave.geometry import load_cave
 
         cave = load_cave(args.cave)
-        plan = RunPlan(cave.names, args.scene, args.frames, args.out, args.session,
+        plan = RunPlan(cave.names, args.scene, frames, args.out, args.session,
                        args.key_file, cave=args.cave, render_every=args.render_every,
                        stereo=args.stereo)
     report = run_cluster(plan, console)
@@ -210,7 +223,7 @@ def add_check(commands) -> None:
     parser = commands.add_parser("check", help="consistency harness: inject faults, prove "
                                                "each is detected and healed")
     parser.add_argument("--walls", type=wall_count, default=3)
-    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--scene", type=scene_file, default=CHECK_SCENE)
     parser.add_argument("--frames", type=frame_count, default=300)
     parser.add_argument("--inject", type=fault, action="append", default=[],
                         metavar="KIND@FRAME[:NODE]",

@@ -22,6 +22,7 @@ import zenoh
 from cavesim.engine import FrameInput
 from cavesim.errors import ProtocolError
 from cavesim.framelog import FrameLogWriter
+from cavesim.helicopter.flight import Flight, pitch_quaternion, tilt_of, wand_at
 from cavesim.random_texture import draw_transform
 from cavesim.scene import load_scene
 from cavesim.wire import (
@@ -77,7 +78,10 @@ class Master:
         self.keys = SessionKeys(config.session)
         self.session = session
         self.before_frame = before_frame or (lambda k: None)
-        self.texture_size = load_scene(config.scene).random_texture_size
+        scene = load_scene(config.scene)
+        self.texture_size = scene.random_texture_size
+        self.flight = Flight(scene) if scene.helicopter is not None else None
+        self.timeline = scene.helicopter.timeline if scene.helicopter is not None else ()
         self.clock = np.random.Generator(np.random.PCG64(config.clock_seed))
         self.events: queue.Queue = queue.Queue()
         self.reports: dict[tuple[int, str], ReportMessage] = {}
@@ -201,7 +205,16 @@ class Master:
         head = tracked.head if tracked else self.view.head(t)
         wand = tracked.wand if tracked else WandState()
         inputs = FrameInput(self.config.dt, draw_transform(self.clock, self.texture_size))
-        return FrameMessage(k, inputs, wand, self.view.params(t), head)
+        if self.flight is None:
+            return FrameMessage(k, inputs, wand, self.view.hover_params(t), head)
+        if tracked:
+            position, tilt = wand.position, tilt_of(wand.orientation)
+        else:
+            position, tilt = wand_at(self.timeline, t)
+            wand = WandState(tuple(position), pitch_quaternion(tilt))
+        rotor = self.flight.advance(self.config.dt, position, tilt)
+        self.record.flight(t, rotor, self.flight)
+        return FrameMessage(k, inputs, wand, rotor.to_params(), head)
 
     def _record_final_agreement(self) -> None:
         last = self.record.frames

@@ -20,9 +20,20 @@ class RunRecord:
     stalls: list[dict] = field(default_factory=list)
     losses: list[dict] = field(default_factory=list)
     joins: list[dict] = field(default_factory=list)
+    flight_log: list[dict] = field(default_factory=list)  # helicopter scenes: per frame
     final: dict = field(default_factory=dict)  # last frame: members and whether they agree
     node_rejected: dict[str, int] = field(default_factory=dict)
     master_rejected: dict[str, int] = field(default_factory=dict)
+
+    def flight(self, t: float, rotor, flight) -> None:
+        """One frame of the helicopter: time, altitude, rotor, emission rate (1/s)."""
+        rates = [e.rate * f for e, f in zip(flight.followers, rotor.emission_factors,
+                                             strict=True)]
+        altitude = rotor.hub[2] - flight.ground - flight.helicopter.hub_height
+        self.flight_log.append({"t": round(t, 4), "altitude": round(altitude, 3),
+                                "rotor_speed": round(rotor.rotor_speed, 4),
+                                "induced_velocity": round(rotor.induced_velocity, 4),
+                                "emission_rate": round(float(sum(rates)), 1)})
 
     def stall(self, frame: int, missing: list[str], sent: dict, received: dict) -> None:
         self.stalls.append({"frame": frame, "nodes": {
@@ -59,11 +70,13 @@ class RunRecord:
                            "max": percentile(100)},
             "live_particles": {"last": self.live_particles[-1] if self.live_particles else 0,
                                "max": max(self.live_particles, default=0)},
+            "live_per_frame": list(self.live_particles),  # after frame 1, 2, ...
             "divergences": self.divergences,
             "resyncs": self.resyncs,
             "stalls": self.stalls,
             "losses": self.losses,
             "joins": self.joins,
             "final": self.final,
+            "flight": self.flight_log,
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
         }

@@ -126,19 +126,19 @@ class WallNode:
                 self.dropped.add(k)  # lose this copy; the master's retransmit gets through
                 log.warning("%s: fault: dropped frame %d", self.config.wall, k)
                 return
-            self._step(k, message.inputs)
+            self._step(k, message.inputs, message.params)
             if self.painter is not None and k % self.config.render_every == 0:
                 self.painter.paint(k, message)
         elif k > self.done + 1:
             log.info("%s: frame %d is ahead of our frame %d; waiting for a resync",
                      self.config.wall, k, self.done)
 
-    def _step(self, k: int, inputs: FrameInput) -> None:
+    def _step(self, k: int, inputs: FrameInput, params: tuple[float, ...]) -> None:
         used = inputs
         if self._fault("stale", k) and self.previous_inputs is not None:
             used = FrameInput(inputs.dt, self.previous_inputs.random_transform)
         started = time.perf_counter()
-        self.system.step(used)
+        self.system.step(used, params)
         stepped = time.perf_counter()
         if self._fault("bitflip", k) and self.system.live_count:
             self._flip_one_bit()

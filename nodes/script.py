@@ -1,8 +1,9 @@
 """What the master sends as head and scene parameters when nothing is tracked.
 
-A gentle head sway (so head-tracked projection shows) and a helicopter hovering ahead with
-its rotor turning. Computed from the frame time in float64 on the master alone; nodes get
-the float32 bits in the frame message.
+A gentle head sway (so head-tracked projection shows). A helicopter scene's parameters
+come from its flight (the wand: tracked, or the scene's timeline); other scenes get a
+helicopter hovering ahead with its rotor turning, to draw. Computed in float64 on the
+master alone; nodes get the float32 bits in the frame message.
 """
 
 from __future__ import annotations
@@ -26,6 +27,6 @@ class ScriptedView:
         x = self.sway * math.sin(2 * math.pi * t / self.sway_period)
         return HeadState((x, 0.0, self.eye_height), (0.0, 0.0, 0.0, 1.0))
 
-    def params(self, t: float) -> tuple[float, ...]:
+    def hover_params(self, t: float) -> tuple[float, ...]:
         rotor = math.fmod(2 * math.pi * self.rotor_hz * t, 2 * math.pi)
         return HelicopterPose(self.hover, -math.pi / 2, rotor).to_params()  # nose toward us

@@ -34,11 +34,12 @@ from cavesim.engine.programs import (
     emitter_update_program,
     particle_update_program,
 )
+from cavesim.engine.rotor_inputs import RotorInputs
 from cavesim.engine.uniforms import emitter_uniforms, physics_uniforms, write_uniforms
 from cavesim.fields import FieldGrid, build_field
 from cavesim.heightfield import HeightGrid, load_heightfield
 from cavesim.random_texture import random_words
-from cavesim.scene.model import CollisionKind, FieldSampling, Scene
+from cavesim.scene.model import CollisionKind, FieldKind, FieldSampling, Scene
 
 FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT = 0, 1, 2
 MAX_SSBO_BYTES = 2**27  # GL_MAX_SHADER_STORAGE_BLOCK_SIZE on llvmpipe; the checksum binds SSBOs
@@ -70,6 +71,9 @@ class ParticleSystem:
         self._update_vaos = [self._vao(self._update, b, PARTICLE_VERTEX_FORMAT,
                                        "in_a", "in_b", "in_c")
                              for b in self._particle_buffers]
+        self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
+        if self.rotor_inputs is not None:
+            write_uniforms(self._update, self.rotor_inputs.constant_uniforms())
         if len(self.emitters):
             self._build_emission()
         self._checksum = GpuChecksum(ctx, max(scene.capacity * PARTICLE_WORDS, 1))
@@ -86,7 +90,7 @@ class ParticleSystem:
 
     def _textures_for_physics(self) -> None:
         scene = self.scene
-        if scene.forces.drag is not None:
+        if scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR:
             grid = build_field(scene.field)
             texture = self.ctx.texture3d(grid.resolution, 3, grid.velocity.tobytes(), dtype="f4")
             hardware = scene.field.sampling is FieldSampling.HARDWARE
@@ -151,12 +155,19 @@ class ParticleSystem:
     def capacity(self) -> int:
         return self.scene.capacity
 
-    def step(self, frame: FrameInput) -> None:
-        """Advance one frame with exactly the inputs every other node gets."""
+    def step(self, frame: FrameInput, params=()) -> None:
+        """Advance one frame with exactly the inputs every other node gets.
+
+        `params` are the frame's scene parameters; a helicopter scene reads its rotor there.
+        """
+        rotor = self.rotor_inputs.read(params) if self.rotor_inputs is not None else None
         front, back = self._current, 1 - self._current
         self._bind_samplers(self._update)
+        if rotor is not None:
+            write_uniforms(self._update, RotorInputs.physics_uniforms(rotor))
         survivors = self._particle_pass(front, back, frame.dt)
-        emitted = self._emitter_pass(front, back, survivors, frame) if len(self.emitters) else 0
+        emitted = self._emitter_pass(front, back, survivors, frame, rotor) \
+            if len(self.emitters) else 0
         self._live = survivors + emitted
         self._current = back
 
@@ -169,8 +180,13 @@ class ParticleSystem:
                                                vertices=self._live)
         return self._query.primitives
 
-    def _emitter_pass(self, front: int, back: int, survivors: int, frame: FrameInput) -> int:
-        max_emit = self.emitters.max_emit(frame.dt, self.capacity)
+    def _emitter_pass(self, front: int, back: int, survivors: int, frame: FrameInput,
+                      rotor) -> int:
+        factors = None if rotor is None else rotor.rate_factors
+        max_emit = self.emitters.max_emit(frame.dt, self.capacity, factors)
+        if rotor is not None:
+            for program in (self._emitter_update, self._emit):
+                write_uniforms(program, RotorInputs.emitter_uniforms(rotor))
         write_uniforms(self._emitter_update, {"dt": frame.dt, "emitter_max_emit": max_emit})
         self._emitter_update_vaos[front].transform(self._emitter_buffers[back], moderngl.POINTS,
                                                    vertices=len(self.emitters))

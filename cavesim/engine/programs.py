@@ -11,6 +11,7 @@ import moderngl
 from cavesim.engine.layout import PARTICLE_VARYINGS
 from cavesim.scene.model import (
     CollisionKind,
+    FieldKind,
     FieldSampling,
     Integrator,
     OutOfDomain,
@@ -28,8 +29,8 @@ CHECKSUM_WORKGROUP_SIZE = 64
 CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 313 KB of sums to read
 
 PHYSICS_DEFINES = ("HAS_GRAVITY", "HAS_DRAG", "HAS_DAMPING", "COLLISION", "INTEGRATOR",
-                   "FIELD_OUT_OF_DOMAIN", "FIELD_SAMPLING", "CLASS_COUNT")
-EMISSION_DEFINES = ("EMITTER_COUNT", "RANDOM_SIZE", "EMIT_BATCH")
+                   "FIELD_OUT_OF_DOMAIN", "FIELD_SAMPLING", "FIELD_IS_ROTOR", "CLASS_COUNT")
+EMISSION_DEFINES = ("EMITTER_COUNT", "RANDOM_SIZE", "EMIT_BATCH", "FOLLOWING")
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
@@ -43,6 +44,7 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "INTEGRATOR": INTEGRATOR_IDS[scene.integrator],
         "FIELD_OUT_OF_DOMAIN": OUT_OF_DOMAIN_IDS[field.out_of_domain] if field else 0,
         "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
+        "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
     }
 
@@ -53,6 +55,7 @@ def emission_defines(scene: Scene) -> dict[str, int]:
         "EMITTER_COUNT": len(scene.emitters),
         "RANDOM_SIZE": scene.random_texture_size,
         "EMIT_BATCH": EMIT_BATCH,
+        "FOLLOWING": int(any(e.follow_helicopter for e in scene.emitters)),
     }
 
 

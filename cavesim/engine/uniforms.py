@@ -25,9 +25,10 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
     if forces.drag is not None:
         values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
                                      dtype=np.float32)
-        values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
-        values["field_index_scale"] = index_scale(field.box_min, field.box_max,
-                                                  field.resolution)
+        if field is not None:  # a grid; the rotor's flow needs none
+            values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
+            values["field_index_scale"] = index_scale(field.box_min, field.box_max,
+                                                      field.resolution)
     collision = scene.collision
     if collision is not None:
         values["friction"] = np.float32(collision.friction)

@@ -15,11 +15,13 @@ from cavesim.scene.model import (
     FieldKind,
     FieldSampling,
     Forces,
+    Helicopter,
     Integrator,
     OutOfDomain,
     ParticleClass,
     Scene,
     Vec3,
+    WandKey,
 )
 
 __all__ = [
@@ -32,11 +34,13 @@ __all__ = [
     "FieldKind",
     "FieldSampling",
     "Forces",
+    "Helicopter",
     "Integrator",
     "OutOfDomain",
     "ParticleClass",
     "Scene",
     "Vec3",
+    "WandKey",
     "load_scene",
     "parse_scene",
 ]

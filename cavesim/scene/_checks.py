@@ -120,6 +120,15 @@ class Table:
             raise self.fail(name, allowed)
         return value
 
+    def boolean(self, name: str, default: Any = REQUIRED) -> Any:
+        """true or false."""
+        if name not in self.data:
+            return self._absent(name, default, "must be true or false")
+        value = self.data[name]
+        if not isinstance(value, bool):
+            raise self.fail(name, "must be true or false")
+        return value
+
     def choice(self, name: str, enum: type[E], default: Any = REQUIRED) -> Any:
         """A member of `enum`, given by its string value."""
         values = [m.value for m in enum]  # type: ignore[var-annotated]

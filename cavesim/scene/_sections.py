@@ -25,9 +25,11 @@ from cavesim.scene.model import (
     FieldKind,
     FieldSampling,
     Forces,
+    Helicopter,
     Integrator,
     OutOfDomain,
     ParticleClass,
+    WandKey,
 )
 
 MAX_CAPACITY = 3_000_000
@@ -40,7 +42,11 @@ MAX_NODES = 2**22  # product of the resolution: a 64 MiB RGBA32F texture at most
 SIMULATION_KEYS = ("capacity", "seed", "integrator", "random_texture_size")
 PARTICLE_CLASS_KEYS = ("name", "diameter", "density")
 EMITTER_KEYS = ("name", "position", "extent", "rate", "speed", "speed_spread", "direction",
-                "spread_angle", "lifetime", "particle_class")
+                "spread_angle", "lifetime", "particle_class", "follow_helicopter")
+HELICOPTER_KEYS = ("mass", "rotor_radius", "hub_height", "air_density", "rotor_hz",
+                   "threshold_friction_velocity", "roughness_length", "wand_origin",
+                   "wand_scale", "response_time", "timeline")
+WAND_KEY_KEYS = ("t", "position", "tilt")
 FORCES_KEYS = ("gravity", "damping", "drag")
 FIELD_KEYS = ("kind", "box_min", "box_max", "resolution", "out_of_domain", "sampling", "file",
               "params")
@@ -99,6 +105,32 @@ def emitter(t: Table, class_index: Mapping[str, int]) -> Emitter:
         spread_angle=t.number("spread_angle", 0.0, ge=0.0, le=180.0),
         lifetime=lifetime,
         particle_class=class_index[cls],
+        follow_helicopter=t.boolean("follow_helicopter", False),
+    )
+
+
+def helicopter(t: Table) -> Helicopter:
+    """The [helicopter] table and its scripted wand [[helicopter.timeline]]."""
+    keys = []
+    for i, raw in enumerate(t.tables("timeline")):
+        k = Table(t.src, f"{t.sub('timeline')}[{i}]", raw, WAND_KEY_KEYS)
+        key = WandKey(k.number("t", ge=0.0), k.floats("position", 3),
+                      k.number("tilt", 0.0, ge=-90.0, le=90.0))
+        if keys and key.t <= keys[-1].t:
+            raise k.fail("t", f"must be > the previous key's t = {keys[-1].t!r}: keys in order")
+        keys.append(key)
+    return Helicopter(
+        mass=t.number("mass", gt=0.0, le=1e6),
+        rotor_radius=t.number("rotor_radius", gt=0.0, le=100.0),
+        hub_height=t.number("hub_height", gt=0.0, le=50.0),
+        air_density=t.number("air_density", 1.225, gt=0.0, le=10.0),
+        rotor_hz=t.number("rotor_hz", 4.5, gt=0.0, le=100.0),
+        threshold_friction_velocity=t.number("threshold_friction_velocity", 0.25, gt=0.0),
+        roughness_length=t.number("roughness_length", 1e-3, gt=0.0, le=1.0),
+        wand_origin=t.floats("wand_origin", 3, (0.0, 0.0, 0.0)),
+        wand_scale=t.number("wand_scale", 10.0, gt=0.0, le=1e4),
+        response_time=t.number("response_time", 1.0, gt=0.0, le=60.0),
+        timeline=tuple(keys),
     )
 
 
@@ -144,6 +176,7 @@ PARAM_KEYS = {
     FieldKind.VORTEX: ("center", "circulation", "core_radius", "axial_speed"),
     FieldKind.DOWNWASH: ("rotor_center", "rotor_radius", "induced_velocity", "ground_height"),
     FieldKind.FILE: (),
+    FieldKind.ROTOR: (),
 }
 
 
@@ -190,6 +223,11 @@ def field(t: Table, base: Path) -> Field:
             raise t.fail("resolution", 'not allowed with kind = "file": the file decides')
         path = t.existing_file("file", base)
         resolution = _file_resolution(t, path)
+    elif kind is FieldKind.ROTOR:  # no grid: evaluated on the GPU from the frame's rotor
+        for key in ("file", "resolution"):
+            if t.has(key):
+                raise t.fail(key, 'not allowed with kind = "rotor": the flow has no grid')
+        path, resolution = None, (2, 2, 2)
     else:
         if t.has("file"):
             raise t.fail("file", f'only allowed with kind = "file", not {kind.value!r}')

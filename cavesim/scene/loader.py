@@ -15,9 +15,10 @@ from cavesim._toml import read_toml
 from cavesim.errors import SceneError
 from cavesim.scene import _sections
 from cavesim.scene._checks import Table
-from cavesim.scene.model import Forces, Scene
+from cavesim.scene.model import FieldKind, Forces, Scene
 
-TOP_KEYS = ("name", "simulation", "particle_class", "emitter", "forces", "field", "collision")
+TOP_KEYS = ("name", "simulation", "particle_class", "emitter", "forces", "field", "collision",
+            "helicopter")
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -78,9 +79,18 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
     if top.has("collision"):
         collision = _sections.collision(top.table("collision", _sections.COLLISION_KEYS), base)
 
+    helicopter = None
+    if top.has("helicopter"):
+        helicopter = _sections.helicopter(top.table("helicopter", _sections.HELICOPTER_KEYS))
+    needs_rotor = [f"emitter[{i}]" for i, e in enumerate(emitters) if e.follow_helicopter]
+    if field is not None and field.kind is FieldKind.ROTOR:
+        needs_rotor.append("field.kind = 'rotor'")
+    if needs_rotor and helicopter is None:
+        raise SceneError(f"{src}: helicopter is missing: required by {', '.join(needs_rotor)}")
+
     return Scene(name=scene_name, source=source, particle_classes=tuple(classes),
                  emitters=tuple(emitters), forces=forces, field=field, collision=collision,
-                 **sim)
+                 helicopter=helicopter, **sim)
 
 
 def _check_unique(t: Table, name: str, first_use: dict[str, str]) -> None:

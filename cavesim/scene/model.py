@@ -41,6 +41,7 @@ class FieldKind(StrEnum):
     VORTEX = "vortex"
     DOWNWASH = "downwash"
     FILE = "file"
+    ROTOR = "rotor"  # the scene's helicopter's downwash, evaluated on the GPU each frame
 
 
 class CollisionKind(StrEnum):
@@ -71,6 +72,8 @@ class Emitter:
     spread_angle: float  # half-angle of the emission cone, degrees in [0, 180]
     lifetime: tuple[float, float]  # uniform range [min, max] in seconds, 0 < min <= max
     particle_class: int  # index into Scene.particle_classes
+    follow_helicopter: bool = False  # position is relative to the point below the rotor hub;
+    # rate is scaled each frame by the ground's saltation under the downwash
 
 
 @dataclass(frozen=True)
@@ -108,6 +111,38 @@ class Collision:
 
 
 @dataclass(frozen=True)
+class WandKey:
+    """One key of a scripted wand timeline: where the wand is and how far it is tilted."""
+
+    t: float  # s from the start
+    position: Vec3  # room metres
+    tilt: float  # degrees; 0 = level = hover rotor speed, + faster, - slower
+
+
+@dataclass(frozen=True)
+class Helicopter:
+    mass: float  # kg
+    rotor_radius: float  # m
+    hub_height: float  # m from the skids up to the rotor hub
+    air_density: float = 1.225  # kg/m³
+    rotor_hz: float = 4.5  # main rotor turns per second at hover speed
+    threshold_friction_velocity: float = 0.25  # m/s: no saltation below
+    roughness_length: float = 1e-3  # m, of the ground, for the friction velocity
+    wand_origin: Vec3 = (0.0, 0.0, 0.0)  # world position of the room origin (for steering)
+    wand_scale: float = 10.0  # world metres per room metre of wand motion
+    response_time: float = 1.0  # s: the helicopter follows the wand with this lag
+    timeline: tuple[WandKey, ...] = ()  # scripted wand for headless runs
+
+    @property
+    def disk_area(self) -> float:
+        return math.pi * self.rotor_radius**2
+
+    @property
+    def weight(self) -> float:
+        return self.mass * 9.81
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     source: Path | None  # the TOML file it came from, for error messages
@@ -120,6 +155,7 @@ class Scene:
     forces: Forces
     field: Field | None  # required exactly when forces.drag is set
     collision: Collision | None
+    helicopter: Helicopter | None = None
 
     def relaxation_times(self) -> tuple[float, ...]:
         """τ of each particle class (inf when the scene has no drag)."""

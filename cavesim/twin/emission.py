@@ -10,20 +10,20 @@ from cavesim.random_texture import lookup_coordinates, unit_float
 
 
 def update_emitters(state: np.ndarray, table: EmitterTable, dt: np.float32,
-                    capacity: int) -> np.ndarray:
+                    capacity: int, factors: np.ndarray | None = None) -> np.ndarray:
     """Next emitter state: accumulate rate·dt in float64, take the whole part as the count."""
-    accumulated = state["accumulator"] + table.rate.astype(np.float64) * np.float64(dt)
+    accumulated = state["accumulator"] + table.frame_rates(factors) * np.float64(dt)
     whole = np.floor(accumulated)
     nxt = np.zeros(len(state), dtype=EMITTER_DTYPE)
     nxt["accumulator"] = accumulated - whole
-    nxt["count"] = np.minimum(whole, table.max_emit(dt, capacity)).astype(np.uint32)
+    nxt["count"] = np.minimum(whole, table.max_emit(dt, capacity, factors)).astype(np.uint32)
     with np.errstate(over="ignore"):
         nxt["serial"] = state["serial"] + state["count"]
     return nxt
 
 
 def spawn(table: EmitterTable, e: int, serials: np.ndarray, random: np.ndarray,
-          transform: np.ndarray, dtype=np.float64) -> np.ndarray:
+          transform: np.ndarray, dtype=np.float64, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
     """New particles of emitter e with the given emission serials (PARTICLE_DTYPE)."""
     size = random.shape[0]
     base = tuple(int(b) for b in table.random_base[e])
@@ -34,7 +34,8 @@ def spawn(table: EmitterTable, e: int, serials: np.ndarray, random: np.ndarray,
     r0, r1 = words
     u0 = unit_float(r0).astype(dtype)
     u1 = unit_float(r1).astype(dtype)
-    position = table.position[e].astype(dtype) + (u0[:, :3] - 0.5) * table.extent[e]
+    center = np.asarray(origin, np.float32).astype(dtype) + table.position[e]
+    position = center + (u0[:, :3] - 0.5) * table.extent[e]
     versine = u0[:, 3] * dtype(table.versine_spread[e])
     cos_theta = 1 - versine
     sin_theta = np.sqrt(np.maximum(0, versine * (2 - versine)))

@@ -14,10 +14,12 @@ from cavesim.emitters import EmitterTable
 from cavesim.engine.frame import FrameInput
 from cavesim.engine.layout import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.engine.programs import EMIT_BATCH
+from cavesim.engine.rotor_inputs import FrameRotor, RotorInputs
 from cavesim.fields import FieldGrid, build_field, sample_field
 from cavesim.heightfield import HeightGrid, load_heightfield
+from cavesim.helicopter.rotor import downwash
 from cavesim.random_texture import random_words
-from cavesim.scene.model import CollisionKind, Scene
+from cavesim.scene.model import CollisionKind, FieldKind, Scene
 from cavesim.twin.collision import collide
 from cavesim.twin.emission import emission_order, spawn, update_emitters
 from cavesim.twin.forces import ForceModel
@@ -60,7 +62,9 @@ class TwinSystem:
         self.scene = scene
         self.dtype = np.dtype(dtype).type
         self.table = EmitterTable.from_scene(scene)
-        self.field: FieldGrid | None = build_field(scene.field) if scene.forces.drag else None
+        self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
+        grid_field = scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR
+        self.field: FieldGrid | None = build_field(scene.field) if grid_field else None
         self.heights: HeightGrid | None = None
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
             self.heights = load_heightfield(scene.collision.file)
@@ -79,37 +83,48 @@ class TwinSystem:
     def write_particles(self, records: np.ndarray) -> None:
         self.particles = TwinParticles.from_records(records, self.dtype)
 
-    def forces_for(self, class_id: np.ndarray) -> ForceModel:
-        """The force model of particles of the given classes."""
+    def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None) -> ForceModel:
+        """The force model of particles of the given classes (in this frame's rotor wash)."""
         f = self.scene.forces
         dtype = self.dtype
         flow = None
         inv_tau = None
-        if self.field is not None:
+        if rotor is not None and f.drag is not None:
+            radius, ground = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
+
+            def flow(p):
+                return downwash(p, rotor.hub, float(rotor.induced_velocity), radius, ground,
+                                dtype=dtype)
+        elif self.field is not None:
             def flow(p):
                 return sample_field(self.field, p, self.scene.field.out_of_domain, dtype=dtype)
+        if flow is not None:
             index = np.minimum(class_id, len(self.inv_tau) - 1)
             inv_tau = self.inv_tau[index].astype(dtype)[:, None]
         gravity = None if f.gravity is None else np.array(f.gravity, dtype=np.float32).astype(dtype)
         damping = None if f.damping is None else dtype(np.float32(f.damping))
         return ForceModel(gravity, damping, inv_tau, flow)
 
-    def step(self, frame: FrameInput) -> None:
+    def step(self, frame: FrameInput, params=()) -> None:
         """Advance one frame exactly as the GPU does (survivors, then new particles)."""
+        rotor = self.rotor_inputs.read(params) if self.rotor_inputs is not None else None
         q = self.particles
         age = q.age + np.float64(frame.dt)
         alive = age < q.lifetime.astype(np.float64)
-        pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt), self.forces_for(q.class_id))
+        pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt),
+                                  self.forces_for(q.class_id, rotor))
         if self.scene.collision is not None:
             pos, vel = collide(pos, vel, self.scene.collision, self.heights)
         moved = TwinParticles(pos, vel, age, q.lifetime, q.class_id).select(alive)
-        self.particles = TwinParticles.concatenate([moved, *self._emit(frame, len(moved.age))])
+        new = self._emit(frame, len(moved.age), rotor)
+        self.particles = TwinParticles.concatenate([moved, *new])
 
-    def _emit(self, frame: FrameInput, survivors: int) -> list[TwinParticles]:
+    def _emit(self, frame: FrameInput, survivors: int, rotor) -> list[TwinParticles]:
         if not len(self.table):
             return []
+        factors = None if rotor is None else rotor.rate_factors
         self.emitters = update_emitters(self.emitters, self.table, frame.dt,
-                                        self.scene.capacity)
+                                        self.scene.capacity, factors)
         room = self.scene.capacity - survivors
         new = []
         for e, first, n in emission_order(self.emitters["count"], EMIT_BATCH):
@@ -117,8 +132,9 @@ class TwinSystem:
                 break
             serials = (self.emitters["serial"][e].astype(np.uint64) + first
                        + np.arange(min(n, room), dtype=np.uint64)) & 0xFFFFFFFF
+            origin = (0.0, 0.0, 0.0) if rotor is None else rotor.origins[e]
             records = spawn(self.table, e, serials, self.random, frame.random_transform,
-                            self.dtype)
+                            self.dtype, origin)
             new.append(TwinParticles.from_records(records, self.dtype))
             room -= len(records)
         return new

@@ -36,8 +36,8 @@ Particle spawn(int e, uint serial) {
     uvec4 r0 = random_lookup(e, serial, 0u);
     uvec4 r1 = random_lookup(e, serial, 1u);
     Particle q;
-    q.pos = emitter_position[e] + (vec3(unit_float(r0.x), unit_float(r0.y), unit_float(r0.z))
-                                   - 0.5) * emitter_extent[e];
+    q.pos = emitter_center(e) + (vec3(unit_float(r0.x), unit_float(r0.y), unit_float(r0.z))
+                                 - 0.5) * emitter_extent[e];
     // versine form: sqrt(1 - cos^2) would cancel in float32 for narrow cones
     float versine = unit_float(r0.w) * emitter_versine_spread[e];
     float cos_theta = 1.0 - versine;

@@ -20,6 +20,29 @@ uniform vec2 emitter_lifetime[EMITTER_COUNT];
 uniform uint emitter_class[EMITTER_COUNT];
 uniform uvec2 emitter_random_base[EMITTER_COUNT];
 
+#if FOLLOWING
+// emitters that follow the helicopter: this frame's saltation factor and origin (1 and 0
+// for the others), made by the master
+uniform float emitter_rate_factor[EMITTER_COUNT];
+uniform vec3 emission_origin[EMITTER_COUNT];
+
+double frame_rate(int e) {
+    return double(emitter_rate[e]) * double(emitter_rate_factor[e]);
+}
+
+vec3 emitter_center(int e) {
+    return emission_origin[e] + emitter_position[e];
+}
+#else
+double frame_rate(int e) {
+    return double(emitter_rate[e]);
+}
+
+vec3 emitter_center(int e) {
+    return emitter_position[e];
+}
+#endif
+
 uniform usampler2D random_texture;  // RGBA32UI, RANDOM_SIZE square, read with texelFetch only
 uniform mat3 random_transform;  // this frame's integer affine map of the texel lattice
 

@@ -27,7 +27,11 @@ uniform vec3 gravity;
 uniform float damping;  // k of a = -k v, 1/s
 #endif
 #if HAS_DRAG
+#if FIELD_IS_ROTOR
+#include "rotor.glsl"
+#else
 #include "field.glsl"
+#endif
 uniform float inv_tau[CLASS_COUNT];  // 1 / Stokes relaxation time per particle class
 
 float inverse_relaxation_time(uint class_id) {

@@ -1,0 +1,54 @@
+"""A helicopter scene's per-frame inputs, read from the frame's parameters.
+
+The same values feed the GPU uniforms and the numpy twin: the rotor hub and induced
+velocity of the downwash, and per emitter a rate factor and an emission origin
+(saltation and the point below the hub for emitters that follow the helicopter; 1 and 0
+for the others).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cavesim.helicopter.flight import ground_height
+from cavesim.helicopter.params import RotorFrame
+from cavesim.scene.model import Scene
+
+
+@dataclass(frozen=True)
+class FrameRotor:
+    hub: np.ndarray  # (3,) float32
+    induced_velocity: np.float32
+    rate_factors: np.ndarray  # (E,) float32
+    origins: np.ndarray  # (E, 3) float32
+
+
+class RotorInputs:
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+        self.followers = np.array([e.follow_helicopter for e in scene.emitters], dtype=bool)
+        self.ground = np.float32(ground_height(scene))
+
+    def read(self, params) -> FrameRotor:
+        """The frame's rotor; ValueError if the parameters are not a helicopter frame."""
+        rotor = RotorFrame.from_params(params, int(self.followers.sum()))
+        hub = np.array(rotor.hub, dtype=np.float32)
+        factors = np.ones(len(self.followers), dtype=np.float32)
+        factors[self.followers] = rotor.emission_factors
+        origins = np.zeros((len(self.followers), 3), dtype=np.float32)
+        origins[self.followers] = (hub[0], hub[1], self.ground)
+        return FrameRotor(hub, np.float32(rotor.induced_velocity), factors, origins)
+
+    def constant_uniforms(self) -> dict[str, object]:
+        return {"rotor_radius": np.float32(self.scene.helicopter.rotor_radius),
+                "rotor_ground_z": self.ground}
+
+    @staticmethod
+    def physics_uniforms(rotor: FrameRotor) -> dict[str, object]:
+        return {"rotor_hub": rotor.hub, "induced_velocity": rotor.induced_velocity}
+
+    @staticmethod
+    def emitter_uniforms(rotor: FrameRotor) -> dict[str, object]:
+        return {"emitter_rate_factor": rotor.rate_factors, "emission_origin": rotor.origins}

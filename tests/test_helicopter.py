@@ -1,0 +1,151 @@
+"""The brownout demo's physics: downwash, ground effect, saltation, flight, GPU vs twin."""
+
+import copy
+
+import numpy as np
+import pytest
+from scenes import SAND
+
+from cavesim.engine import FrameInput, ParticleSystem
+from cavesim.errors import SceneError
+from cavesim.helicopter.flight import Flight, wand_at
+from cavesim.helicopter.rotor import (
+    downwash,
+    friction_velocity,
+    ground_effect,
+    induced_velocity,
+    saltation_factor,
+)
+from cavesim.random_texture import draw_transform
+from cavesim.scene import load_scene, parse_scene
+from cavesim.twin import TwinSystem
+
+BROWNOUT = load_scene("config/scenes/brownout.toml")
+HELI = BROWNOUT.helicopter
+R = HELI.rotor_radius
+
+
+def flow(points, hub=(0.0, 0.0, 12.0), v_i=10.0):
+    return downwash(np.atleast_2d(points), hub, v_i, R, 0.0)
+
+
+def test_flow_goes_down_through_the_disk_and_out_along_the_ground():
+    below = flow([[0.5, 0.3, 9.0], [3.0, 0.0, 6.0], [0.0, 0.0, 12.0]])
+    assert (below[:, 2] < 0).all(), "down through and under the disk"
+    at_disk = flow([[0.0, 0.0, 60.0]], hub=(0.0, 0.0, 60.0))[0, 2]  # far above any ground
+    assert at_disk == pytest.approx(-10.0, abs=1e-9), "v_i at the disk's centre"
+    far_below = flow([[0.0, 0.0, 5.0]])[0, 2]
+    assert far_below < -10.0, "the wake speeds up below the disk (toward 2 v_i)"
+    for angle in np.linspace(0, 2 * np.pi, 7):
+        r = 2 * R
+        ground = flow([[r * np.cos(angle), r * np.sin(angle), 0.1 * R + 0.05 * R]])[0]
+        radial = ground[0] * np.cos(angle) + ground[1] * np.sin(angle)
+        assert radial > 1.0, "outward along the ground at two radii"
+    assert np.isfinite(flow([[0.0, 0.0, 0.0], [0.0, 0.0, 12.0], [50, 50, 40]])).all()
+
+
+def test_wall_jet_decays_with_distance():
+    speeds = [flow([[r, 0.0, 0.1 * R + 0.05 * (r - R)]])[0, 0] for r in (1.5 * R, 3 * R, 6 * R)]
+    assert speeds[0] > speeds[1] > speeds[2] > 0
+
+
+def test_magnitude_scales_with_rotor_speed_and_ground_effect():
+    v_hover = induced_velocity(HELI, 1.0, 100.0)
+    assert induced_velocity(HELI, 1.2, 100.0) == pytest.approx(1.2 * v_hover, rel=1e-9)
+    assert v_hover == pytest.approx(np.sqrt(HELI.weight / (2 * HELI.air_density
+                                                           * HELI.disk_area)), rel=1e-3)
+    heights = [4 * R, 2 * R, R, 0.5 * R]
+    effects = [ground_effect(h, R) for h in heights]
+    assert effects == sorted(effects) and effects[-1] == pytest.approx(1 / (1 - 0.25))
+    assert induced_velocity(HELI, 1.0, 0.6 * R) > induced_velocity(HELI, 1.0, 3 * R)
+    strong, weak = flow([[2 * R, 0, 1.0]], v_i=12.0)[0], flow([[2 * R, 0, 1.0]], v_i=6.0)[0]
+    assert np.linalg.norm(strong) == pytest.approx(2 * np.linalg.norm(weak), rel=1e-9)
+
+
+def test_emission_grows_as_the_helicopter_comes_down():
+    factors = []
+    for height in (40.0, 25.0, 15.0, 10.0, 6.0):
+        v_i = induced_velocity(HELI, 1.0, height)
+        factors.append(float(saltation_factor(HELI, friction_velocity(HELI, 1.3 * R,
+                                                                      height, v_i))))
+    assert factors[0] == 0.0, "no dust from high up"
+    assert all(a < b for a, b in zip(factors[1:], factors[2:], strict=False)) and factors[-1] > 5
+    assert saltation_factor(HELI, HELI.threshold_friction_velocity * 0.99) == 0.0
+
+
+def fly(scene, seconds=15.0, dt=1 / 60):
+    flight = Flight(scene)
+    return [flight.advance(dt, *wand_at(scene.helicopter.timeline, k * dt)).to_params()
+            for k in range(1, round(seconds / dt) + 1)]
+
+
+def test_scripted_timeline_is_deterministic_and_lands():
+    first, second = fly(BROWNOUT), fly(BROWNOUT)
+    assert first == second
+    altitudes = [p[2] - HELI.hub_height for p in first]
+    assert altitudes[0] > 20 and min(altitudes) == pytest.approx(0.0, abs=0.5), "lands"
+    assert altitudes[-1] > 5, "lifts off again"
+    total_emission = [sum(p[7:]) for p in first]
+    assert total_emission[0] == 0 and max(total_emission) > 10
+
+
+def small_brownout(capacity=6000):
+    data = load_scene_dict()
+    data["simulation"]["capacity"] = capacity
+    data["simulation"]["random_texture_size"] = 64
+    data["emitter"] = data["emitter"][:2] + data["emitter"][8:10]
+    for e in data["emitter"]:
+        e["rate"] = e["rate"] / 4
+    return parse_scene(data, name="small")
+
+
+def load_scene_dict():
+    import tomllib
+
+    with open("config/scenes/brownout.toml", "rb") as f:
+        return copy.deepcopy(tomllib.load(f))
+
+
+def test_gpu_rotor_flow_and_following_emitters_match_the_twin(ctx):
+    scene = small_brownout()
+    gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
+    rng = np.random.default_rng(2)
+    params = fly(scene, seconds=12.0)[480:600]  # descending into hover: emission under way
+    for p in params:
+        frame = FrameInput(1 / 60, draw_transform(rng, 64))
+        gpu.step(frame, p)
+        twin.step(frame, p)
+        assert gpu.live_count == twin.live_count
+    assert gpu.live_count > 500
+    records = gpu.read_particles()
+    np.testing.assert_array_equal(gpu.read_emitters(), twin.emitters)
+    np.testing.assert_array_equal(records["age"], twin.particles.age)
+    np.testing.assert_allclose(records["pos"], twin.particles.pos, rtol=1e-4, atol=2e-3)
+    assert (records["pos"][:, 2] >= 0).all()
+    hub = np.array(params[-1][:3])
+    spread = np.linalg.norm(records["pos"][:, :2] - hub[:2], axis=1)
+    assert spread.mean() > R, "the dust is blown outward from under the rotor"
+
+
+def test_a_helicopter_step_needs_the_rotor_in_the_parameters(ctx):
+    system = ParticleSystem(ctx, small_brownout())
+    with pytest.raises(ValueError, match="parameters"):
+        system.step(FrameInput(1 / 60, np.eye(3)), ())
+
+
+@pytest.mark.parametrize(("change", "key"), [
+    (lambda d: d.pop("helicopter"), "helicopter"),
+    (lambda d: d["field"].update(resolution=[4, 4, 4]), "field.resolution"),
+    (lambda d: d["helicopter"]["timeline"][1].update(t=0.0), "helicopter.timeline[1].t"),
+    (lambda d: d["emitter"][0].update(follow_helicopter="yes"), "emitter[0].follow_helicopter"),
+    (lambda d: d["helicopter"].update(rotor_radius=-1.0), "helicopter.rotor_radius"),
+])
+def test_bad_helicopter_scenes_are_rejected(change, key):
+    data = load_scene_dict()
+    change(data)
+    with pytest.raises(SceneError, match=key.replace("[", r"\[").replace("]", r"\]")):
+        parse_scene(data, name="bad")
+
+
+def test_sand_class_is_the_test_scenes_sand():
+    assert SAND["density"] == BROWNOUT.particle_classes[0].density
