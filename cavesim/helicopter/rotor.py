@@ -11,6 +11,8 @@ h = R/2 closer in). The flow, axisymmetric about the rotor axis:
   - the radial wall jet along the ground: speed w_g (the wake's speed at the ground) times
     r/R inside one radius and (R/r)^1.1 beyond, with a profile in height peaking at the
     jet's thickness 0.1R + 0.05 (r - R);
+  - beyond 1.5R the wall jet separates and rolls up: an upwash of half the jet's speed,
+    growing to 3R, peaking 0.8R above the ground (the rising ring of a brownout cloud);
   - the wake dilutes with the hub's height h: everything at the ground is scaled by
     exp(-(h / 2.5R)²), so a helicopter high up raises no dust.
 """
@@ -73,12 +75,17 @@ def downwash(points, hub, v_i: float, rotor_radius: float, ground_z: float, dtyp
     turn = one - np.exp(-zeta / (dtype(0.3) * R))
     thin = jet_thickness(r, R).astype(dtype)
     profile = (zeta / thin) * np.exp(one - zeta / thin)
-    u_r = ground_jet_speed(r, hub_height, v_i, R).astype(dtype) * profile
+    jet = ground_jet_speed(r, hub_height, v_i, R).astype(dtype)
+    u_r = jet * profile
+    separation = np.clip((r - dtype(1.5) * R) / (dtype(1.5) * R), 0, 1)
+    rise = zeta / (dtype(0.8) * R)
+    upwash = dtype(0.5) * jet * separation * rise * np.exp(one - rise)
     safe_r = np.where(r > 0, r, one)
     out = np.empty_like(p)
     out[:, 0] = np.where(r > 0, dx / safe_r, 0) * u_r
     out[:, 1] = np.where(r > 0, dy / safe_r, 0) * u_r
-    out[:, 2] = -w_axis * edge * turn * np.where(depth > 0, dilution(depth, R) ** 0.5, one)
+    out[:, 2] = upwash - w_axis * edge * turn * np.where(depth > 0, dilution(depth, R) ** 0.5,
+                                                          one)
     return out
 
 

@@ -35,14 +35,16 @@ class RenderSettings:
     sun_direction: tuple[float, float, float] = (0.42, -0.32, 0.85)
     dust_albedo: tuple[float, float, float] = (0.88, 0.78, 0.60)
     opacity: float = 1.2  # optical depth per unit of accumulated density
-    density_per_particle: float = 0.35
+    density_per_particle: float = 0.2
     soft_distance: float = 0.4  # m
+    min_radius_pixels: float = 1.5
 
 
 def billboard_radii(scene: Scene) -> np.ndarray:
-    """Drawn radius per particle class: grows with the grain, readable at CAVE distances."""
+    """Drawn radius per particle class: each simulated particle stands for a parcel of
+    grains, larger for coarser grains (which travel in denser bunches)."""
     diameters = np.array([c.diameter for c in scene.particle_classes] or [1e-4])
-    return np.clip(0.035 * np.sqrt(diameters / 150e-6), 0.012, 0.08).astype(np.float32)
+    return np.clip(0.2 * (diameters / 150e-6) ** 0.25, 0.06, 0.35).astype(np.float32)
 
 
 class WallRenderer:
@@ -104,6 +106,7 @@ class WallRenderer:
         dust["far_plane"].value = s.far
         dust["soft_distance"].value = s.soft_distance
         dust["density_per_particle"].value = s.density_per_particle
+        dust["min_radius_pixels"].value = s.min_radius_pixels
         dust["scene_depth"].value = 0
         self.composite_program["scene_color"].value = 0
         self.composite_program["dust"].value = 1
@@ -154,6 +157,8 @@ class WallRenderer:
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         self.dust_program["view"].write(gl_matrix(view))
         self.dust_program["projection"].write(gl_matrix(projection))
+        # P[1][1] = 2n / (t - b): pixels per unit of y/z slope is P[1][1] * height / 2
+        self.dust_program["pixels_per_unit_slope"].value = projection[1, 1] * self.size[1] / 2
         self.scene_depth.use(0)
         self.particles[self.system.front_particle_buffer_name].render(moderngl.POINTS,
                                                                       vertices=live)

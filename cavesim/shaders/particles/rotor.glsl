@@ -33,8 +33,13 @@ vec3 flow_at(vec3 p) {
     float profile = (zeta / thickness) * exp(1.0 - zeta / thickness);
     float w_ground = vi * (1.0 + hub_height / sqrt(hub_height * hub_height + R * R));
     float ramp = r < R ? r / R : pow(R / max(r, R), 1.1);
-    float u_r = w_ground * dilution(hub_height) * ramp * profile;
+    float jet = w_ground * dilution(hub_height) * ramp;
+    float u_r = jet * profile;
+    // the wall jet separates and rolls up beyond 1.5 R: the rising ring of a brownout cloud
+    float separation = clamp((r - 1.5 * R) / (1.5 * R), 0.0, 1.0);
+    float rise = zeta / (0.8 * R);
+    float upwash = 0.5 * jet * separation * rise * exp(1.0 - rise);
     vec2 radial = r > 0.0 ? d / r : vec2(0.0);
     float wake_dilution = depth > 0.0 ? sqrt(dilution(depth)) : 1.0;
-    return vec3(radial * u_r, -w_axis * edge * turn * wake_dilution);
+    return vec3(radial * u_r, upwash - w_axis * edge * turn * wake_dilution);
 }

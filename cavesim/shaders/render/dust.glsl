@@ -25,8 +25,11 @@ in vec3 view_position[];
 flat in uint particle_class[];
 uniform mat4 projection;
 uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class
+uniform float pixels_per_unit_slope;  // viewport height / (top - bottom) at depth 1
+uniform float min_radius_pixels;
 out vec2 corner;  // -1..1 across the billboard
 out float view_depth;  // distance along -z in view space
+out float coverage;  // < 1 when a far billboard is drawn larger than it is
 
 void main() {
     vec3 center = view_position[0];
@@ -34,11 +37,16 @@ void main() {
         return;  // behind or at the eye
     }
     float radius = billboard_radius[min(particle_class[0], uint(CLASS_COUNT - 1))];
+    // A billboard smaller than a few pixels would fall between pixel centres and vanish:
+    // draw it at the minimum size and thin it by the area ratio, keeping its optical depth.
+    float pixels = radius * pixels_per_unit_slope / -center.z;
+    float grow = max(min_radius_pixels / pixels, 1.0);
     for (int i = 0; i < 4; ++i) {
         vec2 c = vec2(i & 1, i >> 1) * 2.0 - 1.0;
         corner = c;
         view_depth = -center.z;
-        gl_Position = projection * vec4(center + vec3(c * radius, 0.0), 1.0);
+        coverage = 1.0 / (grow * grow);
+        gl_Position = projection * vec4(center + vec3(c * radius * grow, 0.0), 1.0);
         EmitVertex();
     }
     EndPrimitive();
@@ -48,6 +56,7 @@ void main() {
 #if defined FRAGMENT_SHADER
 in vec2 corner;
 in float view_depth;
+in float coverage;
 uniform sampler2D scene_depth;
 uniform vec2 viewport_size;
 uniform float near_plane;
@@ -68,7 +77,7 @@ void main() {
     }
     float scene = linear_depth(texture(scene_depth, gl_FragCoord.xy / viewport_size).r);
     float soft = clamp((scene - view_depth) / soft_distance, 0.0, 1.0);
-    float density = density_per_particle * (1.0 - r2) * soft;
+    float density = density_per_particle * coverage * (1.0 - r2) * soft;
     vec3 normal = vec3(corner, sqrt(1.0 - r2));
     accumulated = vec4(normal * density, density);
 }
