@@ -59,8 +59,11 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
     report = json.loads(report_path.read_text())
     if plan.node_args():
         report["images"] = assemble_images(plan, console)
-        report_path.write_text(json.dumps(report, indent=2) + "\n")
+    report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+    report_path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(summary_table(report))
+    if report.get("flight"):
+        console.print(demo_table(report))
     console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
     return report
 
@@ -81,10 +84,18 @@ def assemble_images(plan: RunPlan, console: Console) -> dict:
     return images
 
 
+def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
+    """The brownout demo's plots of a helicopter run (none for other scenes)."""
+    if not report.get("flight"):
+        return []
+    from nodes.demo_report import write_demo_plots  # matplotlib: only when there is a plot
+
+    paths = write_demo_plots(report, out)
+    console.print(f"wrote {len(paths)} plots in {out / 'plots'}")
+    return paths
+
+
 def summary_table(report: dict) -> Table:
-    table = Table(title="cavesim run")
-    table.add_column("figure")
-    table.add_column("value", justify="right")
     rows = [
         ("frames", report["frames"]),
         ("walls", ", ".join(report["nodes"])),
@@ -98,6 +109,20 @@ def summary_table(report: dict) -> Table:
         ("rejected messages", sum(report["rejected_messages"]["master"].values())
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
+    return _table("cavesim run", rows)
+
+
+def demo_table(report: dict) -> Table:
+    """The helicopter's figures: peaks of the dust, the altitude they came at."""
+    from nodes.demo_report import demo_summary
+
+    return _table("brownout demo", demo_summary(report))
+
+
+def _table(title: str, rows) -> Table:
+    table = Table(title=title)
+    table.add_column("figure")
+    table.add_column("value", justify="right")
     for name, value in rows:
         table.add_row(name, str(value))
     return table
