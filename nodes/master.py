@@ -22,7 +22,7 @@ import zenoh
 from cavesim.engine import FrameInput
 from cavesim.errors import ProtocolError
 from cavesim.framelog import FrameLogWriter
-from cavesim.helicopter.flight import Flight, pitch_quaternion, tilt_of, wand_at
+from cavesim.helicopter.flight import Flight, heading_of, pitch_quaternion, tilt_of, wand_at
 from cavesim.random_texture import draw_transform
 from cavesim.scene import load_scene
 from cavesim.wire import (
@@ -209,10 +209,11 @@ class Master:
             return FrameMessage(k, inputs, wand, self.view.hover_params(t), head)
         if tracked:
             position, tilt = wand.position, tilt_of(wand.orientation)
+            heading = heading_of(wand.orientation)
         else:
             position, tilt = wand_at(self.timeline, t)
-            wand = WandState(tuple(position), pitch_quaternion(tilt))
-        rotor = self.flight.advance(self.config.dt, position, tilt)
+            wand, heading = WandState(tuple(position), pitch_quaternion(tilt)), 0.0
+        rotor = self.flight.advance(self.config.dt, position, tilt, heading)
         self.record.flight(t, rotor, self.flight)
         return FrameMessage(k, inputs, wand, rotor.to_params(), head)
 

@@ -149,3 +149,19 @@ def test_bad_helicopter_scenes_are_rejected(change, key):
 
 def test_sand_class_is_the_test_scenes_sand():
     assert SAND["density"] == BROWNOUT.particle_classes[0].density
+
+
+def test_wand_tilt_sets_rotor_speed_and_heading_turns_the_nose():
+    import math
+
+    from cavesim.helicopter.flight import heading_of, pitch_quaternion, tilt_of
+
+    assert tilt_of(pitch_quaternion(20.0)) == pytest.approx(20.0)
+    quarter = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))  # 90 deg about z
+    assert heading_of(quarter) == pytest.approx(math.pi / 2)
+    flight = Flight(BROWNOUT)
+    level = flight.advance(1 / 60, (0, 0, 1), 0.0)
+    assert level.rotor_speed == 1.0 and level.yaw == pytest.approx(-math.pi / 2)
+    faster = flight.advance(1 / 60, (0, 0, 1), 30.0, math.pi / 2)
+    assert faster.rotor_speed == pytest.approx(1.25) and faster.yaw == pytest.approx(0.0)
+    assert faster.induced_velocity > level.induced_velocity

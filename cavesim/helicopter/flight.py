@@ -1,9 +1,9 @@
 """Flying the helicopter with the wand: the master's side, in float64, once per frame.
 
 Wand position steers (the hub goes toward wand_origin + wand_scale * wand position, with
-a first-order lag, never below its landing height); wand tilt sets the rotor speed, as in
-Smith et al. (level = hover speed, +30 degrees = 25% faster). Without a tracker the
-scene's timeline plays the wand.
+a first-order lag, never below its landing height) and its heading turns the nose; wand
+tilt sets the rotor speed, as in Smith et al. (level = hover speed, +30 degrees = 25%
+faster). Without a tracker the scene's timeline plays the wand.
 """
 
 from __future__ import annotations
@@ -43,6 +43,13 @@ def pitch_quaternion(tilt: float) -> tuple[float, float, float, float]:
     return (math.sin(half), 0.0, 0.0, math.cos(half))
 
 
+def heading_of(orientation_xyzw) -> float:
+    """Yaw of a wand quaternion in radians: where it points in the horizontal plane, with
+    0 along +y (into the CAVE, toward the front wall)."""
+    x, y, z, w = orientation_xyzw
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
 def tilt_of(orientation_xyzw) -> float:
     """Pitch of a wand quaternion in degrees (nose up positive)."""
     x, y, z, w = orientation_xyzw
@@ -66,8 +73,12 @@ class Flight:
         target[2] = max(target[2], self.ground + h.hub_height)  # on its skids at the lowest
         return target
 
-    def advance(self, dt: float, wand_position, tilt: float) -> RotorFrame:
-        """Move toward the wand's target, spin the rotor, and work out the downwash."""
+    def advance(self, dt: float, wand_position, tilt: float, heading: float = 0.0) -> RotorFrame:
+        """Move toward the wand's target, spin the rotor, and work out the downwash.
+
+        `heading` (radians, 0 = the wand points at the front wall) turns the helicopter:
+        its nose points back along the wand, toward the viewer, when the heading is 0.
+        """
         h = self.helicopter
         gain = 1.0 - math.exp(-dt / h.response_time)
         self.hub = self.hub + gain * (self._target(wand_position) - self.hub)
@@ -78,5 +89,5 @@ class Flight:
         v_i = induced_velocity(h, speed, height)
         distances = [math.hypot(*e.position[:2]) for e in self.followers]
         factors = saltation_factor(h, friction_velocity(h, np.array(distances), height, v_i))
-        return RotorFrame(tuple(self.hub), -math.pi / 2, self.rotor_angle, v_i, speed,
+        return RotorFrame(tuple(self.hub), heading - math.pi / 2, self.rotor_angle, v_i, speed,
                           tuple(np.atleast_1d(factors).tolist()))
