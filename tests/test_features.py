@@ -25,7 +25,7 @@ def compiled_text(scene) -> str:
     """The particle pass's vertex stage as the compiler sees it, inactive branches removed."""
     source = assemble("particles/update.glsl", "vertex", physics_defines(scene),
                       PHYSICS_DEFINES).text
-    return _active_lines(source)
+    return re.sub(r"//[^\n]*", "", _active_lines(source))  # code, not comments
 
 
 def mentions(text: str, word: str) -> bool:

@@ -29,8 +29,9 @@ def explicit_euler(p, v, h, forces):
 
 
 def semi_implicit_euler(p, v, h, forces):
-    """Semi-implicit (symplectic) Euler: new velocity moves the position, order 1."""
-    v = v + h * forces.acceleration(p, v)
+    """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
+    f, lam = forces.linear_parts(p)
+    v = (v + h * f) / (1 + h * lam)
     return p + h * v, v
 
 

@@ -55,6 +55,14 @@ class TwinParticles:
                      for name in ("pos", "vel", "age", "lifetime", "class_id")))
 
 
+RUNAWAY = 1e15  # as in physics.glsl: a particle beyond it (or non-finite) is dropped
+
+
+def sane(x: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore"):
+        return (np.abs(x) < RUNAWAY).all(axis=1)
+
+
 class TwinSystem:
     """numpy twin of `cavesim.engine.ParticleSystem` for one scene."""
 
@@ -115,6 +123,7 @@ class TwinSystem:
                                   self.forces_for(q.class_id, rotor))
         if self.scene.collision is not None:
             pos, vel = collide(pos, vel, self.scene.collision, self.heights)
+        alive &= sane(pos) & sane(vel)
         moved = TwinParticles(pos, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])

@@ -58,6 +58,22 @@ vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
     return a;
 }
 
+// a = f - lambda v: the forcing f = u(p)/tau + g and the linear rate lambda = 1/tau + k
+void linear_parts(vec3 p, float inv_tau_p, out vec3 f, out float lambda) {
+    f = vec3(0.0);
+    lambda = 0.0;
+#if HAS_DRAG
+    f += flow_at(p) * inv_tau_p;
+    lambda += inv_tau_p;
+#endif
+#if HAS_GRAVITY
+    f += gravity;
+#endif
+#if HAS_DAMPING
+    lambda += damping;
+#endif
+}
+
 #if INTEGRATOR == INTEGRATOR_EXPONENTIAL
 // phi1(x) = (1 - e^-x) / x and phi2(x) = (x - 1 + e^-x) / x^2, by series where the closed
 // forms cancel catastrophically in float32.
@@ -81,7 +97,12 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     p += h * v;
     v += h * a;
 #elif INTEGRATOR == INTEGRATOR_SEMI_IMPLICIT_EULER
-    v += h * acceleration(p, v, inv_tau_p);
+    // linearly implicit in the stiff drag and damping, explicit in the rest; the new
+    // velocity moves the position. Stable for any tau: v' = (v + h f) / (1 + h lambda)
+    vec3 f;
+    float lambda;
+    linear_parts(p, inv_tau_p, f, lambda);
+    v = (v + h * f) / (1.0 + h * lambda);
     p += h * v;
 #elif INTEGRATOR == INTEGRATOR_TRAPEZOID
     // UberFlow eq. (1)-(2): Euler velocity, position from the mean of old and new velocity
@@ -115,18 +136,9 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
     // Exact solution of dv/dt = f - lambda v with the flow held at its value at p:
     // f = u(p)/tau + g, lambda = 1/tau + k. Stable for any step (stiff fine dust).
-    vec3 f = vec3(0.0);
-    float lambda = 0.0;
-#if HAS_DRAG
-    f += flow_at(p) * inv_tau_p;
-    lambda += inv_tau_p;
-#endif
-#if HAS_GRAVITY
-    f += gravity;
-#endif
-#if HAS_DAMPING
-    lambda += damping;
-#endif
+    vec3 f;
+    float lambda;
+    linear_parts(p, inv_tau_p, f, lambda);
     float e, phi1, phi2;
     exponential_weights(lambda * h, e, phi1, phi2);
     p += (h * phi1) * v + (h * h * phi2) * f;
@@ -171,10 +183,20 @@ void collide(inout vec3 p, inout vec3 v) {
 }
 #endif
 
+// Beyond this a state is lost to overflow; such a particle is dropped, never stored.
+const float RUNAWAY = 1e15;
+
+bool finite(vec3 x) {
+    return !any(isnan(x)) && !any(isinf(x)) && all(lessThan(abs(x), vec3(RUNAWAY)));
+}
+
 // One step of one particle: the arithmetic shared by the GS/TF update and the compute bound.
-void advance(inout Particle q, float h) {
+// Returns false when the step ran away (an unstable integrator, an absurd field): the
+// particle pass drops it, so NaN or Inf never reach the GPU state (a status, not a crash).
+bool advance(inout Particle q, float h) {
     integrate(q.pos, q.vel, inverse_relaxation_time(q.class_id), h);
 #if COLLISION != COLLISION_NONE
     collide(q.pos, q.vel);
 #endif
+    return finite(q.pos) && finite(q.vel);
 }
