@@ -73,6 +73,14 @@ def add_master(commands) -> None:
     parser.add_argument("--check-every", type=frame_count, default=1,
                         help="compare checksums every K frames (default: every frame)")
     parser.add_argument("--clock-seed", type=int, default=0)
+    parser.add_argument("--dt", type=number_in(float, 1e-4, 0.1, "seconds"), default=1 / 60,
+                        help="the fixed time step (default 1/60 s)")
+    parser.add_argument("--realtime", action="store_true",
+                        help="pace frames by the wall clock (accumulator, fixed dt)")
+    parser.add_argument("--max-frame-time", type=number_in(float, 1e-3, 10.0, "seconds"),
+                        default=0.1, help="real time: most wall time one tick may count")
+    parser.add_argument("--max-substeps", type=number_in(int, 1, 100, "frames"), default=4,
+                        help="real time: most frames sent back to back to catch up")
     parser.add_argument("--report", type=Path, help="write the run's JSON report here")
     parser.add_argument("--frame-log", type=Path, help="record every frame's inputs here")
     parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
@@ -90,7 +98,9 @@ def master(args: argparse.Namespace, console) -> int:
     config = MasterConfig(args.walls, args.scene, args.frames, args.session, network, key,
                           barrier_timeout=args.barrier_timeout, join_timeout=args.join_timeout,
                           on_loss=args.on_loss, check_every=args.check_every,
-                          clock_seed=args.clock_seed, frame_log=args.frame_log)
+                          clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
+                          realtime=args.realtime, max_frame_time=args.max_frame_time,
+                          max_substeps=args.max_substeps)
 
     def progress(k: int, live: int) -> None:
         if args.progress:

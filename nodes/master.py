@@ -39,11 +39,13 @@ from cavesim.wire import (
 from cavesim.wire.messages import Status
 from cavesim.wire.network import NetworkConfig
 from cavesim.wire.rejects import RejectCounter
+from nodes.clock import Clock
 from nodes.master_report import RunRecord
 from nodes.script import ScriptedView
 
 log = logging.getLogger("cavesim.master")
 LOSS_POLICIES = ("continue", "pause")
+WAND_LIMIT = 50.0  # m from the room's origin: farther is a tracker fault, not a gesture
 
 
 @dataclass(frozen=True)
@@ -62,6 +64,9 @@ class MasterConfig:
     on_loss: str = "continue"  # drop a lost node and go on, or "pause" until it is back
     check_every: int = 1
     frame_log: Path | None = None
+    realtime: bool = False  # pace frames by the wall clock (see nodes/clock.py)
+    max_frame_time: float = 0.1
+    max_substeps: int = 4
 
 
 @dataclass
@@ -89,6 +94,8 @@ class Master:
         self.last_received: dict[str, int] = {}
         self.rejects = RejectCounter("master")
         self.state = Membership()
+        self.clock = Clock(config.dt, config.realtime, config.max_frame_time,
+                           config.max_substeps)
         self.view = ScriptedView()
         self.tracked: TrackingMessage | None = None
         self.stopping = False
@@ -179,6 +186,7 @@ class Master:
         started = time.monotonic()
         try:
             for k in range(1, self.config.frames + 1):
+                self.clock.wait_for_frame()
                 self.before_frame(k)
                 message = self._make_frame(k)
                 latency = self._barrier(k, encode(message, self.config.session, self.config.key))
@@ -192,6 +200,7 @@ class Master:
                 progress(k, live)
         finally:
             self.record.seconds = time.monotonic() - started
+            self.record.clock_dropped_seconds = self.clock.dropped_seconds
             if log_writer is not None:
                 log_writer.close()
         self._record_final_agreement()
@@ -208,7 +217,7 @@ class Master:
         if self.flight is None:
             return FrameMessage(k, inputs, wand, self.view.hover_params(t), head)
         if tracked:
-            position, tilt = wand.position, tilt_of(wand.orientation)
+            position, tilt = self._reachable(wand.position), tilt_of(wand.orientation)
             heading = heading_of(wand.orientation)
         else:
             position, tilt = wand_at(self.timeline, t)
@@ -216,6 +225,15 @@ class Master:
         rotor = self.flight.advance(self.config.dt, position, tilt, heading)
         self.record.flight(t, rotor, self.flight)
         return FrameMessage(k, inputs, wand, rotor.to_params(), head)
+
+    def _reachable(self, position) -> tuple[float, float, float]:
+        """A tracked wand position within WAND_LIMIT of the room's origin (warned if not)."""
+        clamped = tuple(min(max(x, -WAND_LIMIT), WAND_LIMIT) for x in position)
+        if clamped != tuple(position):
+            self.record.clamped_inputs += 1
+            log.warning("wand position %s is outside +-%g m: clamped to %s", position,
+                        WAND_LIMIT, clamped)
+        return clamped
 
     def _record_final_agreement(self) -> None:
         last = self.record.frames

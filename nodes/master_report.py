@@ -12,6 +12,8 @@ class RunRecord:
     walls: tuple[str, ...]
     frames: int = 0
     interrupted: bool = False
+    clamped_inputs: int = 0  # tracked wand positions pulled back into reach
+    clock_dropped_seconds: float = 0.0  # real-time mode: wall time given up to hitches
     seconds: float = 0.0
     barrier_seconds: list[float] = field(default_factory=list)
     live_particles: list[int] = field(default_factory=list)
@@ -77,6 +79,8 @@ class RunRecord:
             "losses": self.losses,
             "joins": self.joins,
             "final": self.final,
+            "clamped_inputs": self.clamped_inputs,
+            "clock_dropped_seconds": round(self.clock_dropped_seconds, 4),
             "flight": self.flight_log,
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
         }
