@@ -87,7 +87,7 @@ class Master:
         self.texture_size = scene.random_texture_size
         self.flight = Flight(scene) if scene.helicopter is not None else None
         self.timeline = scene.helicopter.timeline if scene.helicopter is not None else ()
-        self.clock = np.random.Generator(np.random.PCG64(config.clock_seed))
+        self.matrix_rng = np.random.Generator(np.random.PCG64(config.clock_seed))
         self.events: queue.Queue = queue.Queue()
         self.reports: dict[tuple[int, str], ReportMessage] = {}
         self.last_sent: dict[str, int] = {}
@@ -213,7 +213,8 @@ class Master:
         tracked = self.tracked
         head = tracked.head if tracked else self.view.head(t)
         wand = tracked.wand if tracked else WandState()
-        inputs = FrameInput(self.config.dt, draw_transform(self.clock, self.texture_size))
+        matrix = draw_transform(self.matrix_rng, self.texture_size)
+        inputs = FrameInput(self.config.dt, matrix)
         if self.flight is None:
             return FrameMessage(k, inputs, wand, self.view.hover_params(t), head)
         if tracked:

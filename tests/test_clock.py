@@ -54,3 +54,21 @@ def test_a_one_second_hitch_is_clamped_and_caught_up_in_bounded_substeps():
 def test_bad_dt_is_rejected(dt):
     with pytest.raises(ValueError, match="dt must be finite, > 0 and <= 0.1"):
         check_dt(dt)
+
+
+@pytest.mark.slow
+def test_a_realtime_cluster_keeps_wall_time(tmp_path):
+    import json
+    import os
+    from pathlib import Path
+
+    from nodes.launcher import LocalCluster
+
+    scene = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
+    with LocalCluster(scene, tmp_path, f"rt{os.getpid()}") as cluster:
+        cluster.start_node("front")
+        master = cluster.start_master(("front",), 60, ("--realtime", "--dt", "0.02"))
+        master.stdout.read()
+        assert master.wait(timeout=60) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["frames"] == 60 and report["seconds"] >= 60 * 0.02 * 0.9
