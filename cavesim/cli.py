@@ -156,10 +156,73 @@ def bench_cluster(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
+def add_stability(commands) -> None:
+    parser = commands.add_parser(
+        "stability", help="stiff sweep of every integrator and the extreme inputs")
+    parser.add_argument("--frames", type=frame_count, default=120,
+                        help="frames per stiff run (default 120)")
+    parser.add_argument("--out", type=Path, default=Path("out/stability"),
+                        help="directory for stability.json, .md and .png")
+    parser.set_defaults(handler=stability)
+
+
+def stability(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim stability`: exit 1 if an outcome disagrees with theory or a NaN got through."""
+    from cavesim.gl.context import create_context
+    from cavesim.stability.report import run_stability
+
+    report = run_stability(create_context(), args.out, args.frames)
+    console.print((args.out / "stability.md").read_text(), markup=False, highlight=False)
+    console.print(f"wrote {args.out / 'stability.json'}, stability.md and stability.png")
+    return 0 if report["sweep_agrees_with_theory"] and report["nan_free"] else 1
+
+
+def add_accuracy(commands) -> None:
+    from cavesim.numerics.cases import HELICOPTER_SCENE, PARTICLES, QUICK_PARTICLES
+
+    parser = commands.add_parser(
+        "accuracy", help="error against run time of every integrator: GPU, float64 twin and "
+                         "reference in a uniform flow, a vortex and a rotor downwash")
+    parser.add_argument("--scene", type=scene_file,
+                        help=f"helicopter scene whose rotor downwash is the third case "
+                             f"(default: {HELICOPTER_SCENE})")
+    parser.add_argument("--out", type=Path, default=Path("out/accuracy"),
+                        help="directory for accuracy.csv, accuracy.md, accuracy.json and "
+                             "work_precision.png (default: out/accuracy)")
+    parser.add_argument("--particles", type=number_in(int, 1, MAX_BENCH_PARTICLES,
+                                                      "a particle count"),
+                        help=f"particles per case (default: {PARTICLES:,}; with --quick: "
+                             f"{QUICK_PARTICLES:,})")
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer dts (1/15 to 1/240 s) and particles: a smoke run")
+    parser.set_defaults(handler=accuracy)
+
+
+def accuracy(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim accuracy`: check the scene and the output directory, then `run_command`."""
+    from cavesim.numerics import run_command
+    from cavesim.numerics.cases import HELICOPTER_SCENE, downwash_case
+
+    scene = args.scene or scene_file(HELICOPTER_SCENE)
+    try:
+        downwash_case(scene, 1)
+    except SceneError as e:
+        raise UsageError(f"cavesim accuracy: error: argument --scene: {e}") from e
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"cavesim accuracy: error: argument --out: cannot make directory "
+                         f"{str(args.out)!r}: {e.strerror or e}; give a writable directory") from e
+    run_command(scene, args.out, console, args.particles, args.quick)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="cavesim", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True, metavar="command")
     add_bench(commands)
+    add_accuracy(commands)
+    add_stability(commands)
     from nodes import commands as cluster  # nodes/ builds on cavesim/, so imported late
 
     for add in (cluster.add_run, cluster.add_master, cluster.add_node, cluster.add_replay,

@@ -22,7 +22,15 @@ import zenoh
 from cavesim.engine import FrameInput
 from cavesim.errors import ProtocolError
 from cavesim.framelog import FrameLogWriter
-from cavesim.helicopter.flight import Flight, heading_of, pitch_quaternion, tilt_of, wand_at
+from cavesim.helicopter.flight import (
+    WAND_LIMIT,
+    Flight,
+    clamp_wand,
+    heading_of,
+    pitch_quaternion,
+    tilt_of,
+    wand_at,
+)
 from cavesim.random_texture import draw_transform
 from cavesim.scene import load_scene
 from cavesim.wire import (
@@ -45,7 +53,6 @@ from nodes.script import ScriptedView
 
 log = logging.getLogger("cavesim.master")
 LOSS_POLICIES = ("continue", "pause")
-WAND_LIMIT = 50.0  # m from the room's origin: farther is a tracker fault, not a gesture
 
 
 @dataclass(frozen=True)
@@ -229,8 +236,8 @@ class Master:
 
     def _reachable(self, position) -> tuple[float, float, float]:
         """A tracked wand position within WAND_LIMIT of the room's origin (warned if not)."""
-        clamped = tuple(min(max(x, -WAND_LIMIT), WAND_LIMIT) for x in position)
-        if clamped != tuple(position):
+        clamped, changed = clamp_wand(position)
+        if changed:
             self.record.clamped_inputs += 1
             log.warning("wand position %s is outside +-%g m: clamped to %s", position,
                         WAND_LIMIT, clamped)

@@ -91,3 +91,9 @@ def test_bad_state_uploads_are_rejected(ctx):
 def test_capacity_beyond_a_storage_buffer_is_rejected(ctx):
     with pytest.raises(ValueError, match="capacity=3500000 needs"):
         ParticleSystem(ctx, dataclasses.replace(make_scene(), capacity=3_500_000))
+
+
+def test_an_empty_stream_reads_as_an_empty_array(ctx):
+    system = ParticleSystem(ctx, make_scene(capacity=0))
+    system.step(FrameInput(1 / 60, np.eye(3)))
+    assert len(system.read_particles()) == 0 and system.live_count == 0

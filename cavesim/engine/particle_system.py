@@ -235,6 +235,8 @@ class ParticleSystem:
 
     def read_particles(self) -> np.ndarray:
         """A copy of the live particle stream (PARTICLE_DTYPE), in stream order."""
+        if self._live == 0:  # GL cannot map an empty range
+            return np.zeros(0, dtype=PARTICLE_DTYPE)
         data = self._particle_buffers[self._current].read(self._live * PARTICLE_BYTES)
         return np.frombuffer(data, dtype=PARTICLE_DTYPE).copy()
 

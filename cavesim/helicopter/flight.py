@@ -17,6 +17,7 @@ from cavesim.helicopter.rotor import friction_velocity, induced_velocity, saltat
 from cavesim.scene.model import CollisionKind, Helicopter, Scene, WandKey
 
 TILT_GAIN = 0.25 / 30.0  # rotor speed per degree of tilt
+WAND_LIMIT = 50.0  # m from the room's origin: farther is a tracker fault, not a gesture
 ROTOR_SPEED_RANGE = (0.0, 1.3)
 
 
@@ -35,6 +36,12 @@ def wand_at(timeline: tuple[WandKey, ...], t: float) -> tuple[np.ndarray, float]
     tilts = [k.tilt for k in timeline]
     position = np.array([np.interp(t, times, positions[:, i]) for i in range(3)])
     return position, float(np.interp(t, times, tilts))
+
+
+def clamp_wand(position) -> tuple[tuple[float, float, float], bool]:
+    """The wand position pulled within WAND_LIMIT of the room's origin, and whether it was."""
+    clamped = tuple(min(max(float(x), -WAND_LIMIT), WAND_LIMIT) for x in position)
+    return clamped, clamped != tuple(float(x) for x in position)
 
 
 def pitch_quaternion(tilt: float) -> tuple[float, float, float, float]:
