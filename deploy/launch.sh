@@ -2,7 +2,8 @@
 # Launch a cavesim cluster: a master and N wall nodes, on this machine or on several hosts.
 #
 #   deploy/launch.sh [--hosts FILE] [--walls N] [--scene FILE] [--frames F] [--out DIR]
-#                    [--session NAME] [--key-file FILE] [--dry-run]
+#                    [--session NAME] [--key-file FILE] [--config FILE] [--realtime]
+#                    [--dry-run]
 #
 # Without --hosts everything runs here: this execs `.venv/bin/cavesim run --walls N ...`
 # (after deploy/setup.sh if .venv is missing), which writes OUT/report.json.
@@ -24,12 +25,17 @@
 #
 # On each node host it runs
 #   $CAVESIM_REMOTE node --wall WALL --scene S --session NAME --connect tcp/MASTER:PORT
-#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K]
+#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K] [--config Z]
 # and on the master host `mkdir -p OUT`, then
 #   $CAVESIM_REMOTE master --walls a,b,c --listen tcp/0.0.0.0:PORT --frames F
 #                          --report OUT/report.json --frame-log OUT/frames.log ...
+#                          [--realtime]
 # CAVESIM_REMOTE is the cavesim command on the hosts (default: `cavesim` on the PATH).
-# The scene, OUT and the key file are paths on the hosts (relative ones are resolved by
+# Hosts mode only: --config Z gives every process that zenoh JSON5 file, e.g.
+# config/zenoh/multihost.json5 (a short lease and fast reconnects for a LAN; the endpoints
+# still come from the hosts file), and --realtime has the master pace frames by the wall
+# clock, as a CAVE's displays need (default: as fast as the barrier allows).
+# The scene, OUT, the key file and Z are paths on the hosts (relative ones are resolved by
 # the remote command: the login directory for ssh; a scene also by the cavesim checkout).
 # Node output is collected here in OUT/logs/WALL.log; the master's goes to the terminal.
 # The launcher waits for the master, exits with its status, and on exit or Ctrl-C stops
@@ -42,7 +48,8 @@ DEFAULT_PORT=7447
 
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N] [--scene FILE] [--frames F]" \
-         "[--out DIR] [--session NAME] [--key-file FILE] [--dry-run]" >&2
+         "[--out DIR] [--session NAME] [--key-file FILE] [--config FILE] [--realtime]" \
+         "[--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
 }
@@ -53,10 +60,10 @@ die() {  # a usage or input error: one line, exit 2
 }
 
 hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
-session="run" key_file="" dry_run=0
+session="run" key_file="" zenoh_config="" realtime=0 dry_run=0
 while (($#)); do
     case "$1" in
-        --hosts | --walls | --scene | --frames | --out | --session | --key-file)
+        --hosts | --walls | --scene | --frames | --out | --session | --key-file | --config)
             (($# >= 2)) || die "argument $1: expected a value"
             case "$1" in
                 --hosts) hosts_file="$2" ;;
@@ -66,8 +73,10 @@ while (($#)); do
                 --out) out="$2" ;;
                 --session) session="$2" ;;
                 --key-file) key_file="$2" ;;
+                --config) zenoh_config="$2" ;;
             esac
             shift 2 ;;
+        --realtime) realtime=1; shift ;;
         --dry-run) dry_run=1; shift ;;
         -h | --help) usage ;;
         *) die "unknown argument $1 (see deploy/launch.sh --help)" ;;
@@ -90,6 +99,9 @@ show() {  # print a command as one line that a shell would read back the same wa
 # -- one machine: `cavesim run` does it all ---------------------------------------------------
 
 if [ -z "$hosts_file" ]; then
+    [ -z "$zenoh_config" ] \
+        || die "argument --config: only with --hosts (one machine runs on loopback)"
+    ((!realtime)) || die "argument --realtime: only with --hosts"
     command=("$root/.venv/bin/cavesim" run --walls "${walls:-4}" --scene "$scene"
              --frames "$frames" --out "$out" --session "$session")
     [ -z "$key_file" ] || command+=(--key-file "$key_file")
@@ -170,7 +182,7 @@ done <"$hosts_file"
 
 remote="${CAVESIM_REMOTE:-cavesim}"
 for pair in "--scene:$scene" "--out:$out" "--session:$session" "--key-file:$key_file" \
-            "CAVESIM_REMOTE:$remote"; do
+            "--config:$zenoh_config" "CAVESIM_REMOTE:$remote"; do
     value="${pair#*:}"
     [[ -z "$value" || "$value" =~ ^[A-Za-z0-9._/:@%+=,~-]+$ ]] \
         || die "${pair%%:*} '$value': only letters, digits and ._/:@%+=,~- (it may go through ssh)"
@@ -182,10 +194,12 @@ done
 
 common=(--scene "$scene" --session "$session")
 [ -z "$key_file" ] || common+=(--key-file "$key_file")
+[ -z "$zenoh_config" ] || common+=(--config "$zenoh_config")
 wall_list="$(IFS=,; echo "${node_walls[*]}")"
 master_command=("${master_via[@]}" "$remote" master --walls "$wall_list" --frames "$frames"
                 "${common[@]}" --listen "tcp/0.0.0.0:$master_port"
                 --report "$out/report.json" --frame-log "$out/frames.log")
+((!realtime)) || master_command+=(--realtime)
 node_command() {  # node_command I: the command of node I, in the global array `command`
     eval "command=(${node_vias[$1]})"
     command+=("$remote" node --wall "${node_walls[$1]}" "${common[@]}"

@@ -1,14 +1,18 @@
 #!/usr/bin/env bash
 # Set up cavesim on a Debian machine: the headless OpenGL packages where missing, then a
 # virtualenv in .venv with cavesim installed (editable). Safe to run again: it only does
-# what is missing. Usage: deploy/setup.sh [--test]   (--test adds the test dependencies)
+# what is missing. Usage: deploy/setup.sh [--test]   (--test adds the test dependencies:
+# the Python ones, and iproute2 and iptables for the multi-host test's network namespaces)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 GL_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri)  # EGL dispatch, Mesa's EGL, llvmpipe
+TEST_PACKAGES=(iproute2 iptables)  # tests/test_multihost.py: `ip netns`, veth, packet loss
 
+packages=("${GL_PACKAGES[@]}")
+[ "${1:-}" = "--test" ] && packages+=("${TEST_PACKAGES[@]}")
 missing=()
-for package in "${GL_PACKAGES[@]}"; do
+for package in "${packages[@]}"; do
     dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" \
         || missing+=("$package")
 done

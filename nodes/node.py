@@ -172,19 +172,28 @@ class WallNode:
             self._resync(message.source)
 
     def _resync(self, source: str) -> None:
-        """Load the snapshot of `source` (a healthy node) and report its frame."""
-        for reply in self.session.get(self.keys.state(source), timeout=SNAPSHOT_TIMEOUT):
-            if reply.ok is None:
-                continue
-            try:
-                snapshot = decode(reply.ok.payload.to_bytes(), self.config.session,
-                                  self.config.key)
-            except ProtocolError as e:
-                self.rejects.reject(e, self.keys.state(source))
-                continue
-            if isinstance(snapshot, StateMessage):
-                self._load(snapshot)
-                return
+        """Load the snapshot of `source` (a healthy node) and report its frame.
+
+        A node that has just come back may not yet have its direct link to `source`: a
+        query then finds nobody at once. It asks again until the deadline, each time
+        first waiting (on liveliness, up to a second) for `source` to be reachable.
+        """
+        deadline = time.monotonic() + SNAPSHOT_TIMEOUT
+        while (remaining := deadline - time.monotonic()) > 0:
+            for reply in self.session.get(self.keys.state(source), timeout=remaining):
+                if reply.ok is None:
+                    continue
+                try:
+                    snapshot = decode(reply.ok.payload.to_bytes(), self.config.session,
+                                      self.config.key)
+                except ProtocolError as e:
+                    self.rejects.reject(e, self.keys.state(source))
+                    continue
+                if isinstance(snapshot, StateMessage):
+                    self._load(snapshot)
+                    return
+            list(self.session.liveliness().get(self.keys.alive(source),
+                                               timeout=min(1.0, max(remaining, 0.01))))
         log.error("%s: no snapshot from %s within %.0f s", self.config.wall, source,
                   SNAPSHOT_TIMEOUT)
 

@@ -10,10 +10,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import zenoh
+# Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
+# its default single tx thread that froze the healthy peers' traffic when a wall's link
+# was cut. More runtime threads keep the barrier going. Must be set before zenoh starts;
+# a user's own setting wins (never set it to "": zenoh then fails to start).
+os.environ.setdefault("ZENOH_RUNTIME", "(tx: (worker_threads: 2), rx: (worker_threads: 3))")
+
+import zenoh  # noqa: E402
 
 DEFAULT_MASTER_PORT = 7447
 
