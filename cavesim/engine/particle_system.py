@@ -72,8 +72,6 @@ class ParticleSystem:
                                        "in_a", "in_b", "in_c")
                              for b in self._particle_buffers]
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
-        if self.rotor_inputs is not None:
-            write_uniforms(self._update, self.rotor_inputs.constant_uniforms())
         if len(self.emitters):
             self._build_emission()
         self._checksum = GpuChecksum(ctx, max(scene.capacity * PARTICLE_WORDS, 1))

@@ -41,10 +41,6 @@ class RotorInputs:
         origins[self.followers] = (hub[0], hub[1], self.ground)
         return FrameRotor(hub, np.float32(rotor.induced_velocity), factors, origins)
 
-    def constant_uniforms(self) -> dict[str, object]:
-        return {"rotor_radius": np.float32(self.scene.helicopter.rotor_radius),
-                "rotor_ground_z": self.ground}
-
     @staticmethod
     def physics_uniforms(rotor: FrameRotor) -> dict[str, object]:
         return {"rotor_hub": rotor.hub, "induced_velocity": rotor.induced_velocity}

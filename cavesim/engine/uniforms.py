@@ -10,6 +10,7 @@ import numpy as np
 from cavesim.emitters import EmitterTable
 from cavesim.fields import FieldGrid
 from cavesim.heightfield import HeightGrid
+from cavesim.helicopter.flight import ground_height
 from cavesim.scene.model import CollisionKind, Scene
 
 
@@ -25,10 +26,13 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
     if forces.drag is not None:
         values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
                                      dtype=np.float32)
-        if field is not None:  # a grid; the rotor's flow needs none
+        if field is not None:  # a grid
             values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
             values["field_index_scale"] = index_scale(field.box_min, field.box_max,
                                                       field.resolution)
+        else:  # the rotor's downwash: its size and the ground it blows against
+            values["rotor_radius"] = np.float32(scene.helicopter.rotor_radius)
+            values["rotor_ground_z"] = np.float32(ground_height(scene))
     collision = scene.collision
     if collision is not None:
         values["friction"] = np.float32(collision.friction)

@@ -16,7 +16,6 @@ import numpy as np
 from cavesim.cave.geometry import Wall
 from cavesim.cave.projection import gl_matrix, off_axis
 from cavesim.engine import ParticleSystem
-from cavesim.heightfield import load_heightfield
 from cavesim.render import meshes
 from cavesim.render.view import HelicopterPose
 from cavesim.scene.model import CollisionKind, Scene
@@ -84,7 +83,7 @@ class WallRenderer:
                                         [(vbo, meshes.VERTEX_FORMAT, *meshes.VERTEX_NAMES)])
             return vao, len(rows)
 
-        ground = _ground(self.system.scene)
+        ground = _ground(self.system)
         self.terrain = mesh(meshes.terrain(*ground)) if ground else None
         self.body = mesh(meshes.helicopter_body())
         self.rotor = mesh(meshes.rotor(ROTOR_RADIUS))
@@ -178,13 +177,14 @@ class WallRenderer:
             texture.release()
 
 
-def _ground(scene: Scene):
-    """(box_min, box_max, plane height or HeightGrid) of the scene's ground, or None."""
-    collision = scene.collision
+def _ground(system: ParticleSystem):
+    """(box_min, box_max, plane height or HeightGrid) of the scene's ground, or None: the
+    ground the particles collide with, as the engine loaded it."""
+    scene, collision = system.scene, system.scene.collision
     if collision is None:
         return None
     if collision.kind is CollisionKind.HEIGHTFIELD:
-        grid = load_heightfield(collision.file)
+        grid = system.ground_grid
         return grid.box_min, grid.box_max, grid
     if scene.field is not None:
         return scene.field.box_min[:2], scene.field.box_max[:2], collision.height
