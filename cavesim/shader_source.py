@@ -15,6 +15,7 @@ from pathlib import Path
 import moderngl
 
 from cavesim.errors import ShaderError
+from cavesim.gl.context import REQUIRED_GL_VERSION
 
 SHADER_ROOT = Path(__file__).parent / "shaders"
 STAGE_MACROS = {
@@ -32,6 +33,7 @@ _INCLUDE = re.compile(r'\s*#\s*include\s+"([^"]+)"\s*')
 _PRAGMA_ONCE = re.compile(r"\s*#\s*pragma\s+once\s*")
 _DEFINE = re.compile(r"\s*#\s*define\s+(\w+)")
 _VERSION = re.compile(r"\s*#\s*version\b")
+_LINE_MARKER = re.compile(r"#line \d+ \d+")
 _CONDITIONAL_BRANCH = re.compile(r"\s*#\s*(else|elif|endif)\b")
 _LOCATION = re.compile(r"^(?P<prefix>(?:ERROR|WARNING): )?(?P<source>\d+):(?P<line>\d+)", re.M)
 _FAILED_STAGE = re.compile(r"^(vertex|geometry|fragment|compute)_shader$", re.M)
@@ -71,12 +73,16 @@ def assemble(
     if stage not in STAGE_MACROS:
         raise ShaderError(f"stage must be one of {sorted(STAGE_MACROS)}, got {stage=!r}")
     header = [
-        "#version 450 core",
+        f"#version {REQUIRED_GL_VERSION} core",
         *_define_lines(defines, allowed),
         f"#define {STAGE_MACROS[stage]}",
     ]
     paster = _Paster(root, injected={*defines, *STAGE_MACROS.values()})
     body = paster.paste(_resolve(name, "", "shader"), chain=())
+    # A position marker that nothing follows marks nothing, and NVIDIA's compiler rejects a
+    # `#line` as the last line of a source (C0115: "#line source-string number invalid").
+    while body and _LINE_MARKER.fullmatch(body[-1]):
+        body.pop()
     return ShaderSource("\n".join([*header, *body]) + "\n", tuple(paster.files))
 
 
@@ -218,7 +224,8 @@ class _Paster:
     def _check_directive(self, line: str, where: str) -> None:
         """Refuse directives the assembler owns: `#version` and injected `#define`s."""
         if _VERSION.match(line):
-            raise ShaderError(f"{where}: remove #version; the assembler writes #version 450 core")
+            raise ShaderError(f"{where}: remove #version; the assembler writes "
+                              f"#version {REQUIRED_GL_VERSION} core")
         define = _DEFINE.match(line)
         if define and define[1] in self.injected:
             raise ShaderError(

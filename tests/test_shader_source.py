@@ -7,6 +7,7 @@ import moderngl
 import pytest
 
 from cavesim.errors import ShaderError
+from cavesim.gl.context import REQUIRED_GL_VERSION
 from cavesim.shader_source import MAX_INCLUDE_DEPTH, ShaderSource, assemble, build_program
 
 FIXTURES = Path(__file__).parent / "glsl_fixtures"
@@ -28,7 +29,7 @@ def define_value(name, value):
 
 def test_version_then_defines_then_stage_then_line_marker():
     assert lines("stages.glsl", "fragment", {"SPEED": 1.5}) == [
-        "#version 450 core",
+        "#version 430 core",
         "#define SPEED 1.5",
         "#define FRAGMENT_SHADER",
         "#line 1 0",
@@ -36,8 +37,17 @@ def test_version_then_defines_then_stage_then_line_marker():
         "#if defined FRAGMENT_SHADER",
         "out vec4 color;",
         "#endif",
-        "#line 5 0",
     ]
+
+
+def test_version_is_the_gl_version_the_context_requires():
+    assert lines("lib/inner.glsl")[0] == f"#version {REQUIRED_GL_VERSION} core"
+
+
+@pytest.mark.parametrize("name", ["stages.glsl", "include_last.glsl", "empty.glsl"])
+def test_no_program_ends_with_a_line_marker(name):
+    # NVIDIA: "error C0115: #line source-string number invalid" when a `#line` is last
+    assert not lines(name)[-1].startswith("#line")
 
 
 @pytest.mark.parametrize(

@@ -15,7 +15,7 @@ import moderngl
 
 from cavesim.errors import ContextError
 
-REQUIRED_GL_VERSION = 430  # compute shaders (checksum) and SSBOs; GS + TF need only 3.3
+REQUIRED_GL_VERSION = 430  # compute shaders, SSBOs (GS + TF need 3.3); every program's #version
 
 _PACKAGE_HINT = (
     "install the Debian packages libegl1 and libgl1-mesa-dri "

@@ -1,0 +1,2 @@
+// a file whose last line includes another
+#include "lib/inner.glsl"
