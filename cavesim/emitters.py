@@ -1,7 +1,10 @@
 """The emitters' fixed parameters as float32 arrays: the bits both the GPU and the twin use.
 
-Derived once from the scene on every node, so each node uploads the same uniforms. Also
-the host's bound on a frame's emission, which sizes the instanced emission draw.
+Derived once from the scene on every node, so each node uploads the same table. On the GPU
+the table is a texture (shaders/particles/emitters.glsl), not uniform arrays: any GL 4.3
+driver fetches thousands of emitters exactly, where uniform arrays outgrow the smallest
+drivers' limits at a few dozen. Also the host's bound on a frame's emission, which sizes
+the instanced emission draw.
 """
 
 from __future__ import annotations
@@ -13,6 +16,12 @@ import numpy as np
 
 from cavesim.random_texture import emitter_bases
 from cavesim.scene.model import Scene
+
+# Rows of the emitter table texture, each four 32-bit words per emitter (float bits or
+# uints); must match the accessors in shaders/particles/emitters.glsl.
+FIXED_ROWS = 6  # from the scene, written once
+FRAME_ROWS = 2  # written every frame: emission origin and rate factor; this frame's cap
+TABLE_ROWS = FIXED_ROWS + FRAME_ROWS
 
 
 @dataclass(frozen=True)
@@ -59,6 +68,34 @@ class EmitterTable:
 
     def __len__(self) -> int:
         return len(self.rate)
+
+    def fixed_rows(self) -> np.ndarray:
+        """The scene's rows of the table texture: (FIXED_ROWS, E, 4) uint32 words."""
+        words = np.zeros((FIXED_ROWS, len(self), 4), dtype=np.uint32)
+        for row, (vector, scalar) in enumerate((
+                (self.position, self.rate), (self.extent, self.versine_spread),
+                (self.axis, self.speed), (self.tangent, self.speed_spread))):
+            words[row, :, :3] = vector.view(np.uint32)
+            words[row, :, 3] = scalar.view(np.uint32)
+        words[4, :, :3] = self.bitangent.view(np.uint32)
+        words[4, :, 3] = self.class_id
+        words[5, :, :2] = self.lifetime.view(np.uint32)
+        words[5, :, 2:] = self.random_base
+        return words
+
+    def frame_rows(self, max_emit: np.ndarray, factors: np.ndarray | None = None,
+                   origins: np.ndarray | None = None) -> np.ndarray:
+        """This frame's rows of the table texture: (FRAME_ROWS, E, 4) uint32 words.
+
+        Emitters that follow nothing have factor 1 and origin 0 (unused by their shader).
+        """
+        words = np.zeros((FRAME_ROWS, len(self), 4), dtype=np.uint32)
+        if origins is not None:
+            words[0, :, :3] = np.asarray(origins, np.float32).view(np.uint32)
+        words[0, :, 3] = (np.ones(len(self), np.float32) if factors is None
+                          else np.asarray(factors, np.float32)).view(np.uint32)
+        words[1, :, 0] = max_emit
+        return words
 
     def frame_rates(self, factors: np.ndarray | None = None) -> np.ndarray:
         """Per emitter, rate × this frame's factor in float64, in the GPU's order of ops."""

@@ -7,9 +7,8 @@ import moderngl
 from scenes import FOUNTAIN, make_scene
 
 from cavesim.engine import ParticleSystem
-from cavesim.engine.programs import PHYSICS_DEFINES, physics_defines
+from cavesim.engine.programs import PARTICLE_UPDATE, physics_defines
 from cavesim.scene import load_scene
-from cavesim.shader_source import assemble
 
 SCENES = Path(__file__).parents[1] / "config" / "scenes"
 FEATURE_CODE = {  # what each feature puts in the compiled particle pass
@@ -23,8 +22,7 @@ FEATURE_CODE = {  # what each feature puts in the compiled particle pass
 
 def compiled_text(scene) -> str:
     """The particle pass's vertex stage as the compiler sees it, inactive branches removed."""
-    source = assemble("particles/update.glsl", "vertex", physics_defines(scene),
-                      PHYSICS_DEFINES).text
+    source = PARTICLE_UPDATE.sources(physics_defines(scene))["vertex"].text
     return re.sub(r"//[^\n]*", "", _active_lines(source))  # code, not comments
 
 
@@ -96,7 +94,7 @@ def test_full_scene_compiles_its_features(tmp_path):
 def test_minimal_scene_allocates_no_field_ground_or_extra_uniforms(ctx):
     system = ParticleSystem(ctx, load_scene(SCENES / "minimal.toml"))
     assert set(system.resources) == {"particles_0", "particles_1", "emitters_0", "emitters_1",
-                                     "random_texture"}
+                                     "random_texture", "emitter_table"}
     assert uniforms(system.particle_program) == {"dt", "gravity"}
 
 

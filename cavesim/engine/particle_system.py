@@ -16,7 +16,7 @@ import math
 import moderngl
 import numpy as np
 
-from cavesim.emitters import EmitterTable
+from cavesim.emitters import FIXED_ROWS, FRAME_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.engine.checksum import GpuChecksum, StateChecksum
 from cavesim.engine.frame import FrameInput
 from cavesim.engine.layout import (
@@ -35,13 +35,13 @@ from cavesim.engine.programs import (
     particle_update_program,
 )
 from cavesim.engine.rotor_inputs import RotorInputs
-from cavesim.engine.uniforms import emitter_uniforms, physics_uniforms, write_uniforms
+from cavesim.engine.uniforms import physics_uniforms, write_uniforms
 from cavesim.fields import FieldGrid, build_field
 from cavesim.heightfield import HeightGrid, load_heightfield
 from cavesim.random_texture import random_words
 from cavesim.scene.model import CollisionKind, FieldKind, FieldSampling, Scene
 
-FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT = 0, 1, 2
+FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
 MAX_SSBO_BYTES = 2**27  # GL_MAX_SHADER_STORAGE_BLOCK_SIZE on llvmpipe; the checksum binds SSBOs
 
 
@@ -108,7 +108,7 @@ class ParticleSystem:
 
     def _bind_samplers(self, program) -> None:
         for name, unit in (("flow_field", FIELD_UNIT), ("ground_height", GROUND_UNIT),
-                           ("random_texture", RANDOM_UNIT)):
+                           ("random_texture", RANDOM_UNIT), ("emitter_table", EMITTER_UNIT)):
             if name in self.resources:
                 self.resources[name].use(unit)
                 if name in program:
@@ -121,17 +121,22 @@ class ParticleSystem:
                                   dtype="u4")
         random.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.resources["random_texture"] = random
+        table = self.ctx.texture((count, TABLE_ROWS), 4, dtype="u4")
+        table.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.resources["emitter_table"] = table
+        self._write_fixed_rows()
         self._emitter_buffers = [self._buffer(f"emitters_{i}", count * EMITTER_BYTES)
                                  for i in range(2)]
         self._emitter_update = emitter_update_program(self.ctx, scene)
         self._emit = emit_program(self.ctx, scene)
-        for program in (self._emitter_update, self._emit):
-            write_uniforms(program, emitter_uniforms(self.emitters))
-        self._bind_samplers(self._emit)
         self._emitter_update_vaos = [self._vao(self._emitter_update, b, EMITTER_VERTEX_FORMAT,
                                                "in_state") for b in self._emitter_buffers]
         self._emit_vaos = [self._vao(self._emit, b, EMITTER_VERTEX_FORMAT, "in_state")
                            for b in self._emitter_buffers]
+
+    def _write_fixed_rows(self) -> None:
+        self.resources["emitter_table"].write(
+            self.emitters.fixed_rows().tobytes(), viewport=(0, 0, len(self.emitters), FIXED_ROWS))
 
     # -- the frame ----------------------------------------------------------------------
 
@@ -182,10 +187,12 @@ class ParticleSystem:
                       rotor) -> int:
         factors = None if rotor is None else rotor.rate_factors
         max_emit = self.emitters.max_emit(frame.dt, self.capacity, factors)
-        if rotor is not None:
-            for program in (self._emitter_update, self._emit):
-                write_uniforms(program, RotorInputs.emitter_uniforms(rotor))
-        write_uniforms(self._emitter_update, {"dt": frame.dt, "emitter_max_emit": max_emit})
+        rows = self.emitters.frame_rows(max_emit, factors,
+                                        None if rotor is None else rotor.origins)
+        self.resources["emitter_table"].write(
+            rows.tobytes(), viewport=(0, FIXED_ROWS, len(self.emitters), FRAME_ROWS))
+        write_uniforms(self._emitter_update, {"dt": frame.dt})
+        self._bind_samplers(self._emitter_update)
         self._emitter_update_vaos[front].transform(self._emitter_buffers[back], moderngl.POINTS,
                                                    vertices=len(self.emitters))
         room = self.capacity - survivors
@@ -213,8 +220,7 @@ class ParticleSystem:
             return
         size = self.scene.random_texture_size
         self.resources["random_texture"].write(random_words(seed, size).tobytes())
-        for program in (self._emitter_update, self._emit):
-            write_uniforms(program, emitter_uniforms(self.emitters))
+        self._write_fixed_rows()
 
     def release(self) -> None:
         """Free the GPU buffers and textures now instead of at garbage collection."""

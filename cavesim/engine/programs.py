@@ -1,14 +1,22 @@
-"""Which shader code a scene gets: the `#define`s of each program, from the scene's features.
+"""Which shader code a scene gets: every program the engine builds and the `#define`s of each.
 
 A feature the scene lacks is decided as 0 here, so its code is compiled out and the engine
-allocates no texture, uniform or buffer for it (the test reads the generated source).
+allocates no texture, uniform or buffer for it (the test reads the generated source). The
+same table tells the portability gate (`cavesim.shader_gate`) every program and every
+feature combination there is to check.
 """
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
 import moderngl
 
 from cavesim.engine.layout import PARTICLE_VARYINGS
+from cavesim.scene.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.scene.model import (
     CollisionKind,
     FieldKind,
@@ -17,7 +25,7 @@ from cavesim.scene.model import (
     OutOfDomain,
     Scene,
 )
-from cavesim.shader_source import build_program
+from cavesim.shader_source import SHADER_ROOT, ShaderSource, assemble, build_program
 
 INTEGRATOR_IDS = {integrator: i for i, integrator in enumerate(Integrator)}
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
@@ -28,9 +36,60 @@ EMIT_BATCH = 64  # particles per GS invocation: 64 x 10 components fits the GL m
 CHECKSUM_WORKGROUP_SIZE = 64
 CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 313 KB of sums to read
 
-PHYSICS_DEFINES = ("HAS_GRAVITY", "HAS_DRAG", "HAS_DAMPING", "COLLISION", "INTEGRATOR",
-                   "FIELD_OUT_OF_DOMAIN", "FIELD_SAMPLING", "FIELD_IS_ROTOR", "CLASS_COUNT")
-EMISSION_DEFINES = ("EMITTER_COUNT", "RANDOM_SIZE", "EMIT_BATCH", "FOLLOWING")
+Defines = Mapping[str, int | float | bool]
+
+
+@dataclass(frozen=True)
+class ProgramSpec:
+    """One program: its file under cavesim/shaders/, its stages, the defines it must be
+    given (every one decided), and what transform feedback captures."""
+
+    name: str
+    stages: tuple[str, ...]
+    allowed: tuple[str, ...] = ()
+    varyings: tuple[str, ...] = ()
+    root: Path = SHADER_ROOT
+
+    def sources(self, defines: Defines) -> dict[str, ShaderSource]:
+        """The assembled source of every stage."""
+        return {stage: assemble(self.name, stage, defines, self.allowed, self.root)
+                for stage in self.stages}
+
+    def build(self, ctx: moderngl.Context,
+              defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
+        return build_program(ctx, self.name, self.stages, defines, self.allowed,
+                             varyings=self.varyings, root=self.root)
+
+
+# The values each define can take (numbers: the extremes a scene may ask for).
+PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
+    "HAS_GRAVITY": (0, 1),
+    "HAS_DRAG": (0, 1),
+    "HAS_DAMPING": (0, 1),
+    "COLLISION": tuple(COLLISION_IDS.values()),
+    "INTEGRATOR": tuple(INTEGRATOR_IDS.values()),
+    "FIELD_OUT_OF_DOMAIN": tuple(OUT_OF_DOMAIN_IDS.values()),
+    "FIELD_SAMPLING": tuple(SAMPLING_IDS.values()),
+    "FIELD_IS_ROTOR": (0, 1),
+    "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
+}
+EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
+    "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
+    "EMIT_BATCH": (EMIT_BATCH,),
+    "FOLLOWING": (0, 1),
+}
+CHECKSUM_DEFINES = {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
+                    "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE}
+
+PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
+                              tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
+IN_PLACE_UPDATE = ProgramSpec("particles/update_in_place.glsl", ("compute",),
+                              tuple(PHYSICS_FEATURES))  # the bench's compute-shader bound
+EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
+                             tuple(EMISSION_FEATURES), ("out_state",))
+EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
+                   PARTICLE_VARYINGS)
+CHECKSUM = ProgramSpec("checksum/checksum.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
@@ -52,35 +111,49 @@ def physics_defines(scene: Scene) -> dict[str, int]:
 def emission_defines(scene: Scene) -> dict[str, int]:
     """Sizes of the emitter programs."""
     return {
-        "EMITTER_COUNT": len(scene.emitters),
         "RANDOM_SIZE": scene.random_texture_size,
         "EMIT_BATCH": EMIT_BATCH,
         "FOLLOWING": int(any(e.follow_helicopter for e in scene.emitters)),
     }
 
 
+def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
+    """Every engine program a scene builds, with its defines."""
+    physics = physics_defines(scene)
+    programs = [(PARTICLE_UPDATE, physics), (IN_PLACE_UPDATE, physics),
+                (CHECKSUM, CHECKSUM_DEFINES)]
+    if scene.emitters:
+        emission = emission_defines(scene)
+        programs += [(EMITTER_UPDATE, emission), (EMIT, emission)]
+    return programs
+
+
+def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
+    """Every engine program with every combination of the values its defines can take."""
+    for spec, features in ((PARTICLE_UPDATE, PHYSICS_FEATURES),
+                           (IN_PLACE_UPDATE, PHYSICS_FEATURES),
+                           (EMITTER_UPDATE, EMISSION_FEATURES), (EMIT, EMISSION_FEATURES)):
+        for values in itertools.product(*features.values()):
+            yield spec, dict(zip(features, values, strict=True))
+    yield CHECKSUM, dict(CHECKSUM_DEFINES)
+
+
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
-    return build_program(ctx, "particles/update.glsl", ("vertex", "geometry"),
-                         physics_defines(scene), PHYSICS_DEFINES, varyings=PARTICLE_VARYINGS)
+    return PARTICLE_UPDATE.build(ctx, physics_defines(scene))
 
 
 def in_place_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
-    return build_program(ctx, "particles/update_in_place.glsl", ("compute",),
-                         physics_defines(scene), PHYSICS_DEFINES)
+    return IN_PLACE_UPDATE.build(ctx, physics_defines(scene))
 
 
 def emitter_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
-    return build_program(ctx, "particles/emitter_update.glsl", ("vertex",),
-                         emission_defines(scene), EMISSION_DEFINES, varyings=("out_state",))
+    return EMITTER_UPDATE.build(ctx, emission_defines(scene))
 
 
 def emit_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
-    return build_program(ctx, "particles/emit.glsl", ("vertex", "geometry"),
-                         emission_defines(scene), EMISSION_DEFINES, varyings=PARTICLE_VARYINGS)
+    return EMIT.build(ctx, emission_defines(scene))
 
 
 def checksum_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
-    return build_program(ctx, "checksum/checksum.glsl", ("compute",),
-                         {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
-                          "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE},
-                         ("WORDS_PER_THREAD", "WORKGROUP_SIZE"))
+    return CHECKSUM.build(ctx, CHECKSUM_DEFINES)
+

@@ -44,7 +44,3 @@ class RotorInputs:
     @staticmethod
     def physics_uniforms(rotor: FrameRotor) -> dict[str, object]:
         return {"rotor_hub": rotor.hub, "induced_velocity": rotor.induced_velocity}
-
-    @staticmethod
-    def emitter_uniforms(rotor: FrameRotor) -> dict[str, object]:
-        return {"emitter_rate_factor": rotor.rate_factors, "emission_origin": rotor.origins}

@@ -7,7 +7,6 @@ from collections.abc import Mapping
 import moderngl
 import numpy as np
 
-from cavesim.emitters import EmitterTable
 from cavesim.fields import FieldGrid
 from cavesim.heightfield import HeightGrid
 from cavesim.helicopter.flight import ground_height
@@ -51,24 +50,6 @@ def index_scale(box_min, box_max, resolution) -> np.ndarray:
     """(resolution - 1) / (box_max - box_min) per axis, as float32: world to grid index."""
     size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
     return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)
-
-
-def emitter_uniforms(table: EmitterTable) -> dict[str, object]:
-    """The emitter programs' per-emitter arrays."""
-    return {
-        "emitter_rate": table.rate,
-        "emitter_position": table.position,
-        "emitter_extent": table.extent,
-        "emitter_axis": table.axis,
-        "emitter_tangent": table.tangent,
-        "emitter_bitangent": table.bitangent,
-        "emitter_versine_spread": table.versine_spread,
-        "emitter_speed": table.speed,
-        "emitter_speed_spread": table.speed_spread,
-        "emitter_lifetime": table.lifetime,
-        "emitter_class": table.class_id,
-        "emitter_random_base": table.random_base,
-    }
 
 
 def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> None:

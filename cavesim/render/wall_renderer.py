@@ -17,9 +17,9 @@ from cavesim.cave.geometry import Wall
 from cavesim.cave.projection import gl_matrix, off_axis
 from cavesim.engine import ParticleSystem
 from cavesim.render import meshes
+from cavesim.render.programs import COMPOSITE, DUST, SCENE, dust_defines
 from cavesim.render.view import HelicopterPose
 from cavesim.scene.model import CollisionKind, Scene
-from cavesim.shader_source import build_program
 
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
 ROTOR_RADIUS = 5.0  # m, the drawn rotor
@@ -54,14 +54,9 @@ class WallRenderer:
         self.ctx, self.system, self.wall, self.settings = ctx, system, wall, settings
         self.size = tuple(wall.resolution)
         self._targets()
-        defines = {"CLASS_COUNT": max(1, len(system.scene.particle_classes))}
-        self.scene_program = build_program(ctx, "render/scene.glsl", ("vertex", "fragment"),
-                                           {}, ())
-        self.dust_program = build_program(ctx, "render/dust.glsl",
-                                          ("vertex", "geometry", "fragment"), defines,
-                                          tuple(defines))
-        self.composite_program = build_program(ctx, "render/composite.glsl",
-                                               ("vertex", "fragment"), {}, ())
+        self.scene_program = SCENE.build(ctx, {})
+        self.dust_program = DUST.build(ctx, dust_defines(system.scene))
+        self.composite_program = COMPOSITE.build(ctx, {})
         self._meshes()
         self._constant_uniforms()
 

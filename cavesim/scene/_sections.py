@@ -15,6 +15,7 @@ from typing import Any
 from numpy.lib import format as npy_format
 
 from cavesim.scene._checks import Table
+from cavesim.scene.limits import RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.scene.model import (
     AIR_VISCOSITY,
     Collision,
@@ -55,9 +56,10 @@ COLLISION_KEYS = ("kind", "friction", "resilience", "friction_min_speed", "heigh
 
 def simulation(t: Table) -> dict[str, Any]:
     """The [simulation] table as keyword arguments of `Scene`."""
-    size = t.integer("random_texture_size", 256, ge=16, le=4096)
+    low, high = RANDOM_TEXTURE_SIZE_RANGE
+    size = t.integer("random_texture_size", 256, ge=low, le=high)
     if size & (size - 1):
-        raise t.fail("random_texture_size", "must be a power of two >= 16 and <= 4096")
+        raise t.fail("random_texture_size", f"must be a power of two >= {low} and <= {high}")
     return {
         "capacity": t.integer("capacity", ge=0, le=MAX_CAPACITY),
         "seed": t.integer("seed", ge=0, lt=2**63),

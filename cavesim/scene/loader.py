@@ -15,6 +15,7 @@ from cavesim._toml import read_toml
 from cavesim.errors import SceneError
 from cavesim.scene import _sections
 from cavesim.scene._checks import Table
+from cavesim.scene.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 from cavesim.scene.model import FieldKind, Forces, Scene
 
 TOP_KEYS = ("name", "simulation", "particle_class", "emitter", "forces", "field", "collision",
@@ -61,6 +62,12 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         e = _sections.emitter(t, class_index)
         _check_unique(t, e.name, first_use)
         emitters.append(e)
+
+    for key, tables, most in (("particle_class", classes, MAX_PARTICLE_CLASSES),
+                              ("emitter", emitters, MAX_EMITTERS)):
+        if len(tables) > most:
+            raise SceneError(f"{src}: {key}: {len(tables)} [[{key}]] tables, at most {most} "
+                             f"allowed (the engine's limit for any GL 4.3 driver)")
 
     forces = Forces()
     if top.has("forces"):

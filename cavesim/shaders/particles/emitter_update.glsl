@@ -11,7 +11,7 @@ void main() {
     int e = gl_VertexID;
     double accumulated = packDouble2x32(in_state.xy) + frame_rate(e) * double(dt);
     double whole = floor(accumulated);
-    uint count = uint(min(whole, double(emitter_max_emit[e])));
+    uint count = uint(min(whole, double(emitter_max_emit(e))));
     out_state = uvec4(unpackDouble2x32(accumulated - whole), count, in_state.w + in_state.z);
 }
 #endif

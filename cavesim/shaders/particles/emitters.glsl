@@ -6,40 +6,51 @@
 #pragma once
 
 uniform float dt;
-uniform float emitter_rate[EMITTER_COUNT];  // particles per second
-uniform uint emitter_max_emit[EMITTER_COUNT];  // this frame's cap: capacity, or rate bound
-uniform vec3 emitter_position[EMITTER_COUNT];
-uniform vec3 emitter_extent[EMITTER_COUNT];
-uniform vec3 emitter_axis[EMITTER_COUNT];  // mean direction, with an orthonormal pair:
-uniform vec3 emitter_tangent[EMITTER_COUNT];
-uniform vec3 emitter_bitangent[EMITTER_COUNT];
-uniform float emitter_versine_spread[EMITTER_COUNT];  // 1 - cos(the cone's half-angle)
-uniform float emitter_speed[EMITTER_COUNT];
-uniform float emitter_speed_spread[EMITTER_COUNT];
-uniform vec2 emitter_lifetime[EMITTER_COUNT];
-uniform uint emitter_class[EMITTER_COUNT];
-uniform uvec2 emitter_random_base[EMITTER_COUNT];
+
+// The emitter table: one column per emitter, rows of four 32-bit words (float bits or
+// uints) read with texelFetch only, so every value has the bits the host wrote. Rows 0-5
+// come from the scene, rows 6-7 from the frame. Host side: cavesim/emitters.py fixed_rows
+// and frame_rows.
+uniform usampler2D emitter_table;
+
+uvec4 emitter_row(int e, int row) {
+    return texelFetch(emitter_table, ivec2(e, row), 0);
+}
+
+vec3 emitter_position(int e) { return uintBitsToFloat(emitter_row(e, 0).xyz); }
+float emitter_rate(int e) { return uintBitsToFloat(emitter_row(e, 0).w); }  // per second
+vec3 emitter_extent(int e) { return uintBitsToFloat(emitter_row(e, 1).xyz); }
+// 1 - cos(the cone's half-angle)
+float emitter_versine_spread(int e) { return uintBitsToFloat(emitter_row(e, 1).w); }
+// the mean direction, with an orthonormal pair
+vec3 emitter_axis(int e) { return uintBitsToFloat(emitter_row(e, 2).xyz); }
+float emitter_speed(int e) { return uintBitsToFloat(emitter_row(e, 2).w); }
+vec3 emitter_tangent(int e) { return uintBitsToFloat(emitter_row(e, 3).xyz); }
+float emitter_speed_spread(int e) { return uintBitsToFloat(emitter_row(e, 3).w); }
+vec3 emitter_bitangent(int e) { return uintBitsToFloat(emitter_row(e, 4).xyz); }
+uint emitter_class(int e) { return emitter_row(e, 4).w; }
+vec2 emitter_lifetime(int e) { return uintBitsToFloat(emitter_row(e, 5).xy); }
+uvec2 emitter_random_base(int e) { return emitter_row(e, 5).zw; }
+// this frame's cap on the count: the capacity, or the rate's bound
+uint emitter_max_emit(int e) { return emitter_row(e, 7).x; }
 
 #if FOLLOWING
 // emitters that follow the helicopter: this frame's saltation factor and origin (1 and 0
 // for the others), made by the master
-uniform float emitter_rate_factor[EMITTER_COUNT];
-uniform vec3 emission_origin[EMITTER_COUNT];
-
 double frame_rate(int e) {
-    return double(emitter_rate[e]) * double(emitter_rate_factor[e]);
+    return double(emitter_rate(e)) * double(uintBitsToFloat(emitter_row(e, 6).w));
 }
 
 vec3 emitter_center(int e) {
-    return emission_origin[e] + emitter_position[e];
+    return uintBitsToFloat(emitter_row(e, 6).xyz) + emitter_position(e);
 }
 #else
 double frame_rate(int e) {
-    return double(emitter_rate[e]);
+    return double(emitter_rate(e));
 }
 
 vec3 emitter_center(int e) {
-    return emitter_position[e];
+    return emitter_position(e);
 }
 #endif
 
@@ -52,7 +63,7 @@ uniform mat3 random_transform;  // this frame's integer affine map of the texel 
 uvec4 random_lookup(int e, uint serial, uint texel) {
     const uint mask = uint(RANDOM_SIZE - 1);
     uint k = 2u * serial + texel;
-    uvec2 base = emitter_random_base[e];
+    uvec2 base = emitter_random_base(e);
     int x = int((base.x + (k & mask)) & mask);
     int y = int((base.y + k / uint(RANDOM_SIZE)) & mask);
     ivec3 col0 = ivec3(random_transform[0]);
