@@ -2,12 +2,15 @@
 # Set up cavesim on a Debian machine: the headless OpenGL packages where missing, then a
 # virtualenv in .venv with cavesim installed (editable). Safe to run again: it only does
 # what is missing. Usage: deploy/setup.sh [--test]   (--test adds the test dependencies:
-# the Python ones, and iproute2 and iptables for the multi-host test's network namespaces)
+# the Python ones, iproute2 and iptables for the multi-host test's network namespaces, and
+# glslang-tools for the shader portability gate)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 GL_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri)  # EGL dispatch, Mesa's EGL, llvmpipe
-TEST_PACKAGES=(iproute2 iptables)  # tests/test_multihost.py: `ip netns`, veth, packet loss
+# tests/test_multihost.py: `ip netns`, veth, packet loss; tests/test_shader_gate.py: the
+# Khronos reference GLSL front-end
+TEST_PACKAGES=(iproute2 iptables glslang-tools)
 
 packages=("${GL_PACKAGES[@]}")
 [ "${1:-}" = "--test" ] && packages+=("${TEST_PACKAGES[@]}")

@@ -1,0 +1,127 @@
+"""The portability gate: every program cavesim can build passes the Khronos reference
+front-end (glslangValidator), a lint for what NVIDIA rejects, and this GL context."""
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from cavesim.engine.programs import (
+    IN_PLACE_UPDATE,
+    PARTICLE_UPDATE,
+    PHYSICS_FEATURES,
+    ProgramSpec,
+)
+from cavesim.errors import ShaderError
+from cavesim.render.programs import DUST
+from cavesim.scene.limits import MAX_PARTICLE_CLASSES
+from cavesim.shader_gate import (
+    Build,
+    all_builds,
+    check_on_context,
+    check_sources,
+    lint,
+    uniform_components,
+)
+from cavesim.shader_source import ShaderSource
+
+SCENES = Path(__file__).parents[1] / "config" / "scenes"
+FIXTURES = Path(__file__).parent / "glsl_fixtures"
+
+
+@pytest.fixture(scope="module")
+def builds():
+    return all_builds(SCENES)
+
+
+def test_the_gate_covers_every_scene_and_every_feature_combination(builds):
+    origins = {build.origin for build in builds}
+    assert {f"scene {path.stem}" for path in SCENES.glob("*.toml")} <= origins
+    physics = [b for b in builds if b.spec == PARTICLE_UPDATE]
+    combinations = 1
+    for values in PHYSICS_FEATURES.values():
+        combinations *= len(values)
+    assert combinations >= 2 * 2 * 2 * 3 * 7 * 2 * 2 * 2 * 2
+    assert len(physics) >= combinations  # the product, plus the scenes' own class counts
+    assert {dict(b.defines)["INTEGRATOR"] for b in physics} == set(range(7))
+    assert any(dict(b.defines).get("CLASS_COUNT") == MAX_PARTICLE_CLASSES
+               for b in builds if b.spec == DUST)
+
+
+@pytest.mark.slow
+def test_every_program_passes_the_reference_front_end_and_the_lint(builds):
+    findings = check_sources(builds)
+    assert findings == [], "\n".join(map(str, findings[:10]))
+
+
+@pytest.mark.slow
+def test_every_program_compiles_on_this_context_within_gl43_uniform_limits(ctx, builds):
+    findings = check_on_context(ctx, builds)
+    assert findings == [], "\n".join(map(str, findings[:10]))
+
+
+class EndsWithLine(ProgramSpec):
+    """A program as the assembler wrote them before NVIDIA was tried: a `#line` last."""
+
+    def sources(self, defines):
+        return {stage: dataclasses.replace(source, text=source.text + "#line 48 0\n")
+                for stage, source in super().sources(defines).items()}
+
+
+def test_the_gate_fails_a_program_that_ends_with_a_line_directive():
+    spec = EndsWithLine(**{f.name: getattr(PARTICLE_UPDATE, f.name)
+                           for f in dataclasses.fields(ProgramSpec)})
+    defines = dict.fromkeys(PHYSICS_FEATURES, 0) | {"CLASS_COUNT": 1}
+    build = Build(spec, tuple(sorted(defines.items())), "test")
+    findings = check_sources([build])
+    assert {f.stage for f in findings} == {"vertex", "geometry"}
+    assert all("C0115" in f.message and "'#line 48 0'" in f.message for f in findings)
+    assert str(findings[0]).startswith("particles/update.glsl [CLASS_COUNT=1, COLLISION=0")
+
+
+def test_lint_passes_what_the_assembler_writes():
+    assert lint(ShaderSource("#version 430 core\nvoid main() {}\n#endif\n", ("a.glsl",))) == []
+    assert lint(ShaderSource("void main() {}\n  #  line 3 1\n\n", ("a.glsl",)))
+
+
+def test_reference_front_end_errors_name_the_included_file_and_line():
+    spec = ProgramSpec("gl/program.glsl", ("vertex", "fragment"), root=FIXTURES)
+    (finding,) = check_sources([Build(spec, (), "test")])
+    assert finding.stage == "fragment"
+    assert finding.message.startswith("ERROR: gl/broken_helper.glsl:3:")
+
+
+def test_reference_front_end_catches_what_llvmpipe_lets_through(tmp_path, ctx):
+    # an implicit uint -> int conversion: GLSL forbids it, glslang and NVIDIA reject it
+    (tmp_path / "lax.glsl").write_text(
+        "#if defined COMPUTE_SHADER\nlayout(local_size_x = 1) in;\n"
+        "void main() { int x = 1u; }\n#endif\n")
+    spec = ProgramSpec("lax.glsl", ("compute",), root=tmp_path)
+    (finding,) = check_sources([Build(spec, (), "test")])
+    assert "lax.glsl:3: '=' :  cannot convert" in finding.message
+
+
+def test_a_missing_validator_is_named_with_its_package():
+    with pytest.raises(ShaderError, match=r"no-such-validator not found: install the Debian "
+                                          r"package glslang-tools"):
+        check_sources([], validator="no-such-validator")
+
+
+def test_uniform_components_count_each_array_element_as_a_vec4(ctx):
+    # inv_tau[CLASS_COUNT] and dt: 64 elements + 1 float, each a vec4 slot
+    defines = dict.fromkeys(PHYSICS_FEATURES, 0) | {"HAS_DRAG": 1, "CLASS_COUNT": 64}
+    program = IN_PLACE_UPDATE.build(ctx, defines)
+    try:
+        assert uniform_components(program) >= 4 * 64 + 4
+    finally:
+        program.release()
+
+
+def test_context_check_names_a_program_over_the_gl43_uniform_budget(tmp_path, ctx):
+    (tmp_path / "wide.glsl").write_text(
+        "#if defined COMPUTE_SHADER\nlayout(local_size_x = 1) in;\n"
+        "layout(std430, binding = 0) buffer Out { float o[]; };\nuniform float w[200];\n"
+        "void main() { o[0] = w[int(gl_GlobalInvocationID.x)]; }\n#endif\n")
+    (finding,) = check_on_context(ctx, [Build(ProgramSpec("wide.glsl", ("compute",),
+                                                          root=tmp_path), (), "test")])
+    assert "800 uniform components" in finding.message and "512" in finding.message
