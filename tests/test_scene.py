@@ -30,6 +30,7 @@ from cavesim.scene import (
     load_scene,
     parse_scene,
 )
+from cavesim.scene.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 
 SCENES = Path(__file__).resolve().parent.parent / "config" / "scenes"
 EXAMPLES = sorted(SCENES.glob("*.toml"))
@@ -295,6 +296,15 @@ def _file_field(d: dict[str, Any]) -> None:
                   "file": "fields/missing.npz"}
 
 
+def _copies(key: str, total: int) -> Mutation:
+    """Grow the `key` tables to `total`, each copy of the first under its own name."""
+
+    def apply(d: dict[str, Any]) -> None:
+        first = d[key][0]
+        d[key] += [dict(first, name=f"{first['name']}{i}") for i in range(total - len(d[key]))]
+    return apply
+
+
 BAD: list[tuple[str, Mutation, tuple[str, ...]]] = [
     # (id, mutation of the full scene, substrings the message must hold: key and value)
     ("unknown-top-key", _set("colour", "red"), ("colour", "'red'", "simulation")),
@@ -385,6 +395,10 @@ BAD: list[tuple[str, Mutation, tuple[str, ...]]] = [
     ("heightfield-with-height", _set("collision.kind", "heightfield"),
      ("collision.height", "-0.5", "plane")),
     ("plane-with-file", _set("collision.file", "t.npz"), ("collision.file", "'t.npz'")),
+    ("too-many-classes", _copies("particle_class", MAX_PARTICLE_CLASSES + 1),
+     ("particle_class", f"{MAX_PARTICLE_CLASSES + 1} [[particle_class]]", "at most 64")),
+    ("too-many-emitters", _copies("emitter", MAX_EMITTERS + 1),
+     ("emitter", f"{MAX_EMITTERS + 1} [[emitter]]", f"at most {MAX_EMITTERS}")),
 ]
 
 
