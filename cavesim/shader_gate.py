@@ -23,11 +23,12 @@ from pathlib import Path
 
 import moderngl
 
-from cavesim.engine.programs import ProgramSpec, feature_combinations, scene_programs
+from cavesim.engine.programs import feature_combinations, scene_programs
 from cavesim.errors import ShaderError
+from cavesim.gl.filtering import FILTER_PROBE
 from cavesim.render.programs import render_combinations, render_programs
 from cavesim.scene import load_scene
-from cavesim.shader_source import ShaderSource
+from cavesim.shader_source import ProgramSpec, ShaderSource
 
 VALIDATOR = "glslangValidator"
 STAGE_EXTENSIONS = {"vertex": "vert", "geometry": "geom", "fragment": "frag",
@@ -63,7 +64,7 @@ class Finding:
 
 
 def all_builds(scene_dir: Path) -> list[Build]:
-    """Every program of every scene in `scene_dir`, then every feature combination."""
+    """Every program of every scene in `scene_dir`, every feature combination, the probes."""
     builds: dict[tuple, Build] = {}
 
     def add(pairs: Iterable[tuple[ProgramSpec, dict]], origin: str) -> None:
@@ -75,6 +76,7 @@ def all_builds(scene_dir: Path) -> list[Build]:
         scene = load_scene(path)
         add([*scene_programs(scene), *render_programs(scene)], f"scene {path.stem}")
     add([*feature_combinations(), *render_combinations()], "feature combination")
+    add([(FILTER_PROBE, {})], "probe")
     return list(builds.values())
 
 

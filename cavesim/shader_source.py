@@ -26,6 +26,7 @@ STAGE_MACROS = {
 }
 MAX_INCLUDE_DEPTH = 8
 
+Defines = Mapping[str, int | float | bool]
 _NAME = re.compile(r"[A-Z][A-Z0-9_]*")
 _INT32_RANGE = range(-(2**31), 2**31)
 _FLOAT32_MAX = 3.4028234663852886e38
@@ -62,10 +63,32 @@ class ShaderSource:
         return _LOCATION.sub(name_file, log)
 
 
+@dataclass(frozen=True)
+class ProgramSpec:
+    """One program: its file under cavesim/shaders/, its stages, the defines it must be
+    given (every one decided), and what transform feedback captures."""
+
+    name: str
+    stages: tuple[str, ...]
+    allowed: tuple[str, ...] = ()
+    varyings: tuple[str, ...] = ()
+    root: Path = SHADER_ROOT
+
+    def sources(self, defines: Defines) -> dict[str, ShaderSource]:
+        """The assembled source of every stage."""
+        return {stage: assemble(self.name, stage, defines, self.allowed, self.root)
+                for stage in self.stages}
+
+    def build(self, ctx: moderngl.Context,
+              defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
+        return build_program(ctx, self.name, self.stages, defines, self.allowed,
+                             varyings=self.varyings, root=self.root)
+
+
 def assemble(
     name: str,
     stage: str,
-    defines: Mapping[str, int | float | bool],
+    defines: Defines,
     allowed: Collection[str],
     root: Path = SHADER_ROOT,
 ) -> ShaderSource:
@@ -90,7 +113,7 @@ def build_program(
     ctx: moderngl.Context,
     name: str,
     stages: Sequence[str],
-    defines: Mapping[str, int | float | bool],
+    defines: Defines,
     allowed: Collection[str],
     varyings: Sequence[str] = (),
     varyings_capture_mode: str = "interleaved",
@@ -119,7 +142,7 @@ def build_program(
         raise ShaderError(f"{name} ({stage} stage): {explained.strip()}") from e
 
 
-def _define_lines(defines: Mapping[str, int | float | bool], allowed: Collection[str]) -> list[str]:
+def _define_lines(defines: Defines, allowed: Collection[str]) -> list[str]:
     """Return one `#define NAME VALUE` line per define, sorted by name, after strict checks."""
     if isinstance(allowed, str):
         raise ShaderError(f"allowed must be a collection of names, not a string, got {allowed=!r}")

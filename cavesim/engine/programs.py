@@ -9,9 +9,7 @@ feature combination there is to check.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
-from pathlib import Path
+from collections.abc import Iterator
 
 import moderngl
 
@@ -25,7 +23,7 @@ from cavesim.scene.model import (
     OutOfDomain,
     Scene,
 )
-from cavesim.shader_source import SHADER_ROOT, ShaderSource, assemble, build_program
+from cavesim.shader_source import ProgramSpec
 
 INTEGRATOR_IDS = {integrator: i for i, integrator in enumerate(Integrator)}
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
@@ -35,31 +33,6 @@ SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
 EMIT_BATCH = 64  # particles per GS invocation: 64 x 10 components fits the GL minimum of 1024
 CHECKSUM_WORKGROUP_SIZE = 64
 CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 313 KB of sums to read
-
-Defines = Mapping[str, int | float | bool]
-
-
-@dataclass(frozen=True)
-class ProgramSpec:
-    """One program: its file under cavesim/shaders/, its stages, the defines it must be
-    given (every one decided), and what transform feedback captures."""
-
-    name: str
-    stages: tuple[str, ...]
-    allowed: tuple[str, ...] = ()
-    varyings: tuple[str, ...] = ()
-    root: Path = SHADER_ROOT
-
-    def sources(self, defines: Defines) -> dict[str, ShaderSource]:
-        """The assembled source of every stage."""
-        return {stage: assemble(self.name, stage, defines, self.allowed, self.root)
-                for stage in self.stages}
-
-    def build(self, ctx: moderngl.Context,
-              defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
-        return build_program(ctx, self.name, self.stages, defines, self.allowed,
-                             varyings=self.varyings, root=self.root)
-
 
 # The values each define can take (numbers: the extremes a scene may ask for).
 PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from cavesim.engine.programs import ProgramSpec
 from cavesim.scene.limits import MAX_PARTICLE_CLASSES
 from cavesim.scene.model import Scene
+from cavesim.shader_source import ProgramSpec
 
 SCENE = ProgramSpec("render/scene.glsl", ("vertex", "fragment"))
 DUST = ProgramSpec("render/dust.glsl", ("vertex", "geometry", "fragment"), ("CLASS_COUNT",))

@@ -186,8 +186,12 @@ void collide(inout vec3 p, inout vec3 v) {
 // Beyond this a state is lost to overflow; such a particle is dropped, never stored.
 const float RUNAWAY = 1e15;
 
+// Compared as bits: the magnitude bits of non-negative floats order as their values, and
+// NaN and Inf lie above every finite one. A driver may fold isnan() to false (GLSL does
+// not require NaNs) or treat float compares with NaN loosely; integer compares are exact.
 bool finite(vec3 x) {
-    return !any(isnan(x)) && !any(isinf(x)) && all(lessThan(abs(x), vec3(RUNAWAY)));
+    uvec3 magnitude = floatBitsToUint(x) & uvec3(0x7FFFFFFFu);
+    return all(lessThan(magnitude, uvec3(floatBitsToUint(RUNAWAY))));
 }
 
 // One step of one particle: the arithmetic shared by the GS/TF update and the compute bound.
