@@ -6,7 +6,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pytest
-from render_helpers import assert_matches_golden, particles_at, small_cave
+from PIL import Image
+from render_helpers import GOLDEN, assert_matches_golden, particles_at, small_cave
 from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict
 
 from cavesim.engine import FrameInput, ParticleSystem
@@ -109,3 +110,14 @@ def test_two_processes_draw_identical_pixels():
     with ProcessPoolExecutor(2, mp_context=multiprocessing.get_context("spawn")) as pool:
         a, b = pool.map(render_in_a_process, [40, 40])
     assert a == b
+
+
+def test_golden_comparison_on_another_driver_still_catches_a_wrong_picture():
+    golden = np.asarray(Image.open(GOLDEN / "front_fountain_96.png").convert("RGB"))
+    shaded = np.clip(golden.astype(int) + np.random.default_rng(0).integers(-20, 21,
+                                                                           golden.shape), 0, 255)
+    assert_matches_golden(shaded.astype(np.uint8), "front_fountain_96", "NVIDIA H100")
+    with pytest.raises(AssertionError, match="pixels differ"):
+        assert_matches_golden(np.zeros_like(golden), "front_fountain_96", "NVIDIA H100")
+    with pytest.raises(AssertionError, match="pixels differ"):
+        assert_matches_golden(shaded.astype(np.uint8), "front_fountain_96", "llvmpipe")
