@@ -2,13 +2,17 @@
 
 Every subcommand is one `add_<name>` function registering its parser and its handler.
 Bad input ends with a one-line error naming the flag, its value and what is allowed
-(exit code 2); an error while running exits with 1; neither prints a traceback.
+(exit code 2); an error while running exits with 1; neither prints a traceback. A bug
+ends with one line too; its traceback goes only to a log (stderr not a terminal) or where
+CAVESIM_TRACEBACK is set.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import traceback
 from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
@@ -26,6 +30,7 @@ CLUSTER_FRAMES = 300
 MAX_NODES = 64
 MAX_BENCH_PARTICLES = 3_000_000  # 120 MB per pool, below the 128 MiB storage-buffer limit
 USAGE_ERROR, RUN_ERROR = 2, 1
+TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
 
 
@@ -107,12 +112,14 @@ def add_bench(commands) -> None:
     parser.set_defaults(handler=bench)
 
 
-def _bench_out(args: argparse.Namespace) -> None:
-    try:  # before measuring, so a bad --out costs no benchmark run
-        args.out.mkdir(parents=True, exist_ok=True)
+def output_directory(path: Path, command: str, flag: str = "--out") -> Path:
+    """Make the output directory before any work, so a bad one costs no run."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise UsageError(f"cavesim bench: error: argument --out: cannot make directory "
-                         f"{str(args.out)!r}: {e.strerror or e}; give a writable directory") from e
+        raise UsageError(f"cavesim {command}: error: argument {flag}: cannot make directory "
+                         f"{str(path)!r}: {e.strerror or e}; give a writable directory") from e
+    return path
 
 
 def _bench_scene(path: Path):
@@ -134,7 +141,7 @@ def bench(args: argparse.Namespace, console: Console) -> int:
     from cavesim.bench import run_bench  # GL and numpy load only for the commands that use them
 
     scene = _bench_scene(args.scene or scene_file(BENCH_SCENE))
-    _bench_out(args)
+    output_directory(args.out, "bench")
     run_bench(scene, args.sizes or particle_counts(BENCH_SIZES), args.frames or BENCH_FRAMES,
               args.out, console)
     return 0
@@ -149,7 +156,7 @@ def bench_cluster(args: argparse.Namespace, console: Console) -> int:
                          "(the barrier runs use --nodes)")
     lockstep_scene = args.scene or scene_file(LOCKSTEP_SCENE)
     _bench_scene(lockstep_scene)
-    _bench_out(args)
+    output_directory(args.out, "bench")
     run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene,
                       args.nodes or node_counts(CLUSTER_NODES), args.frames or CLUSTER_FRAMES,
                       args.out, console)
@@ -208,11 +215,7 @@ def accuracy(args: argparse.Namespace, console: Console) -> int:
         downwash_case(scene, 1)
     except SceneError as e:
         raise UsageError(f"cavesim accuracy: error: argument --scene: {e}") from e
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"cavesim accuracy: error: argument --out: cannot make directory "
-                         f"{str(args.out)!r}: {e.strerror or e}; give a writable directory") from e
+    output_directory(args.out, "accuracy")
     run_command(scene, args.out, console, args.particles, args.quick)
     return 0
 
@@ -248,4 +251,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return USAGE_ERROR
     except CavesimError as e:
         print(f"cavesim: error: {e}", file=sys.stderr)
+        return RUN_ERROR
+    except Exception as e:  # a bug: one line for a person, the traceback for a log
+        if os.environ.get(TRACEBACK_VARIABLE) or not sys.stderr.isatty():
+            traceback.print_exc()
+        print(f"cavesim: error: internal error, {type(e).__name__}: {e} (a bug; set "
+              f"{TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
         return RUN_ERROR

@@ -31,3 +31,8 @@ class ProtocolError(CavesimError, ValueError):
     def __init__(self, reason: str, detail: str) -> None:
         super().__init__(f"{reason}: {detail}")
         self.reason = reason
+
+
+class ClusterError(CavesimError, RuntimeError):
+    """A cluster process failed, or the cluster cannot go on: names the process, its own
+    error line and its log."""

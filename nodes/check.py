@@ -18,6 +18,7 @@ import numpy as np
 import zenoh
 
 from cavesim.engine import FrameInput
+from cavesim.errors import ClusterError
 from cavesim.wire import FrameMessage, SessionKeys, encode
 from cavesim.wire.network import NetworkConfig
 from nodes.faults import NODE_FAULTS, Fault
@@ -111,7 +112,7 @@ class _Harness:
                     for reply in rogue.liveliness().get(keys.alive(), timeout=1.0) if reply.ok}
             if seen >= set(self.cluster.nodes):
                 return
-        raise TimeoutError(f"the rogue publisher did not reach the walls within {timeout} s")
+        raise ClusterError(f"the rogue publisher did not reach the walls within {timeout} s")
 
     def close(self) -> None:
         if self._rogue_session is not None:

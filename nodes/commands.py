@@ -12,7 +12,7 @@ import logging
 import sys
 from pathlib import Path
 
-from cavesim.cli import UsageError, frame_count, number_in, scene_file
+from cavesim.cli import UsageError, frame_count, number_in, output_directory, scene_file
 from cavesim.wire.keys import check_name
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
 from nodes.faults import parse_fault
@@ -146,11 +146,9 @@ def node(args: argparse.Namespace, console) -> int:
     return run_node(config)
 
 
-def default_frames(scene_path: Path, dt: float = 1 / 60) -> int:
+def default_frames(scene, dt: float = 1 / 60) -> int:
     """Frames to play a scene's wand timeline to its end (600 without a timeline)."""
-    from cavesim.scene import load_scene
-
-    helicopter = load_scene(scene_path).helicopter
+    helicopter = scene.helicopter
     if helicopter is None or not helicopter.timeline:
         return 600
     return round(helicopter.timeline[-1].t / dt)
@@ -182,19 +180,36 @@ def run(args: argparse.Namespace, console) -> int:
         read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim run: error: {e}") from e
-    frames = args.frames or default_frames(args.scene)
+    scene, cave = _checked_files(args)  # before anything is started
+    output_directory(args.out, "run")
+    frames = args.frames or default_frames(scene)
     if args.walls:
         plan = RunPlan(wall_names(args.walls), args.scene, frames, args.out, args.session,
                        args.key_file)
     else:
-        from cavesim.cave.geometry import load_cave
-
-        cave = load_cave(args.cave)
         plan = RunPlan(cave.names, args.scene, frames, args.out, args.session,
                        args.key_file, cave=args.cave, render_every=args.render_every,
                        stereo=args.stereo)
     report = run_cluster(plan, console)
     return 130 if report["interrupted"] else 0
+
+
+def _checked_files(args: argparse.Namespace):
+    """The run's scene and CAVE (None with --walls), checked before any process starts."""
+    from cavesim.cave.geometry import load_cave
+    from cavesim.errors import CaveError, SceneError
+    from cavesim.scene import load_scene
+
+    try:
+        scene = load_scene(args.scene)
+    except SceneError as e:
+        raise UsageError(f"cavesim run: error: argument --scene: {e}") from e
+    if args.walls:
+        return scene, None
+    try:
+        return scene, load_cave(args.cave)
+    except CaveError as e:
+        raise UsageError(f"cavesim run: error: argument --cave: {e}") from e
 
 
 def add_replay(commands) -> None:
@@ -212,6 +227,8 @@ def replay(args: argparse.Namespace, console) -> int:
 
     if not args.log.is_file():
         raise UsageError(f"cavesim replay: error: argument log: no file {str(args.log)!r}")
+    if args.out:
+        output_directory(args.out, "replay")
     try:
         with Progress(console=console) as progress:
             task = progress.add_task("replaying", total=None)
@@ -221,7 +238,6 @@ def replay(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim replay: error: argument log: {e}") from e
     summary = result.summary()
     if args.out:
-        args.out.mkdir(parents=True, exist_ok=True)
         (args.out / "replay.json").write_text(json.dumps(summary, indent=2) + "\n")
     verdict = "[green]every checksum reproduced" if result.equal else \
         f"[red]{len(result.mismatches)} frame(s) differ, first at {result.mismatches[0]['frame']}"
@@ -260,6 +276,7 @@ def check(args: argparse.Namespace, console) -> int:
         if f.frame > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
                              f"last frame {args.frames}")
+    output_directory(args.out, "check")
     _configure_logging(False)
     plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
                      args.session, args.barrier_timeout, on_loss=args.on_loss,

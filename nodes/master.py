@@ -20,7 +20,7 @@ import numpy as np
 import zenoh
 
 from cavesim.engine import FrameInput
-from cavesim.errors import ProtocolError
+from cavesim.errors import ClusterError, ProtocolError
 from cavesim.framelog import FrameLogWriter
 from cavesim.helicopter.flight import (
     WAND_LIMIT,
@@ -179,8 +179,9 @@ class Master:
         while set(self.config.walls) - self.state.alive:
             if time.monotonic() > deadline:
                 missing = sorted(set(self.config.walls) - self.state.alive)
-                raise TimeoutError(f"walls {missing} did not come up within "
-                                   f"{self.config.join_timeout:.0f} s")
+                raise ClusterError(f"walls {missing} did not come up within "
+                                   f"{self.config.join_timeout:g} s (--join-timeout); see "
+                                   f"their logs")
             self._pump(deadline)
         self.state.members = list(self.config.walls)
 
@@ -285,7 +286,7 @@ class Master:
             self._publish_frame(k, data)
             deadline = time.monotonic() + self.config.barrier_timeout
         if not self.state.members:
-            raise RuntimeError(f"frame {k}: every wall node is gone")
+            raise ClusterError(f"frame {k}: every wall node is gone")
         return time.monotonic() - sent
 
     def _agree(self, k: int) -> tuple[str, int]:

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from cavesim.errors import ClusterError
 from nodes.launcher import LocalCluster
 
 
@@ -46,16 +47,15 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
         with Progress(*columns, console=console, transient=False) as progress:
             task = progress.add_task(f"{len(plan.walls)} walls", total=plan.frames, live=0)
             try:
-                for line in master.stdout:
-                    update = json.loads(line)
-                    progress.update(task, completed=update["frame"], live=update["live"])
+                cluster.follow(lambda update: progress.update(
+                    task, completed=update["frame"], live=update["live"]))
             except KeyboardInterrupt:  # the children run in sessions of their own: pass it on
                 console.print("[yellow]interrupted: stopping the cluster")
                 master.send_signal(signal.SIGINT)
         master.wait()
     report_path = plan.out / "report.json"
     if not report_path.exists():
-        raise RuntimeError(f"the master wrote no report; see {plan.out / 'logs' / 'master.log'}")
+        raise ClusterError(f"the master wrote no report (log: {cluster.log_path('master')})")
     report = json.loads(report_path.read_text())
     if plan.node_args():
         report["images"] = assemble_images(plan, console)

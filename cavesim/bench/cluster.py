@@ -138,10 +138,8 @@ def _cluster_run(scene: Path, walls: int, frames: int, run_dir: Path,
     with LocalCluster(scene, run_dir, session) as cluster:
         for wall in names:
             cluster.start_node(wall)
-        master = cluster.start_master(names, frames)
-        for line in master.stdout:
-            tick(json.loads(line)["frame"])
-        code = master.wait()
+        cluster.start_master(names, frames)
+        code = cluster.follow(lambda update: tick(update["frame"]))
     report_path = run_dir / "report.json"
     if code != 0 or not report_path.exists():
         raise BenchError(f"the {walls}-node cluster run ended with exit code {code}; "

@@ -1,0 +1,146 @@
+"""`cavesim run` fails fast and clearly: files checked before anything starts, a process that
+exits early stops the others at once and is named with its own error line and its log,
+and no traceback reaches the user."""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rich.console import Console
+
+from cavesim import cli
+from cavesim.errors import ClusterError
+from nodes.launcher import last_error
+from nodes.run import RunPlan, run_cluster
+
+ROOT = Path(__file__).parents[1]
+MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
+JOIN_TIMEOUT = 60.0  # the master's default: failing fast means long before it
+
+
+def cavesim(*args: str, env: dict | None = None, timeout: float = 120):
+    started = time.monotonic()
+    done = subprocess.run([sys.executable, "-m", "cavesim", *args], cwd=ROOT, text=True,
+                          capture_output=True, timeout=timeout, env={**os.environ, **(env or {})})
+    return done, time.monotonic() - started
+
+
+def assert_one_clear_line(stderr: str) -> str:
+    assert "Traceback" not in stderr
+    (line,) = stderr.strip().splitlines()
+    return line
+
+
+def test_a_scene_that_does_not_load_stops_run_before_anything_starts(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[simulation]\ncapacity = -5\n")
+    done, _ = cavesim("run", "--walls", "2", "--scene", str(bad), "--out", str(tmp_path / "o"))
+    assert done.returncode == 2
+    line = assert_one_clear_line(done.stderr)
+    assert line.startswith("cavesim run: error: argument --scene: ")
+    assert "simulation.capacity" in line and "-5" in line
+    assert not (tmp_path / "o").exists(), "nothing was started, nothing was written"
+
+
+def test_a_bad_cave_file_stops_run_before_anything_starts(tmp_path):
+    cave = tmp_path / "cave.toml"
+    cave.write_text('name = "x"\n[[wall]]\nname = "front"\n')
+    done, _ = cavesim("run", "--cave", str(cave), "--scene", str(MINIMAL),
+                      "--out", str(tmp_path / "o"))
+    assert done.returncode == 2
+    assert assert_one_clear_line(done.stderr).startswith("cavesim run: error: argument --cave: ")
+    assert not (tmp_path / "o").exists()
+
+
+def test_an_output_path_that_is_a_file_is_a_usage_error(tmp_path):
+    out = tmp_path / "taken"
+    out.write_text("a file")
+    done, _ = cavesim("run", "--walls", "1", "--scene", str(MINIMAL), "--out", str(out))
+    assert done.returncode == 2
+    line = assert_one_clear_line(done.stderr)
+    assert line.startswith("cavesim run: error: argument --out: cannot make directory")
+
+
+@pytest.mark.slow
+def test_nodes_that_cannot_start_stop_the_run_at_once_naming_the_wall_and_its_log(tmp_path):
+    # no EGL vendor: every node fails to open its context; the master needs no GL
+    done, seconds = cavesim("run", "--walls", "2", "--scene", str(MINIMAL), "--frames", "50",
+                            "--out", str(tmp_path),
+                            env={"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"})
+    assert done.returncode == 1
+    line = assert_one_clear_line(done.stderr)
+    assert line.startswith("cavesim: error: wall ")
+    assert "exited with code 1: cannot open a headless OpenGL context" in line
+    wall = line.split()[3]
+    assert line.endswith(f"(log: {tmp_path / 'logs' / wall}.log)")
+    assert seconds < JOIN_TIMEOUT / 2, f"took {seconds:.1f} s"
+    assert not _running(str(tmp_path)), "every process of the run has ended"
+
+
+@pytest.mark.slow
+def test_a_master_that_fails_stops_the_nodes_at_once(tmp_path):
+    plan = RunPlan(("front", "left"), MINIMAL, 50, tmp_path, f"ff{os.getpid()}",
+                   master_args=("--dt", "5"))
+    started = time.monotonic()
+    with pytest.raises(ClusterError) as raised:
+        run_cluster(plan, Console(file=io.StringIO()))
+    message = str(raised.value)
+    assert message.startswith("the master exited with code 2: cavesim master: error: "
+                              "argument --dt:")
+    assert message.endswith(f"(log: {tmp_path / 'logs' / 'master.log'})")
+    assert time.monotonic() - started < JOIN_TIMEOUT / 2
+    assert not _running(str(tmp_path))
+
+
+def _running(marker: str) -> list[str]:
+    """Command lines of live processes that mention `marker` (this run's output folder)."""
+    found = []
+    for pid in os.listdir("/proc"):
+        if pid.isdigit():
+            try:
+                command = Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ")
+            except OSError:
+                continue
+            if marker.encode() in command and int(pid) != os.getpid():
+                found.append(command.decode(errors="replace"))
+    return found
+
+
+def test_last_error_prefers_cavesim_lines_and_strips_the_prefix(tmp_path):
+    log = tmp_path / "node.log"
+    log.write_text("2026 INFO up\ncavesim: error: the shader did not compile\n\n")
+    assert last_error(log) == "the shader did not compile"
+    log.write_text("Traceback (most recent call last):\n  File x\nValueError: odd\n")
+    assert last_error(log) == "ValueError: odd"
+    assert last_error(tmp_path / "missing.log").startswith("no log to read")
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def _raise(args, console):
+    raise ZeroDivisionError("x")
+
+
+def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monkeypatch):
+    monkeypatch.setattr(cli, "stability", _raise)  # a handler with a bug
+    monkeypatch.delenv(cli.TRACEBACK_VARIABLE, raising=False)
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert cli.main(["stability"]) == cli.RUN_ERROR
+    assert assert_one_clear_line(terminal.getvalue()) == (
+        "cavesim: error: internal error, ZeroDivisionError: x (a bug; set "
+        "CAVESIM_TRACEBACK=1 for the traceback)")
+    log = io.StringIO()
+    monkeypatch.setattr(sys, "stderr", log)
+    assert cli.main(["stability"]) == cli.RUN_ERROR
+    assert "Traceback" in log.getvalue()
+    assert log.getvalue().strip().splitlines()[-1].startswith("cavesim: error: internal error")
