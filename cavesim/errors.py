@@ -18,7 +18,13 @@ class ShaderError(CavesimError):
 
 
 class ContextError(CavesimError, RuntimeError):
-    """No usable headless OpenGL context (names the package to install)."""
+    """No usable headless OpenGL context or EGL device: `problem` says what is wrong, `fix`
+    what to do (the packages to install, the flag to change); the message is both."""
+
+    def __init__(self, problem: str, fix: str) -> None:
+        super().__init__(f"{problem}; {fix}")
+        self.problem = problem
+        self.fix = fix
 
 
 class FieldError(CavesimError, ValueError):
