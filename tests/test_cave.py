@@ -140,6 +140,16 @@ def test_upper_right_is_optional(tmp_path):
     np.testing.assert_array_equal(cave.walls[0].upper_right, FRONT["upper_right"])
 
 
+def test_gpu_is_optional_and_part_of_the_wall(tmp_path):
+    cave = load_cave(write_cave(tmp_path / "c.toml", [dict(FRONT, gpu=0),
+                                                      dict(FRONT, name="back", gpu=255)]))
+    assert [w.gpu for w in cave.walls] == [0, 255]
+    assert load_cave(write_cave(tmp_path / "d.toml", [FRONT])).walls[0].gpu is None
+    front = cave.walls[0]
+    other = Wall("front", front.lower_left, front.lower_right, front.upper_left, (480, 480), 1)
+    assert front != other and hash(front) != hash(other)
+
+
 def _front(**changes):
     w = dict(FRONT, **changes)
     return {k: v for k, v in w.items() if v is not None}
@@ -182,6 +192,11 @@ BAD = [
     ("bad_wall_name", [_front(name="front wall")], {}, "wall[0].name", "front wall", "letter"),
     ("long_wall_name", [_front(name="w" * 33)], {}, "wall[0].name", "w" * 33, "1-32"),
     ("bad_cave_name", [FRONT], {"name": ""}, "name", "", "1-32"),
+    ("gpu_negative", [_front(gpu=-1)], {}, "wall[0].gpu", -1, "integer >= 0"),
+    ("gpu_too_big", [_front(gpu=256)], {}, "wall[0].gpu", 256, "<= 255"),
+    ("gpu_float", [_front(gpu=1.0)], {}, "wall[0].gpu", 1.0, "EGL device index"),
+    ("gpu_bool", [_front(gpu=True)], {}, "wall[0].gpu", True, "EGL device index"),
+    ("gpu_string", [_front(gpu="0")], {}, "wall[0].gpu", "0", "cavesim doctor"),
 ]
 
 

@@ -4,7 +4,8 @@ A `Cave` is read once at start-up (`load_cave`) and handed to the renderer, whic
 one off-axis projection per `Wall` from the tracked head (`cavesim.cave.projection`).
 Room coordinates are metres, z up, floor at z = 0. A wall is given by three corners
 seen from inside the room: `lower_left`, `lower_right`, `upper_left`; its `normal` points
-from the screen toward the viewer.
+from the screen toward the viewer. A wall may name the EGL device (`gpu`) its node computes
+on; `cavesim run` spreads the other walls over the machine's GPUs.
 """
 
 from __future__ import annotations
@@ -22,7 +23,8 @@ from cavesim._toml import read_toml
 from cavesim.errors import CaveError
 
 TOP_KEYS = ("name", "wall")
-WALL_KEYS = ("name", "lower_left", "lower_right", "upper_left", "upper_right", "resolution")
+WALL_KEYS = ("name", "lower_left", "lower_right", "upper_left", "upper_right", "resolution",
+             "gpu")
 NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,32}")
 NAME_RULE = "must be 1-32 characters, each a letter, digit, '_' or '-'"
 MIN_EDGE_M = 1e-6  # shorter edges make a wall of no area
@@ -30,6 +32,7 @@ MAX_COS = 1e-6  # |cos| of the angle between the bottom and left edges of a rect
 CORNER_TOL_M = 1e-6  # how far a given upper_right may sit from the one the rectangle implies
 ASPECT_TOL = 0.01  # pixels may be 1% away from square
 RESOLUTION_RANGE = (16, 8192)
+GPU_RANGE = (0, 255)  # EGL device indices a wall (or `cavesim node --gpu`) may name
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -44,13 +47,15 @@ def _point(value: object) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class Wall:
-    """One flat rectangular screen: three corners (m, read-only float64) and its pixels."""
+    """One flat rectangular screen: three corners (m, read-only float64), its pixels and,
+    optionally, the EGL device its node computes on."""
 
     name: str
     lower_left: np.ndarray
     lower_right: np.ndarray
     upper_left: np.ndarray
     resolution: tuple[int, int]  # (width_px, height_px)
+    gpu: int | None = None  # EGL device index (None: `cavesim run` chooses)
 
     def __post_init__(self) -> None:
         for key in ("lower_left", "lower_right", "upper_left"):
@@ -65,11 +70,12 @@ class Wall:
         if not isinstance(other, Wall):
             return NotImplemented
         return (self.name == other.name and self.resolution == other.resolution
+                and self.gpu == other.gpu
                 and all(np.array_equal(getattr(self, k), getattr(other, k))
                         for k in ("lower_left", "lower_right", "upper_left")))
 
     def __hash__(self) -> int:
-        return hash((self.name, self.resolution, self.corners.tobytes()))
+        return hash((self.name, self.resolution, self.gpu, self.corners.tobytes()))
 
     @property
     def upper_right(self) -> np.ndarray:
@@ -243,4 +249,13 @@ def _wall(src: str, key: str, raw: Mapping[str, Any]) -> Wall:
                    f"is {width:g} m x {height:g} m (aspect {m_aspect:.4g}); the two must agree "
                    f"within {ASPECT_TOL:.0%}")
     return Wall(name=name, lower_left=ll, lower_right=lr, upper_left=ul,
-                resolution=(res[0], res[1]))
+                resolution=(res[0], res[1]), gpu=_gpu(src, f"{key}.gpu", raw.get("gpu")))
+
+
+def _gpu(src: str, key: str, value: object) -> int | None:
+    lo, hi = GPU_RANGE
+    if value is not None and (isinstance(value, bool) or not isinstance(value, int)
+                              or not lo <= value <= hi):
+        raise _bad(src, key, value, f"must be an EGL device index, an integer >= {lo} and "
+                                    f"<= {hi} (`cavesim doctor` lists the devices)")
+    return value
