@@ -16,10 +16,12 @@ from hypothesis import strategies as st
 from cavesim.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput
 from cavesim.wire.messages import (
     MAX_PARAMS,
+    MAX_TEXT,
     Command,
     ControlMessage,
     FrameMessage,
     HeadState,
+    InfoMessage,
     ReportMessage,
     StateMessage,
     Status,
@@ -78,11 +80,15 @@ state_messages = st.builds(StateMessage, frame_numbers, st.integers(0, U64),
 
 tracking_messages = st.builds(TrackingMessage, frame_numbers, heads, wands)
 
+texts = st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=MAX_TEXT)
+info_messages = st.builds(InfoMessage, frame_numbers, names, st.integers(0, 2**16 - 1),
+                          st.booleans(), texts, texts, texts)
+
 
 def messages() -> st.SearchStrategy:
     """Any valid message of any kind."""
     return st.one_of(frame_messages, report_messages, control_messages, state_messages,
-                     tracking_messages)
+                     tracking_messages, info_messages)
 
 
 MUTATIONS = ("flip", "insert", "delete", "truncate")

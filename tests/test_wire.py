@@ -22,6 +22,7 @@ from cluster_helpers import (
     dts,
     frame_messages,
     hmac_keys,
+    info_messages,
     messages,
     mutate,
     mutations,
@@ -37,11 +38,13 @@ from cavesim.errors import ProtocolError
 from cavesim.wire import messages as wire
 from cavesim.wire.messages import (
     MAX_PARAMS,
+    MAX_TEXT,
     VERSION,
     Command,
     ControlMessage,
     FrameMessage,
     HeadState,
+    InfoMessage,
     Kind,
     ReportMessage,
     StateMessage,
@@ -94,6 +97,11 @@ def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"") -> 
                                     status) + extra
 
 
+def info_body(node: bytes = b"front", device: int = 0, software: int = 1,
+              texts=(b"llvmpipe", b"Mesa", b"4.5 Mesa"), extra: bytes = b"") -> bytes:
+    return name(node) + struct.pack("<HB", device, software) + b"".join(map(name, texts)) + extra
+
+
 def f32_bits(value: float) -> int:
     return int(np.float32(value).view(np.uint32))
 
@@ -142,6 +150,9 @@ EDGE_MESSAGES = {
     "tracking": TrackingMessage(12, HeadState((0.25, -0.5, 1.75), (0.0, 0.0, 0.5, 0.75)),
                                 WandState((1.0, 2.0, 1.25), (0.5, 0.0, 0.0, 0.5), 5,
                                           (0.25, -1.0, 0.0, 0.5))),
+    "info": InfoMessage(3, "front", 0, True, "llvmpipe (LLVM 15.0.6, 256 bits)", "Mesa/X.org",
+                        "4.5 (Core Profile) Mesa 22.3.6"),
+    "info-edges": InfoMessage(U64, "x" * 32, 2**16 - 1, False, "~" * MAX_TEXT, "", " "),
 }
 
 
@@ -174,6 +185,16 @@ def test_float32_bits_of_dt_survive_exactly(dt):
     assert f32_bits(decode(encode(message, SESSION, KEY), SESSION, KEY).inputs.dt) == sent
 
 
+def test_info_message_is_made_from_a_gpu_description_and_gives_it_back():
+    gpu = {"device": 2, "kind": "hardware", "renderer": "NVIDIA H100\u2122 80GB",
+           "vendor": "NVIDIA Corporation", "version": "4.6.0 NVIDIA 580.65" + "0" * 300}
+    message = InfoMessage.of_gpu(7, "front", gpu)
+    assert message.renderer == "NVIDIA H100? 80GB" and len(message.version) == MAX_TEXT
+    assert decode(encode(message, SESSION, KEY), SESSION, KEY) == message
+    assert message.gpu() == {**gpu, "renderer": message.renderer, "version": message.version}
+    assert InfoMessage.of_gpu(0, "left", {**gpu, "kind": "software"}).gpu()["kind"] == "software"
+
+
 def test_crafted_bytes_match_encode():
     """The layout these tests craft by hand is the one `encode` writes."""
     assert HEADER.size == 28
@@ -183,6 +204,8 @@ def test_crafted_bytes_match_encode():
     frame = FrameMessage(1, FrameInput(np.float32(1 / 60), MATRIX), params=(0.25,))
     assert encode(frame, SESSION) == craft(Kind.FRAME, frame_body(
         f32_bits(1 / 60), MATRIX, params=(0.25,)))
+    info = InfoMessage(1, "front", 0, True, "llvmpipe", "Mesa", "4.5 Mesa")
+    assert encode(info, SESSION) == craft(Kind.INFO, info_body())
 
 
 @pytest.mark.parametrize("message, match", [
@@ -191,6 +214,11 @@ def test_crafted_bytes_match_encode():
     (ReportMessage(1, "bad/name", DIGEST, 0, 0, 0, 0), "node name"),
     (ReportMessage(1, "", DIGEST, 0, 0, 0, 0), "node name"),
     (ControlMessage(1, Command.RESYNC, "x" * 33, "front"), "node name"),
+    (InfoMessage(1, "front", 2**16, False, "r", "v", "4.6"), "device index"),
+    (InfoMessage(1, "front", 0, False, "r" * (MAX_TEXT + 1), "v", "4.6"), "renderer"),
+    (InfoMessage(1, "front", 0, False, "r", "v\u00e9", "4.6"), "vendor"),
+    (InfoMessage(1, "front", 0, False, "r", "v", "4.6\n"), "version"),
+    (InfoMessage(1, "", 0, False, "r", "v", "4.6"), "node name"),
 ])
 def test_encode_refuses_what_decode_would_reject(message, match):
     with pytest.raises(ValueError, match=match):
@@ -300,6 +328,20 @@ REJECTIONS = [
     ("param-signed-inf", craft(Kind.FRAME, frame_body(params=(-math.inf,)), key=KEY), KEY,
      "bad-value"),
     ("report-status-3", craft(Kind.REPORT, report_body(status=3)), None, "bad-value"),
+    ("info-empty", craft(Kind.INFO, b""), None, "bad-payload"),
+    ("info-name-slash", craft(Kind.INFO, info_body(node=b"a/b")), None, "bad-payload"),
+    ("info-body-short", craft(Kind.INFO, name(b"front") + b"\x00\x00"), None, "bad-payload"),
+    ("info-string-missing", craft(Kind.INFO, info_body(texts=(b"r", b"v"))), None,
+     "bad-payload"),
+    ("info-string-past-end", craft(Kind.INFO, info_body()[:-1]), None, "bad-payload"),
+    ("info-stray-byte", craft(Kind.INFO, info_body(extra=b"\x00")), None, "bad-payload"),
+    ("info-software-2", craft(Kind.INFO, info_body(software=2)), None, "bad-value"),
+    ("info-string-control", craft(Kind.INFO, info_body(texts=(b"r\n", b"v", b"4"))), None,
+     "bad-value"),
+    ("info-string-utf8", craft(Kind.INFO, info_body(texts=(b"r", "v\u00e9".encode(), b"4"))),
+     None, "bad-value"),
+    ("info-string-del", craft(Kind.INFO, info_body(texts=(b"r", b"v", b"\x7f"))), None,
+     "bad-value"),
 ]
 
 
@@ -412,7 +454,8 @@ def test_sessions_never_decode_each_others_messages(message, mine, theirs, key):
     assert reason_of(encode(message, theirs, key), mine, key) == "wrong-session"
 
 
-@given(message=frame_messages | report_messages | control_messages | state_messages)
+@given(message=frame_messages | report_messages | control_messages | state_messages
+       | info_messages)
 def test_a_signed_message_is_unexpected_without_key_and_unsigned_with_one(message):
     assert reason_of(encode(message, SESSION, KEY), SESSION) == "unexpected-signature"
     assert reason_of(encode(message, SESSION), SESSION, KEY) == "unsigned"

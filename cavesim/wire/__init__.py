@@ -6,6 +6,7 @@ from cavesim.wire.messages import (
     ControlMessage,
     FrameMessage,
     HeadState,
+    InfoMessage,
     ReportMessage,
     StateMessage,
     TrackingMessage,
@@ -14,5 +15,5 @@ from cavesim.wire.messages import (
     encode,
 )
 
-__all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "ReportMessage", "SessionKeys",
-           "StateMessage", "TrackingMessage", "WandState", "decode", "encode"]
+__all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "InfoMessage", "ReportMessage",
+           "SessionKeys", "StateMessage", "TrackingMessage", "WandState", "decode", "encode"]

@@ -45,9 +45,13 @@ class SessionKeys:
     def state(self, node: str = "*") -> str:
         return f"{self.prefix}/state/{node}"
 
+    def info(self, node: str = "*") -> str:
+        """Where a node answers the master's question: which GPU do you compute on?"""
+        return f"{self.prefix}/info/{node}"
+
     def alive(self, node: str = "*") -> str:
         return f"{self.prefix}/alive/{node}"
 
     def node_of(self, key: str) -> str:
-        """The wall name at the end of a report, state or alive key."""
+        """The wall name at the end of a report, state, info or alive key."""
         return str(key).rsplit("/", 1)[-1]

@@ -12,6 +12,7 @@ import hashlib
 import hmac
 import math
 import struct
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import IntEnum
 
@@ -23,18 +24,20 @@ from cavesim.errors import ProtocolError
 from cavesim.wire.keys import check_name
 
 MAGIC = b"CVSM"
-VERSION = 2  # 2: frames carry the head pose
+VERSION = 3  # 2: frames carry the head pose; 3: a node's info (its GPU) answers a query
 HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
 MAX_PARAMS = 32
 MAX_STATE_PARTICLES = 3_000_000
 MAX_STATE_EMITTERS = 4096
+MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
 
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
 _STATE = struct.Struct("<QII")  # seed, particles, emitters
 _TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
+_INFO = struct.Struct("<HB")  # EGL device index, software (0 or 1); then three strings
 
 
 class Kind(IntEnum):
@@ -43,6 +46,7 @@ class Kind(IntEnum):
     CONTROL = 3
     STATE = 4
     TRACKING = 5
+    INFO = 6
 
 
 class Command(IntEnum):
@@ -117,7 +121,36 @@ class TrackingMessage:
     wand: WandState
 
 
-Message = FrameMessage | ReportMessage | ControlMessage | StateMessage | TrackingMessage
+@dataclass(frozen=True)
+class InfoMessage:
+    """A node's answer to the master's info query: the GPU it computes on."""
+
+    frame: int  # the node's last frame when it answered
+    node: str
+    device: int  # EGL device index
+    software: bool  # a CPU renderer (Mesa's llvmpipe), not a GPU
+    renderer: str  # GL_RENDERER, GL_VENDOR and GL_VERSION (which names the driver) ...
+    vendor: str
+    version: str  # ... each printable ASCII, at most MAX_TEXT characters
+
+    @classmethod
+    def of_gpu(cls, frame: int, node: str, gpu: Mapping) -> InfoMessage:
+        """The message for a GPU as `cavesim.gl.context.gpu_of` describes it; characters
+        the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
+        def fit(text: str) -> str:
+            return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
+
+        return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
+                   fit(gpu["vendor"]), fit(gpu["version"]))
+
+    def gpu(self) -> dict:
+        """The GPU as `gpu_of` describes it, for report.json."""
+        return {"device": self.device, "kind": "software" if self.software else "hardware",
+                "renderer": self.renderer, "vendor": self.vendor, "version": self.version}
+
+
+Message = (FrameMessage | ReportMessage | ControlMessage | StateMessage | TrackingMessage
+           | InfoMessage)
 
 
 def session_id(session: str) -> int:
@@ -288,6 +321,47 @@ def _read_tracking(frame: int, payload: bytes) -> TrackingMessage:
                                                                          v[15:19]))
 
 
+def _write_info(m: InfoMessage) -> tuple[Kind, bytes]:
+    if not 0 <= m.device <= 0xFFFF:
+        raise ValueError(f"EGL device index must be in [0, 65535], got {m.device}")
+    texts = b"".join(_text_bytes(what, getattr(m, what))
+                     for what in ("renderer", "vendor", "version"))
+    return Kind.INFO, _name_bytes(m.node) + _INFO.pack(m.device, int(m.software)) + texts
+
+
+def _read_info(frame: int, payload: bytes) -> InfoMessage:
+    node, rest = _read_name(payload)
+    if len(rest) < _INFO.size:
+        raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
+    device, software = _INFO.unpack_from(rest)
+    if software > 1:
+        raise ProtocolError("bad-value", f"info software flag {software} is neither 0 nor 1")
+    rest = rest[_INFO.size:]
+    texts = []
+    for _ in range(3):
+        text, rest = _read_text(rest)
+        texts.append(text)
+    if rest:
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info message")
+    return InfoMessage(frame, node, device, bool(software), *texts)
+
+
+def _text_bytes(what: str, text: str) -> bytes:
+    if len(text) > MAX_TEXT or any(not " " <= c <= "~" for c in text):
+        raise ValueError(f"{what} must be printable ASCII of at most {MAX_TEXT} characters, "
+                         f"got {text!r}")
+    return bytes([len(text)]) + text.encode("ascii")
+
+
+def _read_text(data: bytes) -> tuple[str, bytes]:
+    if not data or len(data) < 1 + data[0]:
+        raise ProtocolError("bad-payload", "a string runs past the end of the message")
+    raw, rest = data[1:1 + data[0]], data[1 + data[0]:]
+    if any(not 0x20 <= b <= 0x7E for b in raw):
+        raise ProtocolError("bad-value", f"string {raw!r} is not printable ASCII")
+    return raw.decode("ascii"), rest
+
+
 def _name_bytes(name: str, optional: bool = False) -> bytes:
     if not (optional and name == ""):
         check_name("node name", name)
@@ -309,7 +383,7 @@ def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
 
 _PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
                     ControlMessage: _write_control, StateMessage: _write_state,
-                    TrackingMessage: _write_tracking}
+                    TrackingMessage: _write_tracking, InfoMessage: _write_info}
 _PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
                     Kind.CONTROL: _read_control, Kind.STATE: _read_state,
-                    Kind.TRACKING: _read_tracking}
+                    Kind.TRACKING: _read_tracking, Kind.INFO: _read_info}
