@@ -12,6 +12,7 @@ import logging
 import sys
 from pathlib import Path
 
+from cavesim.cave.geometry import GPU_RANGE
 from cavesim.cli import UsageError, frame_count, number_in, output_directory, scene_file
 from cavesim.wire.keys import check_name
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
@@ -126,6 +127,9 @@ def add_node(commands) -> None:
                         help="draw the wall every K frames (0: never)")
     parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")
     parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
+    parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
+                        help="EGL device to compute on (default: device 0; `cavesim doctor` "
+                             "lists them)")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
@@ -142,7 +146,7 @@ def node(args: argparse.Namespace, console) -> int:
                          "and --images too")
     config = NodeConfig(args.wall, args.scene, args.session, network, key,
                         tuple(args.inject), args.slow_delay, args.cave, args.render_every,
-                        args.images, args.stereo)
+                        args.images, args.stereo, gpu=args.gpu)
     return run_node(config)
 
 
@@ -181,15 +185,13 @@ def run(args: argparse.Namespace, console) -> int:
     except ValueError as e:
         raise UsageError(f"cavesim run: error: {e}") from e
     scene, cave = _checked_files(args)  # before anything is started
+    walls = wall_names(args.walls) if args.walls else cave.names
+    gpus = _gpus(args, walls, cave)
     output_directory(args.out, "run")
     frames = args.frames or default_frames(scene)
-    if args.walls:
-        plan = RunPlan(wall_names(args.walls), args.scene, frames, args.out, args.session,
-                       args.key_file)
-    else:
-        plan = RunPlan(cave.names, args.scene, frames, args.out, args.session,
-                       args.key_file, cave=args.cave, render_every=args.render_every,
-                       stereo=args.stereo)
+    plan = RunPlan(walls, args.scene, frames, args.out, args.session, args.key_file,
+                   cave=None if args.walls else args.cave, render_every=args.render_every,
+                   stereo=args.stereo, gpus=gpus)
     report = run_cluster(plan, console)
     return 130 if report["interrupted"] else 0
 
@@ -210,6 +212,20 @@ def _checked_files(args: argparse.Namespace):
         return scene, load_cave(args.cave)
     except CaveError as e:
         raise UsageError(f"cavesim run: error: argument --cave: {e}") from e
+
+
+def _gpus(args: argparse.Namespace, walls: tuple[str, ...], cave) -> dict[str, int]:
+    """Each wall's EGL device: the CAVE file's `gpu`, else spread over this machine's GPUs."""
+    from cavesim.errors import ContextError
+    from cavesim.gl.devices import list_devices
+    from nodes.gpus import spread_walls
+
+    pinned = {} if cave is None else {w.name: w.gpu for w in cave.walls if w.gpu is not None}
+    devices = list_devices()  # no EGL at all: its error says what to install
+    try:
+        return spread_walls(walls, pinned, devices)
+    except ContextError as e:
+        raise UsageError(f"cavesim run: error: argument --cave: {args.cave}: {e}") from e
 
 
 def add_replay(commands) -> None:

@@ -3,7 +3,8 @@
 Per frame k: draw the inputs once, publish them, wait until every member has reported k
 (the barrier: on a timeout, log who is stalled and send the frame again), compare the
 checksums, name the odd nodes by majority and resync them from a healthy node, admit
-nodes that joined late, log the frame. Membership comes from liveliness tokens.
+nodes that joined late, log the frame. Membership comes from liveliness tokens; a wall
+that comes up is asked, without waiting, which GPU it computes on (for the report).
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from cavesim.wire import (
     Command,
     ControlMessage,
     FrameMessage,
+    InfoMessage,
     ReportMessage,
     SessionKeys,
     TrackingMessage,
@@ -53,6 +55,7 @@ from nodes.script import ScriptedView
 
 log = logging.getLogger("cavesim.master")
 LOSS_POLICIES = ("continue", "pause")
+INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
 
 
 @dataclass(frozen=True)
@@ -132,24 +135,33 @@ class Master:
             self._on_alive(self.keys.node_of(sample.key_expr),
                            sample.kind == zenoh.SampleKind.PUT)
             return
+        if kind == "info":  # a zenoh Reply: a sample, or the queryable's error
+            if sample.ok is None:
+                log.warning("an info query failed: %s", sample.err.payload.to_string())
+                return
+            sample = sample.ok
         try:
-            report = decode(sample.payload.to_bytes(), self.config.session, self.config.key)
+            message = decode(sample.payload.to_bytes(), self.config.session, self.config.key)
         except ProtocolError as e:
             self.rejects.reject(e, str(sample.key_expr))
             return
         if kind == "tracking":
-            self._on_tracking(report, str(sample.key_expr))
+            self._on_tracking(message, str(sample.key_expr))
             return
         sender = self.keys.node_of(sample.key_expr)
-        if not isinstance(report, ReportMessage) or report.node != sender \
+        expected = InfoMessage if kind == "info" else ReportMessage
+        if not isinstance(message, expected) or message.node != sender \
                 or sender not in self.config.walls:
-            self.rejects.reject(ProtocolError("unexpected", f"{type(report).__name__} from "
-                                              f"{sender!r} on a report key"),
+            self.rejects.reject(ProtocolError("unexpected", f"{type(message).__name__} from "
+                                              f"{sender!r} on a {kind} key"),
                                 str(sample.key_expr))
             return
-        self.reports[(report.frame, report.node)] = report
-        self.last_received[report.node] = report.frame
-        self.record.node_rejected[report.node] = report.rejected
+        if kind == "info":
+            self.record.gpus[sender] = message.gpu()
+            return
+        self.reports[(message.frame, message.node)] = message
+        self.last_received[message.node] = message.frame
+        self.record.node_rejected[message.node] = message.rejected
 
     def _on_tracking(self, message, key: str) -> None:
         if isinstance(message, TrackingMessage):
@@ -163,6 +175,8 @@ class Master:
             return
         if alive:
             self.state.alive.add(node)
+            self.session.get(self.keys.info(node), lambda reply: self.events.put(
+                ("info", reply)), timeout=INFO_TIMEOUT)  # a callback: returns at once
             return
         self.state.alive.discard(node)
         if node in self.state.members and not self.stopping:

@@ -26,6 +26,7 @@ class RunRecord:
     final: dict = field(default_factory=dict)  # last frame: members and whether they agree
     node_rejected: dict[str, int] = field(default_factory=dict)
     master_rejected: dict[str, int] = field(default_factory=dict)
+    gpus: dict[str, dict] = field(default_factory=dict)  # wall -> what it computes on
 
     def flight(self, t: float, rotor, flight) -> None:
         """One frame of the helicopter: time, altitude, rotor, emission rate (1/s)."""
@@ -83,4 +84,5 @@ class RunRecord:
             "clock_dropped_seconds": round(self.clock_dropped_seconds, 4),
             "flight": self.flight_log,
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
+            "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},
         }

@@ -1,9 +1,11 @@
 """A wall node: one GL context, one ParticleSystem, stepped in lock-step with the cluster.
 
+The context is opened on the EGL device the node was given (`--gpu`, default device 0).
 Zenoh callbacks only enqueue; the main thread, which owns the GL context, does all work:
 frame k -> step, checksum, report k; a repeated frame -> repeat the report; a frame
 ahead of us -> wait for a resync; RESYNC -> fetch a healthy node's snapshot and load
-it; a state query -> answer with our snapshot; STOP -> leave cleanly.
+it; a state query -> answer with our snapshot; an info query -> answer with our GPU;
+STOP -> leave cleanly.
 """
 
 from __future__ import annotations
@@ -20,12 +22,13 @@ import zenoh
 
 from cavesim.engine import FrameInput, ParticleSystem
 from cavesim.errors import ProtocolError
-from cavesim.gl.context import create_context
+from cavesim.gl.context import create_context, gpu_of
 from cavesim.scene import load_scene
 from cavesim.wire import (
     Command,
     ControlMessage,
     FrameMessage,
+    InfoMessage,
     ReportMessage,
     SessionKeys,
     StateMessage,
@@ -56,6 +59,7 @@ class NodeConfig:
     render_every: int = 0  # ... every K frames (0: never) ...
     images: Path | None = None  # ... into images/<wall>/frame_<k>.png
     stereo: bool = False
+    gpu: int | None = None  # EGL device index (None: the default device, 0)
 
 
 class WallNode:
@@ -67,7 +71,8 @@ class WallNode:
         scene = load_scene(config.scene)
         if self._fault("seed"):
             scene = dataclasses.replace(scene, seed=scene.seed + 1)
-        self.ctx = create_context()
+        self.ctx = create_context(device=config.gpu)
+        self.gpu = gpu_of(self.ctx)
         self.system = ParticleSystem(self.ctx, scene)
         self.session = session
         self.painter = WallPainter(config, self.ctx, self.system) if config.render_every else None
@@ -92,14 +97,15 @@ class WallNode:
             self.session.declare_subscriber(keys.frame, lambda s: put(("frame", s))),
             self.session.declare_subscriber(keys.control, lambda s: put(("control", s))),
             self.session.declare_queryable(keys.state(wall), lambda q: put(("query", q))),
+            self.session.declare_queryable(keys.info(wall), lambda q: put(("info", q))),
             self.session.liveliness().declare_token(keys.alive(wall)),
         ]
 
     def run(self) -> None:
         while self.running:
             kind, item = self.events.get()
-            if kind == "query":
-                self._answer(item)
+            if kind in ("query", "info"):
+                self._answer(kind, item)
                 continue
             try:
                 message = decode(item.payload.to_bytes(), self.config.session, self.config.key)
@@ -209,11 +215,16 @@ class WallNode:
                                     state.particles, state.emitters, 0, 0, self.rejects.total,
                                     Status.RESYNCED))
 
-    def _answer(self, query: zenoh.Query) -> None:
-        snapshot = StateMessage(self.done, self.system.scene.seed, self.system.read_particles(),
-                                self.system.read_emitters())
-        query.reply(self.keys.state(self.config.wall),
-                    encode(snapshot, self.config.session, self.config.key))
+    def _answer(self, kind: str, query: zenoh.Query) -> None:
+        """A state query gets our snapshot, an info query our GPU."""
+        wall = self.config.wall
+        if kind == "info":
+            key, message = self.keys.info(wall), InfoMessage.of_gpu(self.done, wall, self.gpu)
+        else:
+            key, message = self.keys.state(wall), StateMessage(
+                self.done, self.system.scene.seed, self.system.read_particles(),
+                self.system.read_emitters())
+        query.reply(key, encode(message, self.config.session, self.config.key))
         query.drop()
 
 
@@ -222,7 +233,9 @@ def main(config: NodeConfig) -> int:
     with zenoh.open(config.network.zenoh_config()) as session:
         node = WallNode(config, session)
         declarations = node.declare()
-        log.info("%s: up, %s", config.wall, node.ctx.info["GL_RENDERER"])
+        gpu = node.gpu
+        log.info("%s: up on EGL device %d (%s): %s, %s, OpenGL %s", config.wall, gpu["device"],
+                 gpu["kind"], gpu["renderer"], gpu["vendor"], gpu["version"])
         try:
             node.run()
         except KeyboardInterrupt:

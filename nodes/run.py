@@ -1,10 +1,15 @@
-"""`cavesim run`: the master and one node per wall on this machine, with a progress bar."""
+"""`cavesim run`: the master and one node per wall on this machine, with a progress bar.
+
+Each wall computes on the EGL device its plan gives it (`nodes.gpus`); the summary names
+the GPU every wall reported.
+"""
 
 from __future__ import annotations
 
 import json
 import signal
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from rich.console import Console
@@ -27,12 +32,20 @@ class RunPlan:
     cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
     render_every: int = 0
     stereo: bool = False
+    gpus: Mapping[str, int] = field(default_factory=dict)  # wall -> EGL device (else default)
 
-    def node_args(self) -> tuple[str, ...]:
-        if self.cave is None or not self.render_every:
-            return ()
+    @property
+    def draws(self) -> bool:
+        return self.cave is not None and self.render_every > 0
+
+    def node_args(self, wall: str) -> tuple[str, ...]:
+        """The flags of `wall`'s node beyond the cluster's own: drawing, its GPU."""
+        gpu = ("--gpu", str(self.gpus[wall])) if wall in self.gpus else ()
+        if not self.draws:
+            return gpu
         return ("--cave", str(self.cave), "--render-every", str(self.render_every),
-                "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()))
+                "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()),
+                *gpu)
 
 
 def run_cluster(plan: RunPlan, console: Console) -> dict:
@@ -40,7 +53,7 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
     plan.out.mkdir(parents=True, exist_ok=True)
     with LocalCluster(plan.scene, plan.out, plan.session, key_file=plan.key_file) as cluster:
         for wall in plan.walls:
-            cluster.start_node(wall, extra=plan.node_args())
+            cluster.start_node(wall, extra=plan.node_args(wall))
         master = cluster.start_master(plan.walls, plan.frames, plan.master_args)
         columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                    TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
@@ -57,11 +70,12 @@ def run_cluster(plan: RunPlan, console: Console) -> dict:
     if not report_path.exists():
         raise ClusterError(f"the master wrote no report (log: {cluster.log_path('master')})")
     report = json.loads(report_path.read_text())
-    if plan.node_args():
+    if plan.draws:
         report["images"] = assemble_images(plan, console)
     report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
     report_path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(summary_table(report))
+    console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))
     console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
@@ -110,6 +124,21 @@ def summary_table(report: dict) -> Table:
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
     return _table("cavesim run", rows)
+
+
+def gpu_table(report: dict) -> Table:
+    """What each wall computed on, as its node told the master."""
+    table = Table(title="GPUs")
+    for column in ("wall", "EGL device", "renderer", "OpenGL version (driver)"):
+        table.add_column(column)
+    for wall in report["nodes"]:
+        gpu = report["gpus"].get(wall)
+        if gpu is None:
+            table.add_row(wall, "?", "did not answer the info query", "")
+        else:
+            table.add_row(wall, f"{gpu['device']} ({gpu['kind']})", gpu["renderer"],
+                          gpu["version"])
+    return table
 
 
 def demo_table(report: dict) -> Table:

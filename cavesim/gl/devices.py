@@ -87,11 +87,15 @@ def find_device(index: int) -> tuple[EglDevice, int]:
     """EGL device `index` and how many there are; ContextError naming both if it is absent."""
     devices = list_devices()
     if not 0 <= index < len(devices):
-        listing = ", ".join(f"{d.index} {d.kind}" for d in devices) or "none"
-        raise ContextError(f"EGL device {index} does not exist: this machine has "
-                           f"{len(devices)} EGL device(s) ({listing})",
-                           LIST_HINT if devices else PACKAGE_HINT)
+        raise no_such_device(index, devices)
     return devices[index], len(devices)
+
+
+def no_such_device(index: int, devices: tuple[EglDevice, ...]) -> ContextError:
+    """The error for an index past `devices`: names it and the devices there are."""
+    listing = ", ".join(f"{d.index} {d.kind}" for d in devices) or "none"
+    return ContextError(f"EGL device {index} does not exist: this machine has {len(devices)} "
+                        f"EGL device(s) ({listing})", LIST_HINT if devices else PACKAGE_HINT)
 
 
 def _load() -> ctypes.CDLL:
