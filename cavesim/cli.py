@@ -220,12 +220,52 @@ def accuracy(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
+def add_doctor(commands) -> None:
+    from cavesim.wire.network import add_network_arguments
+
+    parser = commands.add_parser(
+        "doctor", help="what this node offers: EGL devices, GL limits, zenoh, windows; "
+                       "exit 1 with the reason and the fix if it cannot run cavesim")
+    parser.add_argument("--out", type=Path, default=Path("out/doctor.json"),
+                        help="where to write the findings as JSON (default: out/doctor.json)")
+    add_network_arguments(parser)
+    parser.set_defaults(handler=doctor)
+
+
+def doctor(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim doctor`: check the flags as a node would, then `run_doctor`."""
+    from cavesim.doctor.report import run_doctor
+    from cavesim.wire.keys import check_name
+    from cavesim.wire.network import network_from_arguments, read_key
+
+    try:
+        check_name("session", args.session)
+        read_key(args.key_file)
+        network = network_from_arguments(args)
+        network.zenoh_config()
+    except ValueError as e:
+        raise UsageError(f"cavesim doctor: error: {e}") from e
+    try:
+        args.out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"cavesim doctor: error: argument --out: cannot make directory "
+                         f"{str(args.out.parent)!r}: {e.strerror or e}; give a writable "
+                         f"path") from e
+    verdict = run_doctor(network, args.out, console)
+    if verdict.ok:
+        return 0
+    print(f"cavesim doctor: this node cannot run cavesim: {verdict.reason}; fix: {verdict.fix}",
+          file=sys.stderr)
+    return RUN_ERROR
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="cavesim", description=__doc__.splitlines()[0])
     commands = parser.add_subparsers(dest="command", required=True, metavar="command")
     add_bench(commands)
     add_accuracy(commands)
     add_stability(commands)
+    add_doctor(commands)
     from nodes import commands as cluster  # nodes/ builds on cavesim/, so imported late
 
     for add in (cluster.add_run, cluster.add_master, cluster.add_node, cluster.add_replay,
