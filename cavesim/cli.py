@@ -245,12 +245,7 @@ def doctor(args: argparse.Namespace, console: Console) -> int:
         network.zenoh_config()
     except ValueError as e:
         raise UsageError(f"cavesim doctor: error: {e}") from e
-    try:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise UsageError(f"cavesim doctor: error: argument --out: cannot make directory "
-                         f"{str(args.out.parent)!r}: {e.strerror or e}; give a writable "
-                         f"path") from e
+    output_directory(args.out.parent, "doctor")
     verdict = run_doctor(network, args.out, console)
     if verdict.ok:
         return 0
