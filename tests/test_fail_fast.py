@@ -67,12 +67,23 @@ def test_an_output_path_that_is_a_file_is_a_usage_error(tmp_path):
     assert line.startswith("cavesim run: error: argument --out: cannot make directory")
 
 
+def test_no_egl_driver_stops_run_before_anything_starts(tmp_path):
+    done, _ = cavesim("run", "--walls", "2", "--scene", str(MINIMAL), "--out",
+                      str(tmp_path / "o"),
+                      env={"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"})
+    assert done.returncode == 1
+    line = assert_one_clear_line(done.stderr)
+    assert line.startswith("cavesim: error: libEGL loads, but no EGL driver offers ")
+    assert "apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri" in line
+    assert not (tmp_path / "o").exists()
+
+
 @pytest.mark.slow
 def test_nodes_that_cannot_start_stop_the_run_at_once_naming_the_wall_and_its_log(tmp_path):
-    # no EGL vendor: every node fails to open its context; the master needs no GL
+    # every node is sent to an EGL device that does not exist (glcontext's own variable,
+    # which the run does not look at); the master needs no GL
     done, seconds = cavesim("run", "--walls", "2", "--scene", str(MINIMAL), "--frames", "50",
-                            "--out", str(tmp_path),
-                            env={"__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"})
+                            "--out", str(tmp_path), env={"GLCONTEXT_DEVICE_INDEX": "99"})
     assert done.returncode == 1
     line = assert_one_clear_line(done.stderr)
     assert line.startswith("cavesim: error: wall ")

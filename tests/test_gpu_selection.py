@@ -84,7 +84,8 @@ def test_a_node_on_a_device_that_does_not_exist_says_so_in_one_line(tmp_path):
          "--scene", str(MINIMAL), "--listen", "tcp/127.0.0.1:0", "--session",
          f"nogpu{os.getpid()}"], capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert result.returncode == 1
-    assert result.stderr.startswith(f"cavesim: error: EGL device {missing} does not exist: ")
+    assert result.stderr.startswith(f"cavesim: error: cannot open a headless OpenGL context: "
+                                    f"EGL device {missing} does not exist: ")
     assert "`cavesim doctor`" in result.stderr and result.stderr.count("\n") == 1
 
 

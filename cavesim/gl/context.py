@@ -27,8 +27,11 @@ def create_context(require: int = REQUIRED_GL_VERSION,
                    device: int | None = None) -> moderngl.Context:
     """Open a standalone EGL context of GL `require` or newer on EGL device `device`
     (None: the default, device 0) with a tiny framebuffer bound."""
-    index = _device_index(device)
-    egl_device, count = find_device(index)
+    try:
+        index = _device_index(device)
+        egl_device, count = find_device(index)
+    except ContextError as e:
+        raise ContextError(f"cannot open a headless OpenGL context: {e.problem}", e.fix) from e
     try:
         ctx = moderngl.create_standalone_context(backend="egl", require=require,
                                                  device_index=index)
