@@ -86,7 +86,8 @@ def test_a_device_past_the_count_is_a_finding_not_a_crash():
     missing = len(list_devices())
     found = probing.probe(missing)
     assert found["usable"] is False and found["opened"] is False
-    assert found["problem"].startswith(f"EGL device {missing} does not exist")
+    assert found["problem"].startswith(f"cannot open a headless OpenGL context: EGL device "
+                                       f"{missing} does not exist")
 
 
 def test_a_probe_that_crashes_or_hangs_is_named(monkeypatch):
