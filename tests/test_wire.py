@@ -444,7 +444,9 @@ def test_any_mutation_of_a_signed_message_is_rejected(message, change):
 
 @given(message=messages(), key=hmac_keys, other=hmac_keys)
 def test_a_wrong_key_is_rejected(message, key, other):
-    assume(key != other)
+    # HMAC pads a key shorter than its block with zero bytes: keys that differ only in
+    # trailing zeros are the same key
+    assume(key.rstrip(b"\0") != other.rstrip(b"\0"))
     assert reason_of(encode(message, SESSION, other), SESSION, key) == "bad-signature"
 
 
