@@ -40,7 +40,7 @@ def test_an_index_past_the_devices_names_the_index_the_count_and_doctor():
     message = str(error.value)
     assert message.startswith(f"cannot open a headless OpenGL context: EGL device {count} "
                               f"does not exist")
-    assert f"this machine has {count} EGL device(s) (0 " in message
+    assert f"this machine has {count} EGL device(s) (device 0 is " in message
     assert "`cavesim doctor`" in error.value.fix and "\n" not in message
 
 

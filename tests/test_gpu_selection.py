@@ -56,8 +56,8 @@ def test_a_wall_pinned_past_the_devices_is_named_with_the_count():
     with pytest.raises(ContextError) as error:
         spread_walls(WALLS, {"left": 2}, [gpu(0), llvmpipe(1)])
     assert str(error.value) == ("wall 'left': EGL device 2 does not exist: this machine has 2 "
-                                "EGL device(s) (0 hardware, 1 software); `cavesim doctor` "
-                                "lists the EGL devices")
+                                "EGL device(s) (device 0 is hardware, device 1 is software); "
+                                "`cavesim doctor` lists the EGL devices")
 
 
 def test_each_node_gets_its_own_gpu_flag_and_the_drawing_flags():

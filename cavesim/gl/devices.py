@@ -93,7 +93,7 @@ def find_device(index: int) -> tuple[EglDevice, int]:
 
 def no_such_device(index: int, devices: tuple[EglDevice, ...]) -> ContextError:
     """The error for an index past `devices`: names it and the devices there are."""
-    listing = ", ".join(f"{d.index} {d.kind}" for d in devices) or "none"
+    listing = ", ".join(f"device {d.index} is {d.kind}" for d in devices) or "none"
     return ContextError(f"EGL device {index} does not exist: this machine has {len(devices)} "
                         f"EGL device(s) ({listing})", LIST_HINT if devices else PACKAGE_HINT)
 
