@@ -198,10 +198,9 @@ class WallNode:
                   SNAPSHOT_TIMEOUT)
 
     def _load(self, snapshot: StateMessage) -> None:
-        if snapshot.seed != self.system.scene.seed:
-            self.system.reseed(snapshot.seed)
-        self.system.write_particles(snapshot.particles)
-        self.system.write_emitters(snapshot.emitters)
+        self.system.begin_load(len(snapshot.particles))
+        self.system.write_particle_chunk(0, snapshot.particles.tobytes())
+        self.system.commit_load(snapshot.emitters, snapshot.seed)
         self.done = snapshot.frame
         state = self.system.checksum()
         log.info("%s: resynced to frame %d", self.config.wall, snapshot.frame)
