@@ -14,7 +14,9 @@ from pathlib import Path
 
 from cavesim.cli import UsageError, frame_count, number_in, scene_file
 from cavesim.wire.keys import check_name
+from cavesim.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
+from cavesim.wire.snapshot import CHUNK_PARTICLES
 from nodes.faults import parse_fault
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
@@ -126,6 +128,11 @@ def add_node(commands) -> None:
                         help="draw the wall every K frames (0: never)")
     parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")
     parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
+    parser.add_argument("--snapshot-chunk", type=number_in(int, 1, MAX_CHUNK_PARTICLES,
+                                                           "particles"),
+                        default=CHUNK_PARTICLES,
+                        help=f"particles per reply of a snapshot this node sends "
+                             f"(default: {CHUNK_PARTICLES}, 4 MiB)")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
@@ -142,7 +149,7 @@ def node(args: argparse.Namespace, console) -> int:
                          "and --images too")
     config = NodeConfig(args.wall, args.scene, args.session, network, key,
                         tuple(args.inject), args.slow_delay, args.cave, args.render_every,
-                        args.images, args.stereo)
+                        args.images, args.stereo, args.snapshot_chunk)
     return run_node(config)
 
 

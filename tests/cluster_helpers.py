@@ -13,15 +13,19 @@ from dataclasses import dataclass
 import numpy as np
 from hypothesis import strategies as st
 
-from cavesim.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput
+from cavesim.engine import EMITTER_DTYPE, FrameInput
+from cavesim.engine.layout import PARTICLE_BYTES
 from cavesim.wire.messages import (
+    MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
+    MAX_STATE_PARTICLES,
     Command,
     ControlMessage,
     FrameMessage,
     HeadState,
     ReportMessage,
-    StateMessage,
+    SnapshotChunk,
+    SnapshotHeader,
     Status,
     TrackingMessage,
     WandState,
@@ -55,8 +59,9 @@ frame_messages = st.builds(
     FrameMessage, frame_numbers, st.builds(FrameInput, dts, transforms()), wands,
     st.lists(f32, max_size=MAX_PARAMS).map(tuple), heads)
 
+digests = st.binary(min_size=16, max_size=16).map(bytes.hex)
 report_messages = st.builds(
-    ReportMessage, frame_numbers, names, st.binary(min_size=16, max_size=16).map(bytes.hex),
+    ReportMessage, frame_numbers, names, digests,
     st.integers(0, U32), st.integers(0, U32), st.integers(0, U32), st.integers(0, U32),
     st.integers(0, U32), st.sampled_from(Status))
 
@@ -72,8 +77,14 @@ def records(dtype: np.dtype, max_count: int) -> st.SearchStrategy[np.ndarray]:
         lambda raw: np.frombuffer(raw, dtype).copy())
 
 
-state_messages = st.builds(StateMessage, frame_numbers, st.integers(0, U64),
-                           records(PARTICLE_DTYPE, 8), records(EMITTER_DTYPE, 4))
+snapshot_headers = st.builds(SnapshotHeader, frame_numbers, st.integers(0, U64),
+                             st.integers(0, MAX_STATE_PARTICLES),
+                             st.integers(1, MAX_CHUNK_PARTICLES), digests,
+                             records(EMITTER_DTYPE, 4))
+snapshot_chunks = st.builds(SnapshotChunk, frame_numbers, st.integers(0, MAX_STATE_PARTICLES - 1),
+                            st.integers(1, 4).flatmap(lambda n: st.binary(
+                                min_size=n * PARTICLE_BYTES, max_size=n * PARTICLE_BYTES)))
+snapshot_messages = snapshot_headers | snapshot_chunks
 
 
 tracking_messages = st.builds(TrackingMessage, frame_numbers, heads, wands)
@@ -81,7 +92,7 @@ tracking_messages = st.builds(TrackingMessage, frame_numbers, heads, wands)
 
 def messages() -> st.SearchStrategy:
     """Any valid message of any kind."""
-    return st.one_of(frame_messages, report_messages, control_messages, state_messages,
+    return st.one_of(frame_messages, report_messages, control_messages, snapshot_messages,
                      tracking_messages)
 
 

@@ -7,7 +7,8 @@ from cavesim.wire.messages import (
     FrameMessage,
     HeadState,
     ReportMessage,
-    StateMessage,
+    SnapshotChunk,
+    SnapshotHeader,
     TrackingMessage,
     WandState,
     decode,
@@ -15,4 +16,4 @@ from cavesim.wire.messages import (
 )
 
 __all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "ReportMessage", "SessionKeys",
-           "StateMessage", "TrackingMessage", "WandState", "decode", "encode"]
+           "SnapshotChunk", "SnapshotHeader", "TrackingMessage", "WandState", "decode", "encode"]
