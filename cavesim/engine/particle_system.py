@@ -22,7 +22,7 @@ import moderngl
 import numpy as np
 
 from cavesim.emitters import EmitterTable
-from cavesim.engine.capacity import capacity_limits
+from cavesim.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.engine.checksum import GpuChecksum, StateChecksum
 from cavesim.engine.frame import FrameInput
 from cavesim.engine.layout import (
@@ -66,7 +66,7 @@ class ParticleSystem:
         self._loading: int | None = None  # particles of the load staged in the back buffer
         self._query = ctx.query(primitives=True)
         self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
-                                  for i in range(2)]
+                                  for i in range(PARTICLE_BUFFERS)]
         if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
             self.release()
             raise limits.allocation_error(scene.capacity, error)
@@ -318,7 +318,7 @@ class ParticleSystem:
             self._emitter_buffers[back].write(emitters.tobytes())
 
     def write_particles(self, particles: np.ndarray) -> None:
-        """Replace the live particle stream at once (a test's or a benchmark's setup)."""
+        """Replace the live particle stream at once (a test's, a benchmark's or a fault's)."""
         particles = _checked_records(particles, PARTICLE_DTYPE, self.capacity, "particles")
         self.begin_load(len(particles))
         self.write_particle_chunk(0, particles.tobytes())
