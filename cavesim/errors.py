@@ -27,6 +27,16 @@ class ContextError(CavesimError, RuntimeError):
         self.fix = fix
 
 
+class CapacityError(CavesimError, ValueError):
+    """A capacity the GL context cannot hold: names the capacity, the bytes it needs, the
+    limit that binds (by its GL name and value), the largest capacity allowed and the driver."""
+
+
+class StateError(CavesimError, ValueError):
+    """A particle or emitter state was refused: records of the wrong shape or count, or a
+    staged load whose checksum is not the announced one (the current state is kept)."""
+
+
 class FieldError(CavesimError, ValueError):
     """A vector field or height field is malformed (shape, dtype, non-finite values)."""
 

@@ -42,6 +42,7 @@ class CheckPlan:
     slow_delay: float = 1.5
     on_loss: str = "continue"
     check_every: int = 1
+    snapshot_chunk: int | None = None  # particles per snapshot reply (None: the nodes' default)
 
 
 def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, n: None
@@ -54,6 +55,8 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
                    for f in plan.faults)
     with LocalCluster(plan.scene, plan.out, plan.session, key_file=key_file) as cluster:
         node_args = ("--slow-delay", str(plan.slow_delay))
+        if plan.snapshot_chunk is not None:
+            node_args += ("--snapshot-chunk", str(plan.snapshot_chunk))
         for wall in plan.walls:
             cluster.start_node(wall, tuple(f for f in faults
                                            if f.node == wall and f.kind in NODE_FAULTS),

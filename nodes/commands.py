@@ -15,7 +15,9 @@ from pathlib import Path
 from cavesim.cave.geometry import GPU_RANGE
 from cavesim.cli import UsageError, frame_count, number_in, output_directory, scene_file
 from cavesim.wire.keys import check_name
+from cavesim.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key
+from cavesim.wire.snapshot import CHUNK_PARTICLES
 from nodes.faults import parse_fault
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
@@ -130,6 +132,11 @@ def add_node(commands) -> None:
     parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
                         help="EGL device to compute on (default: device 0; `cavesim doctor` "
                              "lists them)")
+    parser.add_argument("--snapshot-chunk", type=number_in(int, 1, MAX_CHUNK_PARTICLES,
+                                                           "particles"),
+                        default=CHUNK_PARTICLES,
+                        help=f"particles per reply of a snapshot this node sends "
+                             f"(default: {CHUNK_PARTICLES}, 4 MiB)")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
@@ -146,7 +153,7 @@ def node(args: argparse.Namespace, console) -> int:
                          "and --images too")
     config = NodeConfig(args.wall, args.scene, args.session, network, key,
                         tuple(args.inject), args.slow_delay, args.cave, args.render_every,
-                        args.images, args.stereo, gpu=args.gpu)
+                        args.images, args.stereo, args.snapshot_chunk, gpu=args.gpu)
     return run_node(config)
 
 

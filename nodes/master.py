@@ -49,6 +49,7 @@ from cavesim.wire import (
 from cavesim.wire.messages import Status
 from cavesim.wire.network import NetworkConfig
 from cavesim.wire.rejects import RejectCounter
+from cavesim.wire.snapshot import transfer_seconds
 from nodes.clock import Clock
 from nodes.master_report import RunRecord
 from nodes.script import ScriptedView
@@ -56,6 +57,7 @@ from nodes.script import ScriptedView
 log = logging.getLogger("cavesim.master")
 LOSS_POLICIES = ("continue", "pause")
 INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
+RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the node's report
 
 
 @dataclass(frozen=True)
@@ -70,7 +72,6 @@ class MasterConfig:
     clock_seed: int = 0
     barrier_timeout: float = 2.0
     join_timeout: float = 60.0
-    resync_timeout: float = 15.0
     on_loss: str = "continue"  # drop a lost node and go on, or "pause" until it is back
     check_every: int = 1
     frame_log: Path | None = None
@@ -95,6 +96,8 @@ class Master:
         self.before_frame = before_frame or (lambda k: None)
         scene = load_scene(config.scene)
         self.texture_size = scene.random_texture_size
+        # a resync may take as long as the largest state the scene holds takes to stream
+        self.resync_seconds = transfer_seconds(scene.capacity) + RESYNC_MARGIN
         self.flight = Flight(scene) if scene.helicopter is not None else None
         self.timeline = scene.helicopter.timeline if scene.helicopter is not None else ()
         self.matrix_rng = np.random.Generator(np.random.PCG64(config.clock_seed))
@@ -330,7 +333,7 @@ class Master:
         started = time.monotonic()
         self.reports.pop((k, node), None)
         self._control(ControlMessage(k, Command.RESYNC, node, source))
-        deadline = started + self.config.resync_timeout
+        deadline = started + self.resync_seconds
         while time.monotonic() < deadline:
             report = self.reports.get((k, node))
             if report is not None and report.status is Status.RESYNCED:

@@ -3,9 +3,9 @@
 The context is opened on the EGL device the node was given (`--gpu`, default device 0).
 Zenoh callbacks only enqueue; the main thread, which owns the GL context, does all work:
 frame k -> step, checksum, report k; a repeated frame -> repeat the report; a frame
-ahead of us -> wait for a resync; RESYNC -> fetch a healthy node's snapshot and load
-it; a state query -> answer with our snapshot; an info query -> answer with our GPU;
-STOP -> leave cleanly.
+ahead of us -> wait for a resync; RESYNC -> stream a healthy node's snapshot in and load
+it; a state query -> stream our snapshot out (nodes/snapshots.py); an info query ->
+answer with our GPU; STOP -> leave cleanly.
 """
 
 from __future__ import annotations
@@ -31,18 +31,18 @@ from cavesim.wire import (
     InfoMessage,
     ReportMessage,
     SessionKeys,
-    StateMessage,
     decode,
     encode,
 )
-from cavesim.wire.messages import Status
+from cavesim.wire.messages import Message, Status
 from cavesim.wire.network import NetworkConfig
 from cavesim.wire.rejects import RejectCounter
+from cavesim.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from nodes.faults import Fault
 from nodes.painter import WallPainter
+from nodes.snapshots import fetch_snapshot, send_snapshot
 
 log = logging.getLogger("cavesim.node")
-SNAPSHOT_TIMEOUT = 10.0  # s to fetch a snapshot from a healthy node
 SLOW_DELAY = 1.5  # s a `slow` fault holds a report back (tests use a shorter barrier)
 
 
@@ -59,6 +59,7 @@ class NodeConfig:
     render_every: int = 0  # ... every K frames (0: never) ...
     images: Path | None = None  # ... into images/<wall>/frame_<k>.png
     stereo: bool = False
+    chunk_particles: int = CHUNK_PARTICLES  # particles per reply of a snapshot we send
     gpu: int | None = None  # EGL device index (None: the default device, 0)
 
 
@@ -108,7 +109,7 @@ class WallNode:
                 self._answer(kind, item)
                 continue
             try:
-                message = decode(item.payload.to_bytes(), self.config.session, self.config.key)
+                message = self._unseal(item.payload.to_bytes())
             except ProtocolError as e:
                 self.rejects.reject(e, str(item.key_expr))
                 continue
@@ -167,7 +168,13 @@ class WallNode:
 
     def _publish(self, report: ReportMessage) -> None:
         self.last_report = report
-        self.report_publisher.put(encode(report, self.config.session, self.config.key))
+        self.report_publisher.put(self._seal(report))
+
+    def _seal(self, message: Message) -> bytes:
+        return encode(message, self.config.session, self.config.key)
+
+    def _unseal(self, data: bytes) -> Message:
+        return decode(data, self.config.session, self.config.key)
 
     # -- control and snapshots -------------------------------------------------------------
 
@@ -178,54 +185,45 @@ class WallNode:
             self._resync(message.source)
 
     def _resync(self, source: str) -> None:
-        """Load the snapshot of `source` (a healthy node) and report its frame.
+        """Stream in the snapshot of `source` (a healthy node) and report its frame.
 
         A node that has just come back may not yet have its direct link to `source`: a
-        query then finds nobody at once. It asks again until the deadline, each time
-        first waiting (on liveliness, up to a second) for `source` to be reachable.
+        query then finds nobody at once. It asks again until the deadline (which scales
+        with the largest state the scene holds), each time first waiting (on liveliness,
+        up to a second) for `source` to be reachable.
         """
-        deadline = time.monotonic() + SNAPSHOT_TIMEOUT
+        started = time.monotonic()
+        deadline = started + transfer_seconds(self.system.capacity)
+        key = self.keys.state(source)
         while (remaining := deadline - time.monotonic()) > 0:
-            for reply in self.session.get(self.keys.state(source), timeout=remaining):
-                if reply.ok is None:
-                    continue
-                try:
-                    snapshot = decode(reply.ok.payload.to_bytes(), self.config.session,
-                                      self.config.key)
-                except ProtocolError as e:
-                    self.rejects.reject(e, self.keys.state(source))
-                    continue
-                if isinstance(snapshot, StateMessage):
-                    self._load(snapshot)
-                    return
+            header = fetch_snapshot(self.session, key, self.system, self._unseal, deadline,
+                                    self.rejects)
+            if header is not None:
+                self._loaded(header.frame, source, header.chunks, time.monotonic() - started)
+                return
             list(self.session.liveliness().get(self.keys.alive(source),
                                                timeout=min(1.0, max(remaining, 0.01))))
         log.error("%s: no snapshot from %s within %.0f s", self.config.wall, source,
-                  SNAPSHOT_TIMEOUT)
+                  deadline - started)
 
-    def _load(self, snapshot: StateMessage) -> None:
-        if snapshot.seed != self.system.scene.seed:
-            self.system.reseed(snapshot.seed)
-        self.system.write_particles(snapshot.particles)
-        self.system.write_emitters(snapshot.emitters)
-        self.done = snapshot.frame
+    def _loaded(self, frame: int, source: str, chunks: int, seconds: float) -> None:
+        self.done = frame
         state = self.system.checksum()
-        log.info("%s: resynced to frame %d", self.config.wall, snapshot.frame)
-        self._publish(ReportMessage(snapshot.frame, self.config.wall, state.digest,
-                                    state.particles, state.emitters, 0, 0, self.rejects.total,
-                                    Status.RESYNCED))
+        log.info("%s: resynced to frame %d from %s: %d particles in %d chunks, %.2f s",
+                 self.config.wall, frame, source, state.particles, chunks, seconds)
+        self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
+                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED))
 
     def _answer(self, kind: str, query: zenoh.Query) -> None:
-        """A state query gets our snapshot, an info query our GPU."""
+        """A state query gets our snapshot, streamed; an info query our GPU."""
         wall = self.config.wall
         if kind == "info":
-            key, message = self.keys.info(wall), InfoMessage.of_gpu(self.done, wall, self.gpu)
+            message = InfoMessage.of_gpu(self.done, wall, self.gpu)
+            query.reply(self.keys.info(wall), self._seal(message))
+            query.drop()
         else:
-            key, message = self.keys.state(wall), StateMessage(
-                self.done, self.system.scene.seed, self.system.read_particles(),
-                self.system.read_emitters())
-        query.reply(key, encode(message, self.config.session, self.config.key))
-        query.drop()
+            send_snapshot(query, self.keys.state(wall), self.system, self.done, self._seal,
+                          self.config.chunk_particles)
 
 
 def main(config: NodeConfig) -> int:

@@ -13,9 +13,12 @@ from dataclasses import dataclass
 import numpy as np
 from hypothesis import strategies as st
 
-from cavesim.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput
+from cavesim.engine import EMITTER_DTYPE, FrameInput
+from cavesim.engine.layout import PARTICLE_BYTES
 from cavesim.wire.messages import (
+    MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
+    MAX_STATE_PARTICLES,
     MAX_TEXT,
     Command,
     ControlMessage,
@@ -23,7 +26,8 @@ from cavesim.wire.messages import (
     HeadState,
     InfoMessage,
     ReportMessage,
-    StateMessage,
+    SnapshotChunk,
+    SnapshotHeader,
     Status,
     TrackingMessage,
     WandState,
@@ -57,8 +61,9 @@ frame_messages = st.builds(
     FrameMessage, frame_numbers, st.builds(FrameInput, dts, transforms()), wands,
     st.lists(f32, max_size=MAX_PARAMS).map(tuple), heads)
 
+digests = st.binary(min_size=16, max_size=16).map(bytes.hex)
 report_messages = st.builds(
-    ReportMessage, frame_numbers, names, st.binary(min_size=16, max_size=16).map(bytes.hex),
+    ReportMessage, frame_numbers, names, digests,
     st.integers(0, U32), st.integers(0, U32), st.integers(0, U32), st.integers(0, U32),
     st.integers(0, U32), st.sampled_from(Status))
 
@@ -74,8 +79,14 @@ def records(dtype: np.dtype, max_count: int) -> st.SearchStrategy[np.ndarray]:
         lambda raw: np.frombuffer(raw, dtype).copy())
 
 
-state_messages = st.builds(StateMessage, frame_numbers, st.integers(0, U64),
-                           records(PARTICLE_DTYPE, 8), records(EMITTER_DTYPE, 4))
+snapshot_headers = st.builds(SnapshotHeader, frame_numbers, st.integers(0, U64),
+                             st.integers(0, MAX_STATE_PARTICLES),
+                             st.integers(1, MAX_CHUNK_PARTICLES), digests,
+                             records(EMITTER_DTYPE, 4))
+snapshot_chunks = st.builds(SnapshotChunk, frame_numbers, st.integers(0, MAX_STATE_PARTICLES - 1),
+                            st.integers(1, 4).flatmap(lambda n: st.binary(
+                                min_size=n * PARTICLE_BYTES, max_size=n * PARTICLE_BYTES)))
+snapshot_messages = snapshot_headers | snapshot_chunks
 
 
 tracking_messages = st.builds(TrackingMessage, frame_numbers, heads, wands)
@@ -87,7 +98,7 @@ info_messages = st.builds(InfoMessage, frame_numbers, names, st.integers(0, 2**1
 
 def messages() -> st.SearchStrategy:
     """Any valid message of any kind."""
-    return st.one_of(frame_messages, report_messages, control_messages, state_messages,
+    return st.one_of(frame_messages, report_messages, control_messages, snapshot_messages,
                      tracking_messages, info_messages)
 
 

@@ -16,6 +16,8 @@ import pytest
 from cavesim.bench import TARGETS, SizeFigures
 from cavesim.bench.figures import evaluate_targets
 from cavesim.cli import main
+from cavesim.engine.capacity import capacity_limits
+from cavesim.engine.layout import MAX_CAPACITY
 
 SIZES = (2000, 5000)
 RUN_MAIN = "import sys; from cavesim.cli import main; sys.exit(main(sys.argv[1:]))"
@@ -97,7 +99,7 @@ def test_targets_use_one_million_particles_when_measured():
 @pytest.mark.parametrize("argv, flag", [
     (["--sizes", "0"], "--sizes"),
     (["--sizes", "abc"], "--sizes"),
-    (["--sizes", "1000,3000001"], "--sizes"),
+    (["--sizes", f"1000,{MAX_CAPACITY + 1}"], "--sizes"),
     (["--frames", "0"], "--frames"),
     (["--scene", "/nonexistent.toml"], "--scene"),
 ])
@@ -114,3 +116,20 @@ def test_an_out_path_that_is_a_file_exits_2(capsys, tmp_path):
     assert main(["bench", "--out", str(taken)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--out" in err and repr(str(taken)) in err
+
+
+@pytest.mark.parametrize("command", [["bench", "--sizes"], ["accuracy", "--particles"]],
+                         ids=["bench", "accuracy"])
+def test_a_size_beyond_the_context_fails_in_one_line_before_measuring(ctx, tmp_path, command):
+    """Within the engine's bound, beyond the driver's: exit 1 naming the binding limit and
+    the driver, and nothing measured or written."""
+    limits = capacity_limits(ctx.info)
+    size = limits.max_capacity + 1
+    sizes = f"1000,{size}" if command[0] == "bench" else str(size)
+    done = subprocess.run([sys.executable, "-c", RUN_MAIN, *command, sizes, "--out",
+                           str(tmp_path / "out")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 1, done.stderr
+    assert done.stderr.count("\n") == 1 and done.stderr.startswith("cavesim: error: capacity ")
+    assert f"{limits.binding.name} = {limits.binding.value}" in done.stderr
+    assert ctx.info["GL_RENDERER"] in done.stderr
+    assert "measured" not in done.stdout and not list(tmp_path.rglob("*.json"))

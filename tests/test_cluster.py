@@ -23,8 +23,34 @@ WALLS = ("front", "left", "right")
 pytestmark = pytest.mark.slow
 
 
-def check(tmp_path, faults, walls=WALLS, frames=150, session="t", **options):
-    plan = CheckPlan(walls, DUST_DEVIL, frames, tuple(map(parse_fault, faults)), tmp_path,
+# A million particles from the first frame on, living for the whole run.
+MILLION = """
+name = "million"
+[simulation]
+capacity = 1000000
+seed = 5
+integrator = "semi_implicit_euler"
+[[particle_class]]
+name = "grain"
+diameter = 1e-3
+density = 2000.0
+[[emitter]]
+name = "burst"
+position = [0.0, 0.0, 1.0]
+extent = [4.0, 4.0, 2.0]
+rate = 6e7
+speed = 1.0
+direction = [0.0, 0.0, 1.0]
+spread_angle = 90.0
+lifetime = [1000.0, 1000.0]
+particle_class = "grain"
+[forces]
+gravity = [0.0, 0.0, -9.81]
+"""
+
+
+def check(tmp_path, faults, walls=WALLS, frames=150, session="t", scene=DUST_DEVIL, **options):
+    plan = CheckPlan(walls, scene, frames, tuple(map(parse_fault, faults)), tmp_path,
                      session=f"{session}{os.getpid()}", **options)
     return run_check(plan)
 
@@ -61,6 +87,20 @@ def test_two_nodes_name_both_on_a_divergence(tmp_path):
     (divergence,) = report["run"]["divergences"]
     assert divergence["nodes"] == ["front", "left"]
     assert report["final"]["agree"]
+
+
+def test_a_million_particle_snapshot_streams_in_chunks_and_heals(tmp_path):
+    scene = tmp_path / "million.toml"
+    scene.write_text(MILLION)
+    report = check(tmp_path, ["bitflip@3:left"], walls=("front", "left"), frames=5,
+                   session="big", scene=scene, barrier_timeout=20.0, snapshot_chunk=25_000)
+    (resync,) = report["run"]["resyncs"]
+    assert (resync["node"], resync["source"], resync["frame"], resync["ok"]) == \
+        ("left", "front", 3, True)
+    assert report["final"]["agree"] and report["final"]["all_walls_in"]
+    assert report["run"]["live_particles"]["max"] == 1_000_000
+    log = (tmp_path / "logs" / "left.log").read_text()
+    assert "resynced to frame 3 from front: 1000000 particles in 40 chunks" in log
 
 
 def test_pause_policy_holds_the_barrier_until_the_lost_node_is_back(tmp_path):

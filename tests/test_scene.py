@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from cavesim.engine.layout import MAX_CAPACITY
 from cavesim.errors import SceneError
 from cavesim.scene import (
     AIR_VISCOSITY,
@@ -339,8 +340,8 @@ BAD: list[tuple[str, Mutation, tuple[str, ...]]] = [
      ("emitter[0].extent", "[1.0, -1.0, 0.0]")),
     ("diameter-too-big", _set("particle_class.0.diameter", 0.2),
      ("particle_class[0].diameter", "0.2")),
-    ("capacity-too-big", _set("simulation.capacity", 3_000_001),
-     ("simulation.capacity", "3000001", "3000000")),
+    ("capacity-too-big", _set("simulation.capacity", MAX_CAPACITY + 1),
+     ("simulation.capacity", str(MAX_CAPACITY + 1), "53687091")),
     ("capacity-negative", _set("simulation.capacity", -1), ("simulation.capacity", "-1")),
     ("seed-too-big", _set("simulation.seed", 2**63), ("simulation.seed", str(2**63))),
     ("texture-not-power-of-two", _set("simulation.random_texture_size", 300),

@@ -28,16 +28,19 @@ from cluster_helpers import (
     mutations,
     names,
     report_messages,
-    state_messages,
+    snapshot_messages,
 )
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
-from cavesim.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput
+from cavesim.engine import EMITTER_DTYPE, FrameInput
 from cavesim.errors import ProtocolError
 from cavesim.wire import messages as wire
 from cavesim.wire.messages import (
+    MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
+    MAX_STATE_EMITTERS,
+    MAX_STATE_PARTICLES,
     MAX_TEXT,
     VERSION,
     Command,
@@ -47,7 +50,8 @@ from cavesim.wire.messages import (
     InfoMessage,
     Kind,
     ReportMessage,
-    StateMessage,
+    SnapshotChunk,
+    SnapshotHeader,
     Status,
     TrackingMessage,
     WandState,
@@ -92,6 +96,11 @@ def name(text: bytes) -> bytes:
     return bytes([len(text)]) + text
 
 
+def snapshot_body(particles: int = 3, emitters: int = 0, chunk: int = 2) -> bytes:
+    """A snapshot header's payload; `emitters` is only the count (no records follow)."""
+    return struct.pack("<QIII16s", 9, particles, emitters, chunk, bytes.fromhex(DIGEST))
+
+
 def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"") -> bytes:
     return name(node) + struct.pack("<16sIIIIIB", bytes.fromhex(DIGEST), 1, 2, 3, 4, 5,
                                     status) + extra
@@ -117,8 +126,8 @@ def comparable(m) -> tuple:
         return (type(m), m.frame, f32_bits(m.inputs.dt), m.inputs.random_transform.tobytes(),
                 bits(w.position), bits(w.orientation), w.buttons, bits(w.axes), bits(m.params),
                 bits(m.head.position), bits(m.head.orientation))
-    if isinstance(m, StateMessage):
-        return (type(m), m.frame, m.seed, m.particles.dtype, m.particles.tobytes(),
+    if isinstance(m, SnapshotHeader):
+        return (type(m), m.frame, m.seed, m.particles, m.chunk_particles, m.digest,
                 m.emitters.dtype, m.emitters.tobytes())
     return (type(m), m)
 
@@ -144,9 +153,13 @@ EDGE_MESSAGES = {
     "stop": ControlMessage(400, Command.STOP),
     "resync": ControlMessage(U64, Command.RESYNC, "left", "front"),
     "resync-long-names": ControlMessage(3, Command.RESYNC, "a" * 32, "B-_9" * 8),
-    "state-empty": StateMessage(5, 1, np.zeros(0, PARTICLE_DTYPE), np.zeros(0, EMITTER_DTYPE)),
-    "state": StateMessage(U64, U64, np.arange(3 * 10, dtype="<u4").view(PARTICLE_DTYPE),
-                          np.arange(2 * 4, dtype="<u4").view(EMITTER_DTYPE)),
+    "snapshot-empty": SnapshotHeader(5, 1, 0, 1, DIGEST, np.zeros(0, EMITTER_DTYPE)),
+    "snapshot": SnapshotHeader(U64, U64, 3, 2, DIGEST,
+                               np.arange(2 * 4, dtype="<u4").view(EMITTER_DTYPE)),
+    "snapshot-largest": SnapshotHeader(1, 0, MAX_STATE_PARTICLES, MAX_CHUNK_PARTICLES,
+                                       "f" * 32, np.zeros(MAX_STATE_EMITTERS, EMITTER_DTYPE)),
+    "chunk": SnapshotChunk(U64, 7, bytes(range(40)) * 2),
+    "chunk-last-index": SnapshotChunk(0, MAX_STATE_PARTICLES - 1, bytes(40)),
     "tracking": TrackingMessage(12, HeadState((0.25, -0.5, 1.75), (0.0, 0.0, 0.5, 0.75)),
                                 WandState((1.0, 2.0, 1.25), (0.5, 0.0, 0.0, 0.5), 5,
                                           (0.25, -1.0, 0.0, 0.5))),
@@ -219,6 +232,12 @@ def test_crafted_bytes_match_encode():
     (InfoMessage(1, "front", 0, False, "r", "v\u00e9", "4.6"), "vendor"),
     (InfoMessage(1, "front", 0, False, "r", "v", "4.6\n"), "version"),
     (InfoMessage(1, "", 0, False, "r", "v", "4.6"), "node name"),
+    (SnapshotHeader(1, 0, 10, 0, DIGEST, np.zeros(0, EMITTER_DTYPE)), "chunks of 1 to"),
+    (SnapshotHeader(1, 0, MAX_STATE_PARTICLES + 1, 1, DIGEST, np.zeros(0, EMITTER_DTYPE)),
+     "at most"),
+    (SnapshotHeader(1, 0, 1, 1, "XY" * 16, np.zeros(0, EMITTER_DTYPE)), "hex digits"),
+    (SnapshotChunk(1, 0, bytes(41)), "whole 40-byte records"),
+    (SnapshotChunk(1, 0, b""), "whole 40-byte records"),
 ])
 def test_encode_refuses_what_decode_would_reject(message, match):
     with pytest.raises(ValueError, match=match):
@@ -297,13 +316,26 @@ REJECTIONS = [
      "bad-payload"),
     ("control-target-tab", craft(Kind.CONTROL, b"\x01" + name(b"le\tft") + name(b"front")),
      None, "bad-payload"),
-    ("state-too-short", craft(Kind.STATE, b"\x00" * 15), None, "bad-payload"),
-    ("state-count-mismatch", craft(Kind.STATE, struct.pack("<QII", 1, 2, 0) + b"\x00" * 40),
-     None, "bad-payload"),
-    ("state-stray-byte", craft(Kind.STATE, struct.pack("<QII", 1, 1, 1) + b"\x00" * 57),
-     None, "bad-payload"),
-    ("state-too-many-particles", craft(Kind.STATE, struct.pack("<QII", 1, 2**32 - 1, 0)),
-     None, "bad-payload"),
+    ("snapshot-too-short", craft(Kind.SNAPSHOT, snapshot_body()[:-1]), None, "bad-payload"),
+    ("snapshot-emitters-missing", craft(Kind.SNAPSHOT, snapshot_body(emitters=1)), None,
+     "bad-payload"),
+    ("snapshot-stray-byte", craft(Kind.SNAPSHOT, snapshot_body() + b"\x00"), None,
+     "bad-payload"),
+    ("snapshot-too-many-particles", craft(Kind.SNAPSHOT, snapshot_body(
+        particles=MAX_STATE_PARTICLES + 1)), None, "bad-payload"),
+    ("snapshot-too-many-emitters", craft(Kind.SNAPSHOT, snapshot_body(
+        emitters=MAX_STATE_EMITTERS + 1) + bytes(16 * (MAX_STATE_EMITTERS + 1))), None,
+     "bad-payload"),
+    ("snapshot-chunk-size-0", craft(Kind.SNAPSHOT, snapshot_body(chunk=0)), None,
+     "bad-payload"),
+    ("snapshot-chunk-size-too-big", craft(Kind.SNAPSHOT, snapshot_body(
+        chunk=MAX_CHUNK_PARTICLES + 1)), None, "bad-payload"),
+    ("chunk-too-short", craft(Kind.CHUNK, b"\x00" * 3), None, "bad-payload"),
+    ("chunk-empty", craft(Kind.CHUNK, struct.pack("<I", 0)), None, "bad-payload"),
+    ("chunk-partial-record", craft(Kind.CHUNK, struct.pack("<I", 0) + bytes(41)), None,
+     "bad-payload"),
+    ("chunk-index-beyond-any-snapshot", craft(Kind.CHUNK, struct.pack(
+        "<I", MAX_STATE_PARTICLES) + bytes(40)), None, "bad-value"),
     ("kind-frame-with-report-payload", craft(Kind.FRAME, report_body()), None, "bad-payload"),
     # values
     ("dt-nan", craft(Kind.FRAME, frame_body(dt_bits=NAN32)), None, "bad-value"),
@@ -456,7 +488,7 @@ def test_sessions_never_decode_each_others_messages(message, mine, theirs, key):
     assert reason_of(encode(message, theirs, key), mine, key) == "wrong-session"
 
 
-@given(message=frame_messages | report_messages | control_messages | state_messages
+@given(message=frame_messages | report_messages | control_messages | snapshot_messages
        | info_messages)
 def test_a_signed_message_is_unexpected_without_key_and_unsigned_with_one(message):
     assert reason_of(encode(message, SESSION, KEY), SESSION) == "unexpected-signature"

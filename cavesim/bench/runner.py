@@ -11,6 +11,7 @@ from cavesim.bench.display import progress_bar, show
 from cavesim.bench.figures import SizeFigures
 from cavesim.bench.measure import measure_size, ticks_per_size
 from cavesim.bench.report import build_report, write_reports
+from cavesim.engine.capacity import capacity_limits
 from cavesim.gl.context import create_context, describe
 from cavesim.scene.model import Scene
 
@@ -19,11 +20,13 @@ def run_bench(scene: Scene, sizes: list[int], frames: int, out_dir: Path, consol
               ctx: moderngl.Context | None = None) -> dict[str, object]:
     """Measure each size, print the table and targets, write bench.json and bench.md.
 
-    Opens (and releases) its own GL context unless one is given. Returns the JSON report.
+    Opens (and releases) its own GL context unless one is given; a size the context cannot
+    hold is a CapacityError before anything is measured. Returns the JSON report.
     """
     own_context = ctx is None
     ctx = create_context() if own_context else ctx
     try:
+        capacity_limits(ctx.info).check(max(sizes))
         gl = describe(ctx)
         measured = _measure_all(ctx, scene, sizes, frames, console)
     finally:

@@ -16,8 +16,8 @@ import sys
 import moderngl
 import numpy as np
 
+from cavesim.engine.capacity import capacity_limits
 from cavesim.engine.checksum import GpuChecksum, reference_sums
-from cavesim.engine.layout import PARTICLE_BYTES
 from cavesim.engine.programs import CHECKSUM_WORKGROUP_SIZE, EMIT_BATCH
 from cavesim.errors import ContextError, ShaderError
 from cavesim.gl.context import REQUIRED_GL_VERSION, create_context, describe
@@ -67,7 +67,7 @@ def examine(index: int) -> dict:
         return _unusable(e.problem, e.fix)
     found = {"opened": True, **describe(ctx), "gl_version_code": ctx.version_code,
              "limits": {name: _plain(ctx.info.get(name)) for name in LIMITS},
-             "largest_capacity": _largest_capacity(ctx), "smoke": None}
+             **_capacity(ctx), "smoke": None}
     problems = _missing(ctx)
     if not problems:
         found["smoke"], problems = _smoke(ctx)
@@ -76,13 +76,12 @@ def examine(index: int) -> dict:
     return {**found, "usable": not problems, "problem": problem, "fix": fix}
 
 
-def _largest_capacity(ctx: moderngl.Context) -> int:
-    """Particles one storage block can hold on this context.
-
-    To be replaced by cavesim.gl.limits (the largest capacity with the checksum's
-    dispatch bound and the 32-bit addressing bound) when that module lands.
-    """
-    return ctx.info["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"] // PARTICLE_BYTES
+def _capacity(ctx: moderngl.Context) -> dict:
+    """The largest capacity the context allows and the limit that decides it."""
+    if ctx.version_code < REQUIRED_GL_VERSION:  # no storage blocks to bound it
+        return {"largest_capacity": 0, "capacity_bound": None}
+    binding = capacity_limits(ctx.info).binding
+    return {"largest_capacity": binding.capacity, "capacity_bound": binding.name}
 
 
 def _missing(ctx: moderngl.Context) -> list[tuple[str, str]]:

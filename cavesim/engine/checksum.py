@@ -25,6 +25,11 @@ PARTIAL_BYTES = 8  # two uint32 sums per invocation
 GROUP_BYTES = CHECKSUM_WORKGROUP_SIZE * PARTIAL_BYTES
 
 
+def group_count(words: int) -> int:
+    """Work groups of the one dispatch that sums `words` words."""
+    return -(-words // WORDS_PER_GROUP)
+
+
 @dataclass(frozen=True)
 class StateChecksum:
     digest: str  # 32 hex digits over both streams, their order and the live counts
@@ -37,14 +42,14 @@ class GpuChecksum:
 
     def __init__(self, ctx: moderngl.Context, max_words: int) -> None:
         self._program = checksum_program(ctx)
-        groups = max(1, -(-max_words // WORDS_PER_GROUP))
+        groups = max(1, group_count(max_words))
         self._partials = ctx.buffer(reserve=groups * GROUP_BYTES)
 
     def buffer_sums(self, buffer: moderngl.Buffer, word_count: int) -> bytes:
         """Per-invocation sums of the first `word_count` words of `buffer` (empty when 0)."""
         if word_count == 0:
             return b""
-        groups = -(-word_count // WORDS_PER_GROUP)
+        groups = group_count(word_count)
         buffer.bind_to_storage_buffer(0)
         self._partials.bind_to_storage_buffer(1)
         self._program["word_count"].value = word_count
@@ -69,7 +74,7 @@ def reference_sums(words: np.ndarray) -> bytes:
     index = np.arange(words.size, dtype=np.uint32)
     h = words ^ (index * np.uint32(0x9E3779B9))
     lanes = np.stack([_fmix32(h), _fmix32(h + np.uint32(0x7F4A7C15))], axis=1)
-    groups = -(-words.size // WORDS_PER_GROUP)
+    groups = group_count(words.size)
     padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)
     padded[: words.size] = lanes
     # invocation t of group g reads words g·WORDS_PER_GROUP + k·WORKGROUP_SIZE + t

@@ -5,7 +5,12 @@ A frame (`step`) is two transform-feedback passes into the back buffers, then a 
   2. emitter pass: the emitter stream updates its accumulators, then appends this frame's
      new particles after the survivors, drawing them from the shared random texture
      through the frame's matrix.
-Only the scene's features are compiled in and allocated (see `programs.py`).
+Only the scene's features are compiled in and allocated (see `programs.py`). The capacity
+is checked against the context's limits (`capacity.py`) before anything is allocated.
+
+A state load (a snapshot, a test's setup) is staged in the back buffers, the scratch
+between frames, and becomes current only on `commit_load`: a failed or partial load leaves
+the current state untouched.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import moderngl
 import numpy as np
 
 from cavesim.emitters import FIXED_ROWS, FRAME_ROWS, TABLE_ROWS, EmitterTable
+from cavesim.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.engine.checksum import GpuChecksum, StateChecksum
 from cavesim.engine.frame import FrameInput
 from cavesim.engine.layout import (
@@ -36,32 +42,34 @@ from cavesim.engine.programs import (
 )
 from cavesim.engine.rotor_inputs import RotorInputs
 from cavesim.engine.uniforms import physics_uniforms, write_uniforms
+from cavesim.errors import StateError
 from cavesim.fields import FieldGrid, build_field
 from cavesim.heightfield import HeightGrid, load_heightfield
 from cavesim.random_texture import random_words
 from cavesim.scene.model import CollisionKind, FieldKind, FieldSampling, Scene
 
 FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
-MAX_SSBO_BYTES = 2**27  # GL_MAX_SHADER_STORAGE_BLOCK_SIZE on llvmpipe; the checksum binds SSBOs
 
 
 class ParticleSystem:
     """Emitter and particle streams of one scene, stepped frame by frame on the GPU."""
 
     def __init__(self, ctx: moderngl.Context, scene: Scene) -> None:
-        if scene.capacity * PARTICLE_BYTES > MAX_SSBO_BYTES:
-            raise ValueError(f"capacity={scene.capacity} needs "
-                             f"{scene.capacity * PARTICLE_BYTES} bytes, more than the "
-                             f"{MAX_SSBO_BYTES} a storage buffer may hold")
+        limits = capacity_limits(ctx.info)
+        limits.check(scene.capacity)
         self.ctx = ctx
         self.scene = scene
         self.emitters = EmitterTable.from_scene(scene)
         self.resources: dict[str, moderngl.Buffer | moderngl.Texture | moderngl.Texture3D] = {}
         self._live = 0
         self._current = 0  # index of the front buffers
+        self._loading: int | None = None  # particles of the load staged in the back buffer
         self._query = ctx.query(primitives=True)
         self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
-                                  for i in range(2)]
+                                  for i in range(PARTICLE_BUFFERS)]
+        if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
+            self.release()
+            raise limits.allocation_error(scene.capacity, error)
         self.field_grid: FieldGrid | None = None
         self.ground_grid: HeightGrid | None = None
         self._textures_for_physics()
@@ -165,6 +173,7 @@ class ParticleSystem:
         """
         rotor = self.rotor_inputs.read(params) if self.rotor_inputs is not None else None
         front, back = self._current, 1 - self._current
+        self._loading = None  # the passes overwrite the back buffers
         self._bind_samplers(self._update)
         if rotor is not None:
             write_uniforms(self._update, RotorInputs.physics_uniforms(rotor))
@@ -232,24 +241,28 @@ class ParticleSystem:
 
     def checksum(self) -> StateChecksum:
         """Digest of the live particle and emitter streams, computed on the GPU."""
-        emitters = self._emitter_buffers[self._current] if len(self.emitters) else None
+        return self._state_checksum(self._current, self._live)
+
+    def _state_checksum(self, index: int, particles: int) -> StateChecksum:
+        emitters = self._emitter_buffers[index] if len(self.emitters) else None
         return self._checksum.state(
-            self._particle_buffers[self._current], self._live * PARTICLE_WORDS, self._live,
+            self._particle_buffers[index], particles * PARTICLE_WORDS, particles,
             emitters, len(self.emitters) * EMITTER_BYTES // 4, len(self.emitters))
+
+    def read_particle_chunk(self, first: int, count: int) -> bytes:
+        """Records [first, first + count) of the live particle stream, as bytes."""
+        if not (0 <= first and 0 <= count and first + count <= self._live):
+            raise StateError(f"particle records [{first}, {first + count}) are not within the "
+                             f"{self._live} live ones")
+        if count == 0:  # GL cannot map an empty range
+            return b""
+        return self._particle_buffers[self._current].read(count * PARTICLE_BYTES,
+                                                          first * PARTICLE_BYTES)
 
     def read_particles(self) -> np.ndarray:
         """A copy of the live particle stream (PARTICLE_DTYPE), in stream order."""
-        if self._live == 0:  # GL cannot map an empty range
-            return np.zeros(0, dtype=PARTICLE_DTYPE)
-        data = self._particle_buffers[self._current].read(self._live * PARTICLE_BYTES)
+        data = self.read_particle_chunk(0, self._live)
         return np.frombuffer(data, dtype=PARTICLE_DTYPE).copy()
-
-    def write_particles(self, particles: np.ndarray) -> None:
-        """Replace the live particle stream (a snapshot load or a test's setup)."""
-        particles = _checked_records(particles, PARTICLE_DTYPE, self.capacity, "particles")
-        if len(particles):
-            self._particle_buffers[self._current].write(particles.tobytes())
-        self._live = len(particles)
 
     def read_emitters(self) -> np.ndarray:
         """A copy of the emitter stream (EMITTER_DTYPE)."""
@@ -258,21 +271,71 @@ class ParticleSystem:
         data = self._emitter_buffers[self._current].read(len(self.emitters) * EMITTER_BYTES)
         return np.frombuffer(data, dtype=EMITTER_DTYPE).copy()
 
-    def write_emitters(self, emitters: np.ndarray) -> None:
-        """Replace the emitter stream's state (same length as the scene's emitters)."""
+    def begin_load(self, count: int) -> None:
+        """Start staging a particle stream of `count` records in the back buffer.
+
+        The current state stays as it is until `commit_load`; a new `begin_load` or the next
+        `step` drops what was staged.
+        """
+        if not 0 <= count <= self.capacity:
+            raise StateError(f"a load of {count} particles does not fit the capacity "
+                             f"{self.capacity}; allowed: 0 to {self.capacity}")
+        self._loading = count
+
+    def write_particle_chunk(self, first: int, data: bytes) -> None:
+        """Stage whole records [first, ...) of the stream that `begin_load` announced."""
+        count, rest = divmod(len(data), PARTICLE_BYTES)
+        if self._loading is None:
+            raise StateError("write_particle_chunk needs a begin_load first")
+        if rest or first < 0 or first + count > self._loading:
+            raise StateError(f"a chunk of {len(data)} bytes at record {first} is not whole "
+                             f"{PARTICLE_BYTES}-byte records within the {self._loading} loaded")
+        if count:
+            self._particle_buffers[1 - self._current].write(data, offset=first * PARTICLE_BYTES)
+
+    def commit_load(self, emitters: np.ndarray | None = None, seed: int | None = None,
+                    digest: str | None = None) -> None:
+        """Make the staged particles current, with `emitters` (default: the current ones)
+        and `seed` (default: the scene's).
+
+        With a `digest`, the staged state must have that checksum (`StateChecksum.digest`),
+        else StateError and the current state stays as it was.
+        """
+        count, back = self._loading, 1 - self._current
+        if count is None:
+            raise StateError("commit_load needs a begin_load first")
+        self._stage_emitters(back, emitters)
+        if digest is not None and (staged := self._state_checksum(back, count).digest) != digest:
+            self._loading = None
+            raise StateError(f"the staged state's checksum {staged} is not the announced "
+                             f"{digest}; the current state is kept")
+        if seed is not None and seed != self.scene.seed:
+            self.reseed(seed)
+        self._current, self._live, self._loading = back, count, None
+
+    def _stage_emitters(self, back: int, emitters: np.ndarray | None) -> None:
         count = len(self.emitters)
+        if emitters is None:
+            emitters = self.read_emitters()
         emitters = _checked_records(emitters, EMITTER_DTYPE, count, "emitters")
         if len(emitters) != count:
-            raise ValueError(f"emitters: expected {count} records, got {len(emitters)}")
+            raise StateError(f"emitters: expected {count} records, got {len(emitters)}")
         if count:
-            self._emitter_buffers[self._current].write(emitters.tobytes())
+            self._emitter_buffers[back].write(emitters.tobytes())
+
+    def write_particles(self, particles: np.ndarray) -> None:
+        """Replace the live particle stream at once (a test's, a benchmark's or a fault's)."""
+        particles = _checked_records(particles, PARTICLE_DTYPE, self.capacity, "particles")
+        self.begin_load(len(particles))
+        self.write_particle_chunk(0, particles.tobytes())
+        self.commit_load()
 
 
 def _checked_records(records: np.ndarray, dtype: np.dtype, limit: int, what: str) -> np.ndarray:
     records = np.asarray(records)
     if records.dtype != dtype or records.ndim != 1:
-        raise ValueError(f"{what}: expected a 1-D array of dtype {dtype}, "
+        raise StateError(f"{what}: expected a 1-D array of dtype {dtype}, "
                          f"got shape {records.shape} of dtype {records.dtype}")
     if len(records) > limit:
-        raise ValueError(f"{what}: {len(records)} records exceed the limit of {limit}")
+        raise StateError(f"{what}: {len(records)} records exceed the limit of {limit}")
     return np.ascontiguousarray(records)

@@ -19,6 +19,7 @@ import moderngl
 import numpy as np
 from rich.console import Console
 
+from cavesim.engine.capacity import capacity_limits
 from cavesim.gl.context import create_context, describe
 from cavesim.numerics.cases import (
     DTS,
@@ -54,19 +55,29 @@ def run_command(helicopter_scene: Path, out_dir: Path, console: Console,
                 ctx: moderngl.Context | None = None, workers: int | None = None
                 ) -> AccuracyResult:
     """`cavesim accuracy`: the three cases with `particles` each (default: PARTICLES, or
-    QUICK_PARTICLES with `quick`) over DTS (QUICK_DTS with `quick`)."""
+    QUICK_PARTICLES with `quick`) over DTS (QUICK_DTS with `quick`).
+
+    Opens (and releases) its own GL context unless one is given; a count the context
+    cannot hold is a CapacityError before any case is built.
+    """
     count = particles or (QUICK_PARTICLES if quick else PARTICLES)
-    return run_accuracy(build_cases(helicopter_scene, count), QUICK_DTS if quick else DTS,
-                        out_dir, console, ctx, workers)
+    own_context = ctx is None
+    ctx = create_context() if own_context else ctx
+    try:
+        capacity_limits(ctx.info).check(count)
+        return run_accuracy(build_cases(helicopter_scene, count), QUICK_DTS if quick else DTS,
+                            out_dir, console, ctx, workers)
+    finally:
+        if own_context:
+            ctx.release()
 
 
 def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, console: Console,
-                 ctx: moderngl.Context | None = None, workers: int | None = None,
+                 ctx: moderngl.Context, workers: int | None = None,
                  final_time: float = FINAL_TIME) -> AccuracyResult:
-    """Measure, print the table, write accuracy.csv/.md/.json and work_precision.png.
+    """Measure on `ctx`, print the table, write accuracy.csv/.md/.json and work_precision.png.
 
-    Opens (and releases) its own GL context unless one is given; `workers` float64
-    processes (default: one per CPU; 1 runs them in this process).
+    `workers` float64 processes (default: one per CPU; 1 runs them in this process).
     """
     if REPORT_DT not in dts:
         raise ValueError(f"dts must include the report dt {REPORT_DT!r}, got {dts=!r}")
@@ -76,23 +87,17 @@ def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, conso
                          f"(the references are carried only a float32 rounding's time to each "
                          f"run's end), got {uneven=!r}")
     workers = workers or min(os.cpu_count() or 1, MAX_WORKERS)
-    own_context = ctx is None
-    ctx = create_context() if own_context else ctx
-    try:
-        gl = describe(ctx)
-        jobs = _float64_jobs(cases, dts, final_time, workers)
-        gpu_total = sum(len(dts) * len(METHODS) * (2 if c.filtering else 1) for c in cases)
-        with progress_bar(console) as progress:
-            task = progress.add_task("accuracy", total=gpu_total + len(jobs))
+    gl = describe(ctx)
+    jobs = _float64_jobs(cases, dts, final_time, workers)
+    gpu_total = sum(len(dts) * len(METHODS) * (2 if c.filtering else 1) for c in cases)
+    with progress_bar(console) as progress:
+        task = progress.add_task("accuracy", total=gpu_total + len(jobs))
 
-            def tick(what: str) -> None:
-                progress.update(task, advance=1, description=what)
+        def tick(what: str) -> None:
+            progress.update(task, advance=1, description=what)
 
-            gpu = _gpu_phase(ctx, cases, dts, final_time, tick)
-            done = _run_jobs(jobs, workers, tick)
-    finally:
-        if own_context:
-            ctx.release()
+        gpu = _gpu_phase(ctx, cases, dts, final_time, tick)
+        done = _run_jobs(jobs, workers, tick)
     rows, summaries = _evaluate(cases, gpu, done, final_time)
     report = build_report(cases, dts, final_time, summaries, gl, workers)
     show(report, summaries, console)

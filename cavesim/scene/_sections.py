@@ -14,6 +14,7 @@ from typing import Any
 
 from numpy.lib import format as npy_format
 
+from cavesim.engine.layout import MAX_CAPACITY
 from cavesim.scene._checks import Table
 from cavesim.scene.limits import RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.scene.model import (
@@ -33,7 +34,6 @@ from cavesim.scene.model import (
     WandKey,
 )
 
-MAX_CAPACITY = 3_000_000
 MAX_RATE = 1e9  # particles/s
 MAX_LIFETIME = 3600.0  # s
 MAX_DIAMETER = 0.1  # m: beyond this Stokes drag on a "particle" is meaningless

@@ -8,12 +8,14 @@ from cavesim.wire.messages import (
     HeadState,
     InfoMessage,
     ReportMessage,
-    StateMessage,
+    SnapshotChunk,
+    SnapshotHeader,
     TrackingMessage,
     WandState,
     decode,
     encode,
 )
 
-__all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "InfoMessage", "ReportMessage",
-           "SessionKeys", "StateMessage", "TrackingMessage", "WandState", "decode", "encode"]
+__all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "InfoMessage",
+           "ReportMessage", "SessionKeys", "SnapshotChunk", "SnapshotHeader", "TrackingMessage",
+           "WandState", "decode", "encode"]

@@ -2,7 +2,8 @@
 
 Every message: a 28-byte header (magic, version, kind, flags, session id, frame number,
 payload length), the payload, and, when the session has a shared key, an HMAC-SHA256 of
-all that. `decode` checks everything before trusting anything and raises `ProtocolError`
+all that. A node's state never travels in one message: a snapshot is a header and chunks
+(see snapshot.py). `decode` checks everything before trusting anything and raises `ProtocolError`
 with a short reason the receivers count; it never returns a half-checked message.
 """
 
@@ -19,23 +20,26 @@ from enum import IntEnum
 import numpy as np
 
 from cavesim.engine.frame import FrameInput
-from cavesim.engine.layout import EMITTER_DTYPE, PARTICLE_DTYPE
+from cavesim.engine.layout import EMITTER_DTYPE, MAX_CAPACITY, PARTICLE_BYTES
 from cavesim.errors import ProtocolError
 from cavesim.wire.keys import check_name
 
 MAGIC = b"CVSM"
-VERSION = 3  # 2: frames carry the head pose; 3: a node's info (its GPU) answers a query
+VERSION = 3  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+# and a node's info (its GPU) answers a query
 HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
 MAX_PARAMS = 32
-MAX_STATE_PARTICLES = 3_000_000
+MAX_STATE_PARTICLES = MAX_CAPACITY  # the engine's addressing bound
 MAX_STATE_EMITTERS = 4096
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
+MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB messages
 
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
-_STATE = struct.Struct("<QII")  # seed, particles, emitters
+_SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
+_CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
 _INFO = struct.Struct("<HB")  # EGL device index, software (0 or 1); then three strings
 
@@ -44,9 +48,10 @@ class Kind(IntEnum):
     FRAME = 1
     REPORT = 2
     CONTROL = 3
-    STATE = 4
+    SNAPSHOT = 4
     TRACKING = 5
-    INFO = 6
+    CHUNK = 6
+    INFO = 7
 
 
 class Command(IntEnum):
@@ -105,11 +110,29 @@ class ControlMessage:
 
 
 @dataclass(frozen=True)
-class StateMessage:
+class SnapshotHeader:
+    """The first reply to a state query: the state that the chunks after it add up to."""
+
     frame: int
     seed: int
-    particles: np.ndarray = field(repr=False)  # PARTICLE_DTYPE
-    emitters: np.ndarray = field(repr=False)  # EMITTER_DTYPE
+    particles: int  # live particles, streamed in chunks of `chunk_particles` records
+    chunk_particles: int
+    digest: str  # the state's checksum (32 hex digits): the load commits only if it matches
+    emitters: np.ndarray = field(repr=False)  # EMITTER_DTYPE, whole: at most 64 KiB
+
+    @property
+    def chunks(self) -> int:
+        """How many chunks follow (derived, so it cannot disagree with the counts)."""
+        return -(-self.particles // self.chunk_particles)
+
+
+@dataclass(frozen=True)
+class SnapshotChunk:
+    """Chunk `index` of a snapshot: particles [index x chunk_particles, ...), whole records."""
+
+    frame: int
+    index: int
+    data: bytes = field(repr=False)
 
 
 @dataclass(frozen=True)
@@ -149,8 +172,8 @@ class InfoMessage:
                 "renderer": self.renderer, "vendor": self.vendor, "version": self.version}
 
 
-Message = (FrameMessage | ReportMessage | ControlMessage | StateMessage | TrackingMessage
-           | InfoMessage)
+Message = (FrameMessage | ReportMessage | ControlMessage | SnapshotHeader | SnapshotChunk
+           | TrackingMessage | InfoMessage)
 
 
 def session_id(session: str) -> int:
@@ -246,11 +269,15 @@ def _read_frame(frame: int, payload: bytes) -> FrameMessage:
                         tuple(params.tolist()), HeadState(head[:3], head[3:]))
 
 
+def _digest_bytes(digest: str) -> bytes:
+    if len(digest) != 32 or any(c not in "0123456789abcdef" for c in digest):
+        raise ValueError(f"digest must be 32 lower-case hex digits, got {digest!r}")
+    return bytes.fromhex(digest)
+
+
 def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
-    if len(m.digest) != 32 or any(c not in "0123456789abcdef" for c in m.digest):
-        raise ValueError(f"digest must be 32 lower-case hex digits, got {m.digest!r}")
     return Kind.REPORT, _name_bytes(m.node) + _REPORT.pack(
-        bytes.fromhex(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
+        _digest_bytes(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
         m.status)
 
 
@@ -281,24 +308,53 @@ def _read_control(frame: int, payload: bytes) -> ControlMessage:
     return ControlMessage(frame, Command(payload[0]), target, source)
 
 
-def _write_state(m: StateMessage) -> tuple[Kind, bytes]:
-    particles = np.ascontiguousarray(m.particles, dtype=PARTICLE_DTYPE)
+def _write_snapshot(m: SnapshotHeader) -> tuple[Kind, bytes]:
     emitters = np.ascontiguousarray(m.emitters, dtype=EMITTER_DTYPE)
-    return Kind.STATE, (_STATE.pack(m.seed, len(particles), len(emitters))
-                        + particles.tobytes() + emitters.tobytes())
+    if not (0 <= m.particles <= MAX_STATE_PARTICLES and len(emitters) <= MAX_STATE_EMITTERS
+            and 1 <= m.chunk_particles <= MAX_CHUNK_PARTICLES):
+        raise ValueError(f"a snapshot holds at most {MAX_STATE_PARTICLES} particles and "
+                         f"{MAX_STATE_EMITTERS} emitters in chunks of 1 to "
+                         f"{MAX_CHUNK_PARTICLES} particles, got {m.particles}, "
+                         f"{len(emitters)} and {m.chunk_particles}")
+    return Kind.SNAPSHOT, _SNAPSHOT.pack(m.seed, m.particles, len(emitters), m.chunk_particles,
+                                         _digest_bytes(m.digest)) + emitters.tobytes()
 
 
-def _read_state(frame: int, payload: bytes) -> StateMessage:
-    if len(payload) < _STATE.size:
-        raise ProtocolError("bad-payload", f"state payload of {len(payload)} bytes is too short")
-    seed, particles, emitters = _STATE.unpack_from(payload)
-    size = _STATE.size + particles * PARTICLE_DTYPE.itemsize + emitters * EMITTER_DTYPE.itemsize
-    if particles > MAX_STATE_PARTICLES or emitters > MAX_STATE_EMITTERS or len(payload) != size:
-        raise ProtocolError("bad-payload", f"state of {particles} particles and {emitters} "
-                                           f"emitters does not fit {len(payload)} bytes")
-    p = np.frombuffer(payload, PARTICLE_DTYPE, particles, _STATE.size)
-    e = np.frombuffer(payload, EMITTER_DTYPE, emitters, _STATE.size + p.nbytes)
-    return StateMessage(frame, seed, p.copy(), e.copy())
+def _read_snapshot(frame: int, payload: bytes) -> SnapshotHeader:
+    if len(payload) < _SNAPSHOT.size:
+        raise ProtocolError("bad-payload", f"snapshot header of {len(payload)} bytes is too "
+                                           f"short")
+    seed, particles, emitters, chunk, digest = _SNAPSHOT.unpack_from(payload)
+    if particles > MAX_STATE_PARTICLES or emitters > MAX_STATE_EMITTERS \
+            or not 1 <= chunk <= MAX_CHUNK_PARTICLES \
+            or len(payload) != _SNAPSHOT.size + emitters * EMITTER_DTYPE.itemsize:
+        raise ProtocolError("bad-payload", f"snapshot of {particles} particles in chunks of "
+                                           f"{chunk} and {emitters} emitters does not fit "
+                                           f"{len(payload)} bytes or the limits")
+    e = np.frombuffer(payload, EMITTER_DTYPE, emitters, _SNAPSHOT.size)
+    return SnapshotHeader(frame, seed, particles, chunk, digest.hex(), e.copy())
+
+
+def _write_chunk(m: SnapshotChunk) -> tuple[Kind, bytes]:
+    records, rest = divmod(len(m.data), PARTICLE_BYTES)
+    if rest or not 1 <= records <= MAX_CHUNK_PARTICLES or not 0 <= m.index < MAX_STATE_PARTICLES:
+        raise ValueError(f"a chunk is 1 to {MAX_CHUNK_PARTICLES} whole {PARTICLE_BYTES}-byte "
+                         f"records with an index below {MAX_STATE_PARTICLES}, got "
+                         f"{len(m.data)} bytes at index {m.index}")
+    return Kind.CHUNK, _CHUNK.pack(m.index) + bytes(m.data)
+
+
+def _read_chunk(frame: int, payload: bytes) -> SnapshotChunk:
+    records, rest = divmod(len(payload) - _CHUNK.size, PARTICLE_BYTES)
+    if len(payload) < _CHUNK.size or rest or not 1 <= records <= MAX_CHUNK_PARTICLES:
+        raise ProtocolError("bad-payload", f"snapshot chunk of {len(payload)} bytes is not an "
+                                           f"index and 1 to {MAX_CHUNK_PARTICLES} whole "
+                                           f"{PARTICLE_BYTES}-byte records")
+    (index,) = _CHUNK.unpack_from(payload)
+    if index >= MAX_STATE_PARTICLES:
+        raise ProtocolError("bad-value", f"chunk index {index} is beyond any snapshot "
+                                         f"(at most {MAX_STATE_PARTICLES} particles)")
+    return SnapshotChunk(frame, index, payload[_CHUNK.size:])
 
 
 def _write_tracking(m: TrackingMessage) -> tuple[Kind, bytes]:
@@ -382,8 +438,10 @@ def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
 
 
 _PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
-                    ControlMessage: _write_control, StateMessage: _write_state,
-                    TrackingMessage: _write_tracking, InfoMessage: _write_info}
+                    ControlMessage: _write_control, SnapshotHeader: _write_snapshot,
+                    SnapshotChunk: _write_chunk, TrackingMessage: _write_tracking,
+                    InfoMessage: _write_info}
 _PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
-                    Kind.CONTROL: _read_control, Kind.STATE: _read_state,
-                    Kind.TRACKING: _read_tracking, Kind.INFO: _read_info}
+                    Kind.CONTROL: _read_control, Kind.SNAPSHOT: _read_snapshot,
+                    Kind.CHUNK: _read_chunk, Kind.TRACKING: _read_tracking,
+                    Kind.INFO: _read_info}
