@@ -20,6 +20,7 @@ from typing import NoReturn
 from rich.console import Console
 
 from cavesim.errors import CavesimError, SceneError
+from cavesim.limits import MAX_PARTICLES
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BENCH_SCENE = "config/scenes/bench.toml"
@@ -28,7 +29,6 @@ BENCH_FRAMES = 10
 CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
 CLUSTER_FRAMES = 300
 MAX_NODES = 64
-MAX_BENCH_PARTICLES = 3_000_000  # 120 MB per pool, below the 128 MiB storage-buffer limit
 USAGE_ERROR, RUN_ERROR = 2, 1
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
@@ -72,7 +72,7 @@ def count_list(high: int, what: str):
     return check
 
 
-particle_counts = count_list(MAX_BENCH_PARTICLES, "particle counts")
+particle_counts = count_list(MAX_PARTICLES, "particle counts")
 node_counts = count_list(MAX_NODES, "node counts")
 frame_count = number_in(int, 1, 10**9, "a whole number of frames")
 
@@ -196,7 +196,7 @@ def add_accuracy(commands) -> None:
     parser.add_argument("--out", type=Path, default=Path("out/accuracy"),
                         help="directory for accuracy.csv, accuracy.md, accuracy.json and "
                              "work_precision.png (default: out/accuracy)")
-    parser.add_argument("--particles", type=number_in(int, 1, MAX_BENCH_PARTICLES,
+    parser.add_argument("--particles", type=number_in(int, 1, MAX_PARTICLES,
                                                       "a particle count"),
                         help=f"particles per case (default: {PARTICLES:,}; with --quick: "
                              f"{QUICK_PARTICLES:,})")

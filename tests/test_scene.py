@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from cavesim.errors import SceneError
+from cavesim.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 from cavesim.scene import (
     AIR_VISCOSITY,
     Collision,
@@ -30,7 +31,6 @@ from cavesim.scene import (
     load_scene,
     parse_scene,
 )
-from cavesim.scene.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 
 SCENES = Path(__file__).resolve().parent.parent / "config" / "scenes"
 EXAMPLES = sorted(SCENES.glob("*.toml"))

@@ -11,7 +11,6 @@ on; `cavesim run` spreads the other walls over the machine's GPUs.
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,18 +20,16 @@ import numpy as np
 
 from cavesim._toml import read_toml
 from cavesim.errors import CaveError
+from cavesim.limits import GPU_RANGE, NAME_RE, WALL_RESOLUTION_RANGE
 
 TOP_KEYS = ("name", "wall")
 WALL_KEYS = ("name", "lower_left", "lower_right", "upper_left", "upper_right", "resolution",
              "gpu")
-NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,32}")
 NAME_RULE = "must be 1-32 characters, each a letter, digit, '_' or '-'"
 MIN_EDGE_M = 1e-6  # shorter edges make a wall of no area
 MAX_COS = 1e-6  # |cos| of the angle between the bottom and left edges of a rectangle
 CORNER_TOL_M = 1e-6  # how far a given upper_right may sit from the one the rectangle implies
 ASPECT_TOL = 0.01  # pixels may be 1% away from square
-RESOLUTION_RANGE = (16, 8192)
-GPU_RANGE = (0, 255)  # EGL device indices a wall (or `cavesim node --gpu`) may name
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -212,7 +209,7 @@ def _xyz(src: str, key: str, value: object) -> np.ndarray:
 def _wall(src: str, key: str, raw: Mapping[str, Any]) -> Wall:
     _known_keys(src, f"{key}.", raw, WALL_KEYS)
     point_rule = "a list of 3 finite numbers [x, y, z] in metres"
-    lo, hi = RESOLUTION_RANGE
+    lo, hi = WALL_RESOLUTION_RANGE
     res_rule = f"a list of 2 integers [width_px, height_px], each >= {lo} and <= {hi}"
     name = _name(src, f"{key}.name", _required(src, key, raw, "name", NAME_RULE))
     ll, lr, ul = (_xyz(src, f"{key}.{k}", _required(src, key, raw, k, point_rule))

@@ -14,8 +14,16 @@ from typing import Any
 
 from numpy.lib import format as npy_format
 
+from cavesim.limits import (
+    FIELD_RESOLUTION_RANGE,
+    MAX_DIAMETER,
+    MAX_FIELD_NODES,
+    MAX_LIFETIME,
+    MAX_PARTICLES,
+    MAX_RATE,
+    RANDOM_TEXTURE_SIZE_RANGE,
+)
 from cavesim.scene._checks import Table
-from cavesim.scene.limits import RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.scene.model import (
     AIR_VISCOSITY,
     Collision,
@@ -32,13 +40,6 @@ from cavesim.scene.model import (
     ParticleClass,
     WandKey,
 )
-
-MAX_CAPACITY = 3_000_000
-MAX_RATE = 1e9  # particles/s
-MAX_LIFETIME = 3600.0  # s
-MAX_DIAMETER = 0.1  # m: beyond this Stokes drag on a "particle" is meaningless
-RESOLUTION_RANGE = (2, 256)  # nodes per axis
-MAX_NODES = 2**22  # product of the resolution: a 64 MiB RGBA32F texture at most
 
 SIMULATION_KEYS = ("capacity", "seed", "integrator", "random_texture_size")
 PARTICLE_CLASS_KEYS = ("name", "diameter", "density")
@@ -61,7 +62,7 @@ def simulation(t: Table) -> dict[str, Any]:
     if size & (size - 1):
         raise t.fail("random_texture_size", f"must be a power of two >= {low} and <= {high}")
     return {
-        "capacity": t.integer("capacity", ge=0, le=MAX_CAPACITY),
+        "capacity": t.integer("capacity", ge=0, le=MAX_PARTICLES),
         "seed": t.integer("seed", ge=0, lt=2**63),
         "integrator": t.choice("integrator", Integrator, Integrator.EXPONENTIAL),
         "random_texture_size": size,
@@ -199,15 +200,15 @@ def _file_resolution(t: Table, path: Path) -> tuple[int, int, int]:
     The layout is the one `cavesim.fields` reads and writes: x varies fastest, as in the 3D
     texture. Values (dtype, finiteness) are checked there, when the grid is built.
     """
-    lo, hi = RESOLUTION_RANGE
+    lo, hi = FIELD_RESOLUTION_RANGE
     allowed = (f"must be an .npz holding an array 'velocity' of shape (nz, ny, nx, 3), "
-               f"each n in {lo}..{hi}, nx*ny*nz <= {MAX_NODES}")
+               f"each n in {lo}..{hi}, nx*ny*nz <= {MAX_FIELD_NODES}")
     try:
         shape = _npy_shape(path, "velocity")
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
         raise t.fail("file", f"{allowed} ({path}: {type(e).__name__}: {e})") from e
     if (len(shape) != 4 or shape[3] != 3 or not all(lo <= n <= hi for n in shape[:3])
-            or math.prod(shape[:3]) > MAX_NODES):
+            or math.prod(shape[:3]) > MAX_FIELD_NODES):
         raise t.fail("file", f"{allowed} ({path} holds shape {shape})")
     nz, ny, nx = shape[:3]
     return nx, ny, nz
@@ -234,9 +235,10 @@ def field(t: Table, base: Path) -> Field:
         if t.has("file"):
             raise t.fail("file", f'only allowed with kind = "file", not {kind.value!r}')
         path = None
-        resolution = t.ints("resolution", 3, ge=RESOLUTION_RANGE[0], le=RESOLUTION_RANGE[1])
-        if math.prod(resolution) > MAX_NODES:
-            raise t.fail("resolution", f"must have at most {MAX_NODES} nodes in all")
+        lo, hi = FIELD_RESOLUTION_RANGE
+        resolution = t.ints("resolution", 3, ge=lo, le=hi)
+        if math.prod(resolution) > MAX_FIELD_NODES:
+            raise t.fail("resolution", f"must have at most {MAX_FIELD_NODES} nodes in all")
     params = t.table("params", PARAM_KEYS[kind])
     return Field(
         kind=kind,

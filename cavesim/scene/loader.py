@@ -13,9 +13,9 @@ from typing import Any
 
 from cavesim._toml import read_toml
 from cavesim.errors import SceneError
+from cavesim.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 from cavesim.scene import _sections
 from cavesim.scene._checks import Table
-from cavesim.scene.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 from cavesim.scene.model import FieldKind, Forces, Scene
 
 TOP_KEYS = ("name", "simulation", "particle_class", "emitter", "forces", "field", "collision",

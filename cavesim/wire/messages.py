@@ -21,6 +21,7 @@ import numpy as np
 from cavesim.engine.frame import FrameInput
 from cavesim.engine.layout import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.errors import ProtocolError
+from cavesim.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.wire.keys import check_name
 
 MAGIC = b"CVSM"
@@ -29,8 +30,6 @@ HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
 MAX_PARAMS = 32
-MAX_STATE_PARTICLES = 3_000_000
-MAX_STATE_EMITTERS = 4096
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
 
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
@@ -293,7 +292,7 @@ def _read_state(frame: int, payload: bytes) -> StateMessage:
         raise ProtocolError("bad-payload", f"state payload of {len(payload)} bytes is too short")
     seed, particles, emitters = _STATE.unpack_from(payload)
     size = _STATE.size + particles * PARTICLE_DTYPE.itemsize + emitters * EMITTER_DTYPE.itemsize
-    if particles > MAX_STATE_PARTICLES or emitters > MAX_STATE_EMITTERS or len(payload) != size:
+    if particles > MAX_PARTICLES or emitters > MAX_EMITTERS or len(payload) != size:
         raise ProtocolError("bad-payload", f"state of {particles} particles and {emitters} "
                                            f"emitters does not fit {len(payload)} bytes")
     p = np.frombuffer(payload, PARTICLE_DTYPE, particles, _STATE.size)
