@@ -90,10 +90,9 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
     if needs_rotor and helicopter is None:
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
 
-    return Scene(name=scene_name, source=source, capacity=sim.capacity, seed=sim.seed,
-                 integrator=sim.integrator, random_texture_size=sim.random_texture_size,
-                 particle_classes=classes, emitters=emitters, forces=forces, field=field,
-                 collision=collision, helicopter=helicopter)
+    return Scene(name=scene_name, source=source, **asdict(sim), particle_classes=classes,
+                 emitters=emitters, forces=forces, field=field, collision=collision,
+                 helicopter=helicopter)
 
 
 def _emitter(t: Table, class_index: Mapping[str, int]) -> Emitter:
