@@ -19,8 +19,8 @@ from typing import NoReturn
 
 from rich.console import Console
 
-from cavesim.engine.layout import MAX_CAPACITY
 from cavesim.errors import CavesimError, SceneError
+from cavesim.limits import MAX_PARTICLES
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 BENCH_SCENE = "config/scenes/bench.toml"
@@ -74,7 +74,7 @@ def count_list(high: int, what: str):
 
 # Parsing stops at the engine's addressing bound; the GL context's own limits are checked
 # before measuring (a CapacityError, exit 1: the same flags may fit another driver).
-particle_counts = count_list(MAX_CAPACITY, "particle counts")
+particle_counts = count_list(MAX_PARTICLES, "particle counts")
 node_counts = count_list(MAX_NODES, "node counts")
 frame_count = number_in(int, 1, 10**9, "a whole number of frames")
 
@@ -198,7 +198,8 @@ def add_accuracy(commands) -> None:
     parser.add_argument("--out", type=Path, default=Path("out/accuracy"),
                         help="directory for accuracy.csv, accuracy.md, accuracy.json and "
                              "work_precision.png (default: out/accuracy)")
-    parser.add_argument("--particles", type=number_in(int, 1, MAX_CAPACITY, "a particle count"),
+    parser.add_argument("--particles", type=number_in(int, 1, MAX_PARTICLES,
+                                                      "a particle count"),
                         help=f"particles per case (default: {PARTICLES:,}; with --quick: "
                              f"{QUICK_PARTICLES:,})")
     parser.add_argument("--quick", action="store_true",

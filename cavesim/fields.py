@@ -17,9 +17,9 @@ import numpy as np
 from cavesim._grids import cells, check_box, corner_of, float_grid, mix, read_npz
 from cavesim.errors import FieldError
 from cavesim.flows import MODELS
+from cavesim.limits import FIELD_RESOLUTION_RANGE
 from cavesim.scene.model import Field, FieldKind, OutOfDomain
 
-MAX_FIELD_NODES = 256  # per axis: 256³ nodes × 3 × float32 is already 200 MB of texture
 _BOX_RTOL = 1e-9
 
 
@@ -66,9 +66,10 @@ def build_field(field: Field) -> FieldGrid:
             raise FieldError("field of kind 'file' names no file")
         return _load_field_file(Path(field.file), box_min, box_max)
     res = tuple(field.resolution)
-    in_range = (isinstance(n, int | np.integer) and 2 <= n <= MAX_FIELD_NODES for n in res)
+    low, high = FIELD_RESOLUTION_RANGE
+    in_range = (isinstance(n, int | np.integer) and low <= n <= high for n in res)
     if len(res) != 3 or not all(in_range):
-        raise FieldError(f"field resolution must be 3 integers in [2, {MAX_FIELD_NODES}], "
+        raise FieldError(f"field resolution must be 3 integers in [{low}, {high}], "
                          f"got {field.resolution!r}")
     nx, ny, nz = res
     x = np.linspace(box_min[0], box_max[0], nx)[None, None, :]
@@ -128,7 +129,7 @@ def save_field(path, grid: FieldGrid) -> None:
 def _load_field_file(path: Path, box_min, box_max) -> FieldGrid:
     arrays = read_npz(path, required=("velocity",), optional=("box_min", "box_max"))
     velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
-                           MAX_FIELD_NODES, components=3)
+                           FIELD_RESOLUTION_RANGE[1], components=3)
     for name, scene_corner in (("box_min", box_min), ("box_max", box_max)):
         if name not in arrays:
             continue

@@ -12,8 +12,8 @@ import logging
 import sys
 from pathlib import Path
 
-from cavesim.cave.geometry import GPU_RANGE
 from cavesim.cli import UsageError, frame_count, number_in, output_directory, scene_file
+from cavesim.limits import GPU_RANGE
 from cavesim.wire.keys import check_name
 from cavesim.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.wire.network import add_network_arguments, network_from_arguments, read_key

@@ -15,10 +15,10 @@ from hypothesis import strategies as st
 
 from cavesim.engine import EMITTER_DTYPE, FrameInput
 from cavesim.engine.layout import PARTICLE_BYTES
+from cavesim.limits import MAX_PARTICLES
 from cavesim.wire.messages import (
     MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
-    MAX_STATE_PARTICLES,
     MAX_TEXT,
     Command,
     ControlMessage,
@@ -80,10 +80,10 @@ def records(dtype: np.dtype, max_count: int) -> st.SearchStrategy[np.ndarray]:
 
 
 snapshot_headers = st.builds(SnapshotHeader, frame_numbers, st.integers(0, U64),
-                             st.integers(0, MAX_STATE_PARTICLES),
+                             st.integers(0, MAX_PARTICLES),
                              st.integers(1, MAX_CHUNK_PARTICLES), digests,
                              records(EMITTER_DTYPE, 4))
-snapshot_chunks = st.builds(SnapshotChunk, frame_numbers, st.integers(0, MAX_STATE_PARTICLES - 1),
+snapshot_chunks = st.builds(SnapshotChunk, frame_numbers, st.integers(0, MAX_PARTICLES - 1),
                             st.integers(1, 4).flatmap(lambda n: st.binary(
                                 min_size=n * PARTICLE_BYTES, max_size=n * PARTICLE_BYTES)))
 snapshot_messages = snapshot_headers | snapshot_chunks

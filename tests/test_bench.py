@@ -17,7 +17,7 @@ from cavesim.bench import TARGETS, SizeFigures
 from cavesim.bench.figures import evaluate_targets
 from cavesim.cli import main
 from cavesim.engine.capacity import capacity_limits
-from cavesim.engine.layout import MAX_CAPACITY
+from cavesim.limits import MAX_PARTICLES
 
 SIZES = (2000, 5000)
 RUN_MAIN = "import sys; from cavesim.cli import main; sys.exit(main(sys.argv[1:]))"
@@ -99,7 +99,7 @@ def test_targets_use_one_million_particles_when_measured():
 @pytest.mark.parametrize("argv, flag", [
     (["--sizes", "0"], "--sizes"),
     (["--sizes", "abc"], "--sizes"),
-    (["--sizes", f"1000,{MAX_CAPACITY + 1}"], "--sizes"),
+    (["--sizes", f"1000,{MAX_PARTICLES + 1}"], "--sizes"),
     (["--frames", "0"], "--frames"),
     (["--scene", "/nonexistent.toml"], "--scene"),
 ])

@@ -13,9 +13,10 @@ from scenes import make_scene
 from cavesim.engine import FrameInput, ParticleSystem
 from cavesim.engine.capacity import capacity_limits
 from cavesim.engine.checksum import group_count
-from cavesim.engine.layout import MAX_CAPACITY, PARTICLE_BYTES, PARTICLE_WORDS
+from cavesim.engine.layout import PARTICLE_BYTES, PARTICLE_WORDS
 from cavesim.errors import CapacityError
 from cavesim.framelog import FrameLogWriter, read_frame_log
+from cavesim.limits import MAX_PARTICLES
 from cavesim.wire.messages import FrameMessage, ReportMessage, decode, encode
 
 GIB = 2**30
@@ -34,7 +35,7 @@ def test_a_2_gib_storage_block_allows_53_687_091_particles():
     """2 GiB / 40 bytes; the engine's own bound (a C int of bytes) gives the same count, and
     the driver's limit is named as the binding one."""
     limits = capacity_limits(TWO_GIB)
-    assert limits.max_capacity == 2 * GIB // PARTICLE_BYTES == 53_687_091 == MAX_CAPACITY
+    assert limits.max_capacity == 2 * GIB // PARTICLE_BYTES == 53_687_091 == MAX_PARTICLES
     assert limits.binding.name == "GL_MAX_SHADER_STORAGE_BLOCK_SIZE"
     limits.check(53_687_091)
     with pytest.raises(CapacityError) as error:
@@ -50,9 +51,9 @@ def test_a_2_gib_storage_block_allows_53_687_091_particles():
 def test_beyond_the_driver_the_engines_addressing_bound_binds():
     limits = capacity_limits(fake_info(GL_MAX_SHADER_STORAGE_BLOCK_SIZE=16 * GIB))
     assert limits.binding.name == "the engine's addressing bound"
-    assert limits.max_capacity == MAX_CAPACITY
+    assert limits.max_capacity == MAX_PARTICLES
     with pytest.raises(CapacityError, match="C int"):
-        limits.check(MAX_CAPACITY + 1)
+        limits.check(MAX_PARTICLES + 1)
 
 
 def test_a_small_work_group_count_binds_the_checksum_dispatch():
@@ -68,11 +69,11 @@ def test_a_small_work_group_count_binds_the_checksum_dispatch():
 def test_the_checksum_addresses_the_largest_capacity_in_32_bits():
     """checksum.glsl indexes words with a uint and dispatches one group per 16384 words:
     at the engine's bound both fit, and GL's guaranteed group count never binds first."""
-    words = MAX_CAPACITY * PARTICLE_WORDS
+    words = MAX_PARTICLES * PARTICLE_WORDS
     assert words <= 2**32 - 1
     assert group_count(words) <= GL_MIN_WORK_GROUP_COUNT
     assert capacity_limits(fake_info(GL_MAX_COMPUTE_WORK_GROUP_COUNT=(
-        GL_MIN_WORK_GROUP_COUNT, 1, 1))).max_capacity == MAX_CAPACITY
+        GL_MIN_WORK_GROUP_COUNT, 1, 1))).max_capacity == MAX_PARTICLES
 
 
 def test_the_largest_capacity_of_this_context_constructs_and_one_more_fails(ctx):
@@ -131,10 +132,10 @@ def test_moderngl_passes_a_transform_offset_as_32_bits(ctx):
 def test_frame_log_and_reports_carry_the_largest_count(tmp_path):
     frame = FrameMessage(1, FrameInput(1 / 60, np.eye(3)))
     writer = FrameLogWriter(tmp_path / "frames.log", {"session": "big"})
-    writer.append(frame, "ab" * 16, MAX_CAPACITY)
+    writer.append(frame, "ab" * 16, MAX_PARTICLES)
     writer.close()
     _, frames = read_frame_log(tmp_path / "frames.log")
     (logged,) = list(frames)
-    assert logged.particles == MAX_CAPACITY == 53_687_091
-    report = ReportMessage(1, "front", "ab" * 16, MAX_CAPACITY, 4096, 0, 0)
-    assert decode(encode(report, "big"), "big").particles == MAX_CAPACITY
+    assert logged.particles == MAX_PARTICLES == 53_687_091
+    report = ReportMessage(1, "front", "ab" * 16, MAX_PARTICLES, 4096, 0, 0)
+    assert decode(encode(report, "big"), "big").particles == MAX_PARTICLES

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from cavesim.limits import DEFAULT_MASTER_PORT
 from nodes.launcher import free_port
 
 ROOT = Path(__file__).parents[1]
@@ -116,9 +117,9 @@ def test_default_port_ipv6_master_and_remote_cavesim(tmp_path):
     found = commands(done.stdout)
     remote = "/opt/cavesim/bin/cavesim"
     assert prefix(found["master"], remote) == [*SSH, "fd00::1"]
-    assert flag(found["master"], "--listen") == "tcp/0.0.0.0:7447"
+    assert flag(found["master"], "--listen") == f"tcp/0.0.0.0:{DEFAULT_MASTER_PORT}"
     assert prefix(found["front"], remote) == [*SSH, "fd00::2"]
-    assert flag(found["front"], "--connect") == "tcp/[fd00::1]:7447"
+    assert flag(found["front"], "--connect") == f"tcp/[fd00::1]:{DEFAULT_MASTER_PORT}"
     assert "--key-file" not in found["front"]
 
 

@@ -36,6 +36,7 @@ import pytest
 from netns import Network, remove_stale, unavailable
 
 from cavesim.framelog import read_frame_log
+from cavesim.limits import DEFAULT_MASTER_PORT
 
 ROOT = Path(__file__).parents[1]
 LAUNCH = ROOT / "deploy" / "launch.sh"
@@ -44,7 +45,7 @@ RELAY = ROOT / "tests" / "delay_relay.py"
 ZENOH_CONFIG = "config/zenoh/multihost.json5"
 SCENE = "config/scenes/minimal.toml"
 WALLS = ("front", "left", "right")
-MASTER_PORT = 7447
+MASTER_PORT = DEFAULT_MASTER_PORT
 FIGURES_JSON = ROOT / "out" / "multihost.json"
 # zenoh sets SO_LINGER 10 s on its TCP links, so closing a lost node's link (with frames
 # unacknowledged on it) blocks the closing runtime thread until the cable is back or 10 s

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cavesim.engine.layout import MAX_CAPACITY
 from cavesim.errors import SceneError
+from cavesim.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES, MAX_PARTICLES
 from cavesim.scene import (
     AIR_VISCOSITY,
     Collision,
@@ -31,7 +31,6 @@ from cavesim.scene import (
     load_scene,
     parse_scene,
 )
-from cavesim.scene.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES
 
 SCENES = Path(__file__).resolve().parent.parent / "config" / "scenes"
 EXAMPLES = sorted(SCENES.glob("*.toml"))
@@ -340,8 +339,8 @@ BAD: list[tuple[str, Mutation, tuple[str, ...]]] = [
      ("emitter[0].extent", "[1.0, -1.0, 0.0]")),
     ("diameter-too-big", _set("particle_class.0.diameter", 0.2),
      ("particle_class[0].diameter", "0.2")),
-    ("capacity-too-big", _set("simulation.capacity", MAX_CAPACITY + 1),
-     ("simulation.capacity", str(MAX_CAPACITY + 1), "53687091")),
+    ("capacity-too-big", _set("simulation.capacity", MAX_PARTICLES + 1),
+     ("simulation.capacity", str(MAX_PARTICLES + 1), "53687091")),
     ("capacity-negative", _set("simulation.capacity", -1), ("simulation.capacity", "-1")),
     ("seed-too-big", _set("simulation.seed", 2**63), ("simulation.seed", str(2**63))),
     ("texture-not-power-of-two", _set("simulation.random_texture_size", 300),

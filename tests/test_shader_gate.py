@@ -8,8 +8,8 @@ import pytest
 
 from cavesim.engine.programs import IN_PLACE_UPDATE, PARTICLE_UPDATE, PHYSICS_FEATURES
 from cavesim.errors import ShaderError
+from cavesim.limits import MAX_PARTICLE_CLASSES
 from cavesim.render.programs import DUST
-from cavesim.scene.limits import MAX_PARTICLE_CLASSES
 from cavesim.shader_gate import (
     Build,
     all_builds,

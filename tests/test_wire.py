@@ -35,12 +35,11 @@ from hypothesis import strategies as st
 
 from cavesim.engine import EMITTER_DTYPE, FrameInput
 from cavesim.errors import ProtocolError
+from cavesim.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.wire import messages as wire
 from cavesim.wire.messages import (
     MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
-    MAX_STATE_EMITTERS,
-    MAX_STATE_PARTICLES,
     MAX_TEXT,
     VERSION,
     Command,
@@ -156,10 +155,10 @@ EDGE_MESSAGES = {
     "snapshot-empty": SnapshotHeader(5, 1, 0, 1, DIGEST, np.zeros(0, EMITTER_DTYPE)),
     "snapshot": SnapshotHeader(U64, U64, 3, 2, DIGEST,
                                np.arange(2 * 4, dtype="<u4").view(EMITTER_DTYPE)),
-    "snapshot-largest": SnapshotHeader(1, 0, MAX_STATE_PARTICLES, MAX_CHUNK_PARTICLES,
-                                       "f" * 32, np.zeros(MAX_STATE_EMITTERS, EMITTER_DTYPE)),
+    "snapshot-largest": SnapshotHeader(1, 0, MAX_PARTICLES, MAX_CHUNK_PARTICLES,
+                                       "f" * 32, np.zeros(MAX_EMITTERS, EMITTER_DTYPE)),
     "chunk": SnapshotChunk(U64, 7, bytes(range(40)) * 2),
-    "chunk-last-index": SnapshotChunk(0, MAX_STATE_PARTICLES - 1, bytes(40)),
+    "chunk-last-index": SnapshotChunk(0, MAX_PARTICLES - 1, bytes(40)),
     "tracking": TrackingMessage(12, HeadState((0.25, -0.5, 1.75), (0.0, 0.0, 0.5, 0.75)),
                                 WandState((1.0, 2.0, 1.25), (0.5, 0.0, 0.0, 0.5), 5,
                                           (0.25, -1.0, 0.0, 0.5))),
@@ -233,7 +232,7 @@ def test_crafted_bytes_match_encode():
     (InfoMessage(1, "front", 0, False, "r", "v", "4.6\n"), "version"),
     (InfoMessage(1, "", 0, False, "r", "v", "4.6"), "node name"),
     (SnapshotHeader(1, 0, 10, 0, DIGEST, np.zeros(0, EMITTER_DTYPE)), "chunks of 1 to"),
-    (SnapshotHeader(1, 0, MAX_STATE_PARTICLES + 1, 1, DIGEST, np.zeros(0, EMITTER_DTYPE)),
+    (SnapshotHeader(1, 0, MAX_PARTICLES + 1, 1, DIGEST, np.zeros(0, EMITTER_DTYPE)),
      "at most"),
     (SnapshotHeader(1, 0, 1, 1, "XY" * 16, np.zeros(0, EMITTER_DTYPE)), "hex digits"),
     (SnapshotChunk(1, 0, bytes(41)), "whole 40-byte records"),
@@ -322,9 +321,9 @@ REJECTIONS = [
     ("snapshot-stray-byte", craft(Kind.SNAPSHOT, snapshot_body() + b"\x00"), None,
      "bad-payload"),
     ("snapshot-too-many-particles", craft(Kind.SNAPSHOT, snapshot_body(
-        particles=MAX_STATE_PARTICLES + 1)), None, "bad-payload"),
+        particles=MAX_PARTICLES + 1)), None, "bad-payload"),
     ("snapshot-too-many-emitters", craft(Kind.SNAPSHOT, snapshot_body(
-        emitters=MAX_STATE_EMITTERS + 1) + bytes(16 * (MAX_STATE_EMITTERS + 1))), None,
+        emitters=MAX_EMITTERS + 1) + bytes(16 * (MAX_EMITTERS + 1))), None,
      "bad-payload"),
     ("snapshot-chunk-size-0", craft(Kind.SNAPSHOT, snapshot_body(chunk=0)), None,
      "bad-payload"),
@@ -335,7 +334,7 @@ REJECTIONS = [
     ("chunk-partial-record", craft(Kind.CHUNK, struct.pack("<I", 0) + bytes(41)), None,
      "bad-payload"),
     ("chunk-index-beyond-any-snapshot", craft(Kind.CHUNK, struct.pack(
-        "<I", MAX_STATE_PARTICLES) + bytes(40)), None, "bad-value"),
+        "<I", MAX_PARTICLES) + bytes(40)), None, "bad-value"),
     ("kind-frame-with-report-payload", craft(Kind.FRAME, report_body()), None, "bad-payload"),
     # values
     ("dt-nan", craft(Kind.FRAME, frame_body(dt_bits=NAN32)), None, "bad-value"),

@@ -5,7 +5,7 @@ A particle system is bounded three ways; the smallest bound binds:
   storage block (llvmpipe allows 128 MiB, an H100 2 GiB);
 - GL_MAX_COMPUTE_WORK_GROUP_COUNT (x): the checksum sums a buffer in one dispatch of
   WORDS_PER_GROUP words per work group;
-- the engine's own addressing bound, `layout.MAX_CAPACITY` (GL-free: the scene's cap).
+- the engine's own addressing bound, `limits.MAX_PARTICLES` (GL-free: the scene's cap).
 GL has no query for the largest buffer: memory the driver cannot give shows as
 GL_OUT_OF_MEMORY after allocating (`allocation_error`). Every bound is read from the
 context (`ctx.info`), never assumed from the machine this was written on.
@@ -17,8 +17,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from cavesim.engine.checksum import WORDS_PER_GROUP
-from cavesim.engine.layout import MAX_BYTE_OFFSET, MAX_CAPACITY, PARTICLE_BYTES, PARTICLE_WORDS
+from cavesim.engine.layout import PARTICLE_BYTES, PARTICLE_WORDS
 from cavesim.errors import CapacityError
+from cavesim.limits import MAX_BYTE_OFFSET, MAX_PARTICLES
 
 PARTICLE_BUFFERS = 2  # front and back: a frame reads one stream and writes the other
 
@@ -78,5 +79,5 @@ def capacity_limits(info: Mapping[str, object]) -> CapacityLimits:
               f"the checksum sums a buffer in one dispatch of {WORDS_PER_GROUP} words per group",
               groups * WORDS_PER_GROUP // PARTICLE_WORDS),
         Bound("the engine's addressing bound", MAX_BYTE_OFFSET, "bytes",
-              "moderngl passes transform feedback's byte offset as a C int", MAX_CAPACITY),
+              "moderngl passes transform feedback's byte offset as a C int", MAX_PARTICLES),
     ), f"{info['GL_RENDERER']}, OpenGL {info['GL_VERSION']}")

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 import moderngl
 
 from cavesim.engine.layout import PARTICLE_VARYINGS
-from cavesim.scene.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
+from cavesim.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.scene.model import (
     CollisionKind,
     FieldKind,

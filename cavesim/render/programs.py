@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from cavesim.scene.limits import MAX_PARTICLE_CLASSES
+from cavesim.limits import MAX_PARTICLE_CLASSES
 from cavesim.scene.model import Scene
 from cavesim.shader_source import ProgramSpec
 

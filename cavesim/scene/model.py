@@ -2,6 +2,8 @@
 
 Coordinates are room metres with z up; times are seconds. Every object is frozen so a
 scene can be shared between the GL engine and its numpy twin without either changing it.
+Most of them are also the tables of a scene file: each field is a key, with its bounds beside
+it (`cavesim._schema` reads them); `file.py` holds the tables only the file has.
 """
 
 from __future__ import annotations
@@ -10,6 +12,16 @@ import math
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
+from typing import Annotated
+
+from cavesim._schema import Range, Rule
+from cavesim.limits import (
+    FIELD_RESOLUTION_RANGE,
+    MAX_DIAMETER,
+    MAX_FIELD_NODES,
+    MAX_LIFETIME,
+    MAX_RATE,
+)
 
 Vec3 = tuple[float, float, float]
 
@@ -52,60 +64,85 @@ class CollisionKind(StrEnum):
 @dataclass(frozen=True)
 class ParticleClass:
     name: str
-    diameter: float  # m
-    density: float  # kg/m³
+    diameter: Annotated[float, Range(gt=0.0, le=MAX_DIAMETER)]  # m
+    density: Annotated[float, Range(gt=0.0)]  # kg/m³
 
     def relaxation_time(self, air_viscosity: float = AIR_VISCOSITY) -> float:
         """Stokes relaxation time τ = ρ d² / (18 μ) in seconds."""
         return self.density * self.diameter**2 / (18.0 * air_viscosity)
 
 
-@dataclass(frozen=True)
+# Rules beside a field are named functions: an annotation's lambda would not see this module.
+def _usable_direction(v: Vec3) -> bool:
+    return 0.0 < math.hypot(*v) < math.inf
+
+
+def _ordered(pair: tuple[float, float]) -> bool:
+    return pair[0] <= pair[1]
+
+
+def _few_field_nodes(resolution: tuple[int, int, int]) -> bool:
+    return math.prod(resolution) <= MAX_FIELD_NODES
+
+
+@dataclass(frozen=True, kw_only=True)
 class Emitter:
     name: str
     position: Vec3  # centre of the emission box
-    extent: Vec3  # full edge lengths of the emission box (0 = a point along that axis)
-    rate: float  # particles per second, >= 0
-    speed: float  # mean initial speed, m/s
-    speed_spread: float  # initial speed is uniform in [speed - spread, speed + spread]
-    direction: Vec3  # unit vector of the mean initial velocity
-    spread_angle: float  # half-angle of the emission cone, degrees in [0, 180]
-    lifetime: tuple[float, float]  # uniform range [min, max] in seconds, 0 < min <= max
-    particle_class: int  # index into Scene.particle_classes
+    # full edge lengths of the emission box (0 = a point along that axis)
+    extent: Annotated[Vec3, Range(ge=0.0)] = (0.0, 0.0, 0.0)
+    rate: Annotated[float, Range(ge=0.0, le=MAX_RATE)]  # particles per second
+    speed: Annotated[float, Range(ge=0.0)] = 0.0  # mean initial speed, m/s
+    # initial speed is uniform in [speed - spread, speed + spread]: spread <= speed
+    speed_spread: Annotated[float, Range(ge=0.0)] = 0.0
+    # unit vector of the mean initial velocity (the loader normalizes the file's vector)
+    direction: Annotated[Vec3, Rule("with a non-zero, finite length", _usable_direction)] = (
+        0.0, 0.0, 1.0)
+    spread_angle: Annotated[float, Range(ge=0.0, le=180.0)] = 0.0  # cone half-angle, degrees
+    # uniform range [min, max] in seconds
+    lifetime: Annotated[tuple[float, float], Range(gt=0.0, le=MAX_LIFETIME),
+                        Rule("[min, max] with min <= max", _ordered)]
+    particle_class: int  # index into Scene.particle_classes (the file gives its name)
     follow_helicopter: bool = False  # position is relative to the point below the rotor hub;
     # rate is scaled each frame by the ground's saltation under the downwash
 
 
 @dataclass(frozen=True)
 class Drag:
-    air_viscosity: float = AIR_VISCOSITY
+    air_viscosity: Annotated[float, Range(gt=0.0)] = AIR_VISCOSITY
 
 
 @dataclass(frozen=True)
 class Forces:
     gravity: Vec3 | None = None  # None: no gravity compiled in
     drag: Drag | None = None  # None: no Stokes drag, and no field texture
-    damping: float | None = None  # linear damping rate k in a = -k v, 1/s
+    # linear damping rate k in a = -k v, 1/s
+    damping: Annotated[float, Range(gt=0.0)] | None = None
 
 
 @dataclass(frozen=True)
 class Field:
     kind: FieldKind
     box_min: Vec3
-    box_max: Vec3
-    resolution: tuple[int, int, int]  # grid nodes per axis, each >= 2 (from the file for FILE)
+    box_max: Vec3  # > box_min on every axis
+    # grid nodes per axis (from the file for FILE)
+    resolution: Annotated[tuple[int, int, int], Range.within(FIELD_RESOLUTION_RANGE),
+                          Rule(f"at most {MAX_FIELD_NODES} nodes in all", _few_field_nodes)]
     out_of_domain: OutOfDomain = OutOfDomain.CLAMP
     sampling: FieldSampling = FieldSampling.MANUAL
-    params: dict[str, object] = field(default_factory=dict)  # kind-specific, validated
+    params: dict[str, object] = field(default_factory=dict)  # file.FIELD_PARAMS[kind] as a dict
     file: Path | None = None  # for FILE: .npz with array "velocity" (nz, ny, nx, 3)
 
 
 @dataclass(frozen=True)
 class Collision:
     kind: CollisionKind
-    friction: float  # ν in [0, 1]: share of tangential speed lost at a bounce
-    resilience: float  # ε in [0, 1]: share of normal speed kept at a bounce
-    friction_min_speed: float = 0.0  # m/s: below this speed no friction is applied
+    # ν: share of tangential speed lost at a bounce
+    friction: Annotated[float, Range(ge=0.0, le=1.0)]
+    # ε: share of normal speed kept at a bounce
+    resilience: Annotated[float, Range(ge=0.0, le=1.0)]
+    # m/s: below this speed no friction is applied
+    friction_min_speed: Annotated[float, Range(ge=0.0)] = 0.0
     height: float = 0.0  # PLANE: ground height z
     file: Path | None = None  # HEIGHTFIELD: .npz with "height" (nx, ny), "box_min", "box_max"
 
@@ -114,23 +151,29 @@ class Collision:
 class WandKey:
     """One key of a scripted wand timeline: where the wand is and how far it is tilted."""
 
-    t: float  # s from the start
+    t: Annotated[float, Range(ge=0.0)]  # s from the start; keys in order
     position: Vec3  # room metres
-    tilt: float  # degrees; 0 = level = hover rotor speed, + faster, - slower
+    # degrees; 0 = level = hover rotor speed, + faster, - slower
+    tilt: Annotated[float, Range(ge=-90.0, le=90.0)] = 0.0
 
 
 @dataclass(frozen=True)
 class Helicopter:
-    mass: float  # kg
-    rotor_radius: float  # m
-    hub_height: float  # m from the skids up to the rotor hub
-    air_density: float = 1.225  # kg/m³
-    rotor_hz: float = 4.5  # main rotor turns per second at hover speed
-    threshold_friction_velocity: float = 0.25  # m/s: no saltation below
-    roughness_length: float = 1e-3  # m, of the ground, for the friction velocity
+    mass: Annotated[float, Range(gt=0.0, le=1e6)]  # kg
+    rotor_radius: Annotated[float, Range(gt=0.0, le=100.0)]  # m
+    hub_height: Annotated[float, Range(gt=0.0, le=50.0)]  # m from the skids up to the rotor hub
+    air_density: Annotated[float, Range(gt=0.0, le=10.0)] = 1.225  # kg/m³
+    # main rotor turns per second at hover speed
+    rotor_hz: Annotated[float, Range(gt=0.0, le=100.0)] = 4.5
+    # m/s: no saltation below
+    threshold_friction_velocity: Annotated[float, Range(gt=0.0)] = 0.25
+    # m, of the ground, for the friction velocity
+    roughness_length: Annotated[float, Range(gt=0.0, le=1.0)] = 1e-3
     wand_origin: Vec3 = (0.0, 0.0, 0.0)  # world position of the room origin (for steering)
-    wand_scale: float = 10.0  # world metres per room metre of wand motion
-    response_time: float = 1.0  # s: the helicopter follows the wand with this lag
+    # world metres per room metre of wand motion
+    wand_scale: Annotated[float, Range(gt=0.0, le=1e4)] = 10.0
+    # s: the helicopter follows the wand with this lag
+    response_time: Annotated[float, Range(gt=0.0, le=60.0)] = 1.0
     timeline: tuple[WandKey, ...] = ()  # scripted wand for headless runs
 
     @property
@@ -146,10 +189,11 @@ class Helicopter:
 class Scene:
     name: str
     source: Path | None  # the TOML file it came from, for error messages
-    capacity: int  # hard cap of live particles
-    seed: int  # seeds the random texture (numpy PCG64)
+    # the file's [simulation]: see `cavesim.scene.file.Simulation`
+    capacity: int
+    seed: int
     integrator: Integrator
-    random_texture_size: int  # edge of the square random texture, a power of two
+    random_texture_size: int
     particle_classes: tuple[ParticleClass, ...]
     emitters: tuple[Emitter, ...]
     forces: Forces

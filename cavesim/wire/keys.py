@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 
-_NAME = re.compile(r"[A-Za-z0-9_-]{1,32}")
+from cavesim.limits import NAME_RE
 
 
 def check_name(what: str, name: str) -> str:
     """A session or wall name: 1-32 of letters, digits, '_' and '-' (safe in key expressions)."""
-    if not isinstance(name, str) or not _NAME.fullmatch(name):
+    if not isinstance(name, str) or not NAME_RE.fullmatch(name):
         raise ValueError(f"{what} must be 1-32 letters, digits, '_' or '-', got {name!r}")
     return name
 

@@ -20,8 +20,9 @@ from enum import IntEnum
 import numpy as np
 
 from cavesim.engine.frame import FrameInput
-from cavesim.engine.layout import EMITTER_DTYPE, MAX_CAPACITY, PARTICLE_BYTES
+from cavesim.engine.layout import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.errors import ProtocolError
+from cavesim.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.wire.keys import check_name
 
 MAGIC = b"CVSM"
@@ -31,8 +32,6 @@ HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
 MAX_PARAMS = 32
-MAX_STATE_PARTICLES = MAX_CAPACITY  # the engine's addressing bound
-MAX_STATE_EMITTERS = 4096
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
 MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB messages
 
@@ -310,10 +309,10 @@ def _read_control(frame: int, payload: bytes) -> ControlMessage:
 
 def _write_snapshot(m: SnapshotHeader) -> tuple[Kind, bytes]:
     emitters = np.ascontiguousarray(m.emitters, dtype=EMITTER_DTYPE)
-    if not (0 <= m.particles <= MAX_STATE_PARTICLES and len(emitters) <= MAX_STATE_EMITTERS
+    if not (0 <= m.particles <= MAX_PARTICLES and len(emitters) <= MAX_EMITTERS
             and 1 <= m.chunk_particles <= MAX_CHUNK_PARTICLES):
-        raise ValueError(f"a snapshot holds at most {MAX_STATE_PARTICLES} particles and "
-                         f"{MAX_STATE_EMITTERS} emitters in chunks of 1 to "
+        raise ValueError(f"a snapshot holds at most {MAX_PARTICLES} particles and "
+                         f"{MAX_EMITTERS} emitters in chunks of 1 to "
                          f"{MAX_CHUNK_PARTICLES} particles, got {m.particles}, "
                          f"{len(emitters)} and {m.chunk_particles}")
     return Kind.SNAPSHOT, _SNAPSHOT.pack(m.seed, m.particles, len(emitters), m.chunk_particles,
@@ -325,7 +324,7 @@ def _read_snapshot(frame: int, payload: bytes) -> SnapshotHeader:
         raise ProtocolError("bad-payload", f"snapshot header of {len(payload)} bytes is too "
                                            f"short")
     seed, particles, emitters, chunk, digest = _SNAPSHOT.unpack_from(payload)
-    if particles > MAX_STATE_PARTICLES or emitters > MAX_STATE_EMITTERS \
+    if particles > MAX_PARTICLES or emitters > MAX_EMITTERS \
             or not 1 <= chunk <= MAX_CHUNK_PARTICLES \
             or len(payload) != _SNAPSHOT.size + emitters * EMITTER_DTYPE.itemsize:
         raise ProtocolError("bad-payload", f"snapshot of {particles} particles in chunks of "
@@ -337,9 +336,9 @@ def _read_snapshot(frame: int, payload: bytes) -> SnapshotHeader:
 
 def _write_chunk(m: SnapshotChunk) -> tuple[Kind, bytes]:
     records, rest = divmod(len(m.data), PARTICLE_BYTES)
-    if rest or not 1 <= records <= MAX_CHUNK_PARTICLES or not 0 <= m.index < MAX_STATE_PARTICLES:
+    if rest or not 1 <= records <= MAX_CHUNK_PARTICLES or not 0 <= m.index < MAX_PARTICLES:
         raise ValueError(f"a chunk is 1 to {MAX_CHUNK_PARTICLES} whole {PARTICLE_BYTES}-byte "
-                         f"records with an index below {MAX_STATE_PARTICLES}, got "
+                         f"records with an index below {MAX_PARTICLES}, got "
                          f"{len(m.data)} bytes at index {m.index}")
     return Kind.CHUNK, _CHUNK.pack(m.index) + bytes(m.data)
 
@@ -351,9 +350,9 @@ def _read_chunk(frame: int, payload: bytes) -> SnapshotChunk:
                                            f"index and 1 to {MAX_CHUNK_PARTICLES} whole "
                                            f"{PARTICLE_BYTES}-byte records")
     (index,) = _CHUNK.unpack_from(payload)
-    if index >= MAX_STATE_PARTICLES:
+    if index >= MAX_PARTICLES:
         raise ProtocolError("bad-value", f"chunk index {index} is beyond any snapshot "
-                                         f"(at most {MAX_STATE_PARTICLES} particles)")
+                                         f"(at most {MAX_PARTICLES} particles)")
     return SnapshotChunk(frame, index, payload[_CHUNK.size:])
 
 

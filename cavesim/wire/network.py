@@ -14,6 +14,8 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from cavesim.limits import DEFAULT_MASTER_PORT
+
 # Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
 # its default single tx thread that froze the healthy peers' traffic when a wall's link
 # was cut. More runtime threads keep the barrier going. Must be set before zenoh starts;
@@ -21,8 +23,6 @@ from pathlib import Path
 os.environ.setdefault("ZENOH_RUNTIME", "(tx: (worker_threads: 2), rx: (worker_threads: 3))")
 
 import zenoh  # noqa: E402
-
-DEFAULT_MASTER_PORT = 7447
 
 
 @dataclass(frozen=True)
@@ -54,9 +54,11 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     """The network flags every cavesim process takes."""
     group = parser.add_argument_group("network (zenoh)")
     group.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
-                       help="endpoint to listen on, e.g. tcp/127.0.0.1:7447 (repeatable)")
+                       help=f"endpoint to listen on, e.g. tcp/127.0.0.1:{DEFAULT_MASTER_PORT} "
+                            "(repeatable)")
     group.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
-                       help="endpoint to connect to, e.g. tcp/10.0.0.1:7447 (repeatable)")
+                       help=f"endpoint to connect to, e.g. tcp/10.0.0.1:{DEFAULT_MASTER_PORT} "
+                            "(repeatable)")
     group.add_argument("--config", type=Path, dest="zenoh_config", metavar="FILE",
                        help="zenoh JSON5 config file (see config/zenoh/)")
     group.add_argument("--session", default="default", help="session name: the key prefix")
