@@ -6,6 +6,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cavesim.drivers import driver_for
 from cavesim.engine import ParticleSystem
 from cavesim.framelog import read_frame_log
 from cavesim.gl.context import create_context
@@ -34,10 +35,11 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
     """Step the logged inputs on one context and compare each frame's checksum."""
     header, frames = read_frame_log(log_path)
     scene_path = Path(scene_path or header["scene"])
-    system = ParticleSystem(ctx or create_context(), load_scene(scene_path))
+    scene = load_scene(scene_path)
+    system, driver = ParticleSystem(ctx or create_context(), scene), driver_for(scene)
     result = ReplayResult(str(log_path), str(scene_path))
     for logged in frames:
-        system.step(logged.message.inputs, logged.message.params)
+        system.step(logged.message.inputs, driver.decode(logged.message.params))
         state = system.checksum()
         result.frames += 1
         if state.digest != logged.digest or state.particles != logged.particles:

@@ -184,7 +184,7 @@ def add_run(commands) -> None:
 
 
 def run(args: argparse.Namespace, console) -> int:
-    from nodes.run import RunPlan, run_cluster
+    from nodes.run import RunPlan, run_walls
 
     try:
         check_name("session", args.session)
@@ -199,7 +199,7 @@ def run(args: argparse.Namespace, console) -> int:
     plan = RunPlan(walls, args.scene, frames, args.out, args.session, args.key_file,
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus)
-    report = run_cluster(plan, console)
+    report = run_walls(plan, console)
     return 130 if report["interrupted"] else 0
 
 

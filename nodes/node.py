@@ -20,6 +20,8 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from cavesim.drivers import driver_for
+from cavesim.drivers.frame import SceneFrame
 from cavesim.engine import FrameInput, ParticleSystem
 from cavesim.errors import ProtocolError
 from cavesim.gl.context import create_context, gpu_of
@@ -35,7 +37,7 @@ from cavesim.wire import (
     encode,
 )
 from cavesim.wire.messages import Message, Status
-from cavesim.wire.network import NetworkConfig
+from cavesim.wire.network import NetworkConfig, open_session
 from cavesim.wire.rejects import RejectCounter
 from cavesim.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from nodes.faults import Fault
@@ -75,6 +77,7 @@ class WallNode:
         self.ctx = create_context(device=config.gpu)
         self.gpu = gpu_of(self.ctx)
         self.system = ParticleSystem(self.ctx, scene)
+        self.driver = driver_for(scene)
         self.session = session
         self.painter = WallPainter(config, self.ctx, self.system) if config.render_every else None
         self.rejects = RejectCounter(f"node {config.wall}")
@@ -133,19 +136,24 @@ class WallNode:
                 self.dropped.add(k)  # lose this copy; the master's retransmit gets through
                 log.warning("%s: fault: dropped frame %d", self.config.wall, k)
                 return
-            self._step(k, message.inputs, message.params)
+            try:
+                scene = self.driver.decode(message.params)
+            except ProtocolError as e:
+                self.rejects.reject(e, f"frame {k}")
+                return
+            self._step(k, message.inputs, scene)
             if self.painter is not None and k % self.config.render_every == 0:
-                self.painter.paint(k, message)
+                self.painter.paint(k, message, scene)
         elif k > self.done + 1:
             log.info("%s: frame %d is ahead of our frame %d; waiting for a resync",
                      self.config.wall, k, self.done)
 
-    def _step(self, k: int, inputs: FrameInput, params: tuple[float, ...]) -> None:
+    def _step(self, k: int, inputs: FrameInput, scene: SceneFrame) -> None:
         used = inputs
         if self._fault("stale", k) and self.previous_inputs is not None:
             used = FrameInput(inputs.dt, self.previous_inputs.random_transform)
         started = time.perf_counter()
-        self.system.step(used, params)
+        self.system.step(used, scene)
         stepped = time.perf_counter()
         if self._fault("bitflip", k) and self.system.live_count:
             self._flip_one_bit()
@@ -228,7 +236,7 @@ class WallNode:
 
 def main(config: NodeConfig) -> int:
     """Run one wall node until the master says STOP (or the process is told to end)."""
-    with zenoh.open(config.network.zenoh_config()) as session:
+    with open_session(config.network) as session:
         node = WallNode(config, session)
         declarations = node.declare()
         gpu = node.gpu

@@ -13,8 +13,8 @@ from PIL import Image
 
 from cavesim.cave.geometry import load_cave
 from cavesim.cave.projection import eye_positions
+from cavesim.drivers.frame import SceneFrame
 from cavesim.engine import ParticleSystem
-from cavesim.render.view import HelicopterPose
 from cavesim.render.wall_renderer import WallRenderer
 from cavesim.wire import FrameMessage
 
@@ -33,11 +33,11 @@ class WallPainter:
         self.folder.mkdir(parents=True, exist_ok=True)
         self.stereo = config.stereo
 
-    def paint(self, k: int, message: FrameMessage) -> list[Path]:
+    def paint(self, k: int, message: FrameMessage, scene: SceneFrame) -> list[Path]:
         """Render frame k for each eye; the left (or only) eye is frame_<k>.png."""
         eyes = eye_positions(message.head.position, message.head.orientation,
                              stereo=self.stereo)
-        helicopter = HelicopterPose.from_params(message.params)
+        helicopter = scene.helicopter
         written = []
         for eye, position in eyes.items():
             suffix = "_right" if eye == "right" else ""

@@ -1,13 +1,12 @@
 """`cavesim run`: the master and one node per wall on this machine, with a progress bar.
 
 Each wall computes on the EGL device its plan gives it (`nodes.gpus`); the summary names
-the GPU every wall reported.
+the GPU every wall reported. report.json is written once, after the pictures and plots.
 """
 
 from __future__ import annotations
 
 import json
-import signal
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,8 +15,9 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from cavesim.errors import ClusterError
-from nodes.launcher import LocalCluster
+from cavesim.wire.network import read_key
+from nodes.cluster import ClusterPlan, run_cluster
+from nodes.master import MasterConfig
 
 
 @dataclass(frozen=True)
@@ -28,7 +28,6 @@ class RunPlan:
     out: Path
     session: str = "run"
     key_file: Path | None = None
-    master_args: tuple[str, ...] = ()
     cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
     render_every: int = 0
     stereo: bool = False
@@ -47,32 +46,29 @@ class RunPlan:
                 "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()),
                 *gpu)
 
+    def cluster(self) -> ClusterPlan:
+        master = MasterConfig(self.walls, self.scene, self.frames, self.session,
+                              key=read_key(self.key_file), frame_log=self.out / "frames.log")
+        return ClusterPlan(master, self.out, self.key_file,
+                           {wall: self.node_args(wall) for wall in self.walls})
 
-def run_cluster(plan: RunPlan, console: Console) -> dict:
-    """Run the cluster to the end (or Ctrl-C); return report.json's content."""
+
+def run_walls(plan: RunPlan, console: Console) -> dict:
+    """Run the cluster to the end (or Ctrl-C); write and return report.json's content."""
     plan.out.mkdir(parents=True, exist_ok=True)
-    with LocalCluster(plan.scene, plan.out, plan.session, key_file=plan.key_file) as cluster:
-        for wall in plan.walls:
-            cluster.start_node(wall, extra=plan.node_args(wall))
-        master = cluster.start_master(plan.walls, plan.frames, plan.master_args)
-        columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                   TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
-        with Progress(*columns, console=console, transient=False) as progress:
-            task = progress.add_task(f"{len(plan.walls)} walls", total=plan.frames, live=0)
-            try:
-                cluster.follow(lambda update: progress.update(
-                    task, completed=update["frame"], live=update["live"]))
-            except KeyboardInterrupt:  # the children run in sessions of their own: pass it on
-                console.print("[yellow]interrupted: stopping the cluster")
-                master.send_signal(signal.SIGINT)
-        master.wait()
-    report_path = plan.out / "report.json"
-    if not report_path.exists():
-        raise ClusterError(f"the master wrote no report (log: {cluster.log_path('master')})")
-    report = json.loads(report_path.read_text())
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=False) as progress:
+        task = progress.add_task(f"{len(plan.walls)} walls", total=plan.frames, live=0)
+        record = run_cluster(plan.cluster(), lambda k, live: progress.update(
+            task, completed=k, live=live))
+    if record.interrupted:
+        console.print("[yellow]interrupted: the cluster was stopped")
+    report = record.summary()
     if plan.draws:
         report["images"] = assemble_images(plan, console)
     report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+    report_path = plan.out / "report.json"
     report_path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(summary_table(report))
     console.print(gpu_table(report))

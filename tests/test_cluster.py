@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import pytest
+from master_process import spawn_master
 
 from cavesim.replay import replay
 from nodes.check import CheckPlan, run_check
@@ -157,8 +158,8 @@ def test_sessions_with_different_prefixes_never_interfere(tmp_path):
         for cluster in (first, second):
             for wall in ("front", "left"):
                 cluster.start_node(wall)
-        masters = [first.start_master(("front", "left"), 300),
-                   second.start_master(("front", "left"), 300,
+        masters = [spawn_master(first, ("front", "left"), 300),
+                   spawn_master(second, ("front", "left"), 300,
                                        ("--connect", first.master_endpoint))]
         for master in masters:
             master.stdout.read()

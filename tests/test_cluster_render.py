@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from master_process import spawn_master
 from PIL import Image
 
 from nodes.launcher import LocalCluster
@@ -42,7 +43,7 @@ def test_walls_at_different_resolutions_stay_consistent(tmp_path):
     with LocalCluster(DUST_DEVIL, tmp_path, f"mixed{os.getpid()}") as cluster:
         for wall in ("front", "left"):
             cluster.start_node(wall, extra=extra)
-        master = cluster.start_master(("front", "left"), 60)
+        master = spawn_master(cluster, ("front", "left"), 60)
         master.stdout.read()
         assert master.wait(timeout=120) == 0
     report = json.loads((tmp_path / "report.json").read_text())

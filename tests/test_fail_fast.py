@@ -6,18 +6,19 @@ from __future__ import annotations
 
 import io
 import os
+import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
-from rich.console import Console
 
 from cavesim import cli
 from cavesim.errors import ClusterError
+from nodes.cluster import ClusterPlan, run_cluster
 from nodes.launcher import last_error
-from nodes.run import RunPlan, run_cluster
+from nodes.master import MasterConfig
 
 ROOT = Path(__file__).parents[1]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
@@ -95,17 +96,32 @@ def test_nodes_that_cannot_start_stop_the_run_at_once_naming_the_wall_and_its_lo
 
 
 @pytest.mark.slow
-def test_a_master_that_fails_stops_the_nodes_at_once(tmp_path):
-    plan = RunPlan(("front", "left"), MINIMAL, 50, tmp_path, f"ff{os.getpid()}",
-                   master_args=("--dt", "5"))
+def test_a_master_that_fails_mid_run_stops_the_nodes_at_once(tmp_path):
+    config = MasterConfig(("front", "left"), MINIMAL, 50, f"ff{os.getpid()}")
+
+    def break_at_frame_5(cluster, k):
+        if k == 5:
+            raise ClusterError("the master broke at frame 5")
+
     started = time.monotonic()
-    with pytest.raises(ClusterError) as raised:
-        run_cluster(plan, Console(file=io.StringIO()))
-    message = str(raised.value)
-    assert message.startswith("the master exited with code 2: cavesim master: error: "
-                              "argument --dt:")
-    assert message.endswith(f"(log: {tmp_path / 'logs' / 'master.log'})")
+    with pytest.raises(ClusterError, match="the master broke at frame 5"):
+        run_cluster(ClusterPlan(config, tmp_path), before_frame=break_at_frame_5)
     assert time.monotonic() - started < JOIN_TIMEOUT / 2
+    assert not _running(str(tmp_path))
+
+
+@pytest.mark.slow
+def test_a_node_that_dies_mid_run_ends_the_run_naming_it(tmp_path):
+    config = MasterConfig(("front", "left"), MINIMAL, 200, f"fd{os.getpid()}")
+
+    def kill_left_at_frame_10(cluster, k):
+        if k == 10:
+            os.kill(cluster.nodes["left"].pid, signal.SIGKILL)  # not the harness's kill
+
+    with pytest.raises(ClusterError) as raised:
+        run_cluster(ClusterPlan(config, tmp_path), before_frame=kill_left_at_frame_10)
+    assert str(raised.value).startswith("wall left exited with code -9: ")
+    assert str(raised.value).endswith(f"(log: {tmp_path / 'logs' / 'left.log'})")
     assert not _running(str(tmp_path))
 
 

@@ -24,6 +24,7 @@ import zenoh
 from cluster_helpers import Mutation, hmac_keys, messages, mutations, names
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
+from master_process import spawn_master
 
 from cavesim.engine import FrameInput, ParticleSystem
 from cavesim.errors import ProtocolError
@@ -205,7 +206,7 @@ def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     traffic = Traffic(WALLS)
 
     with LocalCluster(SCENE, tmp_path, session_name, key_file=key_file) as cluster:
-        master = cluster.start_master(WALLS, frames=FRAMES, extra=("--barrier-timeout", "1"))
+        master = spawn_master(cluster, WALLS, frames=FRAMES, extra=("--barrier-timeout", "1"))
         config = NetworkConfig(connect=(cluster.master_endpoint,)).zenoh_config()
         # retry the master's endpoint often: it listens a moment after its process starts
         config.insert_json5("connect/retry", '{"period_init_ms": 50, "period_max_ms": 200}')
@@ -229,7 +230,7 @@ def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
         progress = [json.loads(line) for line in master.stdout]
         assert master.wait(timeout=60) == 0
         exits = {wall: node.wait(timeout=30) for wall, node in cluster.nodes.items()}
-    assert all(p.poll() is not None for p in (cluster.master, *cluster.nodes.values()))
+    assert all(p.poll() is not None for p in (master, *cluster.nodes.values()))
 
     assert exits == dict.fromkeys(WALLS, 0)
     for log in (tmp_path / "logs").glob("*.log"):

@@ -6,9 +6,11 @@ import numpy as np
 import pytest
 from scenes import SAND
 
+from cavesim.drivers.frame import NOTHING_MOVES
+from cavesim.drivers.helicopter import HelicopterDriver
 from cavesim.engine import FrameInput, ParticleSystem
 from cavesim.errors import SceneError
-from cavesim.helicopter.flight import Flight, wand_at
+from cavesim.helicopter.flight import Flight
 from cavesim.helicopter.rotor import (
     downwash,
     friction_velocity,
@@ -74,18 +76,19 @@ def test_emission_grows_as_the_helicopter_comes_down():
 
 
 def fly(scene, seconds=15.0, dt=1 / 60):
-    flight = Flight(scene)
-    return [flight.advance(dt, *wand_at(scene.helicopter.timeline, k * dt)).to_params()
+    """The frames a master makes from the scene's timeline, as a node decodes them."""
+    driver = HelicopterDriver(scene)
+    return [driver.decode(driver.encode(driver.advance(k * dt, dt, None).frame))
             for k in range(1, round(seconds / dt) + 1)]
 
 
 def test_scripted_timeline_is_deterministic_and_lands():
     first, second = fly(BROWNOUT), fly(BROWNOUT)
     assert first == second
-    altitudes = [p[2] - HELI.hub_height for p in first]
+    altitudes = [frame.helicopter.position[2] for frame in first]  # the skids; ground at 0
     assert altitudes[0] > 20 and min(altitudes) == pytest.approx(0.0, abs=0.5), "lands"
     assert altitudes[-1] > 5, "lifts off again"
-    total_emission = [sum(p[7:]) for p in first]
+    total_emission = [sum(frame.rotor.emission_factors) for frame in first]
     assert total_emission[0] == 0 and max(total_emission) > 10
 
 
@@ -110,11 +113,11 @@ def test_gpu_rotor_flow_and_following_emitters_match_the_twin(ctx):
     scene = small_brownout()
     gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
     rng = np.random.default_rng(2)
-    params = fly(scene, seconds=12.0)[480:600]  # descending into hover: emission under way
-    for p in params:
+    frames = fly(scene, seconds=12.0)[480:600]  # descending into hover: emission under way
+    for scene_frame in frames:
         frame = FrameInput(1 / 60, draw_transform(rng, 64))
-        gpu.step(frame, p)
-        twin.step(frame, p)
+        gpu.step(frame, scene_frame)
+        twin.step(frame, scene_frame)
         assert gpu.live_count == twin.live_count
     assert gpu.live_count > 500
     records = gpu.read_particles()
@@ -122,15 +125,15 @@ def test_gpu_rotor_flow_and_following_emitters_match_the_twin(ctx):
     np.testing.assert_array_equal(records["age"], twin.particles.age)
     np.testing.assert_allclose(records["pos"], twin.particles.pos, rtol=1e-4, atol=2e-3)
     assert (records["pos"][:, 2] >= 0).all()
-    hub = np.array(params[-1][:3])
+    hub = np.array(frames[-1].rotor.hub)
     spread = np.linalg.norm(records["pos"][:, :2] - hub[:2], axis=1)
     assert spread.mean() > R, "the dust is blown outward from under the rotor"
 
 
-def test_a_helicopter_step_needs_the_rotor_in_the_parameters(ctx):
+def test_a_helicopter_step_needs_its_rotor_frame(ctx):
     system = ParticleSystem(ctx, small_brownout())
-    with pytest.raises(ValueError, match="parameters"):
-        system.step(FrameInput(1 / 60, np.eye(3)), ())
+    with pytest.raises(ValueError, match="steps with a rotor frame of 4 emission factors"):
+        system.step(FrameInput(1 / 60, np.eye(3)), NOTHING_MOVES)
 
 
 @pytest.mark.parametrize(("change", "key"), [
@@ -161,7 +164,8 @@ def test_wand_tilt_sets_rotor_speed_and_heading_turns_the_nose():
     assert heading_of(quarter) == pytest.approx(math.pi / 2)
     flight = Flight(BROWNOUT)
     level = flight.advance(1 / 60, (0, 0, 1), 0.0)
-    assert level.rotor_speed == 1.0 and level.yaw == pytest.approx(-math.pi / 2)
+    assert level.rotor.rotor_speed == 1.0 and level.helicopter.yaw == pytest.approx(-math.pi / 2)
     faster = flight.advance(1 / 60, (0, 0, 1), 30.0, math.pi / 2)
-    assert faster.rotor_speed == pytest.approx(1.25) and faster.yaw == pytest.approx(0.0)
-    assert faster.induced_velocity > level.induced_velocity
+    assert faster.rotor.rotor_speed == pytest.approx(1.25)
+    assert faster.helicopter.yaw == pytest.approx(0.0)
+    assert faster.rotor.induced_velocity > level.rotor.induced_velocity

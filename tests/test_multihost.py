@@ -37,6 +37,7 @@ from netns import Network, remove_stale, unavailable
 
 from cavesim.framelog import read_frame_log
 from cavesim.limits import DEFAULT_MASTER_PORT
+from cavesim.wire.network import RUNTIME_THREADS
 
 ROOT = Path(__file__).parents[1]
 LAUNCH = ROOT / "deploy" / "launch.sh"
@@ -47,11 +48,6 @@ SCENE = "config/scenes/minimal.toml"
 WALLS = ("front", "left", "right")
 MASTER_PORT = DEFAULT_MASTER_PORT
 FIGURES_JSON = ROOT / "out" / "multihost.json"
-# zenoh sets SO_LINGER 10 s on its TCP links, so closing a lost node's link (with frames
-# unacknowledged on it) blocks the closing runtime thread until the cable is back or 10 s
-# are up (eclipse-zenoh/zenoh#1101). With the default single TX thread the whole master
-# stalls with it; a spare thread or two keep the other links moving.
-ZENOH_RUNTIME = "(tx: (worker_threads: 2), rx: (worker_threads: 3))"
 
 
 @dataclass(frozen=True)
@@ -200,7 +196,7 @@ def run(net: Network, condition: Condition, out: Path) -> tuple[dict, Cut | None
                "--frames", str(condition.frames), "--scene", SCENE, "--out", str(out),
                "--session", f"mh{run_id(condition)}", "--key-file", str(key),
                "--config", ZENOH_CONFIG, "--realtime"]
-    env = {**os.environ, "CAVESIM_REMOTE": str(CAVESIM), "ZENOH_RUNTIME": ZENOH_RUNTIME}
+    env = {**os.environ, "CAVESIM_REMOTE": str(CAVESIM), "ZENOH_RUNTIME": RUNTIME_THREADS}
     cut = None
     with open(out / "master.log", "wb") as master_log:
         launch = subprocess.Popen(command, cwd=ROOT, env=env, stdin=subprocess.DEVNULL,

@@ -10,9 +10,9 @@ from PIL import Image
 from render_helpers import GOLDEN, assert_matches_golden, particles_at, small_cave
 from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict
 
+from cavesim.drivers.frame import HelicopterPose
 from cavesim.engine import FrameInput, ParticleSystem
 from cavesim.random_texture import draw_transform
-from cavesim.render.view import HelicopterPose
 from cavesim.render.wall_renderer import RenderSettings, WallRenderer
 
 EYE = np.array([0.2, -0.3, 1.6])

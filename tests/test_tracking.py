@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
+from master_process import spawn_master
 
 from cavesim.framelog import read_frame_log
 from cavesim.wire import HeadState, SessionKeys, TrackingMessage, WandState, encode
@@ -25,7 +26,7 @@ def test_tracked_head_and_wand_travel_in_the_frames(tmp_path):
     with LocalCluster(MINIMAL, tmp_path, session) as cluster, \
             zenoh.open(network.zenoh_config()) as tracker:
         cluster.start_node("front")  # the master connects to the tracker as it starts
-        master = cluster.start_master(("front",), 300, ("--connect", tracker_endpoint))
+        master = spawn_master(cluster, ("front",), 300, ("--connect", tracker_endpoint))
         tracking = encode(TrackingMessage(0, TRACKED, WandState(buttons=3)), session)
         for count, line in enumerate(master.stdout):
             if count >= 50:  # the first 50 frames go out scripted

@@ -127,30 +127,28 @@ def run_cluster_bench(barrier_scene: Path, lockstep_scene: Path, node_counts: li
 
 def _cluster_run(scene: Path, walls: int, frames: int, run_dir: Path,
                  tick: Tick) -> dict[str, object]:
-    """One LocalCluster run to the end; the figures of its report.json."""
+    """One cluster run to the end; its figures."""
     from cavesim.framelog import read_frame_log
+    from nodes.cluster import ClusterPlan, run_cluster
     from nodes.commands import wall_names
-    from nodes.launcher import LocalCluster
+    from nodes.master import MasterConfig
 
-    names = wall_names(walls)
-    session = f"bench-{os.getpid()}-{run_dir.name}"
     run_dir.mkdir(parents=True, exist_ok=True)
-    with LocalCluster(scene, run_dir, session) as cluster:
-        for wall in names:
-            cluster.start_node(wall)
-        cluster.start_master(names, frames)
-        code = cluster.follow(lambda update: tick(update["frame"]))
+    config = MasterConfig(wall_names(walls), scene, frames, f"bench-{os.getpid()}-{run_dir.name}",
+                          frame_log=run_dir / "frames.log")
+    record = run_cluster(ClusterPlan(config, run_dir), lambda k, live: tick(k))
+    if record.interrupted or record.frames != frames:
+        raise BenchError(f"the {walls}-node cluster run ended after {record.frames} of "
+                         f"{frames} frames; see {run_dir / 'logs'}")
+    report = record.summary()
     report_path = run_dir / "report.json"
-    if code != 0 or not report_path.exists():
-        raise BenchError(f"the {walls}-node cluster run ended with exit code {code}; "
-                         f"see {run_dir / 'logs'}")
-    report = json.loads(report_path.read_text())
+    report_path.write_text(json.dumps(report, indent=2) + "\n")
     *_, last = read_frame_log(run_dir / "frames.log")[1]
     return {"nodes": walls, "scene": str(scene), "frames": report["frames"],
             "frames_per_second": report["frames_per_second"],
             "barrier_ms": report["barrier_ms"],
             "live_particles_max": report["live_particles"]["max"],
-            "divergences": len(report["divergences"]), "stalls": len(report["stalls"]),
+            "divergences": len(record.divergences), "stalls": len(record.stalls),
             "final_checksum": last.digest, "report": str(report_path)}
 
 

@@ -11,7 +11,7 @@ from importlib import metadata
 
 import zenoh
 
-from cavesim.wire.network import NetworkConfig
+from cavesim.wire.network import NetworkConfig, open_session
 
 ZENOH_DEADLINE = 5.0  # s to open the session and, with endpoints to connect to, reach one
 _RUST_PLACE = re.compile(r" at \S+\.rs:\d+\.?")  # zenoh errors name their source lines
@@ -31,7 +31,7 @@ def check_zenoh(network: NetworkConfig, deadline: float = ZENOH_DEADLINE) -> dic
 
     def attempt() -> None:
         try:
-            with zenoh.open(config) as session:
+            with open_session(network) as session:
                 found["opened"], found["zid"] = True, str(session.info.zid())
                 if found["connect"]:  # wait (to the deadline) for a first transport
                     reached = threading.Event()

@@ -21,6 +21,7 @@ import math
 import moderngl
 import numpy as np
 
+from cavesim.drivers.frame import NOTHING_MOVES, SceneFrame
 from cavesim.emitters import FIXED_ROWS, FRAME_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.engine.checksum import GpuChecksum, StateChecksum
@@ -166,12 +167,12 @@ class ParticleSystem:
     def capacity(self) -> int:
         return self.scene.capacity
 
-    def step(self, frame: FrameInput, params=()) -> None:
+    def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
         """Advance one frame with exactly the inputs every other node gets.
 
-        `params` are the frame's scene parameters; a helicopter scene reads its rotor there.
+        `scene` is the frame's scene state (its driver's); a helicopter scene's rotor is there.
         """
-        rotor = self.rotor_inputs.read(params) if self.rotor_inputs is not None else None
+        rotor = self.rotor_inputs.read(scene) if self.rotor_inputs is not None else None
         front, back = self._current, 1 - self._current
         self._loading = None  # the passes overwrite the back buffers
         self._bind_samplers(self._update)

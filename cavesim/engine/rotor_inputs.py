@@ -1,7 +1,7 @@
-"""A helicopter scene's per-frame inputs, read from the frame's parameters.
+"""A helicopter scene's per-frame inputs, from the frame's rotor (its scene driver's).
 
-The same values feed the GPU uniforms and the numpy twin: the rotor hub and induced
-velocity of the downwash, and per emitter a rate factor and an emission origin
+The same float32 values feed the GPU uniforms and the numpy twin: the rotor hub and
+induced velocity of the downwash, and per emitter a rate factor and an emission origin
 (saltation and the point below the hub for emitters that follow the helicopter; 1 and 0
 for the others).
 """
@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.drivers.frame import SceneFrame
 from cavesim.helicopter.flight import ground_height
-from cavesim.helicopter.params import RotorFrame
 from cavesim.scene.model import Scene
 
 
@@ -31,9 +31,12 @@ class RotorInputs:
         self.followers = np.array([e.follow_helicopter for e in scene.emitters], dtype=bool)
         self.ground = np.float32(ground_height(scene))
 
-    def read(self, params) -> FrameRotor:
-        """The frame's rotor; ValueError if the parameters are not a helicopter frame."""
-        rotor = RotorFrame.from_params(params, int(self.followers.sum()))
+    def read(self, frame: SceneFrame) -> FrameRotor:
+        """The frame's rotor as float32 arrays; ValueError if the frame has none."""
+        rotor = frame.rotor
+        if rotor is None or len(rotor.emission_factors) != self.followers.sum():
+            raise ValueError(f"a helicopter scene steps with a rotor frame of "
+                             f"{int(self.followers.sum())} emission factors, got {rotor}")
         hub = np.array(rotor.hub, dtype=np.float32)
         factors = np.ones(len(self.followers), dtype=np.float32)
         factors[self.followers] = rotor.emission_factors

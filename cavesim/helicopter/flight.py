@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from cavesim.helicopter.params import RotorFrame
+from cavesim.drivers.frame import HelicopterPose, RotorFrame, SceneFrame
 from cavesim.helicopter.rotor import friction_velocity, induced_velocity, saltation_factor
 from cavesim.scene.model import CollisionKind, Helicopter, Scene, WandKey
 
@@ -64,7 +64,7 @@ def tilt_of(orientation_xyzw) -> float:
 
 
 class Flight:
-    """The helicopter's state on the master; `advance` returns the frame's parameters."""
+    """The helicopter's state on the master; `advance` gives the frame's rotor and pose."""
 
     def __init__(self, scene: Scene) -> None:
         self.helicopter: Helicopter = scene.helicopter
@@ -80,7 +80,7 @@ class Flight:
         target[2] = max(target[2], self.ground + h.hub_height)  # on its skids at the lowest
         return target
 
-    def advance(self, dt: float, wand_position, tilt: float, heading: float = 0.0) -> RotorFrame:
+    def advance(self, dt: float, wand_position, tilt: float, heading: float = 0.0) -> SceneFrame:
         """Move toward the wand's target, spin the rotor, and work out the downwash.
 
         `heading` (radians, 0 = the wand points at the front wall) turns the helicopter:
@@ -96,5 +96,8 @@ class Flight:
         v_i = induced_velocity(h, speed, height)
         distances = [math.hypot(*e.position[:2]) for e in self.followers]
         factors = saltation_factor(h, friction_velocity(h, np.array(distances), height, v_i))
-        return RotorFrame(tuple(self.hub), heading - math.pi / 2, self.rotor_angle, v_i, speed,
-                          tuple(np.atleast_1d(factors).tolist()))
+        hub = tuple(float(x) for x in self.hub)
+        skids = (hub[0], hub[1], hub[2] - h.hub_height)
+        pose = HelicopterPose(skids, heading - math.pi / 2, self.rotor_angle, h.hub_height,
+                              h.rotor_radius)
+        return SceneFrame(pose, RotorFrame(hub, v_i, speed, tuple(np.atleast_1d(factors).tolist())))

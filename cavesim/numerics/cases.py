@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 
 from cavesim._toml import read_toml
+from cavesim.drivers.frame import RotorFrame, SceneFrame
 from cavesim.engine.layout import PARTICLE_DTYPE
 from cavesim.errors import SceneError
-from cavesim.helicopter.params import RotorFrame
 from cavesim.helicopter.rotor import induced_velocity
 from cavesim.scene import parse_scene
 from cavesim.scene.model import AIR_VISCOSITY, FieldSampling, Integrator, Scene
@@ -51,7 +51,7 @@ class Case:
     description: str
     data: dict[str, Any]  # the scene as the dict tomllib would give; integrator set per run
     particles: np.ndarray  # PARTICLE_DTYPE: the fixed start of every run
-    params: tuple[float, ...] = ()  # the frame's scene parameters, the same every step
+    frame: SceneFrame = SceneFrame()  # the scene's state (a rotor), the same every step
     closed_form: bool = False  # reference: the closed form, else a fine float64 RK4 run
     smooth: bool = True  # observed orders are held to the table (tests, report verdicts)
     # The highest order the field lets any method show. A trilinear grid is only Lipschitz:
@@ -134,7 +134,7 @@ def downwash_case(helicopter_scene: Path, count: int) -> Case:
     data["particle_class"] = [dict(PROBE)]
     scene = parse_scene(data, helicopter_scene)
     helicopter = scene.helicopter
-    rotor = RotorFrame(hub=(0.0, 0.0, HUB_HEIGHT), yaw=0.0, rotor_angle=0.0,
+    rotor = RotorFrame(hub=(0.0, 0.0, HUB_HEIGHT),
                        induced_velocity=induced_velocity(helicopter, 1.0, HUB_HEIGHT),
                        rotor_speed=1.0, emission_factors=())
     # the wake and the wall jet: 0.5 R to 2.5 R from the rotor axis, 1 m to 6 m up
@@ -145,7 +145,7 @@ def downwash_case(helicopter_scene: Path, count: int) -> Case:
                           rng.uniform(1.0, 6.0, count)], axis=1)
     return Case("downwash", f"rotor downwash of {scene.name} (hub {HUB_HEIGHT:g} m up, "
                 f"v_i {rotor.induced_velocity:.2f} m/s) + gravity + drag; no ground",
-                data, particle_set(positions, rng), rotor.to_params(), smooth=False,
+                data, particle_set(positions, rng), SceneFrame(rotor=rotor), smooth=False,
                 source=helicopter_scene)
 
 

@@ -38,7 +38,7 @@ class Reference:
 
 def _twin_forces(case: Case):
     twin = TwinSystem(case.scene(Integrator.RK4), np.float64)
-    rotor = twin.rotor_inputs.read(case.params) if twin.rotor_inputs is not None else None
+    rotor = twin.rotor_inputs.read(case.frame) if twin.rotor_inputs is not None else None
     return twin.forces_for(case.particles["class_id"], rotor)
 
 

@@ -54,7 +54,7 @@ def gpu_runs(ctx: moderngl.Context, case: Case, integrator: Integrator, sampling
     try:
         system.write_particles(case.particles)
         for _ in range(WARMUP_STEPS):
-            system.step(FrameInput(dts[0], IDENTITY), case.params)
+            system.step(FrameInput(dts[0], IDENTITY), case.frame)
         ctx.finish()
         runs = []
         for dt in dts:
@@ -75,7 +75,7 @@ def _timed_run(ctx: moderngl.Context, system: ParticleSystem, case: Case, dt: fl
     seconds = []
     for _ in range(steps):
         start = time.perf_counter()
-        system.step(frame, case.params)
+        system.step(frame, case.frame)
         ctx.finish()
         seconds.append(time.perf_counter() - start)
     _check_count(system.live_count, case, f"GPU, dt={dt:.6g}")
@@ -92,7 +92,7 @@ def twin_runs(case: Case, integrator: Integrator, dts: tuple[float, ...],
         twin.write_particles(case.particles)
         frame, steps = FrameInput(dt, IDENTITY), steps_to(final_time, dt)
         for _ in range(steps):
-            twin.step(frame, case.params)
+            twin.step(frame, case.frame)
         _check_count(twin.live_count, case, f"float64 twin, {integrator.value}, dt={dt:.6g}")
         runs.append(Run(dt, steps, end_time(final_time, dt), twin.particles.pos.copy()))
     return runs

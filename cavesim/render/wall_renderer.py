@@ -15,14 +15,13 @@ import numpy as np
 
 from cavesim.cave.geometry import Wall
 from cavesim.cave.projection import gl_matrix, off_axis
+from cavesim.drivers.frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.engine import ParticleSystem
 from cavesim.render import meshes
 from cavesim.render.programs import COMPOSITE, DUST, SCENE, dust_defines
-from cavesim.render.view import HelicopterPose
 from cavesim.scene.model import CollisionKind, Scene
 
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
-ROTOR_RADIUS = 5.0  # m, the drawn rotor
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
 
 
@@ -81,7 +80,7 @@ class WallRenderer:
         ground = _ground(self.system)
         self.terrain = mesh(meshes.terrain(*ground)) if ground else None
         self.body = mesh(meshes.helicopter_body())
-        self.rotor = mesh(meshes.rotor(ROTOR_RADIUS))
+        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS))
         self.particles = {name: self.ctx.vertex_array(
             self.dust_program, [(buffer, DRAWN_WORDS, "in_a", "in_c")])
             for name, buffer in self.system.resources.items() if name.startswith("particles_")}

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.drivers.frame import NOTHING_MOVES, SceneFrame
 from cavesim.emitters import EmitterTable
 from cavesim.engine.frame import FrameInput
 from cavesim.engine.layout import EMITTER_DTYPE, PARTICLE_DTYPE
@@ -113,9 +114,9 @@ class TwinSystem:
         damping = None if f.damping is None else dtype(np.float32(f.damping))
         return ForceModel(gravity, damping, inv_tau, flow)
 
-    def step(self, frame: FrameInput, params=()) -> None:
+    def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
         """Advance one frame exactly as the GPU does (survivors, then new particles)."""
-        rotor = self.rotor_inputs.read(params) if self.rotor_inputs is not None else None
+        rotor = self.rotor_inputs.read(scene) if self.rotor_inputs is not None else None
         q = self.particles
         age = q.age + np.float64(frame.dt)
         alive = age < q.lifetime.astype(np.float64)

@@ -14,15 +14,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import zenoh
+
 from cavesim.limits import DEFAULT_MASTER_PORT
 
 # Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
 # its default single tx thread that froze the healthy peers' traffic when a wall's link
-# was cut. More runtime threads keep the barrier going. Must be set before zenoh starts;
-# a user's own setting wins (never set it to "": zenoh then fails to start).
-os.environ.setdefault("ZENOH_RUNTIME", "(tx: (worker_threads: 2), rx: (worker_threads: 3))")
-
-import zenoh  # noqa: E402
+# was cut. More runtime threads keep the barrier going. Never "": zenoh then fails to start.
+RUNTIME_THREADS = "(tx: (worker_threads: 2), rx: (worker_threads: 3))"
 
 
 @dataclass(frozen=True)
@@ -48,6 +47,13 @@ class NetworkConfig:
         if self.connect:
             config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         return config
+
+
+def open_session(network: NetworkConfig) -> zenoh.Session:
+    """This process's zenoh session (use it with `with`). Zenoh reads ZENOH_RUNTIME when
+    its first session opens; a user's own setting wins over RUNTIME_THREADS."""
+    os.environ.setdefault("ZENOH_RUNTIME", RUNTIME_THREADS)
+    return zenoh.open(network.zenoh_config())
 
 
 def add_network_arguments(parser: argparse.ArgumentParser) -> None:

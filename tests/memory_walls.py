@@ -1,0 +1,84 @@
+"""Walls simulated in memory, behind the master's `Link`: the master's whole logic runs in
+the test's process, without Zenoh, GL or child processes.
+
+A wall's state is a digest chained over the frames it stepped (BLAKE2b of the previous
+digest and the frame's inputs), so walls that step the same frames agree and a fault shows
+as a different digest. Walls answer at once, by putting events in the master's queue.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import queue
+from dataclasses import dataclass, field
+
+from cavesim.wire import Command, ControlMessage, FrameMessage, InfoMessage, ReportMessage
+from cavesim.wire.messages import Status
+from nodes.events import Described, Reported, WallDown, WallUp
+
+START = "0" * 32
+
+
+@dataclass
+class MemoryWall:
+    name: str
+    digest: str = START
+    done: int = 0
+    up: bool = True
+    flip_at: set[int] = field(default_factory=set)  # frames after which its state is wrong
+    drop_once: set[int] = field(default_factory=set)  # frames it misses the first time
+
+
+class MemoryLink:
+    def __init__(self, walls: tuple[str, ...], late: tuple[str, ...] = ()) -> None:
+        self.events: queue.Queue = queue.Queue()
+        self.walls = {name: MemoryWall(name, up=name not in late) for name in walls}
+        self.sent: list = []
+        for wall in self.walls.values():
+            if wall.up:
+                self.events.put(WallUp(wall.name))
+
+    def send(self, message: FrameMessage | ControlMessage) -> None:
+        self.sent.append(message)
+        if isinstance(message, FrameMessage):
+            for wall in self.walls.values():
+                self._step(wall, message)
+        elif message.command is Command.RESYNC:
+            target, source = self.walls[message.target], self.walls[message.source]
+            target.digest, target.done = source.digest, source.done
+            self._report(target, Status.RESYNCED)
+        elif message.command is Command.STOP:
+            for wall in self.walls.values():
+                self.go_down(wall.name)
+
+    def ask_info(self, wall: str) -> None:
+        self.events.put(Described(InfoMessage(0, wall, 0, True, "memory", "tests", "none")))
+
+    def go_down(self, name: str) -> None:
+        if self.walls[name].up:
+            self.walls[name].up = False
+            self.events.put(WallDown(name))
+
+    def come_up(self, name: str) -> None:
+        wall = self.walls[name]
+        wall.up, wall.digest, wall.done = True, START, 0  # a new process: no state yet
+        self.events.put(WallUp(name))
+
+    def _step(self, wall: MemoryWall, message: FrameMessage) -> None:
+        k = message.frame
+        if not wall.up or k != wall.done + 1:
+            return
+        if k in wall.drop_once:
+            wall.drop_once.discard(k)
+            return
+        chained = hashlib.blake2b(bytes.fromhex(wall.digest), digest_size=16)
+        chained.update(message.inputs.random_transform.tobytes())
+        chained.update(message.inputs.dt.tobytes())
+        wall.digest, wall.done = chained.hexdigest(), k
+        if k in wall.flip_at:
+            wall.digest = f"{int(wall.digest, 16) ^ 1:032x}"
+        self._report(wall, Status.STEPPED)
+
+    def _report(self, wall: MemoryWall, status: Status) -> None:
+        self.events.put(Reported(ReportMessage(wall.done, wall.name, wall.digest, wall.done,
+                                               0, 0, 0, status=status)))

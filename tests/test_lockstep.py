@@ -1,0 +1,157 @@
+"""The master's rules as pure functions, and the master's whole loop in this process over
+walls simulated in memory (tests/memory_walls.py): no Zenoh, no GL, no child process."""
+
+from pathlib import Path
+
+import pytest
+from memory_walls import MemoryLink
+
+from cavesim.errors import ClusterError
+from cavesim.wire import Command, ControlMessage, ReportMessage
+from cavesim.wire.messages import Status
+from nodes import lockstep
+from nodes.lockstep import Membership
+from nodes.master import MasterConfig, run_master
+
+MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
+WALLS = ("front", "left", "right")
+
+
+def report(wall, digest, frame=1, particles=10, status=Status.STEPPED):
+    return ReportMessage(frame, wall, digest * 32, particles, 0, 0, 0, status=status)
+
+
+# -- membership ---------------------------------------------------------------------------
+
+def test_walls_come_up_and_start_as_members_in_wall_order():
+    m = Membership(WALLS)
+    for wall in ("right", "front", "stranger", "left"):
+        assert not m.all_up()
+        m = m.came_up(wall)
+    assert m.all_up() and m.alive == set(WALLS)
+    assert m.started().members == WALLS
+
+
+@pytest.mark.parametrize(("policy", "members"), [("continue", ("front", "right")),
+                                                  ("pause", WALLS)])
+def test_a_lost_member_leaves_or_holds_the_barrier_by_policy(policy, members):
+    m = Membership(WALLS).came_up("front").came_up("left").came_up("right").started()
+    m, lost = m.went_down("left", policy)
+    assert lost and m.members == members and m.lost == {"left"} and "left" not in m.alive
+    again, lost_again = m.went_down("left", policy)
+    assert not lost_again or policy == "pause"
+
+
+def test_a_wall_back_after_a_loss_joins_in_wall_order():
+    m = Membership(WALLS, members=("front", "right"), alive=frozenset(WALLS),
+                   lost=frozenset({"left"}))
+    assert m.joiners() == ("left",)
+    m = m.admitted("left")
+    assert m.members == WALLS and not m.lost and not m.joiners()
+
+
+# -- the barrier, the vote, resyncs ------------------------------------------------------------
+
+def test_missing_members_are_those_without_a_report():
+    assert lockstep.missing(WALLS, {"front": report("front", "a")}) == ["left", "right"]
+
+
+def test_after_a_stall_only_a_lost_member_that_is_back_is_resynced():
+    m = Membership(WALLS, members=WALLS, alive=frozenset({"front", "left"}),
+                   lost=frozenset({"left", "right"}))
+    reported = {"front": report("front", "a")}
+    assert lockstep.stall_resyncs(m, reported) == [("left", "front")]
+    assert lockstep.stall_resyncs(m, {}) == []  # nobody healthy to copy from
+
+
+def test_a_majority_names_the_odd_member():
+    vote = lockstep.vote(WALLS, {"front": report("front", "a"), "left": report("left", "b"),
+                                 "right": report("right", "a", particles=12)})
+    assert (vote.agreed, vote.odd, vote.named, vote.source) == ("a" * 32, ("left",),
+                                                                ("left",), "front")
+    assert vote.diverged and vote.particles == 10
+
+
+def test_without_a_majority_every_member_is_named_and_the_first_state_kept():
+    two = ("front", "left")
+    vote = lockstep.vote(two, {"front": report("front", "a"), "left": report("left", "b")})
+    assert vote.agreed == "a" * 32 and vote.odd == ("left",) and vote.named == two
+
+
+def test_agreement_and_frames_between_checks_name_nobody():
+    same = {w: report(w, "a") for w in WALLS}
+    assert not lockstep.vote(WALLS, same).diverged
+    differ = {**same, "left": report("left", "b")}
+    assert not lockstep.vote(WALLS, differ, compare=False).diverged
+
+
+def test_a_resync_heals_only_with_the_sources_checksum():
+    source = report("front", "a")
+    assert lockstep.resync_outcome(None, source) is None
+    assert lockstep.resync_outcome(report("left", "a"), source) is None  # a stepped report
+    assert lockstep.resync_outcome(report("left", "a", status=Status.RESYNCED), source)
+    assert not lockstep.resync_outcome(report("left", "b", status=Status.RESYNCED), source)
+
+
+# -- the master's loop in this process ------------------------------------------------------
+
+def run(link, frames=30, before_frame=None, **options):
+    config = MasterConfig(tuple(link.walls), MINIMAL, frames, "memory",
+                          barrier_timeout=options.pop("barrier_timeout", 0.05), **options)
+    return run_master(config, link, before_frame=before_frame)
+
+
+def test_a_healthy_run_agrees_on_every_frame_and_stops_the_walls():
+    link = MemoryLink(WALLS)
+    record = run(link)
+    assert record.frames == 30 and not record.divergences and not record.stalls
+    assert record.final.agree and record.final.all_walls_in
+    assert set(record.gpus) == set(WALLS)
+    assert isinstance(link.sent[-1], ControlMessage) and link.sent[-1].command is Command.STOP
+
+
+def test_a_flipped_state_is_named_by_majority_and_resynced():
+    link = MemoryLink(WALLS)
+    link.walls["left"].flip_at.add(12)
+    record = run(link)
+    (divergence,) = record.divergences
+    assert (divergence.frame, divergence.nodes) == (12, ("left",))
+    (resync,) = record.resyncs
+    assert (resync.node, resync.source, resync.ok) == ("left", "front", True)
+    assert record.final.agree
+
+
+def test_a_dropped_frame_stalls_the_barrier_and_is_sent_again():
+    link = MemoryLink(WALLS)
+    link.walls["right"].drop_once.add(7)
+    record = run(link)
+    (stall,) = record.stalls
+    assert stall.frame == 7 and stall.nodes == {"right": (7, 6)}
+    assert not record.divergences and record.final.agree
+
+
+def test_a_lost_wall_is_dropped_then_rejoins_by_resync():
+    link = MemoryLink(WALLS)
+
+    def fault(k):
+        if k == 10:
+            link.go_down("left")
+        elif k == 20:
+            link.come_up("left")
+
+    record = run(link, before_frame=fault)
+    (loss,) = record.losses
+    assert (loss.node, loss.frame) == ("left", 10)  # the frame in flight when it went
+    (join,) = record.joins
+    assert join.node == "left" and join.frame == 20
+    assert record.final.agree and record.final.all_walls_in
+
+
+def test_a_late_wall_times_the_join_out_with_a_clear_error():
+    with pytest.raises(ClusterError, match=r"walls \['right'\] did not come up within 0.2 s"):
+        run(MemoryLink(WALLS, late=("right",)), join_timeout=0.2)
+
+
+def test_an_unknown_loss_policy_is_refused():
+    with pytest.raises(ValueError, match="on_loss must be one of"):
+        run(MemoryLink(WALLS), on_loss="panic")
