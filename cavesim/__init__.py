@@ -1,12 +1,9 @@
 """cavesim: a GPU particle simulation kept bit-identical across the walls of a CAVE.
 
-The engine library: scenes, fields, the GL particle system and its numpy twin, the wire.
-The processes that use it live in the `nodes` package.
+Four layers, each importing only the ones below it (tests/test_layers.py checks it):
+  core   (cavesim.core)  no GL: scenes, CAVE geometry, frame inputs, records, scene
+                         drivers, the clock, the wire, the float64 twin;
+  gpu    (cavesim.gpu)   the OpenGL engine, its shaders, the wall renderer;
+  nodes  (cavesim.nodes) the processes: master, wall node, launcher, harness;
+  tools  (cavesim.tools) the command line, benchmarks, numerics, reports.
 """
-
-from cavesim.engine import FrameInput, ParticleSystem, StateChecksum
-from cavesim.gl.context import create_context
-from cavesim.scene import Scene, load_scene
-
-__all__ = ["FrameInput", "ParticleSystem", "Scene", "StateChecksum", "create_context",
-           "load_scene"]

@@ -2,6 +2,6 @@
 
 import sys
 
-from cavesim.cli import main
+from cavesim.tools.cli import main
 
 sys.exit(main())

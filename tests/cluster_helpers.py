@@ -13,10 +13,9 @@ from dataclasses import dataclass
 import numpy as np
 from hypothesis import strategies as st
 
-from cavesim.engine import EMITTER_DTYPE, FrameInput
-from cavesim.engine.layout import PARTICLE_BYTES
-from cavesim.limits import MAX_PARTICLES
-from cavesim.wire.messages import (
+from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.wire.messages import (
     MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
     MAX_TEXT,
@@ -32,6 +31,7 @@ from cavesim.wire.messages import (
     TrackingMessage,
     WandState,
 )
+from cavesim.gpu.engine import EMITTER_DTYPE, FrameInput
 
 U32 = 2**32 - 1
 U64 = 2**64 - 1

@@ -2,7 +2,7 @@
 
 import pytest
 
-from cavesim.gl.context import create_context
+from cavesim.gpu.gl.context import create_context
 
 
 @pytest.fixture(scope="session")

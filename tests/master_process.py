@@ -6,7 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from nodes.launcher import LocalCluster
+from cavesim.nodes.launcher import LocalCluster
 
 
 def spawn_master(cluster: LocalCluster, walls: tuple[str, ...], frames: int,

@@ -12,9 +12,9 @@ import hashlib
 import queue
 from dataclasses import dataclass, field
 
-from cavesim.wire import Command, ControlMessage, FrameMessage, InfoMessage, ReportMessage
-from cavesim.wire.messages import Status
-from nodes.events import Described, Reported, WallDown, WallUp
+from cavesim.core.wire import Command, ControlMessage, FrameMessage, InfoMessage, ReportMessage
+from cavesim.core.wire.messages import Status
+from cavesim.nodes.events import Described, Reported, WallDown, WallUp
 
 START = "0" * 32
 

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from cavesim.cave.geometry import parse_cave
-from cavesim.engine.layout import PARTICLE_DTYPE
+from cavesim.core.cave.geometry import parse_cave
+from cavesim.core.records import PARTICLE_DTYPE
 
 GOLDEN = Path(__file__).parent / "golden"
 GOLDEN_RENDERER = "llvmpipe"  # the goldens were drawn by Mesa's llvmpipe

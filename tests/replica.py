@@ -12,10 +12,10 @@ import numpy as np
 
 def run_replica(scene_data: dict, frames: int, matrix_seed: int, dt: float = 1 / 60):
     """Step a scene `frames` times; return per-frame checksums and the final state's hash."""
-    from cavesim.engine import FrameInput, ParticleSystem
-    from cavesim.gl.context import create_context
-    from cavesim.random_texture import draw_transform
-    from cavesim.scene import parse_scene
+    from cavesim.core.random_texture import draw_transform
+    from cavesim.core.scene import parse_scene
+    from cavesim.gpu.engine import FrameInput, ParticleSystem
+    from cavesim.gpu.gl.context import create_context
 
     scene = parse_scene(scene_data, name="replica")
     ctx = create_context()

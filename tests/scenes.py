@@ -6,8 +6,8 @@ import copy
 
 import numpy as np
 
-from cavesim.engine.layout import PARTICLE_DTYPE
-from cavesim.scene import parse_scene
+from cavesim.core.records import PARTICLE_DTYPE
+from cavesim.core.scene import parse_scene
 
 SAND = {"name": "sand", "diameter": 400e-6, "density": 2650.0}  # tau ~ 1.3 s
 DUST = {"name": "dust", "diameter": 100e-6, "density": 2650.0}  # tau ~ 0.08 s

@@ -16,14 +16,15 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from cavesim.cli import REPO_ROOT, main
-from cavesim.numerics import METHODS, QUICK_DTS, run_command
-from cavesim.numerics.cases import HELICOPTER_SCENE, QUICK_PARTICLES, REPORT_DT, uniform_case
-from cavesim.numerics.methods import EXACT_TOLERANCE
-from cavesim.numerics.order import MIN_FIT_POINTS, observed_order
-from cavesim.numerics.reference import closed_form
-from cavesim.scene.model import Integrator
-from cavesim.twin.integrators import ORDERS
+from cavesim.core.scene.model import Integrator
+from cavesim.core.twin.integrators import ORDERS
+from cavesim.tools.arguments import REPO_ROOT
+from cavesim.tools.cli import main
+from cavesim.tools.numerics import METHODS, QUICK_DTS, run_command
+from cavesim.tools.numerics.cases import HELICOPTER_SCENE, QUICK_PARTICLES, REPORT_DT, uniform_case
+from cavesim.tools.numerics.methods import EXACT_TOLERANCE
+from cavesim.tools.numerics.order import MIN_FIT_POINTS, observed_order
+from cavesim.tools.numerics.reference import closed_form
 
 SMOOTH_CASES = ("uniform", "vortex")
 FLOAT32_FLOOR = 1e-4  # m: what float32 arithmetic may add to a GPU error over T = 1 s

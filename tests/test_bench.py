@@ -1,6 +1,6 @@
 """`cavesim bench`: the reports it writes, the figures in them, and its answer to bad flags.
 
-The benchmark runs `cavesim.cli.main` in a child process: it opens its own EGL context, and
+The benchmark runs `cavesim.tools.cli.main` in a child process: it opens its own EGL context, and
 a second context in the test process would become current in place of `gl_session`.
 """
 
@@ -13,14 +13,14 @@ import sys
 
 import pytest
 
-from cavesim.bench import TARGETS, SizeFigures
-from cavesim.bench.figures import evaluate_targets
-from cavesim.cli import main
-from cavesim.engine.capacity import capacity_limits
-from cavesim.limits import MAX_PARTICLES
+from cavesim.core.limits import MAX_PARTICLES
+from cavesim.gpu.engine.capacity import capacity_limits
+from cavesim.tools.bench import TARGETS, SizeFigures
+from cavesim.tools.bench.figures import evaluate_targets
+from cavesim.tools.cli import main
 
 SIZES = (2000, 5000)
-RUN_MAIN = "import sys; from cavesim.cli import main; sys.exit(main(sys.argv[1:]))"
+RUN_MAIN = "import sys; from cavesim.tools.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
 @pytest.fixture(scope="module")

@@ -14,11 +14,11 @@ import sys
 
 import pytest
 
-from cavesim.bench.cluster import TARGETS, build_report
-from cavesim.bench.cluster_report import target_line
-from cavesim.cli import main
+from cavesim.tools.bench.cluster import TARGETS, build_report
+from cavesim.tools.cli import main
+from cavesim.tools.reports.cluster import target_line
 
-RUN_MAIN = "import sys; from cavesim.cli import main; sys.exit(main(sys.argv[1:]))"
+RUN_MAIN = "import sys; from cavesim.tools.cli import main; sys.exit(main(sys.argv[1:]))"
 
 
 @pytest.fixture(scope="module")

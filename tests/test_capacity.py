@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from scenes import make_scene
 
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.engine.capacity import capacity_limits
-from cavesim.engine.checksum import group_count
-from cavesim.engine.layout import PARTICLE_BYTES, PARTICLE_WORDS
-from cavesim.errors import CapacityError
-from cavesim.framelog import FrameLogWriter, read_frame_log
-from cavesim.limits import MAX_PARTICLES
-from cavesim.wire.messages import FrameMessage, ReportMessage, decode, encode
+from cavesim.core.errors import CapacityError
+from cavesim.core.framelog import FrameLogWriter, read_frame_log
+from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
+from cavesim.core.wire.messages import FrameMessage, ReportMessage, decode, encode
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.engine.capacity import capacity_limits
+from cavesim.gpu.engine.checksum import group_count
 
 GIB = 2**30
 GL_MIN_WORK_GROUP_COUNT = 65535  # what GL 4.3 guarantees for each dimension

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cavesim.cave import DEFAULT_CAVE, Cave, Wall, load_cave, parse_cave
-from cavesim.errors import CaveError
+from cavesim.core.cave import DEFAULT_CAVE, Cave, Wall, load_cave, parse_cave
+from cavesim.core.errors import CaveError
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted((ROOT / "config" / "cave").glob("*.toml"))

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scenes import FOUNTAIN, make_scene, particle_cloud
 
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.engine.checksum import GpuChecksum, reference_sums
-from cavesim.engine.layout import PARTICLE_WORDS
+from cavesim.core.records import PARTICLE_WORDS
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.engine.checksum import GpuChecksum, reference_sums
 
 
 @pytest.mark.parametrize("word_count", [1, 255, 4096, 4097, 50_001])

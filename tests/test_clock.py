@@ -6,7 +6,7 @@ import math
 import pytest
 from master_process import spawn_master
 
-from nodes.clock import Clock, check_dt
+from cavesim.core.clock import Clock, check_dt
 
 
 class FakeTime:
@@ -63,7 +63,7 @@ def test_a_realtime_cluster_keeps_wall_time(tmp_path):
     import os
     from pathlib import Path
 
-    from nodes.launcher import LocalCluster
+    from cavesim.nodes.launcher import LocalCluster
 
     scene = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
     with LocalCluster(scene, tmp_path, f"rt{os.getpid()}") as cluster:

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 from master_process import spawn_master
 
-from cavesim.replay import replay
-from nodes.check import CheckPlan, run_check
-from nodes.faults import parse_fault
-from nodes.launcher import LocalCluster
+from cavesim.nodes.check import CheckPlan, run_check
+from cavesim.nodes.faults import parse_fault
+from cavesim.nodes.launcher import LocalCluster
+from cavesim.tools.replay import replay
 
 ROOT = Path(__file__).parents[1]
 DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"

@@ -12,7 +12,7 @@ import pytest
 from master_process import spawn_master
 from PIL import Image
 
-from nodes.launcher import LocalCluster
+from cavesim.nodes.launcher import LocalCluster
 
 ROOT = Path(__file__).parents[1]
 DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"

@@ -14,14 +14,14 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from cavesim.render import compose, compose_run, unfold_layout, write_animation
-from cavesim.render.animation import MAX_WIDTH_PX
+from cavesim.gpu.render import compose, compose_run, unfold_layout, write_animation
+from cavesim.gpu.render.animation import MAX_WIDTH_PX
 
 try:
-    from cavesim.cave.geometry import Cave, Wall
+    from cavesim.core.cave.geometry import Cave, Wall
 except ImportError as e:  # another change adds the module; the layout tests need its Wall
     Cave = Wall = None
-    GEOMETRY_MISSING = f"cavesim.cave.geometry is not importable yet: {e}"
+    GEOMETRY_MISSING = f"cavesim.core.cave.geometry is not importable yet: {e}"
 else:
     GEOMETRY_MISSING = ""
 
@@ -209,7 +209,7 @@ def test_compose_run_writes_only_frames_every_wall_has(tmp_path, caplog):
     frames["floor"] = [0, 1, 2, 3, 5]
     write_frames(cave, tmp_path / "walls", frames)
     (tmp_path / "walls" / "front" / "notes.txt").write_text("not a frame")
-    with caplog.at_level(logging.WARNING, logger="cavesim.render.composite"):
+    with caplog.at_level(logging.WARNING, logger="cavesim.gpu.render.composite"):
         paths = compose_run(cave, tmp_path / "walls", tmp_path / "out")
     assert [p.name for p in paths] == [f"composite_{n:06d}.png" for n in (0, 1, 3)]
     assert "left lacks 2, 5" in caplog.text and "floor lacks" not in caplog.text

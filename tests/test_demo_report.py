@@ -5,8 +5,9 @@ import pytest
 from PIL import Image
 from rich.console import Console
 
-from nodes.demo_report import demo_summary, write_demo_plots
-from nodes.run import demo_table, write_plots
+from cavesim.tools.commands.run import write_plots
+from cavesim.tools.reports.demo import demo_summary, write_demo_plots
+from cavesim.tools.reports.run import demo_table
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from cavesim.replay import replay
+from cavesim.tools.replay import replay
 
 ROOT = Path(__file__).parents[1]
 

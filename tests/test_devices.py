@@ -7,9 +7,9 @@ import sys
 import moderngl
 import pytest
 
-from cavesim.errors import ContextError
-from cavesim.gl import context
-from cavesim.gl.devices import EglDevice, find_device, list_devices
+from cavesim.core.errors import ContextError
+from cavesim.gpu.gl import context
+from cavesim.gpu.gl.devices import EglDevice, find_device, list_devices
 
 
 def test_this_machine_lists_its_devices_in_glcontext_order():
@@ -82,8 +82,8 @@ def test_a_missing_libegl_is_named_with_the_packages(monkeypatch):
 
 def test_no_egl_driver_is_named_with_the_variable_and_the_packages():
     """glvnd reads its vendor files when libEGL loads: this needs a fresh process."""
-    code = ("from cavesim.gl.context import create_context\n"
-            "from cavesim.errors import ContextError\n"
+    code = ("from cavesim.gpu.gl.context import create_context\n"
+            "from cavesim.core.errors import ContextError\n"
             "try:\n    create_context()\nexcept ContextError as e:\n    print(e)\n")
     env = {**os.environ, "__EGL_VENDOR_LIBRARY_FILENAMES": "/nonexistent.json"}
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -12,12 +12,12 @@ from importlib import metadata
 import pytest
 import zenoh
 
-from cavesim.doctor import probe as probing
-from cavesim.doctor.checks import check_windows, check_zenoh
-from cavesim.doctor.verdict import judge
-from cavesim.engine.layout import PARTICLE_BYTES
-from cavesim.gl.devices import list_devices
-from cavesim.wire.network import NetworkConfig
+from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.wire.network import NetworkConfig
+from cavesim.gpu.gl.devices import list_devices
+from cavesim.tools.doctor import probe as probing
+from cavesim.tools.doctor.checks import check_windows, check_zenoh
+from cavesim.tools.doctor.verdict import judge
 
 DEVICE = {"index": 0, "kind": "software", "usable": True, "opened": True,
           "renderer": "llvmpipe", "largest_capacity": 3_355_443, "problem": None, "fix": None}

@@ -5,14 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from cavesim.drivers import driver_for
-from cavesim.drivers.frame import MESH_HUB_HEIGHT, NOTHING_MOVES, HelicopterPose
-from cavesim.drivers.helicopter import HelicopterDriver
-from cavesim.drivers.still import StillDriver
-from cavesim.errors import ProtocolError
-from cavesim.helicopter.flight import WAND_LIMIT, pitch_quaternion
-from cavesim.scene import load_scene
-from cavesim.wire.messages import WandState
+from cavesim.core.drivers import driver_for
+from cavesim.core.drivers.helicopter import HelicopterDriver
+from cavesim.core.drivers.still import StillDriver
+from cavesim.core.errors import ProtocolError
+from cavesim.core.helicopter.flight import WAND_LIMIT, pitch_quaternion
+from cavesim.core.scene import load_scene
+from cavesim.core.scene_frame import MESH_HUB_HEIGHT, NOTHING_MOVES, HelicopterPose
+from cavesim.core.wire.messages import WandState
 
 BROWNOUT = load_scene("config/scenes/brownout.toml")
 MINIMAL = load_scene("config/scenes/minimal.toml")

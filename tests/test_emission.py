@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from scenes import FOUNTAIN, make_scene
 
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.random_texture import draw_transform
-from cavesim.twin import TwinSystem
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.twin import TwinSystem
+from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 
 def emitter(**overrides):

@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 from scenes import VORTEX_FIELD, make_scene, particle_cloud
 
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.fields import build_field
-from cavesim.gl.filtering import filter_weight_error
-from cavesim.heightfield import HeightGrid, save_heightfield
-from cavesim.scene.model import FieldSampling, Integrator
-from cavesim.twin import TwinSystem
+from cavesim.core.fields import build_field
+from cavesim.core.heightfield import HeightGrid, save_heightfield
+from cavesim.core.scene.model import FieldSampling, Integrator
+from cavesim.core.twin import TwinSystem
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.gl.filtering import filter_weight_error
 
 STEPS = 100
 IDENTITY = np.eye(3, dtype=np.float32)

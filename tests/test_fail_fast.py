@@ -14,11 +14,12 @@ from pathlib import Path
 
 import pytest
 
-from cavesim import cli
-from cavesim.errors import ClusterError
-from nodes.cluster import ClusterPlan, run_cluster
-from nodes.launcher import last_error
-from nodes.master import MasterConfig
+from cavesim.core.errors import ClusterError
+from cavesim.nodes.cluster import ClusterPlan, run_cluster
+from cavesim.nodes.launcher import last_error
+from cavesim.nodes.master import MasterConfig
+from cavesim.tools import cli
+from cavesim.tools.commands import numerics
 
 ROOT = Path(__file__).parents[1]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
@@ -158,7 +159,7 @@ def _raise(args, console):
 
 
 def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monkeypatch):
-    monkeypatch.setattr(cli, "stability", _raise)  # a handler with a bug
+    monkeypatch.setattr(numerics, "stability", _raise)  # a handler with a bug
     monkeypatch.delenv(cli.TRACEBACK_VARIABLE, raising=False)
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)

@@ -6,9 +6,9 @@ from pathlib import Path
 import moderngl
 from scenes import FOUNTAIN, make_scene
 
-from cavesim.engine import ParticleSystem
-from cavesim.engine.programs import PARTICLE_UPDATE, physics_defines
-from cavesim.scene import load_scene
+from cavesim.core.scene import load_scene
+from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.engine.programs import PARTICLE_UPDATE, physics_defines
 
 SCENES = Path(__file__).parents[1] / "config" / "scenes"
 FEATURE_CODE = {  # what each feature puts in the compiled particle pass

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from cavesim.errors import FieldError
-from cavesim.fields import FieldGrid, build_field, sample_field, save_field
-from cavesim.flows import downwash_velocity, vortex_velocity
-from cavesim.heightfield import HeightGrid, load_heightfield, sample_height, save_heightfield
-from cavesim.scene.model import Field, FieldKind, OutOfDomain
+from cavesim.core.errors import FieldError
+from cavesim.core.fields import FieldGrid, build_field, sample_field, save_field
+from cavesim.core.flows import downwash_velocity, vortex_velocity
+from cavesim.core.heightfield import HeightGrid, load_heightfield, sample_height, save_heightfield
+from cavesim.core.scene.model import Field, FieldKind, OutOfDomain
 
 BOX_MIN, BOX_MAX = (-2.0, -1.5, 0.0), (3.0, 2.5, 2.0)
 VORTEX = {"center": (0.5, 0.25), "circulation": 2.0, "core_radius": 0.4, "axial_speed": 0.1}

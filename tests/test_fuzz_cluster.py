@@ -26,14 +26,14 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from master_process import spawn_master
 
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.errors import ProtocolError
-from cavesim.framelog import read_frame_log
-from cavesim.scene import load_scene
-from cavesim.wire import SessionKeys, decode, encode
-from cavesim.wire.messages import HEADER
-from cavesim.wire.network import NetworkConfig, read_key
-from nodes.launcher import LocalCluster
+from cavesim.core.errors import ProtocolError
+from cavesim.core.framelog import read_frame_log
+from cavesim.core.scene import load_scene
+from cavesim.core.wire import SessionKeys, decode, encode
+from cavesim.core.wire.messages import HEADER
+from cavesim.core.wire.network import NetworkConfig, read_key
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.nodes.launcher import LocalCluster
 
 SCENE = Path(__file__).parents[1] / "config/scenes/minimal.toml"
 WALLS = ("front", "left")

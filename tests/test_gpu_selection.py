@@ -9,11 +9,11 @@ from pathlib import Path
 
 import pytest
 
-from cavesim.cli import main
-from cavesim.errors import ContextError
-from cavesim.gl.devices import EglDevice, list_devices
-from nodes.gpus import spread_walls
-from nodes.run import RunPlan
+from cavesim.core.errors import ContextError
+from cavesim.gpu.gl.devices import EglDevice, list_devices
+from cavesim.nodes.gpus import spread_walls
+from cavesim.tools.cli import main
+from cavesim.tools.commands.run import RunPlan
 
 ROOT = Path(__file__).parents[1]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"

@@ -6,21 +6,21 @@ import numpy as np
 import pytest
 from scenes import SAND
 
-from cavesim.drivers.frame import NOTHING_MOVES
-from cavesim.drivers.helicopter import HelicopterDriver
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.errors import SceneError
-from cavesim.helicopter.flight import Flight
-from cavesim.helicopter.rotor import (
+from cavesim.core.drivers.helicopter import HelicopterDriver
+from cavesim.core.errors import SceneError
+from cavesim.core.helicopter.flight import Flight
+from cavesim.core.helicopter.rotor import (
     downwash,
     friction_velocity,
     ground_effect,
     induced_velocity,
     saltation_factor,
 )
-from cavesim.random_texture import draw_transform
-from cavesim.scene import load_scene, parse_scene
-from cavesim.twin import TwinSystem
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.scene import load_scene, parse_scene
+from cavesim.core.scene_frame import NOTHING_MOVES
+from cavesim.core.twin import TwinSystem
+from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 BROWNOUT = load_scene("config/scenes/brownout.toml")
 HELI = BROWNOUT.helicopter
@@ -157,7 +157,7 @@ def test_sand_class_is_the_test_scenes_sand():
 def test_wand_tilt_sets_rotor_speed_and_heading_turns_the_nose():
     import math
 
-    from cavesim.helicopter.flight import heading_of, pitch_quaternion, tilt_of
+    from cavesim.core.helicopter.flight import heading_of, pitch_quaternion, tilt_of
 
     assert tilt_of(pitch_quaternion(20.0)) == pytest.approx(20.0)
     quarter = (0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4))  # 90 deg about z

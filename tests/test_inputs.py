@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from scenes import make_scene
 
-from cavesim.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput, ParticleSystem
-from cavesim.errors import ContextError
-from cavesim.gl import context
-from cavesim.random_texture import draw_transform, random_words
+from cavesim.core.errors import ContextError
+from cavesim.core.random_texture import draw_transform, random_words
+from cavesim.gpu.engine import EMITTER_DTYPE, PARTICLE_DTYPE, FrameInput, ParticleSystem
+from cavesim.gpu.gl import context
 
 
 def test_missing_egl_names_the_packages(monkeypatch):

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from cavesim.limits import DEFAULT_MASTER_PORT
-from nodes.launcher import free_port
+from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.nodes.launcher import free_port
 
 ROOT = Path(__file__).parents[1]
 LAUNCH = ROOT / "deploy" / "launch.sh"

@@ -6,12 +6,12 @@ from pathlib import Path
 import pytest
 from memory_walls import MemoryLink
 
-from cavesim.errors import ClusterError
-from cavesim.wire import Command, ControlMessage, ReportMessage
-from cavesim.wire.messages import Status
-from nodes import lockstep
-from nodes.lockstep import Membership
-from nodes.master import MasterConfig, run_master
+from cavesim.core.errors import ClusterError
+from cavesim.core.wire import Command, ControlMessage, ReportMessage
+from cavesim.core.wire.messages import Status
+from cavesim.nodes import lockstep
+from cavesim.nodes.lockstep import Membership
+from cavesim.nodes.master import MasterConfig, run_master
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")

@@ -35,9 +35,9 @@ from pathlib import Path
 import pytest
 from netns import Network, remove_stale, unavailable
 
-from cavesim.framelog import read_frame_log
-from cavesim.limits import DEFAULT_MASTER_PORT
-from cavesim.wire.network import RUNTIME_THREADS
+from cavesim.core.framelog import read_frame_log
+from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.core.wire.network import RUNTIME_THREADS
 
 ROOT = Path(__file__).parents[1]
 LAUNCH = ROOT / "deploy" / "launch.sh"

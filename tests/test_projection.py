@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from cavesim.cave import (
+from cavesim.core.cave import (
     DEFAULT_CAVE,
     Wall,
     eye_positions,

@@ -10,10 +10,10 @@ from PIL import Image
 from render_helpers import GOLDEN, assert_matches_golden, particles_at, small_cave
 from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict
 
-from cavesim.drivers.frame import HelicopterPose
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.random_texture import draw_transform
-from cavesim.render.wall_renderer import RenderSettings, WallRenderer
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.scene_frame import HelicopterPose
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.render.wall_renderer import RenderSettings, WallRenderer
 
 EYE = np.array([0.2, -0.3, 1.6])
 HELICOPTER = HelicopterPose((0.0, 9.0, 5.0), -np.pi / 2, 0.4)
@@ -92,8 +92,8 @@ def test_same_state_same_pixels_and_golden(ctx):
 
 def render_in_a_process(frames: int) -> str:
     """A fresh process: step the fountain scene and hash the front wall's pixels."""
-    from cavesim.gl.context import create_context
-    from cavesim.scene import parse_scene
+    from cavesim.core.scene import parse_scene
+    from cavesim.gpu.gl.context import create_context
 
     ctx = create_context()
     scene = parse_scene(scene_dict(emitters=[FOUNTAIN], collision=PLANE, seed=3), name="t")

@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from cavesim.errors import SceneError
-from cavesim.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES, MAX_PARTICLES
-from cavesim.scene import (
+from cavesim.core.errors import SceneError
+from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES, MAX_PARTICLES
+from cavesim.core.scene import (
     AIR_VISCOSITY,
     Collision,
     CollisionKind,

@@ -1,4 +1,4 @@
-"""The TOML checker on its own (cavesim._schema): types, bounds and rules in messages,
+"""The TOML checker on its own (cavesim.core._schema): types, bounds and rules in messages,
 unknown and missing keys, enums, tables, arrays of tables, defaults. The scene and CAVE
 files are tested through it in test_scene.py and test_cave.py."""
 
@@ -12,7 +12,7 @@ from typing import Annotated, Any
 
 import pytest
 
-from cavesim._schema import Note, Range, Rule, Source, Table, unique_names
+from cavesim.core._schema import Note, Range, Rule, Source, Table, unique_names
 
 
 class CheckError(ValueError):

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from cavesim.engine.programs import IN_PLACE_UPDATE, PARTICLE_UPDATE, PHYSICS_FEATURES
-from cavesim.errors import ShaderError
-from cavesim.limits import MAX_PARTICLE_CLASSES
-from cavesim.render.programs import DUST
-from cavesim.shader_gate import (
+from cavesim.core.errors import ShaderError
+from cavesim.core.limits import MAX_PARTICLE_CLASSES
+from cavesim.gpu.engine.programs import IN_PLACE_UPDATE, PARTICLE_UPDATE, PHYSICS_FEATURES
+from cavesim.gpu.render.programs import DUST
+from cavesim.gpu.shader_gate import (
     Build,
     all_builds,
     check_on_context,
@@ -18,7 +18,7 @@ from cavesim.shader_gate import (
     lint,
     uniform_components,
 )
-from cavesim.shader_source import ProgramSpec, ShaderSource
+from cavesim.gpu.shader_source import ProgramSpec, ShaderSource
 
 SCENES = Path(__file__).parents[1] / "config" / "scenes"
 FIXTURES = Path(__file__).parent / "glsl_fixtures"

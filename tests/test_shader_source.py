@@ -6,9 +6,9 @@ from pathlib import Path
 import moderngl
 import pytest
 
-from cavesim.errors import ShaderError
-from cavesim.gl.context import REQUIRED_GL_VERSION
-from cavesim.shader_source import MAX_INCLUDE_DEPTH, ShaderSource, assemble, build_program
+from cavesim.core.errors import ShaderError
+from cavesim.gpu.gl.context import REQUIRED_GL_VERSION
+from cavesim.gpu.shader_source import MAX_INCLUDE_DEPTH, ShaderSource, assemble, build_program
 
 FIXTURES = Path(__file__).parent / "glsl_fixtures"
 

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 from scenes import FOUNTAIN, make_scene
 
-from cavesim.engine import FrameInput, ParticleSystem
-from cavesim.engine.layout import PARTICLE_BYTES
-from cavesim.errors import ProtocolError, StateError
-from cavesim.wire.messages import SnapshotChunk, SnapshotHeader, decode, encode
-from cavesim.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
-from nodes.snapshots import SnapshotLoad, send_snapshot
+from cavesim.core.errors import ProtocolError, StateError
+from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.wire.messages import SnapshotChunk, SnapshotHeader, decode, encode
+from cavesim.core.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.nodes.snapshots import SnapshotLoad, send_snapshot
 
 SESSION, KEY = "snap", b"k" * 32
 FRAME = 12

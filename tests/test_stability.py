@@ -4,9 +4,9 @@ import math
 
 import pytest
 
-from cavesim.scene import Integrator
-from cavesim.stability.extremes import run_extremes
-from cavesim.stability.sweep import STABILITY_LIMITS, STEPS, TAUS, run_sweep
+from cavesim.core.scene import Integrator
+from cavesim.tools.stability.extremes import run_extremes
+from cavesim.tools.stability.sweep import STABILITY_LIMITS, STEPS, TAUS, run_sweep
 
 
 @pytest.fixture(scope="module")

@@ -9,10 +9,10 @@ import pytest
 import zenoh
 from master_process import spawn_master
 
-from cavesim.framelog import read_frame_log
-from cavesim.wire import HeadState, SessionKeys, TrackingMessage, WandState, encode
-from cavesim.wire.network import NetworkConfig
-from nodes.launcher import LocalCluster, free_port
+from cavesim.core.framelog import read_frame_log
+from cavesim.core.wire import HeadState, SessionKeys, TrackingMessage, WandState, encode
+from cavesim.core.wire.network import NetworkConfig
+from cavesim.nodes.launcher import LocalCluster, free_port
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
 TRACKED = HeadState((0.5, -0.25, 1.5), (0.0, 0.0, 0.0, 1.0))

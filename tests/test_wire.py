@@ -33,11 +33,10 @@ from cluster_helpers import (
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
-from cavesim.engine import EMITTER_DTYPE, FrameInput
-from cavesim.errors import ProtocolError
-from cavesim.limits import MAX_EMITTERS, MAX_PARTICLES
-from cavesim.wire import messages as wire
-from cavesim.wire.messages import (
+from cavesim.core.errors import ProtocolError
+from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
+from cavesim.core.wire import messages as wire
+from cavesim.core.wire.messages import (
     MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
     MAX_TEXT,
@@ -58,6 +57,7 @@ from cavesim.wire.messages import (
     encode,
     session_id,
 )
+from cavesim.gpu.engine import EMITTER_DTYPE, FrameInput
 
 SESSION = "wiretest"
 KEY = b"0123456789abcdef0123456789abcdef"

@@ -1,0 +1,142 @@
+"""The flow field on the CPU: builds the velocity grid that the GPU samples as a 3D texture.
+
+Data flow: the scene loader gives a `Field`; `build_field` turns it into a `FieldGrid` once
+per scene (an analytic model evaluated at the nodes, or an .npz file checked at the door);
+the GL engine uploads `grid.velocity.tobytes()` as a 3-component 3D texture, and every frame
+the drag stage samples it. `sample_field` is the numpy twin of that shader lookup.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from cavesim.core._grids import cells, check_box, corner_of, float_grid, mix, read_npz
+from cavesim.core.errors import FieldError
+from cavesim.core.flows import MODELS
+from cavesim.core.limits import FIELD_RESOLUTION_RANGE
+from cavesim.core.scene.model import Field, FieldKind, OutOfDomain
+
+_BOX_RTOL = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class FieldGrid:
+    """Flow velocity (m/s) at the nodes of a regular grid whose corner nodes are the box corners.
+
+    `velocity[k, j, i]` is the flow at box_min + (i, j, k) · (box_max − box_min) / (res − 1).
+    It is stored float32, C-contiguous and read-only, so `velocity.tobytes()` is the data of a
+    3D texture of size (nx, ny, nz) with 3 components.
+    """
+
+    velocity: np.ndarray  # (nz, ny, nx, 3)
+    box_min: tuple[float, float, float]
+    box_max: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        velocity = np.ascontiguousarray(self.velocity, dtype=np.float32).view()
+        if velocity.ndim != 4 or velocity.shape[3] != 3 or min(velocity.shape[:3]) < 2:
+            raise FieldError(f"velocity grid has shape {velocity.shape}, expected (nz, ny, nx, 3)"
+                             " with at least 2 nodes per axis")
+        velocity.flags.writeable = False
+        box_min, box_max = check_box(self.box_min, self.box_max, 3, "field")
+        object.__setattr__(self, "velocity", velocity)
+        object.__setattr__(self, "box_min", box_min)
+        object.__setattr__(self, "box_max", box_max)
+
+    @property
+    def resolution(self) -> tuple[int, int, int]:
+        """Nodes per axis as (nx, ny, nz)."""
+        nz, ny, nx, _ = self.velocity.shape
+        return nx, ny, nz
+
+
+def build_field(field: Field) -> FieldGrid:
+    """The grid of a scene's field: the .npz file for FILE, else the analytic model at the nodes.
+
+    For FILE the resolution comes from the file and `field.resolution` is not used.
+    """
+    kind = FieldKind(field.kind)
+    box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
+    if kind is FieldKind.FILE:
+        if field.file is None:
+            raise FieldError("field of kind 'file' names no file")
+        return _load_field_file(Path(field.file), box_min, box_max)
+    res = tuple(field.resolution)
+    low, high = FIELD_RESOLUTION_RANGE
+    in_range = (isinstance(n, int | np.integer) and low <= n <= high for n in res)
+    if len(res) != 3 or not all(in_range):
+        raise FieldError(f"field resolution must be 3 integers in [{low}, {high}], "
+                         f"got {field.resolution!r}")
+    nx, ny, nz = res
+    x = np.linspace(box_min[0], box_max[0], nx)[None, None, :]
+    y = np.linspace(box_min[1], box_max[1], ny)[None, :, None]
+    z = np.linspace(box_min[2], box_max[2], nz)[:, None, None]
+    velocity = MODELS[kind](x, y, z, field.params)  # float64, cast to float32 once below
+    return FieldGrid(velocity.astype(np.float32), box_min, box_max)
+
+
+def sample_field(grid: FieldGrid, points, out_of_domain: OutOfDomain,
+                 dtype=np.float64) -> np.ndarray:
+    """Trilinear flow at world points (..., 3): the numpy twin of the shader's manual lookup.
+
+    Everything is computed in `dtype` (float64 reference, or float32 to mirror the GPU); box
+    corners and points are rounded to `dtype` first. Per axis, with res the nodes on it:
+      f  = (p − box_min) / (box_max − box_min) · (res − 1)   (left to right)
+      f  = clamp(f, 0, res − 1)
+      i0 = min(floor(f), res − 2),  t = f − i0
+    and with mix(a, b, t) = a·(1 − t) + b·t and c_zyx = velocity[i0z+z, i0y+y, i0x+x]:
+      v = mix(mix(mix(c000, c001, tx), mix(c010, c011, tx), ty),
+              mix(mix(c100, c101, tx), mix(c110, c111, tx), ty), tz).
+    CLAMP: as above (outside the box, the flow of the nearest boundary point).
+    ZERO: 0 where p lies outside the closed box on any axis, else as above.
+    A point with a NaN coordinate gives NaN.
+    """
+    out_of_domain = OutOfDomain(out_of_domain)
+    p = np.asarray(points, dtype=dtype)
+    if p.shape[-1:] != (3,):
+        raise ValueError(f"points must have shape (..., 3), got {p.shape}")
+    flat = p.reshape(-1, 3)
+    lo, hi = np.asarray(grid.box_min, dtype), np.asarray(grid.box_max, dtype)
+    i0, t, _ = cells(flat, lo, hi, grid.resolution, dtype)
+    (ix, iy, iz), (tx, ty, tz) = i0.T, (t[:, a, None] for a in range(3))
+    velocity = grid.velocity
+
+    def corner(dz: int, dy: int, dx: int) -> np.ndarray:
+        return velocity[iz + dz, iy + dy, ix + dx].astype(dtype)
+
+    near = mix(mix(corner(0, 0, 0), corner(0, 0, 1), tx),
+                mix(corner(0, 1, 0), corner(0, 1, 1), tx), ty)
+    far = mix(mix(corner(1, 0, 0), corner(1, 0, 1), tx),
+               mix(corner(1, 1, 0), corner(1, 1, 1), tx), ty)
+    out = mix(near, far, tz)
+    if out_of_domain is OutOfDomain.ZERO:
+        out[((flat < lo) | (flat > hi)).any(axis=1)] = 0
+    out[np.isnan(flat).any(axis=1)] = np.nan
+    return out.reshape(p.shape)
+
+
+def save_field(path, grid: FieldGrid) -> None:
+    """Write `grid` as an .npz with "velocity" (nz, ny, nx, 3), "box_min" and "box_max"."""
+    with open(path, "wb") as file:  # an open file keeps np.savez from appending ".npz"
+        np.savez(file, velocity=grid.velocity, box_min=np.asarray(grid.box_min),
+                 box_max=np.asarray(grid.box_max))
+
+
+def _load_field_file(path: Path, box_min, box_max) -> FieldGrid:
+    arrays = read_npz(path, required=("velocity",), optional=("box_min", "box_max"))
+    velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
+                           FIELD_RESOLUTION_RANGE[1], components=3)
+    for name, scene_corner in (("box_min", box_min), ("box_max", box_max)):
+        if name not in arrays:
+            continue
+        file_corner = corner_of(path, name, arrays[name], 3)
+        extents = (b - a for a, b in zip(box_min, box_max, strict=True))
+        if not all(math.isclose(f, s, rel_tol=_BOX_RTOL, abs_tol=_BOX_RTOL * e)
+                   for f, s, e in zip(file_corner, scene_corner, extents, strict=True)):
+            raise FieldError(f"{path}: array {name!r} is {file_corner}, but the scene's field box "
+                             f"has {name} = {scene_corner}; they must agree to 1e-9 relative")
+    return FieldGrid(velocity, box_min, box_max)

@@ -1,0 +1,34 @@
+"""Limits and defaults that more than one part of cavesim relies on, each written once.
+
+The scene and CAVE schemas declare their bounds with these (`cavesim.core.scene.model`,
+`cavesim.core.cave.geometry`); the engine's programs are specialized up to the scene limits and
+the portability gate (`cavesim.gpu.shader_gate`) compiles every program at them; the command
+line, the wire and the launcher use the rest. GL-free: the master imports it too.
+"""
+
+import re
+
+# --- scenes: sizes every GL 4.3 driver can compile and run --------------------------------
+# The engine's addressing bound on a scene's capacity, a bench run and a snapshot, whatever
+# a driver allows (each GL context's own limits are read by cavesim.gpu.engine.capacity):
+# moderngl 5.13 hands `transform(buffer_offset=)` to GL through a C int (parsed with "I",
+# so a larger offset wraps without an error), and the emitter pass appends at survivors x
+# 40-byte records. Vertex counts (GLsizei) and the checksum's uint word index reach further.
+MAX_BYTE_OFFSET = 2**31 - 1
+MAX_PARTICLES = MAX_BYTE_OFFSET // 40  # 53,687,091; 40 = PARTICLE_BYTES, asserted there
+MAX_PARTICLE_CLASSES = 64  # one uniform float array: 256 components padded, GL 4.3 allows 512+
+MAX_EMITTERS = 4096  # columns of the emitter table texture (GL 4.3: at least 16384)
+RANDOM_TEXTURE_SIZE_RANGE = (16, 4096)  # a power of two; 4096 is below every GL 4.3 limit
+FIELD_RESOLUTION_RANGE = (2, 256)  # nodes per axis: 256³ × 3 × float32 is already 200 MB
+MAX_FIELD_NODES = 2**22  # nodes of a field in all: a 64 MiB RGBA32F texture at most
+
+# --- what a scene may ask for ------------------------------------------------------------
+MAX_RATE = 1e9  # particles/s of one emitter
+MAX_LIFETIME = 3600.0  # s
+MAX_DIAMETER = 0.1  # m: beyond this Stokes drag on a "particle" is meaningless
+
+# --- the CAVE and its processes -----------------------------------------------------------
+NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,32}")  # session and wall names: safe in zenoh keys
+WALL_RESOLUTION_RANGE = (16, 8192)  # pixels per axis of one wall
+GPU_RANGE = (0, 255)  # EGL device indices a wall (or `cavesim node --gpu`) may name
+DEFAULT_MASTER_PORT = 7447  # deploy/launch.sh and config/ write it as a literal

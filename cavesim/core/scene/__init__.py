@@ -1,0 +1,46 @@
+"""Scenes: the typed description of one simulated world and its TOML loader.
+
+`load_scene("config/scenes/dust_devil.toml")` is where a scene enters; the engine, the
+shader specializer and the numpy twin only ever see the frozen objects re-exported here.
+"""
+
+from cavesim.core.scene.loader import load_scene, parse_scene
+from cavesim.core.scene.model import (
+    AIR_VISCOSITY,
+    Collision,
+    CollisionKind,
+    Drag,
+    Emitter,
+    Field,
+    FieldKind,
+    FieldSampling,
+    Forces,
+    Helicopter,
+    Integrator,
+    OutOfDomain,
+    ParticleClass,
+    Scene,
+    Vec3,
+    WandKey,
+)
+
+__all__ = [
+    "AIR_VISCOSITY",
+    "Collision",
+    "CollisionKind",
+    "Drag",
+    "Emitter",
+    "Field",
+    "FieldKind",
+    "FieldSampling",
+    "Forces",
+    "Helicopter",
+    "Integrator",
+    "OutOfDomain",
+    "ParticleClass",
+    "Scene",
+    "Vec3",
+    "WandKey",
+    "load_scene",
+    "parse_scene",
+]

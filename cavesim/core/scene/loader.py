@@ -1,0 +1,189 @@
+"""Scene files in, frozen `Scene` out: the one place a scene's TOML is read and checked.
+
+Everything downstream (shader defines, the GL engine, the numpy twin) trusts a `Scene`, so
+every rule of the schema is enforced here and broken input fails with a `SceneError` that
+names the file, the dotted key, the value and what is allowed. Each table is checked
+against its dataclass in `model.py` or `file.py` (by `cavesim.core._schema`); what those cannot
+say is here: the rules between keys and tables, and the conversions where the file differs
+from the model.
+"""
+
+from __future__ import annotations
+
+import math
+import zipfile
+from collections.abc import Mapping
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from numpy.lib import format as npy_format
+
+from cavesim.core._schema import Source, Table, unique_names
+from cavesim.core._toml import read_toml
+from cavesim.core.errors import SceneError
+from cavesim.core.limits import (
+    FIELD_RESOLUTION_RANGE,
+    MAX_EMITTERS,
+    MAX_FIELD_NODES,
+    MAX_PARTICLE_CLASSES,
+)
+from cavesim.core.scene.file import FIELD_PARAMS, SceneFile
+from cavesim.core.scene.model import (
+    Collision,
+    CollisionKind,
+    Emitter,
+    Field,
+    FieldKind,
+    Helicopter,
+    Scene,
+)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read and check the scene file at `path`; `Scene.source` is `path` as given."""
+    path = Path(path)
+    return parse_scene(read_toml(path, SceneError, "scene file"), path, path.stem)
+
+
+def parse_scene(data: Mapping[str, Any], source: Path | None = None,
+                name: str | None = None) -> Scene:
+    """Check a scene given as the dict `tomllib` would produce.
+
+    `source` names the file in errors ("<dict>" when None) and is the directory that
+    relative `file` paths resolve against (the working directory when None). `name` is the
+    scene name when the data has no `name` key (default: the stem of `source`, or "scene").
+    """
+    top = Table(Source.of(source, SceneError), "", data, SceneFile)
+    scene_name = top.get("name", default=name or (source.stem if source is not None else "scene"))
+    sim = top.get("simulation")
+
+    class_tables = top.tables("particle_class")
+    classes = tuple(t.build() for t in class_tables)
+    unique_names(class_tables, (c.name for c in classes))
+    class_index = {c.name: i for i, c in enumerate(classes)}
+    emitter_tables = top.tables("emitter")
+    emitters = tuple(_emitter(t, class_index) for t in emitter_tables)
+    unique_names(emitter_tables, (e.name for e in emitters))
+    for key, tables, most in (("particle_class", classes, MAX_PARTICLE_CLASSES),
+                              ("emitter", emitters, MAX_EMITTERS)):
+        if len(tables) > most:
+            raise top.source.fail(f"{key}: {len(tables)} [[{key}]] tables, at most {most} "
+                                  f"allowed (the engine's limit for any GL 4.3 driver)")
+
+    forces = top.get("forces")
+    if forces.drag is not None and not top.has("field"):
+        raise top.source.fail("field is missing: required because forces.drag is present "
+                              "(drag pulls particles toward the [field] flow)")
+    if forces.drag is None and top.has("field"):
+        kind = top.data["field"].get("kind") if isinstance(top.data["field"], Mapping) else None
+        raise top.source.fail(f"field (kind = {kind!r}) is not allowed: only together with "
+                              "forces.drag, which is missing (without drag nothing samples "
+                              "the field)")
+    field = _field(top.table("field")) if top.has("field") else None
+    collision = _collision(top.table("collision")) if top.has("collision") else None
+
+    helicopter = _helicopter(top.table("helicopter")) if top.has("helicopter") else None
+    needs_rotor = [f"emitter[{i}]" for i, e in enumerate(emitters) if e.follow_helicopter]
+    if field is not None and field.kind is FieldKind.ROTOR:
+        needs_rotor.append("field.kind = 'rotor'")
+    if needs_rotor and helicopter is None:
+        raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
+
+    return Scene(name=scene_name, source=source, **asdict(sim), particle_classes=classes,
+                 emitters=emitters, forces=forces, field=field, collision=collision,
+                 helicopter=helicopter)
+
+
+def _emitter(t: Table, class_index: Mapping[str, int]) -> Emitter:
+    """An [[emitter]]; `class_index` maps particle class names to their index."""
+    class_name = t.get("particle_class", str)  # the file names the class, the model indexes
+    if class_name not in class_index:
+        names = ", ".join(repr(n) for n in class_index) or "none are defined"
+        raise t.bad("particle_class", f"must name a [[particle_class]]: {names}")
+    direction = t.get("direction")
+    norm = math.hypot(*direction)
+    emitter = t.build(particle_class=class_index[class_name],
+                      direction=tuple(x / norm for x in direction))
+    if emitter.speed_spread > emitter.speed:  # a speed drawn from speed ± spread must be >= 0
+        raise t.bad("speed_spread", f"must be a finite number >= 0 and <= {t.sub('speed')} "
+                                    f"= {emitter.speed!r}")
+    return emitter
+
+
+def _helicopter(t: Table) -> Helicopter:
+    """The [helicopter] table, its scripted wand [[helicopter.timeline]] keys in order."""
+    helicopter = t.build()
+    tables, keys = t.tables("timeline"), helicopter.timeline
+    for i in range(1, len(keys)):
+        if keys[i].t <= keys[i - 1].t:
+            raise tables[i].bad("t", f"must be > the previous key's t = {keys[i - 1].t!r}: "
+                                     "keys in order")
+    return helicopter
+
+
+def _field(t: Table) -> Field:
+    """The [field] table: which keys it takes and its [field.params] depend on its kind."""
+    kind = t.get("kind")
+    given: dict[str, Any] = {}
+    if kind is FieldKind.FILE:
+        t.forbid("resolution", 'not allowed with kind = "file": the file decides')
+        given["file"] = t.get("file", required=True)
+        given["resolution"] = _file_resolution(t, given["file"])
+    elif kind is FieldKind.ROTOR:  # no grid: evaluated on the GPU from the frame's rotor
+        for key in ("file", "resolution"):
+            t.forbid(key, 'not allowed with kind = "rotor": the flow has no grid')
+        given["resolution"] = (2, 2, 2)
+    else:
+        t.forbid("file", f'only allowed with kind = "file", not {kind.value!r}')
+    params_table = t.table("params", FIELD_PARAMS[kind])
+    params = params_table.build()
+    if kind is FieldKind.DOWNWASH and params.rotor_center[2] <= params.ground_height:
+        raise params_table.bad("rotor_center", f"must have z > {params_table.sub('ground_height')}"
+                                               f" = {params.ground_height!r}: the rotor is "
+                                               "above ground")
+    field = t.build(params=asdict(params), **given)
+    if not all(a < b for a, b in zip(field.box_min, field.box_max, strict=True)):
+        raise t.bad("box_max", f"must be > {t.sub('box_min')} = {list(field.box_min)!r} on "
+                               "every axis")
+    return field
+
+
+def _collision(t: Table) -> Collision:
+    """The [collision] table: a plane has a height, a height field a file."""
+    if t.get("kind") is CollisionKind.PLANE:
+        t.forbid("file", 'only allowed with kind = "heightfield"')
+        return t.build()
+    t.forbid("height", 'only allowed with kind = "plane"; the file holds heights')
+    return t.build(file=t.get("file", required=True))
+
+
+def _npy_shape(path: Path, array: str) -> tuple[int, ...]:
+    """The shape of `array` inside the .npz at `path`, from its .npy header alone."""
+    with zipfile.ZipFile(path) as archive, archive.open(f"{array}.npy") as f:
+        version = npy_format.read_magic(f)
+        if version == (1, 0):
+            return npy_format.read_array_header_1_0(f)[0]
+        if version == (2, 0):
+            return npy_format.read_array_header_2_0(f)[0]
+        raise ValueError(f"unsupported .npy format version {version}")
+
+
+def _file_resolution(t: Table, path: Path) -> tuple[int, int, int]:
+    """The (nx, ny, nz) of a kind="file" field, from its "velocity" array (nz, ny, nx, 3).
+
+    The layout is the one `cavesim.core.fields` reads and writes: x varies fastest, as in the 3D
+    texture. Values (dtype, finiteness) are checked there, when the grid is built.
+    """
+    lo, hi = FIELD_RESOLUTION_RANGE
+    allowed = (f"must be an .npz holding an array 'velocity' of shape (nz, ny, nx, 3), "
+               f"each n in {lo}..{hi}, nx*ny*nz <= {MAX_FIELD_NODES}")
+    try:
+        shape = _npy_shape(path, "velocity")
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        raise t.bad("file", f"{allowed} ({path}: {type(e).__name__}: {e})") from e
+    if (len(shape) != 4 or shape[3] != 3 or not all(lo <= n <= hi for n in shape[:3])
+            or math.prod(shape[:3]) > MAX_FIELD_NODES):
+        raise t.bad("file", f"{allowed} ({path} holds shape {shape})")
+    nz, ny, nx = shape[:3]
+    return nx, ny, nz

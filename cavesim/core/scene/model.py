@@ -1,0 +1,209 @@
+"""Typed scene objects: what one simulated world holds, as loaded from `config/scenes/*.toml`.
+
+Coordinates are room metres with z up; times are seconds. Every object is frozen so a
+scene can be shared between the GL engine and its numpy twin without either changing it.
+Most of them are also the tables of a scene file: each field is a key, with its bounds beside
+it (`cavesim.core._schema` reads them); `file.py` holds the tables only the file has.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+from cavesim.core._schema import Range, Rule
+from cavesim.core.limits import (
+    FIELD_RESOLUTION_RANGE,
+    MAX_DIAMETER,
+    MAX_FIELD_NODES,
+    MAX_LIFETIME,
+    MAX_RATE,
+)
+
+Vec3 = tuple[float, float, float]
+
+AIR_VISCOSITY = 1.81e-5  # Pa·s, dry air at 15 °C
+
+
+class Integrator(StrEnum):
+    EXPLICIT_EULER = "explicit_euler"
+    SEMI_IMPLICIT_EULER = "semi_implicit_euler"
+    TRAPEZOID = "trapezoid"
+    VERLET = "verlet"
+    RK2 = "rk2"
+    RK4 = "rk4"
+    EXPONENTIAL = "exponential"
+
+
+class OutOfDomain(StrEnum):
+    CLAMP = "clamp"  # the flow at the nearest boundary node
+    ZERO = "zero"  # still air outside the box
+
+
+class FieldSampling(StrEnum):
+    MANUAL = "manual"  # trilinear from texelFetch in float32: the same on every GPU
+    HARDWARE = "hardware"  # the texture unit's filtering: faster, vendor-dependent weights
+
+
+class FieldKind(StrEnum):
+    UNIFORM = "uniform"
+    VORTEX = "vortex"
+    DOWNWASH = "downwash"
+    FILE = "file"
+    ROTOR = "rotor"  # the scene's helicopter's downwash, evaluated on the GPU each frame
+
+
+class CollisionKind(StrEnum):
+    PLANE = "plane"
+    HEIGHTFIELD = "heightfield"
+
+
+@dataclass(frozen=True)
+class ParticleClass:
+    name: str
+    diameter: Annotated[float, Range(gt=0.0, le=MAX_DIAMETER)]  # m
+    density: Annotated[float, Range(gt=0.0)]  # kg/m³
+
+    def relaxation_time(self, air_viscosity: float = AIR_VISCOSITY) -> float:
+        """Stokes relaxation time τ = ρ d² / (18 μ) in seconds."""
+        return self.density * self.diameter**2 / (18.0 * air_viscosity)
+
+
+# Rules beside a field are named functions: an annotation's lambda would not see this module.
+def _usable_direction(v: Vec3) -> bool:
+    return 0.0 < math.hypot(*v) < math.inf
+
+
+def _ordered(pair: tuple[float, float]) -> bool:
+    return pair[0] <= pair[1]
+
+
+def _few_field_nodes(resolution: tuple[int, int, int]) -> bool:
+    return math.prod(resolution) <= MAX_FIELD_NODES
+
+
+@dataclass(frozen=True, kw_only=True)
+class Emitter:
+    name: str
+    position: Vec3  # centre of the emission box
+    # full edge lengths of the emission box (0 = a point along that axis)
+    extent: Annotated[Vec3, Range(ge=0.0)] = (0.0, 0.0, 0.0)
+    rate: Annotated[float, Range(ge=0.0, le=MAX_RATE)]  # particles per second
+    speed: Annotated[float, Range(ge=0.0)] = 0.0  # mean initial speed, m/s
+    # initial speed is uniform in [speed - spread, speed + spread]: spread <= speed
+    speed_spread: Annotated[float, Range(ge=0.0)] = 0.0
+    # unit vector of the mean initial velocity (the loader normalizes the file's vector)
+    direction: Annotated[Vec3, Rule("with a non-zero, finite length", _usable_direction)] = (
+        0.0, 0.0, 1.0)
+    spread_angle: Annotated[float, Range(ge=0.0, le=180.0)] = 0.0  # cone half-angle, degrees
+    # uniform range [min, max] in seconds
+    lifetime: Annotated[tuple[float, float], Range(gt=0.0, le=MAX_LIFETIME),
+                        Rule("[min, max] with min <= max", _ordered)]
+    particle_class: int  # index into Scene.particle_classes (the file gives its name)
+    follow_helicopter: bool = False  # position is relative to the point below the rotor hub;
+    # rate is scaled each frame by the ground's saltation under the downwash
+
+
+@dataclass(frozen=True)
+class Drag:
+    air_viscosity: Annotated[float, Range(gt=0.0)] = AIR_VISCOSITY
+
+
+@dataclass(frozen=True)
+class Forces:
+    gravity: Vec3 | None = None  # None: no gravity compiled in
+    drag: Drag | None = None  # None: no Stokes drag, and no field texture
+    # linear damping rate k in a = -k v, 1/s
+    damping: Annotated[float, Range(gt=0.0)] | None = None
+
+
+@dataclass(frozen=True)
+class Field:
+    kind: FieldKind
+    box_min: Vec3
+    box_max: Vec3  # > box_min on every axis
+    # grid nodes per axis (from the file for FILE)
+    resolution: Annotated[tuple[int, int, int], Range.within(FIELD_RESOLUTION_RANGE),
+                          Rule(f"at most {MAX_FIELD_NODES} nodes in all", _few_field_nodes)]
+    out_of_domain: OutOfDomain = OutOfDomain.CLAMP
+    sampling: FieldSampling = FieldSampling.MANUAL
+    params: dict[str, object] = field(default_factory=dict)  # file.FIELD_PARAMS[kind] as a dict
+    file: Path | None = None  # for FILE: .npz with array "velocity" (nz, ny, nx, 3)
+
+
+@dataclass(frozen=True)
+class Collision:
+    kind: CollisionKind
+    # ν: share of tangential speed lost at a bounce
+    friction: Annotated[float, Range(ge=0.0, le=1.0)]
+    # ε: share of normal speed kept at a bounce
+    resilience: Annotated[float, Range(ge=0.0, le=1.0)]
+    # m/s: below this speed no friction is applied
+    friction_min_speed: Annotated[float, Range(ge=0.0)] = 0.0
+    height: float = 0.0  # PLANE: ground height z
+    file: Path | None = None  # HEIGHTFIELD: .npz with "height" (nx, ny), "box_min", "box_max"
+
+
+@dataclass(frozen=True)
+class WandKey:
+    """One key of a scripted wand timeline: where the wand is and how far it is tilted."""
+
+    t: Annotated[float, Range(ge=0.0)]  # s from the start; keys in order
+    position: Vec3  # room metres
+    # degrees; 0 = level = hover rotor speed, + faster, - slower
+    tilt: Annotated[float, Range(ge=-90.0, le=90.0)] = 0.0
+
+
+@dataclass(frozen=True)
+class Helicopter:
+    mass: Annotated[float, Range(gt=0.0, le=1e6)]  # kg
+    rotor_radius: Annotated[float, Range(gt=0.0, le=100.0)]  # m
+    hub_height: Annotated[float, Range(gt=0.0, le=50.0)]  # m from the skids up to the rotor hub
+    air_density: Annotated[float, Range(gt=0.0, le=10.0)] = 1.225  # kg/m³
+    # main rotor turns per second at hover speed
+    rotor_hz: Annotated[float, Range(gt=0.0, le=100.0)] = 4.5
+    # m/s: no saltation below
+    threshold_friction_velocity: Annotated[float, Range(gt=0.0)] = 0.25
+    # m, of the ground, for the friction velocity
+    roughness_length: Annotated[float, Range(gt=0.0, le=1.0)] = 1e-3
+    wand_origin: Vec3 = (0.0, 0.0, 0.0)  # world position of the room origin (for steering)
+    # world metres per room metre of wand motion
+    wand_scale: Annotated[float, Range(gt=0.0, le=1e4)] = 10.0
+    # s: the helicopter follows the wand with this lag
+    response_time: Annotated[float, Range(gt=0.0, le=60.0)] = 1.0
+    timeline: tuple[WandKey, ...] = ()  # scripted wand for headless runs
+
+    @property
+    def disk_area(self) -> float:
+        return math.pi * self.rotor_radius**2
+
+    @property
+    def weight(self) -> float:
+        return self.mass * 9.81
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    source: Path | None  # the TOML file it came from, for error messages
+    # the file's [simulation]: see `cavesim.core.scene.file.Simulation`
+    capacity: int
+    seed: int
+    integrator: Integrator
+    random_texture_size: int
+    particle_classes: tuple[ParticleClass, ...]
+    emitters: tuple[Emitter, ...]
+    forces: Forces
+    field: Field | None  # required exactly when forces.drag is set
+    collision: Collision | None
+    helicopter: Helicopter | None = None
+
+    def relaxation_times(self) -> tuple[float, ...]:
+        """τ of each particle class (inf when the scene has no drag)."""
+        if self.forces.drag is None:
+            return tuple(math.inf for _ in self.particle_classes)
+        mu = self.forces.drag.air_viscosity
+        return tuple(c.relaxation_time(mu) for c in self.particle_classes)

@@ -1,0 +1,10 @@
+"""The numpy twin of the GPU engine: the same forces, integrators, collisions and emission.
+
+In float64 it is the reference the GPU is tested against; in float32 it is the CPU
+baseline of the benchmark. Each function names the shader lines it mirrors.
+"""
+
+from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.core.twin.system import TwinSystem
+
+__all__ = ["INTEGRATORS", "TwinSystem"]

@@ -1,0 +1,149 @@
+"""The whole engine in numpy: the reference of `ParticleSystem`, frame for frame.
+
+State is kept in `dtype` (float64 for the reference, float32 for the CPU baseline) and
+in the GPU's stream order, so a test can compare particle i with particle i.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from cavesim.core.emitters import EMIT_BATCH, EmitterTable
+from cavesim.core.fields import FieldGrid, build_field, sample_field
+from cavesim.core.frame import FrameInput
+from cavesim.core.heightfield import HeightGrid, load_heightfield
+from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
+from cavesim.core.helicopter.rotor import downwash
+from cavesim.core.random_texture import random_words
+from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
+from cavesim.core.scene.model import CollisionKind, FieldKind, Scene
+from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
+from cavesim.core.twin.collision import collide
+from cavesim.core.twin.emission import emission_order, spawn, update_emitters
+from cavesim.core.twin.forces import ForceModel
+from cavesim.core.twin.integrators import INTEGRATORS
+
+
+@dataclass
+class TwinParticles:
+    pos: np.ndarray  # (N, 3) dtype
+    vel: np.ndarray  # (N, 3) dtype
+    age: np.ndarray  # (N,) float64, as on the GPU
+    lifetime: np.ndarray  # (N,) float32
+    class_id: np.ndarray  # (N,) uint32
+
+    @classmethod
+    def from_records(cls, records: np.ndarray, dtype) -> TwinParticles:
+        return cls(records["pos"].astype(dtype), records["vel"].astype(dtype),
+                   records["age"].copy(), records["lifetime"].copy(), records["class_id"].copy())
+
+    def records(self) -> np.ndarray:
+        out = np.zeros(len(self.age), dtype=PARTICLE_DTYPE)
+        out["pos"], out["vel"], out["age"] = self.pos, self.vel, self.age
+        out["lifetime"], out["class_id"] = self.lifetime, self.class_id
+        return out
+
+    def select(self, keep: np.ndarray) -> TwinParticles:
+        return TwinParticles(self.pos[keep], self.vel[keep], self.age[keep],
+                             self.lifetime[keep], self.class_id[keep])
+
+    @classmethod
+    def concatenate(cls, parts: list[TwinParticles]) -> TwinParticles:
+        return cls(*(np.concatenate([getattr(p, name) for p in parts])
+                     for name in ("pos", "vel", "age", "lifetime", "class_id")))
+
+
+RUNAWAY = 1e15  # as in physics.glsl: a particle beyond it (or non-finite) is dropped
+
+
+def sane(x: np.ndarray) -> np.ndarray:
+    with np.errstate(invalid="ignore"):
+        return (np.abs(x) < RUNAWAY).all(axis=1)
+
+
+class TwinSystem:
+    """numpy twin of `cavesim.gpu.engine.ParticleSystem` for one scene."""
+
+    def __init__(self, scene: Scene, dtype=np.float64) -> None:
+        self.scene = scene
+        self.dtype = np.dtype(dtype).type
+        self.table = EmitterTable.from_scene(scene)
+        self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
+        grid_field = scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR
+        self.field: FieldGrid | None = build_field(scene.field) if grid_field else None
+        self.heights: HeightGrid | None = None
+        if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
+            self.heights = load_heightfield(scene.collision.file)
+        self.random = random_words(scene.seed, scene.random_texture_size) if len(self.table) \
+            else None
+        taus = scene.relaxation_times() or (np.inf,)
+        self.inv_tau = (1.0 / np.array(taus, dtype=np.float64)).astype(np.float32)
+        self.integrate = INTEGRATORS[scene.integrator]
+        self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
+        self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
+
+    @property
+    def live_count(self) -> int:
+        return len(self.particles.age)
+
+    def write_particles(self, records: np.ndarray) -> None:
+        self.particles = TwinParticles.from_records(records, self.dtype)
+
+    def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None) -> ForceModel:
+        """The force model of particles of the given classes (in this frame's rotor wash)."""
+        f = self.scene.forces
+        dtype = self.dtype
+        flow = None
+        inv_tau = None
+        if rotor is not None and f.drag is not None:
+            radius, ground = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
+
+            def flow(p):
+                return downwash(p, rotor.hub, float(rotor.induced_velocity), radius, ground,
+                                dtype=dtype)
+        elif self.field is not None:
+            def flow(p):
+                return sample_field(self.field, p, self.scene.field.out_of_domain, dtype=dtype)
+        if flow is not None:
+            index = np.minimum(class_id, len(self.inv_tau) - 1)
+            inv_tau = self.inv_tau[index].astype(dtype)[:, None]
+        gravity = None if f.gravity is None else np.array(f.gravity, dtype=np.float32).astype(dtype)
+        damping = None if f.damping is None else dtype(np.float32(f.damping))
+        return ForceModel(gravity, damping, inv_tau, flow)
+
+    def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
+        """Advance one frame exactly as the GPU does (survivors, then new particles)."""
+        rotor = self.rotor_inputs.read(scene) if self.rotor_inputs is not None else None
+        q = self.particles
+        age = q.age + np.float64(frame.dt)
+        alive = age < q.lifetime.astype(np.float64)
+        pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt),
+                                  self.forces_for(q.class_id, rotor))
+        if self.scene.collision is not None:
+            pos, vel = collide(pos, vel, self.scene.collision, self.heights)
+        alive &= sane(pos) & sane(vel)
+        moved = TwinParticles(pos, vel, age, q.lifetime, q.class_id).select(alive)
+        new = self._emit(frame, len(moved.age), rotor)
+        self.particles = TwinParticles.concatenate([moved, *new])
+
+    def _emit(self, frame: FrameInput, survivors: int, rotor) -> list[TwinParticles]:
+        if not len(self.table):
+            return []
+        factors = None if rotor is None else rotor.rate_factors
+        self.emitters = update_emitters(self.emitters, self.table, frame.dt,
+                                        self.scene.capacity, factors)
+        room = self.scene.capacity - survivors
+        new = []
+        for e, first, n in emission_order(self.emitters["count"], EMIT_BATCH):
+            if room <= 0:
+                break
+            serials = (self.emitters["serial"][e].astype(np.uint64) + first
+                       + np.arange(min(n, room), dtype=np.uint64)) & 0xFFFFFFFF
+            origin = (0.0, 0.0, 0.0) if rotor is None else rotor.origins[e]
+            records = spawn(self.table, e, serials, self.random, frame.random_transform,
+                            self.dtype, origin)
+            new.append(TwinParticles.from_records(records, self.dtype))
+            room -= len(records)
+        return new

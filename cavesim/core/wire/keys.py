@@ -1,0 +1,56 @@
+"""Zenoh key expressions of one cavesim session: every key lives under its prefix."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cavesim.core.limits import NAME_RE
+
+
+def check_name(what: str, name: str) -> str:
+    """A session or wall name: 1-32 of letters, digits, '_' and '-' (safe in key expressions)."""
+    if not isinstance(name, str) or not NAME_RE.fullmatch(name):
+        raise ValueError(f"{what} must be 1-32 letters, digits, '_' or '-', got {name!r}")
+    return name
+
+
+@dataclass(frozen=True)
+class SessionKeys:
+    session: str
+
+    def __post_init__(self) -> None:
+        check_name("session", self.session)
+
+    @property
+    def prefix(self) -> str:
+        return f"cavesim/{self.session}"
+
+    @property
+    def frame(self) -> str:
+        return f"{self.prefix}/frame"
+
+    @property
+    def control(self) -> str:
+        return f"{self.prefix}/control"
+
+    @property
+    def tracking(self) -> str:
+        """Where trackers publish head and wand; the master samples it once per frame."""
+        return f"{self.prefix}/tracking"
+
+    def report(self, node: str = "*") -> str:
+        return f"{self.prefix}/report/{node}"
+
+    def state(self, node: str = "*") -> str:
+        return f"{self.prefix}/state/{node}"
+
+    def info(self, node: str = "*") -> str:
+        """Where a node answers the master's question: which GPU do you compute on?"""
+        return f"{self.prefix}/info/{node}"
+
+    def alive(self, node: str = "*") -> str:
+        return f"{self.prefix}/alive/{node}"
+
+    def node_of(self, key: str) -> str:
+        """The wall name at the end of a report, state, info or alive key."""
+        return str(key).rsplit("/", 1)[-1]

@@ -1,0 +1,446 @@
+"""Versioned fixed binary layouts of the messages between master and wall nodes.
+
+Every message: a 28-byte header (magic, version, kind, flags, session id, frame number,
+payload length), the payload, and, when the session has a shared key, an HMAC-SHA256 of
+all that. A node's state never travels in one message: a snapshot is a header and chunks
+(see snapshot.py). `decode` checks everything before trusting anything and raises `ProtocolError`
+with a short reason the receivers count; it never returns a half-checked message.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import math
+import struct
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.frame import FrameInput
+from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
+from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
+from cavesim.core.wire.keys import check_name
+
+MAGIC = b"CVSM"
+VERSION = 3  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+# and a node's info (its GPU) answers a query
+HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
+SIGNATURE_BYTES = 32
+SIGNED = 0x01
+MAX_PARAMS = 32
+MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
+MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB messages
+
+_FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
+_REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
+_SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
+_CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
+_TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
+_INFO = struct.Struct("<HB")  # EGL device index, software (0 or 1); then three strings
+
+
+class Kind(IntEnum):
+    FRAME = 1
+    REPORT = 2
+    CONTROL = 3
+    SNAPSHOT = 4
+    TRACKING = 5
+    CHUNK = 6
+    INFO = 7
+
+
+class Command(IntEnum):
+    RESYNC = 1  # target loads the state of `source`
+    STOP = 2  # every node ends cleanly
+
+
+class Status(IntEnum):
+    STEPPED = 0  # the node stepped this frame
+    RESYNCED = 1  # the node loaded a snapshot of this frame
+    REPEATED = 2  # a repeat of an earlier report (the frame came again)
+
+
+@dataclass(frozen=True)
+class WandState:
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # quaternion xyzw
+    buttons: int = 0
+    axes: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class HeadState:
+    position: tuple[float, float, float] = (0.0, 0.0, 1.7)  # room metres, eyes' midpoint
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # quaternion xyzw
+
+
+@dataclass(frozen=True)
+class FrameMessage:
+    frame: int
+    inputs: FrameInput
+    wand: WandState = WandState()
+    params: tuple[float, ...] = ()  # the scene's time-varying parameters
+    head: HeadState = HeadState()  # tracked or scripted, sampled once by the master
+
+
+@dataclass(frozen=True)
+class ReportMessage:
+    frame: int
+    node: str
+    digest: str  # 32 hex digits
+    particles: int
+    emitters: int
+    step_us: int
+    checksum_us: int
+    rejected: int = 0  # messages this node has rejected so far
+    status: Status = Status.STEPPED
+
+
+@dataclass(frozen=True)
+class ControlMessage:
+    frame: int
+    command: Command
+    target: str = ""
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class SnapshotHeader:
+    """The first reply to a state query: the state that the chunks after it add up to."""
+
+    frame: int
+    seed: int
+    particles: int  # live particles, streamed in chunks of `chunk_particles` records
+    chunk_particles: int
+    digest: str  # the state's checksum (32 hex digits): the load commits only if it matches
+    emitters: np.ndarray = field(repr=False)  # EMITTER_DTYPE, whole: at most 64 KiB
+
+    @property
+    def chunks(self) -> int:
+        """How many chunks follow (derived, so it cannot disagree with the counts)."""
+        return -(-self.particles // self.chunk_particles)
+
+
+@dataclass(frozen=True)
+class SnapshotChunk:
+    """Chunk `index` of a snapshot: particles [index x chunk_particles, ...), whole records."""
+
+    frame: int
+    index: int
+    data: bytes = field(repr=False)
+
+
+@dataclass(frozen=True)
+class TrackingMessage:
+    """A tracker's (or a script's, or a keyboard bridge's) latest head and wand state."""
+
+    frame: int  # the sender's own counter; the master ignores it
+    head: HeadState
+    wand: WandState
+
+
+@dataclass(frozen=True)
+class InfoMessage:
+    """A node's answer to the master's info query: the GPU it computes on."""
+
+    frame: int  # the node's last frame when it answered
+    node: str
+    device: int  # EGL device index
+    software: bool  # a CPU renderer (Mesa's llvmpipe), not a GPU
+    renderer: str  # GL_RENDERER, GL_VENDOR and GL_VERSION (which names the driver) ...
+    vendor: str
+    version: str  # ... each printable ASCII, at most MAX_TEXT characters
+
+    @classmethod
+    def of_gpu(cls, frame: int, node: str, gpu: Mapping) -> InfoMessage:
+        """The message for a GPU as `cavesim.gpu.gl.context.gpu_of` describes it; characters
+        the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
+        def fit(text: str) -> str:
+            return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
+
+        return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
+                   fit(gpu["vendor"]), fit(gpu["version"]))
+
+    def gpu(self) -> dict:
+        """The GPU as `gpu_of` describes it, for report.json."""
+        return {"device": self.device, "kind": "software" if self.software else "hardware",
+                "renderer": self.renderer, "vendor": self.vendor, "version": self.version}
+
+
+Message = (FrameMessage | ReportMessage | ControlMessage | SnapshotHeader | SnapshotChunk
+           | TrackingMessage | InfoMessage)
+
+
+def session_id(session: str) -> int:
+    """64-bit id of a session name, carried in every header."""
+    return int.from_bytes(hashlib.blake2b(session.encode(), digest_size=8).digest(), "little")
+
+
+def encode(message: Message, session: str, key: bytes | None = None) -> bytes:
+    """The message's bytes, signed when a key is given."""
+    if not 0 <= message.frame < 2**64:
+        raise ValueError(f"frame must be in [0, 2**64), got {message.frame}")
+    kind, payload = _PAYLOAD_WRITERS[type(message)](message)
+    flags = SIGNED if key is not None else 0
+    data = HEADER.pack(MAGIC, VERSION, kind, flags, 0, session_id(session), message.frame,
+                       len(payload)) + payload
+    return data + _signature(key, data) if key is not None else data
+
+
+def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
+    """Check and parse one message of `session`; ProtocolError names what is wrong."""
+    data = bytes(data)
+    if len(data) < HEADER.size:
+        raise ProtocolError("truncated", f"{len(data)} bytes, a header alone is {HEADER.size}")
+    magic, version, kind, flags, reserved, sid, frame, length = HEADER.unpack_from(data)
+    if magic != MAGIC:
+        raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
+    if version != VERSION:
+        raise ProtocolError("bad-version", f"version {version}, this build speaks {VERSION}")
+    if kind not in Kind.__members__.values():
+        raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
+    if sid != session_id(session):
+        raise ProtocolError("wrong-session", f"session id {sid:#x} is not {session!r}'s")
+    signed = bool(flags & SIGNED)
+    if flags & ~SIGNED or reserved:
+        raise ProtocolError("bad-flags", f"flags {flags:#x} and reserved byte {reserved:#x}; "
+                                         f"only flag {SIGNED:#x} is defined, reserved must be 0")
+    expected = HEADER.size + length + (SIGNATURE_BYTES if signed else 0)
+    if len(data) != expected:
+        raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces {expected}")
+    if key is not None:
+        if not signed:
+            raise ProtocolError("unsigned", "the session requires an HMAC and none is attached")
+        body, signature = data[:-SIGNATURE_BYTES], data[-SIGNATURE_BYTES:]
+        if not hmac.compare_digest(signature, _signature(key, body)):
+            raise ProtocolError("bad-signature", "the HMAC does not match the session's key")
+    elif signed:
+        raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
+    payload = data[HEADER.size:HEADER.size + length]
+    return _PAYLOAD_READERS[Kind(kind)](frame, payload)
+
+
+def _signature(key: bytes, data: bytes) -> bytes:
+    return hmac.new(key, data, hashlib.sha256).digest()
+
+
+# -- payloads ----------------------------------------------------------------------------
+
+def _write_frame(m: FrameMessage) -> tuple[Kind, bytes]:
+    if len(m.params) > MAX_PARAMS:
+        raise ValueError(f"at most {MAX_PARAMS} scene parameters, got {len(m.params)}")
+    w, h = m.wand, m.head
+    values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes,
+                       *m.params], dtype=np.float64)
+    if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
+        raise ValueError(f"head, wand and scene parameters must be finite float32 values, "
+                         f"got {h}, {w} and {m.params}")
+    dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
+    body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *h.position,
+                       *h.orientation, *w.position, *w.orientation, w.buttons, *w.axes,
+                       len(m.params))
+    return Kind.FRAME, body + np.asarray(m.params, dtype="<f4").tobytes()
+
+
+def _read_frame(frame: int, payload: bytes) -> FrameMessage:
+    if len(payload) < _FRAME.size:
+        raise ProtocolError("bad-payload", f"frame payload of {len(payload)} bytes is too short")
+    values = _FRAME.unpack_from(payload)
+    count = values[-1]
+    if count > MAX_PARAMS or len(payload) != _FRAME.size + 4 * count:
+        raise ProtocolError("bad-payload", f"frame announces {count} parameters in a payload "
+                                           f"of {len(payload)} bytes (at most {MAX_PARAMS})")
+    dt = np.array([values[0]], dtype=np.uint32).view(np.float32)[0]
+    matrix = np.array(values[1:10], dtype=np.float32).reshape(3, 3)
+    head, wand, buttons, axes = values[10:17], values[17:24], values[24], values[25:29]
+    params = np.frombuffer(payload, dtype="<f4", offset=_FRAME.size, count=count)
+    if not all(math.isfinite(v) for v in (*head, *wand, *axes, *params.tolist())):
+        raise ProtocolError("bad-value", "head, wand and scene parameters must be finite")
+    try:
+        inputs = FrameInput(dt, matrix)
+    except ValueError as e:
+        raise ProtocolError("bad-value", str(e)) from e
+    return FrameMessage(frame, inputs, WandState(wand[:3], wand[3:], buttons, axes),
+                        tuple(params.tolist()), HeadState(head[:3], head[3:]))
+
+
+def _digest_bytes(digest: str) -> bytes:
+    if len(digest) != 32 or any(c not in "0123456789abcdef" for c in digest):
+        raise ValueError(f"digest must be 32 lower-case hex digits, got {digest!r}")
+    return bytes.fromhex(digest)
+
+
+def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
+    return Kind.REPORT, _name_bytes(m.node) + _REPORT.pack(
+        _digest_bytes(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
+        m.status)
+
+
+def _read_report(frame: int, payload: bytes) -> ReportMessage:
+    node, rest = _read_name(payload)
+    if len(rest) != _REPORT.size:
+        raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
+                                           f"expected {_REPORT.size}")
+    digest, particles, emitters, step_us, checksum_us, rejected, status = _REPORT.unpack(rest)
+    if status not in Status.__members__.values():
+        raise ProtocolError("bad-value", f"report status {status} is unknown")
+    return ReportMessage(frame, node, digest.hex(), particles, emitters, step_us, checksum_us,
+                         rejected, Status(status))
+
+
+def _write_control(m: ControlMessage) -> tuple[Kind, bytes]:
+    return Kind.CONTROL, bytes([m.command]) + _name_bytes(m.target, True) + _name_bytes(
+        m.source, True)
+
+
+def _read_control(frame: int, payload: bytes) -> ControlMessage:
+    if not payload or payload[0] not in Command.__members__.values():
+        raise ProtocolError("bad-payload", "control message without a known command")
+    target, rest = _read_name(payload[1:], optional=True)
+    source, rest = _read_name(rest, optional=True)
+    if rest:
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after a control message")
+    return ControlMessage(frame, Command(payload[0]), target, source)
+
+
+def _write_snapshot(m: SnapshotHeader) -> tuple[Kind, bytes]:
+    emitters = np.ascontiguousarray(m.emitters, dtype=EMITTER_DTYPE)
+    if not (0 <= m.particles <= MAX_PARTICLES and len(emitters) <= MAX_EMITTERS
+            and 1 <= m.chunk_particles <= MAX_CHUNK_PARTICLES):
+        raise ValueError(f"a snapshot holds at most {MAX_PARTICLES} particles and "
+                         f"{MAX_EMITTERS} emitters in chunks of 1 to "
+                         f"{MAX_CHUNK_PARTICLES} particles, got {m.particles}, "
+                         f"{len(emitters)} and {m.chunk_particles}")
+    return Kind.SNAPSHOT, _SNAPSHOT.pack(m.seed, m.particles, len(emitters), m.chunk_particles,
+                                         _digest_bytes(m.digest)) + emitters.tobytes()
+
+
+def _read_snapshot(frame: int, payload: bytes) -> SnapshotHeader:
+    if len(payload) < _SNAPSHOT.size:
+        raise ProtocolError("bad-payload", f"snapshot header of {len(payload)} bytes is too "
+                                           f"short")
+    seed, particles, emitters, chunk, digest = _SNAPSHOT.unpack_from(payload)
+    if particles > MAX_PARTICLES or emitters > MAX_EMITTERS \
+            or not 1 <= chunk <= MAX_CHUNK_PARTICLES \
+            or len(payload) != _SNAPSHOT.size + emitters * EMITTER_DTYPE.itemsize:
+        raise ProtocolError("bad-payload", f"snapshot of {particles} particles in chunks of "
+                                           f"{chunk} and {emitters} emitters does not fit "
+                                           f"{len(payload)} bytes or the limits")
+    e = np.frombuffer(payload, EMITTER_DTYPE, emitters, _SNAPSHOT.size)
+    return SnapshotHeader(frame, seed, particles, chunk, digest.hex(), e.copy())
+
+
+def _write_chunk(m: SnapshotChunk) -> tuple[Kind, bytes]:
+    records, rest = divmod(len(m.data), PARTICLE_BYTES)
+    if rest or not 1 <= records <= MAX_CHUNK_PARTICLES or not 0 <= m.index < MAX_PARTICLES:
+        raise ValueError(f"a chunk is 1 to {MAX_CHUNK_PARTICLES} whole {PARTICLE_BYTES}-byte "
+                         f"records with an index below {MAX_PARTICLES}, got "
+                         f"{len(m.data)} bytes at index {m.index}")
+    return Kind.CHUNK, _CHUNK.pack(m.index) + bytes(m.data)
+
+
+def _read_chunk(frame: int, payload: bytes) -> SnapshotChunk:
+    records, rest = divmod(len(payload) - _CHUNK.size, PARTICLE_BYTES)
+    if len(payload) < _CHUNK.size or rest or not 1 <= records <= MAX_CHUNK_PARTICLES:
+        raise ProtocolError("bad-payload", f"snapshot chunk of {len(payload)} bytes is not an "
+                                           f"index and 1 to {MAX_CHUNK_PARTICLES} whole "
+                                           f"{PARTICLE_BYTES}-byte records")
+    (index,) = _CHUNK.unpack_from(payload)
+    if index >= MAX_PARTICLES:
+        raise ProtocolError("bad-value", f"chunk index {index} is beyond any snapshot "
+                                         f"(at most {MAX_PARTICLES} particles)")
+    return SnapshotChunk(frame, index, payload[_CHUNK.size:])
+
+
+def _write_tracking(m: TrackingMessage) -> tuple[Kind, bytes]:
+    h, w = m.head, m.wand
+    values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes])
+    if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
+        raise ValueError(f"tracking values must be finite float32 values, got {h} and {w}")
+    return Kind.TRACKING, _TRACKING.pack(*h.position, *h.orientation, *w.position,
+                                         *w.orientation, w.buttons, *w.axes)
+
+
+def _read_tracking(frame: int, payload: bytes) -> TrackingMessage:
+    if len(payload) != _TRACKING.size:
+        raise ProtocolError("bad-payload", f"tracking payload of {len(payload)} bytes, "
+                                           f"expected {_TRACKING.size}")
+    v = _TRACKING.unpack(payload)
+    if not all(math.isfinite(x) for x in (*v[:14], *v[15:])):
+        raise ProtocolError("bad-value", "head and wand values must be finite")
+    return TrackingMessage(frame, HeadState(v[0:3], v[3:7]), WandState(v[7:10], v[10:14], v[14],
+                                                                         v[15:19]))
+
+
+def _write_info(m: InfoMessage) -> tuple[Kind, bytes]:
+    if not 0 <= m.device <= 0xFFFF:
+        raise ValueError(f"EGL device index must be in [0, 65535], got {m.device}")
+    texts = b"".join(_text_bytes(what, getattr(m, what))
+                     for what in ("renderer", "vendor", "version"))
+    return Kind.INFO, _name_bytes(m.node) + _INFO.pack(m.device, int(m.software)) + texts
+
+
+def _read_info(frame: int, payload: bytes) -> InfoMessage:
+    node, rest = _read_name(payload)
+    if len(rest) < _INFO.size:
+        raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
+    device, software = _INFO.unpack_from(rest)
+    if software > 1:
+        raise ProtocolError("bad-value", f"info software flag {software} is neither 0 nor 1")
+    rest = rest[_INFO.size:]
+    texts = []
+    for _ in range(3):
+        text, rest = _read_text(rest)
+        texts.append(text)
+    if rest:
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info message")
+    return InfoMessage(frame, node, device, bool(software), *texts)
+
+
+def _text_bytes(what: str, text: str) -> bytes:
+    if len(text) > MAX_TEXT or any(not " " <= c <= "~" for c in text):
+        raise ValueError(f"{what} must be printable ASCII of at most {MAX_TEXT} characters, "
+                         f"got {text!r}")
+    return bytes([len(text)]) + text.encode("ascii")
+
+
+def _read_text(data: bytes) -> tuple[str, bytes]:
+    if not data or len(data) < 1 + data[0]:
+        raise ProtocolError("bad-payload", "a string runs past the end of the message")
+    raw, rest = data[1:1 + data[0]], data[1 + data[0]:]
+    if any(not 0x20 <= b <= 0x7E for b in raw):
+        raise ProtocolError("bad-value", f"string {raw!r} is not printable ASCII")
+    return raw.decode("ascii"), rest
+
+
+def _name_bytes(name: str, optional: bool = False) -> bytes:
+    if not (optional and name == ""):
+        check_name("node name", name)
+    return bytes([len(name)]) + name.encode()
+
+
+def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
+    if not data or len(data) < 1 + data[0]:
+        raise ProtocolError("bad-payload", "a node name runs past the end of the message")
+    raw, rest = data[1:1 + data[0]], data[1 + data[0]:]
+    try:
+        name = raw.decode("ascii")
+        if not (optional and name == ""):
+            check_name("node name", name)
+    except (UnicodeDecodeError, ValueError) as e:
+        raise ProtocolError("bad-payload", f"node name {raw!r} is not allowed") from e
+    return name, rest
+
+
+_PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
+                    ControlMessage: _write_control, SnapshotHeader: _write_snapshot,
+                    SnapshotChunk: _write_chunk, TrackingMessage: _write_tracking,
+                    InfoMessage: _write_info}
+_PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
+                    Kind.CONTROL: _read_control, Kind.SNAPSHOT: _read_snapshot,
+                    Kind.CHUNK: _read_chunk, Kind.TRACKING: _read_tracking,
+                    Kind.INFO: _read_info}

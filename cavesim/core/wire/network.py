@@ -1,0 +1,92 @@
+"""Zenoh session settings shared by every process: one place for --listen/--connect/--config.
+
+Embedded default: peer mode on loopback, multicast scouting off, gossip on (peers that
+connect to the master learn of each other and connect directly, so a node can fetch a
+snapshot from another node without a router). Several hosts: explicit endpoints, or a
+zenoh JSON5 config file from config/zenoh/.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import zenoh
+
+from cavesim.core.limits import DEFAULT_MASTER_PORT
+
+# Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
+# its default single tx thread that froze the healthy peers' traffic when a wall's link
+# was cut. More runtime threads keep the barrier going. Never "": zenoh then fails to start.
+RUNTIME_THREADS = "(tx: (worker_threads: 2), rx: (worker_threads: 3))"
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    listen: tuple[str, ...] = ()
+    connect: tuple[str, ...] = ()
+    config_file: Path | None = None
+
+    def zenoh_config(self) -> zenoh.Config:
+        """The zenoh.Config of this process: the file (if any), then the endpoints."""
+        if self.config_file is not None:
+            try:
+                config = zenoh.Config.from_file(str(self.config_file))
+            except Exception as e:  # zenoh raises ZError, a plain Exception subclass
+                raise ValueError(f"--config {self.config_file}: not a usable zenoh config: {e}"
+                                 ) from e
+        else:
+            config = zenoh.Config()
+            config.insert_json5("mode", '"peer"')
+            config.insert_json5("scouting/multicast/enabled", "false")
+        if self.listen:
+            config.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        if self.connect:
+            config.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
+        return config
+
+
+def open_session(network: NetworkConfig) -> zenoh.Session:
+    """This process's zenoh session (use it with `with`). Zenoh reads ZENOH_RUNTIME when
+    its first session opens; a user's own setting wins over RUNTIME_THREADS."""
+    os.environ.setdefault("ZENOH_RUNTIME", RUNTIME_THREADS)
+    return zenoh.open(network.zenoh_config())
+
+
+def add_network_arguments(parser: argparse.ArgumentParser) -> None:
+    """The network flags every cavesim process takes."""
+    group = parser.add_argument_group("network (zenoh)")
+    group.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                       help=f"endpoint to listen on, e.g. tcp/127.0.0.1:{DEFAULT_MASTER_PORT} "
+                            "(repeatable)")
+    group.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                       help=f"endpoint to connect to, e.g. tcp/10.0.0.1:{DEFAULT_MASTER_PORT} "
+                            "(repeatable)")
+    group.add_argument("--config", type=Path, dest="zenoh_config", metavar="FILE",
+                       help="zenoh JSON5 config file (see config/zenoh/)")
+    group.add_argument("--session", default="default", help="session name: the key prefix")
+    group.add_argument("--key-file", type=Path, metavar="FILE",
+                       help="shared secret: every message carries an HMAC-SHA256 with it")
+
+
+def network_from_arguments(args: argparse.Namespace) -> NetworkConfig:
+    for endpoint in (*args.listen, *args.connect):
+        if "/" not in endpoint:
+            raise ValueError(f"endpoint {endpoint!r} must look like tcp/HOST:PORT")
+    return NetworkConfig(tuple(args.listen), tuple(args.connect), args.zenoh_config)
+
+
+def read_key(path: Path | None) -> bytes | None:
+    """The session's shared key from a file (at least 16 bytes), or None."""
+    if path is None:
+        return None
+    try:
+        key = path.read_bytes().strip()
+    except OSError as e:
+        raise ValueError(f"--key-file {path}: cannot read it: {e}") from e
+    if len(key) < 16:
+        raise ValueError(f"--key-file {path}: the key has {len(key)} bytes, at least 16 needed")
+    return key

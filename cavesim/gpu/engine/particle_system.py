@@ -1,0 +1,341 @@
+"""The particle system of one wall node on one GL context.
+
+A frame (`step`) is two transform-feedback passes into the back buffers, then a swap:
+  1. particle pass: survivors of the particle stream, moved, packed in input order;
+  2. emitter pass: the emitter stream updates its accumulators, then appends this frame's
+     new particles after the survivors, drawing them from the shared random texture
+     through the frame's matrix.
+Only the scene's features are compiled in and allocated (see `programs.py`). The capacity
+is checked against the context's limits (`capacity.py`) before anything is allocated.
+
+A state load (a snapshot, a test's setup) is staged in the back buffers, the scratch
+between frames, and becomes current only on `commit_load`: a failed or partial load leaves
+the current state untouched.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import moderngl
+import numpy as np
+
+from cavesim.core.emitters import EMIT_BATCH, FIXED_ROWS, FRAME_ROWS, TABLE_ROWS, EmitterTable
+from cavesim.core.errors import StateError
+from cavesim.core.fields import FieldGrid, build_field
+from cavesim.core.frame import FrameInput
+from cavesim.core.heightfield import HeightGrid, load_heightfield
+from cavesim.core.helicopter.inputs import RotorInputs
+from cavesim.core.random_texture import random_words
+from cavesim.core.records import (
+    EMITTER_BYTES,
+    EMITTER_DTYPE,
+    EMITTER_VERTEX_FORMAT,
+    PARTICLE_BYTES,
+    PARTICLE_DTYPE,
+    PARTICLE_VERTEX_FORMAT,
+    PARTICLE_WORDS,
+)
+from cavesim.core.scene.model import CollisionKind, FieldKind, FieldSampling, Scene
+from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
+from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
+from cavesim.gpu.engine.checksum import GpuChecksum, StateChecksum
+from cavesim.gpu.engine.programs import (
+    emit_program,
+    emitter_update_program,
+    particle_update_program,
+)
+from cavesim.gpu.engine.uniforms import physics_uniforms, rotor_uniforms, write_uniforms
+
+FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
+
+
+class ParticleSystem:
+    """Emitter and particle streams of one scene, stepped frame by frame on the GPU."""
+
+    def __init__(self, ctx: moderngl.Context, scene: Scene) -> None:
+        limits = capacity_limits(ctx.info)
+        limits.check(scene.capacity)
+        self.ctx = ctx
+        self.scene = scene
+        self.emitters = EmitterTable.from_scene(scene)
+        self.resources: dict[str, moderngl.Buffer | moderngl.Texture | moderngl.Texture3D] = {}
+        self._live = 0
+        self._current = 0  # index of the front buffers
+        self._loading: int | None = None  # particles of the load staged in the back buffer
+        self._query = ctx.query(primitives=True)
+        self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
+                                  for i in range(PARTICLE_BUFFERS)]
+        if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
+            self.release()
+            raise limits.allocation_error(scene.capacity, error)
+        self.field_grid: FieldGrid | None = None
+        self.ground_grid: HeightGrid | None = None
+        self._textures_for_physics()
+        self._update = particle_update_program(ctx, scene)
+        write_uniforms(self._update, physics_uniforms(scene, self.field_grid, self.ground_grid))
+        self._bind_samplers(self._update)
+        self._update_vaos = [self._vao(self._update, b, PARTICLE_VERTEX_FORMAT,
+                                       "in_a", "in_b", "in_c")
+                             for b in self._particle_buffers]
+        self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
+        if len(self.emitters):
+            self._build_emission()
+        self._checksum = GpuChecksum(ctx, max(scene.capacity * PARTICLE_WORDS, 1))
+
+    # -- construction -----------------------------------------------------------------
+
+    def _buffer(self, name: str, size: int) -> moderngl.Buffer:
+        buffer = self.ctx.buffer(reserve=max(size, 4))  # GL has no empty buffers
+        self.resources[name] = buffer
+        return buffer
+
+    def _vao(self, program, buffer, layout: str, *names: str) -> moderngl.VertexArray:
+        return self.ctx.vertex_array(program, [(buffer, layout, *names)])
+
+    def _textures_for_physics(self) -> None:
+        scene = self.scene
+        if scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR:
+            grid = build_field(scene.field)
+            texture = self.ctx.texture3d(grid.resolution, 3, grid.velocity.tobytes(), dtype="f4")
+            hardware = scene.field.sampling is FieldSampling.HARDWARE
+            texture.filter = (moderngl.LINEAR, moderngl.LINEAR) if hardware else (
+                moderngl.NEAREST, moderngl.NEAREST)
+            texture.repeat_x = texture.repeat_y = texture.repeat_z = False
+            self.resources["flow_field"] = texture
+            self.field_grid = grid
+        if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
+            ground = load_heightfield(scene.collision.file)
+            ny, nx = ground.height.shape
+            texture = self.ctx.texture((nx, ny), 1, ground.height.tobytes(), dtype="f4")
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            texture.repeat_x = texture.repeat_y = False
+            self.resources["ground_height"] = texture
+            self.ground_grid = ground
+
+    def _bind_samplers(self, program) -> None:
+        for name, unit in (("flow_field", FIELD_UNIT), ("ground_height", GROUND_UNIT),
+                           ("random_texture", RANDOM_UNIT), ("emitter_table", EMITTER_UNIT)):
+            if name in self.resources:
+                self.resources[name].use(unit)
+                if name in program:
+                    program[name].value = unit
+
+    def _build_emission(self) -> None:
+        scene, count = self.scene, len(self.emitters)
+        size = scene.random_texture_size
+        random = self.ctx.texture((size, size), 4, random_words(scene.seed, size).tobytes(),
+                                  dtype="u4")
+        random.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.resources["random_texture"] = random
+        table = self.ctx.texture((count, TABLE_ROWS), 4, dtype="u4")
+        table.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.resources["emitter_table"] = table
+        self._write_fixed_rows()
+        self._emitter_buffers = [self._buffer(f"emitters_{i}", count * EMITTER_BYTES)
+                                 for i in range(2)]
+        self._emitter_update = emitter_update_program(self.ctx, scene)
+        self._emit = emit_program(self.ctx, scene)
+        self._emitter_update_vaos = [self._vao(self._emitter_update, b, EMITTER_VERTEX_FORMAT,
+                                               "in_state") for b in self._emitter_buffers]
+        self._emit_vaos = [self._vao(self._emit, b, EMITTER_VERTEX_FORMAT, "in_state")
+                           for b in self._emitter_buffers]
+
+    def _write_fixed_rows(self) -> None:
+        self.resources["emitter_table"].write(
+            self.emitters.fixed_rows().tobytes(), viewport=(0, 0, len(self.emitters), FIXED_ROWS))
+
+    # -- the frame ----------------------------------------------------------------------
+
+    @property
+    def particle_program(self) -> moderngl.Program:
+        """The particle pass's program (its uniforms show what the scene compiled in)."""
+        return self._update
+
+    @property
+    def front_particle_buffer_name(self) -> str:
+        """Name (in `resources`) of the buffer holding the current particle stream."""
+        return f"particles_{self._current}"
+
+    @property
+    def live_count(self) -> int:
+        return self._live
+
+    @property
+    def capacity(self) -> int:
+        return self.scene.capacity
+
+    def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
+        """Advance one frame with exactly the inputs every other node gets.
+
+        `scene` is the frame's scene state (its driver's); a helicopter scene's rotor is there.
+        """
+        rotor = self.rotor_inputs.read(scene) if self.rotor_inputs is not None else None
+        front, back = self._current, 1 - self._current
+        self._loading = None  # the passes overwrite the back buffers
+        self._bind_samplers(self._update)
+        if rotor is not None:
+            write_uniforms(self._update, rotor_uniforms(rotor))
+        survivors = self._particle_pass(front, back, frame.dt)
+        emitted = self._emitter_pass(front, back, survivors, frame, rotor) \
+            if len(self.emitters) else 0
+        self._live = survivors + emitted
+        self._current = back
+
+    def _particle_pass(self, front: int, back: int, dt: np.float32) -> int:
+        if self._live == 0:
+            return 0
+        write_uniforms(self._update, {"dt": dt})
+        with self._query:
+            self._update_vaos[front].transform(self._particle_buffers[back], moderngl.POINTS,
+                                               vertices=self._live)
+        return self._query.primitives
+
+    def _emitter_pass(self, front: int, back: int, survivors: int, frame: FrameInput,
+                      rotor) -> int:
+        factors = None if rotor is None else rotor.rate_factors
+        max_emit = self.emitters.max_emit(frame.dt, self.capacity, factors)
+        rows = self.emitters.frame_rows(max_emit, factors,
+                                        None if rotor is None else rotor.origins)
+        self.resources["emitter_table"].write(
+            rows.tobytes(), viewport=(0, FIXED_ROWS, len(self.emitters), FRAME_ROWS))
+        write_uniforms(self._emitter_update, {"dt": frame.dt})
+        self._bind_samplers(self._emitter_update)
+        self._emitter_update_vaos[front].transform(self._emitter_buffers[back], moderngl.POINTS,
+                                                   vertices=len(self.emitters))
+        room = self.capacity - survivors
+        batches = math.ceil(int(max_emit.max()) / EMIT_BATCH)
+        if room <= 0 or batches == 0:
+            return 0
+        write_uniforms(self._emit, {"random_transform": frame.random_transform.T})
+        self._bind_samplers(self._emit)
+        # Transform feedback records only what fits after `buffer_offset`; the query counts
+        # every generated particle, including the ones dropped (DESIGN: live = min(...)).
+        with self._query:
+            self._emit_vaos[back].transform(self._particle_buffers[back], moderngl.POINTS,
+                                            vertices=len(self.emitters), instances=batches,
+                                            buffer_offset=survivors * PARTICLE_BYTES)
+        return min(self._query.primitives, room)
+
+    def reseed(self, seed: int) -> None:
+        """Rebuild what the scene's seed decides: the random texture and emitter bases.
+
+        A node started with a wrong seed heals this way when it loads a snapshot.
+        """
+        self.scene = dataclasses.replace(self.scene, seed=seed)
+        self.emitters = EmitterTable.from_scene(self.scene)
+        if not len(self.emitters):
+            return
+        size = self.scene.random_texture_size
+        self.resources["random_texture"].write(random_words(seed, size).tobytes())
+        self._write_fixed_rows()
+
+    def release(self) -> None:
+        """Free the GPU buffers and textures now instead of at garbage collection."""
+        for resource in self.resources.values():
+            resource.release()
+        self.resources.clear()
+
+    # -- state ----------------------------------------------------------------------------
+
+    def checksum(self) -> StateChecksum:
+        """Digest of the live particle and emitter streams, computed on the GPU."""
+        return self._state_checksum(self._current, self._live)
+
+    def _state_checksum(self, index: int, particles: int) -> StateChecksum:
+        emitters = self._emitter_buffers[index] if len(self.emitters) else None
+        return self._checksum.state(
+            self._particle_buffers[index], particles * PARTICLE_WORDS, particles,
+            emitters, len(self.emitters) * EMITTER_BYTES // 4, len(self.emitters))
+
+    def read_particle_chunk(self, first: int, count: int) -> bytes:
+        """Records [first, first + count) of the live particle stream, as bytes."""
+        if not (0 <= first and 0 <= count and first + count <= self._live):
+            raise StateError(f"particle records [{first}, {first + count}) are not within the "
+                             f"{self._live} live ones")
+        if count == 0:  # GL cannot map an empty range
+            return b""
+        return self._particle_buffers[self._current].read(count * PARTICLE_BYTES,
+                                                          first * PARTICLE_BYTES)
+
+    def read_particles(self) -> np.ndarray:
+        """A copy of the live particle stream (PARTICLE_DTYPE), in stream order."""
+        data = self.read_particle_chunk(0, self._live)
+        return np.frombuffer(data, dtype=PARTICLE_DTYPE).copy()
+
+    def read_emitters(self) -> np.ndarray:
+        """A copy of the emitter stream (EMITTER_DTYPE)."""
+        if not len(self.emitters):
+            return np.zeros(0, dtype=EMITTER_DTYPE)
+        data = self._emitter_buffers[self._current].read(len(self.emitters) * EMITTER_BYTES)
+        return np.frombuffer(data, dtype=EMITTER_DTYPE).copy()
+
+    def begin_load(self, count: int) -> None:
+        """Start staging a particle stream of `count` records in the back buffer.
+
+        The current state stays as it is until `commit_load`; a new `begin_load` or the next
+        `step` drops what was staged.
+        """
+        if not 0 <= count <= self.capacity:
+            raise StateError(f"a load of {count} particles does not fit the capacity "
+                             f"{self.capacity}; allowed: 0 to {self.capacity}")
+        self._loading = count
+
+    def write_particle_chunk(self, first: int, data: bytes) -> None:
+        """Stage whole records [first, ...) of the stream that `begin_load` announced."""
+        count, rest = divmod(len(data), PARTICLE_BYTES)
+        if self._loading is None:
+            raise StateError("write_particle_chunk needs a begin_load first")
+        if rest or first < 0 or first + count > self._loading:
+            raise StateError(f"a chunk of {len(data)} bytes at record {first} is not whole "
+                             f"{PARTICLE_BYTES}-byte records within the {self._loading} loaded")
+        if count:
+            self._particle_buffers[1 - self._current].write(data, offset=first * PARTICLE_BYTES)
+
+    def commit_load(self, emitters: np.ndarray | None = None, seed: int | None = None,
+                    digest: str | None = None) -> None:
+        """Make the staged particles current, with `emitters` (default: the current ones)
+        and `seed` (default: the scene's).
+
+        With a `digest`, the staged state must have that checksum (`StateChecksum.digest`),
+        else StateError and the current state stays as it was.
+        """
+        count, back = self._loading, 1 - self._current
+        if count is None:
+            raise StateError("commit_load needs a begin_load first")
+        self._stage_emitters(back, emitters)
+        if digest is not None and (staged := self._state_checksum(back, count).digest) != digest:
+            self._loading = None
+            raise StateError(f"the staged state's checksum {staged} is not the announced "
+                             f"{digest}; the current state is kept")
+        if seed is not None and seed != self.scene.seed:
+            self.reseed(seed)
+        self._current, self._live, self._loading = back, count, None
+
+    def _stage_emitters(self, back: int, emitters: np.ndarray | None) -> None:
+        count = len(self.emitters)
+        if emitters is None:
+            emitters = self.read_emitters()
+        emitters = _checked_records(emitters, EMITTER_DTYPE, count, "emitters")
+        if len(emitters) != count:
+            raise StateError(f"emitters: expected {count} records, got {len(emitters)}")
+        if count:
+            self._emitter_buffers[back].write(emitters.tobytes())
+
+    def write_particles(self, particles: np.ndarray) -> None:
+        """Replace the live particle stream at once (a test's, a benchmark's or a fault's)."""
+        particles = _checked_records(particles, PARTICLE_DTYPE, self.capacity, "particles")
+        self.begin_load(len(particles))
+        self.write_particle_chunk(0, particles.tobytes())
+        self.commit_load()
+
+
+def _checked_records(records: np.ndarray, dtype: np.dtype, limit: int, what: str) -> np.ndarray:
+    records = np.asarray(records)
+    if records.dtype != dtype or records.ndim != 1:
+        raise StateError(f"{what}: expected a 1-D array of dtype {dtype}, "
+                         f"got shape {records.shape} of dtype {records.dtype}")
+    if len(records) > limit:
+        raise StateError(f"{what}: {len(records)} records exceed the limit of {limit}")
+    return np.ascontiguousarray(records)

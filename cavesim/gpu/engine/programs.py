@@ -1,0 +1,132 @@
+"""Which shader code a scene gets: every program the engine builds and the `#define`s of each.
+
+A feature the scene lacks is decided as 0 here, so its code is compiled out and the engine
+allocates no texture, uniform or buffer for it (the test reads the generated source). The
+same table tells the portability gate (`cavesim.gpu.shader_gate`) every program and every
+feature combination there is to check.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterator
+
+import moderngl
+
+from cavesim.core.emitters import EMIT_BATCH
+from cavesim.core.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
+from cavesim.core.records import PARTICLE_VARYINGS
+from cavesim.core.scene.model import (
+    CollisionKind,
+    FieldKind,
+    FieldSampling,
+    Integrator,
+    OutOfDomain,
+    Scene,
+)
+from cavesim.gpu.shader_source import ProgramSpec
+
+INTEGRATOR_IDS = {integrator: i for i, integrator in enumerate(Integrator)}
+COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
+OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
+SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
+
+CHECKSUM_WORKGROUP_SIZE = 64
+CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 313 KB of sums to read
+
+# The values each define can take (numbers: the extremes a scene may ask for).
+PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
+    "HAS_GRAVITY": (0, 1),
+    "HAS_DRAG": (0, 1),
+    "HAS_DAMPING": (0, 1),
+    "COLLISION": tuple(COLLISION_IDS.values()),
+    "INTEGRATOR": tuple(INTEGRATOR_IDS.values()),
+    "FIELD_OUT_OF_DOMAIN": tuple(OUT_OF_DOMAIN_IDS.values()),
+    "FIELD_SAMPLING": tuple(SAMPLING_IDS.values()),
+    "FIELD_IS_ROTOR": (0, 1),
+    "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
+}
+EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
+    "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
+    "EMIT_BATCH": (EMIT_BATCH,),
+    "FOLLOWING": (0, 1),
+}
+CHECKSUM_DEFINES = {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
+                    "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE}
+
+PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
+                              tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
+IN_PLACE_UPDATE = ProgramSpec("particles/update_in_place.glsl", ("compute",),
+                              tuple(PHYSICS_FEATURES))  # the bench's compute-shader bound
+EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
+                             tuple(EMISSION_FEATURES), ("out_state",))
+EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
+                   PARTICLE_VARYINGS)
+CHECKSUM = ProgramSpec("checksum/checksum.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
+
+
+def physics_defines(scene: Scene) -> dict[str, int]:
+    """Feature switches of the particle pass (and of its compute-shader twin)."""
+    field = scene.field
+    return {
+        "HAS_GRAVITY": int(scene.forces.gravity is not None),
+        "HAS_DRAG": int(scene.forces.drag is not None),
+        "HAS_DAMPING": int(scene.forces.damping is not None),
+        "COLLISION": COLLISION_IDS[scene.collision.kind if scene.collision else None],
+        "INTEGRATOR": INTEGRATOR_IDS[scene.integrator],
+        "FIELD_OUT_OF_DOMAIN": OUT_OF_DOMAIN_IDS[field.out_of_domain] if field else 0,
+        "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
+        "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),
+        "CLASS_COUNT": max(1, len(scene.particle_classes)),
+    }
+
+
+def emission_defines(scene: Scene) -> dict[str, int]:
+    """Sizes of the emitter programs."""
+    return {
+        "RANDOM_SIZE": scene.random_texture_size,
+        "EMIT_BATCH": EMIT_BATCH,
+        "FOLLOWING": int(any(e.follow_helicopter for e in scene.emitters)),
+    }
+
+
+def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
+    """Every engine program a scene builds, with its defines."""
+    physics = physics_defines(scene)
+    programs = [(PARTICLE_UPDATE, physics), (IN_PLACE_UPDATE, physics),
+                (CHECKSUM, CHECKSUM_DEFINES)]
+    if scene.emitters:
+        emission = emission_defines(scene)
+        programs += [(EMITTER_UPDATE, emission), (EMIT, emission)]
+    return programs
+
+
+def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
+    """Every engine program with every combination of the values its defines can take."""
+    for spec, features in ((PARTICLE_UPDATE, PHYSICS_FEATURES),
+                           (IN_PLACE_UPDATE, PHYSICS_FEATURES),
+                           (EMITTER_UPDATE, EMISSION_FEATURES), (EMIT, EMISSION_FEATURES)):
+        for values in itertools.product(*features.values()):
+            yield spec, dict(zip(features, values, strict=True))
+    yield CHECKSUM, dict(CHECKSUM_DEFINES)
+
+
+def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
+    return PARTICLE_UPDATE.build(ctx, physics_defines(scene))
+
+
+def in_place_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
+    return IN_PLACE_UPDATE.build(ctx, physics_defines(scene))
+
+
+def emitter_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
+    return EMITTER_UPDATE.build(ctx, emission_defines(scene))
+
+
+def emit_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
+    return EMIT.build(ctx, emission_defines(scene))
+
+
+def checksum_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
+    return CHECKSUM.build(ctx, CHECKSUM_DEFINES)
+

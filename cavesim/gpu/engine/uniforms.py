@@ -1,0 +1,69 @@
+"""Uniform values of the engine's programs, computed once from the scene as float32 bits."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import moderngl
+import numpy as np
+
+from cavesim.core.fields import FieldGrid
+from cavesim.core.heightfield import HeightGrid
+from cavesim.core.helicopter.flight import ground_height
+from cavesim.core.helicopter.inputs import FrameRotor
+from cavesim.core.scene.model import CollisionKind, Scene
+
+
+def physics_uniforms(scene: Scene, field: FieldGrid | None,
+                     ground: HeightGrid | None) -> dict[str, object]:
+    """The particle pass's constants for the scene's compiled-in features."""
+    values: dict[str, object] = {}
+    forces = scene.forces
+    if forces.gravity is not None:
+        values["gravity"] = np.array(forces.gravity, dtype=np.float32)
+    if forces.damping is not None:
+        values["damping"] = np.float32(forces.damping)
+    if forces.drag is not None:
+        values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
+                                     dtype=np.float32)
+        if field is not None:  # a grid
+            values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
+            values["field_index_scale"] = index_scale(field.box_min, field.box_max,
+                                                      field.resolution)
+        else:  # the rotor's downwash: its size and the ground it blows against
+            values["rotor_radius"] = np.float32(scene.helicopter.rotor_radius)
+            values["rotor_ground_z"] = np.float32(ground_height(scene))
+    collision = scene.collision
+    if collision is not None:
+        values["friction"] = np.float32(collision.friction)
+        values["resilience"] = np.float32(collision.resilience)
+        values["friction_min_speed"] = np.float32(collision.friction_min_speed)
+        if collision.kind is CollisionKind.PLANE:
+            values["ground_z"] = np.float32(collision.height)
+        else:
+            ny, nx = ground.height.shape
+            values["ground_box_min"] = np.array(ground.box_min, dtype=np.float32)
+            values["ground_index_scale"] = index_scale(ground.box_min, ground.box_max, (nx, ny))
+    return values
+
+
+def rotor_uniforms(rotor: FrameRotor) -> dict[str, object]:
+    """The downwash's per-frame uniforms (a helicopter scene's rotor this frame)."""
+    return {"rotor_hub": rotor.hub, "induced_velocity": rotor.induced_velocity}
+
+
+def index_scale(box_min, box_max, resolution) -> np.ndarray:
+    """(resolution - 1) / (box_max - box_min) per axis, as float32: world to grid index."""
+    size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
+    return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)
+
+
+def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> None:
+    """Write each value's exact bytes to the uniform of that name the program uses.
+
+    A name the compiler optimized out of this program (the emitter programs share one
+    table) is skipped; dtype decides the bits, so float32 and uint32 go up untouched.
+    """
+    for name, value in values.items():
+        if name in program:
+            program[name].write(np.ascontiguousarray(value).tobytes())

@@ -1,0 +1,82 @@
+"""The headless OpenGL context every wall node (and every test) computes in.
+
+A surfaceless EGL context has no default framebuffer, and Mesa refuses transform-feedback
+draws without one (GL_INVALID_FRAMEBUFFER_OPERATION, nothing written), so the context is
+handed out with a 1x1 framebuffer bound.
+
+One context per process: creating a context makes it current, and moderngl does not
+switch back, so a second context in the same process takes over the first one's calls.
+That is the CAVE's own shape anyway: one wall node process, one context, on the EGL
+device (GPU) the node was given (`cavesim.gpu.gl.devices`).
+"""
+
+from __future__ import annotations
+
+import os
+
+import moderngl
+
+from cavesim.core.errors import ContextError
+from cavesim.gpu.gl.devices import LIST_HINT, PACKAGE_HINT, find_device
+
+REQUIRED_GL_VERSION = 430  # compute shaders, SSBOs (GS + TF need 3.3); every program's #version
+DEVICE_VARIABLE = "GLCONTEXT_DEVICE_INDEX"  # glcontext lets it override device_index
+
+
+def create_context(require: int = REQUIRED_GL_VERSION,
+                   device: int | None = None) -> moderngl.Context:
+    """Open a standalone EGL context of GL `require` or newer on EGL device `device`
+    (None: the default, device 0) with a tiny framebuffer bound."""
+    try:
+        index = _device_index(device)
+        egl_device, count = find_device(index)
+    except ContextError as e:
+        raise ContextError(f"cannot open a headless OpenGL context: {e.problem}", e.fix) from e
+    try:
+        ctx = moderngl.create_standalone_context(backend="egl", require=require,
+                                                 device_index=index)
+    except Exception as e:  # moderngl/glcontext raise plain Exception for a missing library
+        message = " ".join(str(e).split())
+        raise ContextError(f"cannot open a headless OpenGL context through EGL on device "
+                           f"{index} ({egl_device.kind}, one of {count}): {message}",
+                           f"{PACKAGE_HINT}; {LIST_HINT}") from e
+    if ctx.version_code < require:
+        found = ctx.info.get("GL_VERSION")
+        ctx.release()
+        raise ContextError(f"OpenGL {require // 100}.{require % 100 // 10} core is required, "
+                           f"EGL device {index} offers {found!r}",
+                           f"{PACKAGE_HINT} for Mesa's llvmpipe")
+    framebuffer = ctx.simple_framebuffer((1, 1))
+    framebuffer.use()
+    ctx.extra = {"framebuffer": framebuffer, "device": egl_device}
+    return ctx
+
+
+def describe(ctx: moderngl.Context) -> dict[str, str]:
+    """Renderer, vendor and version strings, for reports."""
+    keys = ("renderer", "vendor", "version")
+    return {key: str(ctx.info.get(f"GL_{key.upper()}")) for key in keys}
+
+
+def gpu_of(ctx: moderngl.Context) -> dict:
+    """What a node computes on: the EGL device (index, hardware or software) and the GL
+    renderer, vendor and version (the version names the driver), for logs and reports."""
+    device = ctx.extra["device"]
+    return {"device": device.index, "kind": device.kind, **describe(ctx)}
+
+
+def _device_index(device: int | None) -> int:
+    """The EGL device glcontext will open. Its GLCONTEXT_DEVICE_INDEX wins over the
+    argument, so a conflict is an error here rather than a wrong name in the report."""
+    text = os.environ.get(DEVICE_VARIABLE)
+    if not text:
+        return 0 if device is None else device
+    try:
+        forced = int(text)
+    except ValueError:
+        raise ContextError(f"{DEVICE_VARIABLE}={text!r} is not an EGL device index",
+                           f"unset {DEVICE_VARIABLE} or give a whole number >= 0") from None
+    if device is not None and device != forced:
+        raise ContextError(f"{DEVICE_VARIABLE}={text} would override the requested EGL "
+                           f"device {device}", f"unset {DEVICE_VARIABLE} to use device {device}")
+    return forced

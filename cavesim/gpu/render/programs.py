@@ -1,0 +1,26 @@
+"""The wall renderer's programs: terrain and helicopter, dust billboards, the composite."""
+
+from __future__ import annotations
+
+from cavesim.core.limits import MAX_PARTICLE_CLASSES
+from cavesim.core.scene.model import Scene
+from cavesim.gpu.shader_source import ProgramSpec
+
+SCENE = ProgramSpec("render/scene.glsl", ("vertex", "fragment"))
+DUST = ProgramSpec("render/dust.glsl", ("vertex", "geometry", "fragment"), ("CLASS_COUNT",))
+COMPOSITE = ProgramSpec("render/composite.glsl", ("vertex", "fragment"))
+
+
+def dust_defines(scene: Scene) -> dict[str, int]:
+    return {"CLASS_COUNT": max(1, len(scene.particle_classes))}
+
+
+def render_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
+    """Every program the renderer builds for a scene, with its defines."""
+    return [(SCENE, {}), (DUST, dust_defines(scene)), (COMPOSITE, {})]
+
+
+def render_combinations() -> list[tuple[ProgramSpec, dict[str, int]]]:
+    """Every renderer program at the extremes of its defines."""
+    return [(SCENE, {}), (COMPOSITE, {}),
+            *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES))]

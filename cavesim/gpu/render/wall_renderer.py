@@ -1,0 +1,185 @@
+"""One wall's picture of the world: scene, dust by deferred shading, composite.
+
+Pass 1 draws terrain and helicopter into a colour and depth target. Pass 2 turns every
+live particle into an eye-facing billboard and adds its density and normal into a float
+target (additive blending: no sorting). Pass 3 lights the dust and blends it over the
+scene. Rendering only reads the particle stream: it never touches what is hashed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from cavesim.core.cave.geometry import Wall
+from cavesim.core.cave.projection import gl_matrix, off_axis
+from cavesim.core.scene.model import CollisionKind, Scene
+from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
+from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.render import meshes
+from cavesim.gpu.render.programs import COMPOSITE, DUST, SCENE, dust_defines
+
+DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
+OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    near: float = 0.05
+    far: float = 200.0
+    sky: tuple[float, float, float] = (0.62, 0.72, 0.84)
+    sun_direction: tuple[float, float, float] = (0.42, -0.32, 0.85)
+    dust_albedo: tuple[float, float, float] = (0.88, 0.78, 0.60)
+    opacity: float = 1.2  # optical depth per unit of accumulated density
+    density_per_particle: float = 0.2
+    soft_distance: float = 0.4  # m
+    min_radius_pixels: float = 1.5
+
+
+def billboard_radii(scene: Scene) -> np.ndarray:
+    """Drawn radius per particle class: each simulated particle stands for a parcel of
+    grains, larger for coarser grains (which travel in denser bunches)."""
+    diameters = np.array([c.diameter for c in scene.particle_classes] or [1e-4])
+    return np.clip(0.2 * (diameters / 150e-6) ** 0.25, 0.06, 0.35).astype(np.float32)
+
+
+class WallRenderer:
+    """Draws one wall's view of a ParticleSystem's current state."""
+
+    def __init__(self, ctx: moderngl.Context, system: ParticleSystem, wall: Wall,
+                 settings: RenderSettings = RenderSettings()) -> None:
+        self.ctx, self.system, self.wall, self.settings = ctx, system, wall, settings
+        self.size = tuple(wall.resolution)
+        self._targets()
+        self.scene_program = SCENE.build(ctx, {})
+        self.dust_program = DUST.build(ctx, dust_defines(system.scene))
+        self.composite_program = COMPOSITE.build(ctx, {})
+        self._meshes()
+        self._constant_uniforms()
+
+    def _targets(self) -> None:
+        ctx, size = self.ctx, self.size
+        self.scene_color = ctx.texture(size, 4)
+        self.scene_depth = ctx.depth_texture(size)
+        self.scene_depth.compare_func = ""  # sampled as plain depth for the soft edges
+        self.scene_target = ctx.framebuffer([self.scene_color], self.scene_depth)
+        self.dust = ctx.texture(size, 4, dtype="f4")
+        self.dust_target = ctx.framebuffer([self.dust])
+        self.picture = ctx.texture(size, 4)
+        self.picture_target = ctx.framebuffer([self.picture])
+
+    def _meshes(self) -> None:
+        def mesh(rows: np.ndarray) -> tuple[moderngl.VertexArray, int]:
+            vbo = self.ctx.buffer(rows.tobytes())
+            vao = self.ctx.vertex_array(self.scene_program,
+                                        [(vbo, meshes.VERTEX_FORMAT, *meshes.VERTEX_NAMES)])
+            return vao, len(rows)
+
+        ground = _ground(self.system)
+        self.terrain = mesh(meshes.terrain(*ground)) if ground else None
+        self.body = mesh(meshes.helicopter_body())
+        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS))
+        self.particles = {name: self.ctx.vertex_array(
+            self.dust_program, [(buffer, DRAWN_WORDS, "in_a", "in_c")])
+            for name, buffer in self.system.resources.items() if name.startswith("particles_")}
+        self.full_screen = self.ctx.vertex_array(self.composite_program, [])
+
+    def _constant_uniforms(self) -> None:
+        s = self.settings
+        sun = np.array(s.sun_direction) / np.linalg.norm(s.sun_direction)
+        self.sun = sun
+        self.scene_program["sun_direction"].value = tuple(sun)
+        self.scene_program["grid_strength"].value = 0.25
+        dust = self.dust_program
+        dust["billboard_radius"].write(billboard_radii(self.system.scene).tobytes())
+        dust["viewport_size"].value = self.size
+        dust["near_plane"].value = s.near
+        dust["far_plane"].value = s.far
+        dust["soft_distance"].value = s.soft_distance
+        dust["density_per_particle"].value = s.density_per_particle
+        dust["min_radius_pixels"].value = s.min_radius_pixels
+        dust["scene_depth"].value = 0
+        self.composite_program["scene_color"].value = 0
+        self.composite_program["dust"].value = 1
+        self.composite_program["dust_albedo"].value = s.dust_albedo
+        self.composite_program["opacity"].value = s.opacity
+
+    def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:
+        """The wall's picture from `eye` (room = world metres): (height, width, 3) uint8."""
+        projection, view = off_axis(self.wall, np.asarray(eye, float), self.settings.near,
+                                    self.settings.far)
+        ctx = self.ctx
+        try:
+            self._scene_pass(projection, view, helicopter)
+            self._dust_pass(projection, view)
+            self._composite_pass(view)
+            pixels = self.picture_target.read(components=3)
+        finally:
+            ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+            ctx.blend_func = moderngl.DEFAULT_BLENDING
+            ctx.extra["framebuffer"].use()  # the engine's transform feedback needs it bound
+        width, height = self.size
+        return np.frombuffer(pixels, np.uint8).reshape(height, width, 3)[::-1].copy()
+
+    def _scene_pass(self, projection, view, helicopter) -> None:
+        ctx, program = self.ctx, self.scene_program
+        self.scene_target.use()
+        self.scene_target.clear(*self.settings.sky, 1.0, depth=1.0)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.disable(moderngl.BLEND)
+        program["view"].write(gl_matrix(view))
+        program["projection"].write(gl_matrix(projection))
+        draws = [(self.terrain, np.eye(4))] if self.terrain else []
+        if helicopter is not None:
+            draws += [(self.body, helicopter.model()), (self.rotor, helicopter.rotor_model())]
+        for (vao, count), model in draws:
+            program["model"].write(gl_matrix(model))
+            vao.render(moderngl.TRIANGLES, vertices=count)
+
+    def _dust_pass(self, projection, view) -> None:
+        ctx = self.ctx
+        self.dust_target.use()
+        self.dust_target.clear(0.0, 0.0, 0.0, 0.0)
+        live = self.system.live_count
+        if not live:
+            return
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        self.dust_program["view"].write(gl_matrix(view))
+        self.dust_program["projection"].write(gl_matrix(projection))
+        # P[1][1] = 2n / (t - b): pixels per unit of y/z slope is P[1][1] * height / 2
+        self.dust_program["pixels_per_unit_slope"].value = projection[1, 1] * self.size[1] / 2
+        self.scene_depth.use(0)
+        self.particles[self.system.front_particle_buffer_name].render(moderngl.POINTS,
+                                                                      vertices=live)
+
+    def _composite_pass(self, view) -> None:
+        self.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+        self.picture_target.use()
+        self.composite_program["light_in_view"].value = tuple(view[:3, :3] @ self.sun)
+        self.scene_color.use(0)
+        self.dust.use(1)
+        self.full_screen.render(moderngl.TRIANGLES, vertices=3)
+
+    def release(self) -> None:
+        for target in (self.scene_target, self.dust_target, self.picture_target):
+            target.release()
+        for texture in (self.scene_color, self.scene_depth, self.dust, self.picture):
+            texture.release()
+
+
+def _ground(system: ParticleSystem):
+    """(box_min, box_max, plane height or HeightGrid) of the scene's ground, or None: the
+    ground the particles collide with, as the engine loaded it."""
+    scene, collision = system.scene, system.scene.collision
+    if collision is None:
+        return None
+    if collision.kind is CollisionKind.HEIGHTFIELD:
+        grid = system.ground_grid
+        return grid.box_min, grid.box_max, grid
+    if scene.field is not None:
+        return scene.field.box_min[:2], scene.field.box_max[:2], collision.height
+    return *OPEN_GROUND, collision.height

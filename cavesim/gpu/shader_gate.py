@@ -1,0 +1,159 @@
+"""The portability gate: every program cavesim can build, checked as any GL 4.3 driver sees it.
+
+Mesa's llvmpipe accepts GLSL that stricter drivers reject, so every assembled stage of every
+program of every scene in config/scenes/, and of every combination of feature values the
+engine can generate, is
+  1. linted for what a driver is known to reject though the GLSL spec allows it,
+  2. validated by the Khronos reference front-end, `glslangValidator` (Debian package
+     `glslang-tools`), and
+  3. compiled and linked on a GL context, its uniforms held to the smallest GL 4.3 limits.
+A finding names the program, its defines, the stage and the message with `file.glsl:LINE`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import shutil
+import subprocess
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+import moderngl
+
+from cavesim.core.errors import ShaderError
+from cavesim.core.scene import load_scene
+from cavesim.gpu.engine.programs import feature_combinations, scene_programs
+from cavesim.gpu.gl.filtering import FILTER_PROBE
+from cavesim.gpu.render.programs import render_combinations, render_programs
+from cavesim.gpu.shader_source import ProgramSpec, ShaderSource
+
+VALIDATOR = "glslangValidator"
+STAGE_EXTENSIONS = {"vertex": "vert", "geometry": "geom", "fragment": "frag",
+                    "compute": "comp"}
+# The smallest default-block uniform storage a GL 4.3 driver may offer per stage, in
+# components (OpenGL 4.3 core, table 23.57 ff.: MAX_*_UNIFORM_COMPONENTS).
+GL43_UNIFORM_COMPONENTS = {"vertex": 1024, "geometry": 1024, "fragment": 1024, "compute": 512}
+_LINE_DIRECTIVE = re.compile(r"\s*#\s*line\b")
+_BATCH = 400  # sources per glslangValidator run
+
+
+@dataclass(frozen=True)
+class Build:
+    """One program with one set of defines, and where the gate found it."""
+
+    spec: ProgramSpec
+    defines: tuple[tuple[str, int], ...]
+    origin: str  # "scene <name>" or "feature combination"
+
+    def __str__(self) -> str:
+        values = ", ".join(f"{k}={v}" for k, v in self.defines)
+        return f"{self.spec.name} [{values}] ({self.origin})"
+
+
+@dataclass(frozen=True)
+class Finding:
+    build: Build
+    stage: str  # or "link"
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.build} {self.stage}: {self.message}"
+
+
+def all_builds(scene_dir: Path) -> list[Build]:
+    """Every program of every scene in `scene_dir`, every feature combination, the probes."""
+    builds: dict[tuple, Build] = {}
+
+    def add(pairs: Iterable[tuple[ProgramSpec, dict]], origin: str) -> None:
+        for spec, defines in pairs:
+            build = Build(spec, tuple(sorted(defines.items())), origin)
+            builds.setdefault((spec, build.defines), build)
+
+    for path in sorted(scene_dir.glob("*.toml")):
+        scene = load_scene(path)
+        add([*scene_programs(scene), *render_programs(scene)], f"scene {path.stem}")
+    add([*feature_combinations(), *render_combinations()], "feature combination")
+    add([(FILTER_PROBE, {})], "probe")
+    return list(builds.values())
+
+
+def lint(source: ShaderSource) -> list[str]:
+    """What drivers are known to reject in an assembled stage, though the spec allows it."""
+    lines = source.text.rstrip("\n").splitlines()
+    if lines and _LINE_DIRECTIVE.match(lines[-1]):
+        return [f"the source ends with {lines[-1]!r}: NVIDIA rejects a #line directive as "
+                f"the last line (error C0115: #line source-string number invalid)"]
+    return []
+
+
+def check_sources(builds: Iterable[Build], validator: str = VALIDATOR) -> list[Finding]:
+    """Lint every stage of every build and run the reference front-end over it."""
+    if shutil.which(validator) is None:
+        raise ShaderError(f"{validator} not found: install the Debian package glslang-tools "
+                          f"(`apt-get install glslang-tools`, or run deploy/setup.sh --test)")
+    findings: list[Finding] = []
+    stages: list[tuple[Build, str, ShaderSource]] = []
+    for build in builds:
+        for stage, source in build.spec.sources(dict(build.defines)).items():
+            findings += [Finding(build, stage, problem) for problem in lint(source)]
+            stages.append((build, stage, source))
+    with tempfile.TemporaryDirectory(prefix="cavesim-gate-") as folder:
+        for start in range(0, len(stages), _BATCH):
+            findings += _validate(stages[start:start + _BATCH], Path(folder), validator)
+    return findings
+
+
+def _validate(stages: list[tuple[Build, str, ShaderSource]], folder: Path,
+              validator: str) -> list[Finding]:
+    """One glslangValidator run over many files; it prints each file's name, then its log."""
+    paths = {}
+    for number, (build, stage, source) in enumerate(stages):
+        path = folder / f"{number:05d}.{STAGE_EXTENSIONS[stage]}"
+        path.write_text(source.text)
+        paths[str(path)] = (build, stage, source)
+    result = subprocess.run([validator, *paths], capture_output=True, text=True, check=False)
+    logs: dict[str, list[str]] = {}
+    current = None
+    for line in result.stdout.splitlines():
+        if line in paths:
+            current = logs.setdefault(line, [])
+        elif current is not None and line.startswith("ERROR:"):
+            current.append(line)
+    findings = [Finding(paths[path][0], paths[path][1], paths[path][2].explain("\n".join(log)))
+                for path, log in logs.items() if log]
+    if result.returncode != 0 and not findings:
+        raise ShaderError(f"{validator} failed (exit {result.returncode}) without naming a "
+                          f"file: {(result.stderr or result.stdout).strip()[:300]}")
+    return findings
+
+
+def check_on_context(ctx: moderngl.Context, builds: Iterable[Build]) -> list[Finding]:
+    """Compile and link every build on `ctx`; hold its uniforms to the GL 4.3 minimums."""
+    findings = []
+    for build in builds:
+        try:
+            program = build.spec.build(ctx, dict(build.defines))
+        except ShaderError as e:
+            findings.append(Finding(build, "link", str(e)))
+            continue
+        used = uniform_components(program)
+        allowed = min(GL43_UNIFORM_COMPONENTS[stage] for stage in build.spec.stages)
+        if used > allowed:
+            findings.append(Finding(build, "link", f"{used} uniform components (each array "
+                                    f"element a vec4), more than the {allowed} a GL 4.3 "
+                                    f"driver must offer"))
+        program.release()
+    return findings
+
+
+def uniform_components(program: moderngl.Program | moderngl.ComputeShader) -> int:
+    """Default-block uniform storage, counted as strict drivers do: a vec4 per element."""
+    total = 0
+    for name in program:
+        member = program[name]
+        if isinstance(member, moderngl.Uniform):
+            total += max(1, member.array_length) * 4 * math.ceil(member.dimension / 4)
+    return total

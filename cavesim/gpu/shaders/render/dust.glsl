@@ -1,0 +1,84 @@
+// Dust pass of the deferred shading (Smith et al., after Francis): every live particle
+// becomes a billboard facing the eye; its fragments add density and a sphere normal into
+// a float target with additive blending, so order does not matter. Soft edges: a
+// fragment fades as it nears the scene surface behind it (soft particles).
+#include "/include/record.glsl"
+
+#if defined VERTEX_SHADER
+in uvec4 in_a;  // position (and vel.x)
+in uvec2 in_c;  // lifetime, class; the words between (velocity, age) are not needed to draw
+uniform mat4 view;
+out vec3 view_position;
+flat out uint particle_class;
+
+void main() {
+    Particle q = unpack_particle(in_a, uvec4(0u), in_c);
+    view_position = (view * vec4(q.pos, 1.0)).xyz;
+    particle_class = q.class_id;
+}
+#endif
+
+#if defined GEOMETRY_SHADER
+layout(points) in;
+layout(triangle_strip, max_vertices = 4) out;
+in vec3 view_position[];
+flat in uint particle_class[];
+uniform mat4 projection;
+uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class
+uniform float pixels_per_unit_slope;  // viewport height / (top - bottom) at depth 1
+uniform float min_radius_pixels;
+out vec2 corner;  // -1..1 across the billboard
+out float view_depth;  // distance along -z in view space
+out float coverage;  // < 1 when a far billboard is drawn larger than it is
+
+void main() {
+    vec3 center = view_position[0];
+    if (center.z > -0.05) {
+        return;  // behind or at the eye
+    }
+    float radius = billboard_radius[min(particle_class[0], uint(CLASS_COUNT - 1))];
+    // A billboard smaller than a few pixels would fall between pixel centres and vanish:
+    // draw it at the minimum size and thin it by the area ratio, keeping its optical depth.
+    float pixels = radius * pixels_per_unit_slope / -center.z;
+    float grow = max(min_radius_pixels / pixels, 1.0);
+    for (int i = 0; i < 4; ++i) {
+        vec2 c = vec2(i & 1, i >> 1) * 2.0 - 1.0;
+        corner = c;
+        view_depth = -center.z;
+        coverage = 1.0 / (grow * grow);
+        gl_Position = projection * vec4(center + vec3(c * radius * grow, 0.0), 1.0);
+        EmitVertex();
+    }
+    EndPrimitive();
+}
+#endif
+
+#if defined FRAGMENT_SHADER
+in vec2 corner;
+in float view_depth;
+in float coverage;
+uniform sampler2D scene_depth;
+uniform vec2 viewport_size;
+uniform float near_plane;
+uniform float far_plane;
+uniform float soft_distance;  // metres over which a particle fades into the scene
+uniform float density_per_particle;
+out vec4 accumulated;  // rgb: density-weighted view-space normal, a: density
+
+float linear_depth(float window_depth) {
+    float ndc = window_depth * 2.0 - 1.0;
+    return 2.0 * near_plane * far_plane / (far_plane + near_plane - ndc * (far_plane - near_plane));
+}
+
+void main() {
+    float r2 = dot(corner, corner);
+    if (r2 > 1.0) {
+        discard;
+    }
+    float scene = linear_depth(texture(scene_depth, gl_FragCoord.xy / viewport_size).r);
+    float soft = clamp((scene - view_depth) / soft_distance, 0.0, 1.0);
+    float density = density_per_particle * coverage * (1.0 - r2) * soft;
+    vec3 normal = vec3(corner, sqrt(1.0 - r2));
+    accumulated = vec4(normal * density, density);
+}
+#endif

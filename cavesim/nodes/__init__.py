@@ -1,0 +1,3 @@
+"""The processes: the master (the clock, the barrier, the vote), the wall node (its GL
+context, step, checksum, pictures), the local launcher and the consistency harness.
+Built on `cavesim.core` and `cavesim.gpu`; the master needs the core alone."""

@@ -1,0 +1,44 @@
+"""A whole cluster on this machine: one node process per wall and the master in this
+process, for `cavesim run`, `cavesim check` and `cavesim bench --cluster` alike.
+
+The master runs here so that a caller can act between frames (the consistency harness
+kills, restarts and forges) and gets the run's `RunRecord` itself; a node process that
+exits while the run needs it ends the run at once with that node's own error line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cavesim.core.wire.network import NetworkConfig
+from cavesim.nodes.launcher import LocalCluster
+from cavesim.nodes.master import MasterConfig, run_master
+from cavesim.nodes.master_link import open_master_link
+from cavesim.nodes.record import RunRecord
+
+
+@dataclass(frozen=True)
+class ClusterPlan:
+    master: MasterConfig  # walls, scene, frames, session, key, timing (network: set here)
+    out: Path  # logs/<wall>.log of the node processes
+    key_file: Path | None = None  # where the nodes read the session's key
+    node_args: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # per wall
+
+
+def run_cluster(plan: ClusterPlan,
+                progress: Callable[[int, int], None] = lambda k, live: None,
+                before_frame: Callable[[LocalCluster, int], None] | None = None) -> RunRecord:
+    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node."""
+    config = plan.master
+    with LocalCluster(config.scene, plan.out, config.session,
+                      key_file=plan.key_file) as cluster:
+        for wall in config.walls:
+            cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
+        config = dataclasses.replace(config, network=NetworkConfig(
+            listen=(cluster.master_endpoint,)))
+        hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
+        with open_master_link(config) as link, cluster.watch(link.events):
+            return run_master(config, link, progress, hook)

@@ -1,0 +1,59 @@
+"""What happens to the master, as typed events: its link to the nodes (and the launcher's
+watch over the node processes) puts them in one queue; the master's loop takes them."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.wire import InfoMessage, ReportMessage, TrackingMessage
+
+
+@dataclass(frozen=True)
+class Reported:
+    """A wall's report of a frame (stepped, resynced or repeated)."""
+
+    report: ReportMessage
+
+
+@dataclass(frozen=True)
+class Described:
+    """A wall's answer to the info query: the GPU it computes on."""
+
+    info: InfoMessage
+
+
+@dataclass(frozen=True)
+class Tracked:
+    """A tracker's latest head and wand."""
+
+    message: TrackingMessage
+
+
+@dataclass(frozen=True)
+class WallUp:
+    wall: str
+
+
+@dataclass(frozen=True)
+class WallDown:
+    wall: str
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A message that failed its checks, and where it came from."""
+
+    error: ProtocolError
+    where: str
+
+
+@dataclass(frozen=True)
+class ProcessEnded:
+    """A node process this machine started has exited while the run needed it."""
+
+    name: str
+    failure: str  # one line: its exit code, its own last error line, its log
+
+
+Event = Reported | Described | Tracked | WallUp | WallDown | Rejected | ProcessEnded

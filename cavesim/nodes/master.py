@@ -1,0 +1,310 @@
+"""The master: owns the clock and the randomness, and holds the cluster in lock-step.
+
+Per frame k: draw the inputs once (the clock's matrix, the tracked or scripted head, the
+scene driver's state), publish them, wait until every member has reported k (the
+barrier: on a timeout, record who is stalled and send the frame again), vote on the
+checksums, resync the odd nodes from a healthy one, admit walls that joined late, log
+the frame. It takes typed events from a link (Zenoh in a real run, memory in the tests)
+and leaves the rules to `cavesim/nodes/lockstep.py`; it needs no GL.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from cavesim.core.clock import Clock
+from cavesim.core.drivers import driver_for
+from cavesim.core.errors import ClusterError
+from cavesim.core.frame import FrameInput
+from cavesim.core.framelog import FrameLogWriter
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.scene import load_scene
+from cavesim.core.wire import Command, ControlMessage, FrameMessage, ReportMessage, TrackingMessage
+from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.rejects import RejectCounter
+from cavesim.core.wire.snapshot import transfer_seconds
+from cavesim.nodes import lockstep
+from cavesim.nodes.events import (
+    Described,
+    Event,
+    ProcessEnded,
+    Rejected,
+    Reported,
+    Tracked,
+    WallDown,
+    WallUp,
+)
+from cavesim.nodes.lockstep import LOSS_POLICIES, Membership, Vote
+from cavesim.nodes.record import Divergence, FinalAgreement, Join, Loss, Resync, RunRecord, Stall
+from cavesim.nodes.script import ScriptedHead
+
+log = logging.getLogger("cavesim.master")
+RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the node's report
+STOP_WAIT = 5.0  # s for the nodes to leave after STOP
+
+
+@dataclass(frozen=True)
+class MasterConfig:
+    walls: tuple[str, ...]
+    scene: Path
+    frames: int
+    session: str = "default"
+    network: NetworkConfig = NetworkConfig()
+    key: bytes | None = None
+    dt: float = 1 / 60
+    clock_seed: int = 0
+    barrier_timeout: float = 2.0
+    join_timeout: float = 60.0
+    on_loss: str = "continue"  # drop a lost node and go on, or "pause" until it is back
+    check_every: int = 1
+    frame_log: Path | None = None
+    realtime: bool = False  # pace frames by the wall clock (see cavesim/core/clock.py)
+    max_frame_time: float = 0.1
+    max_substeps: int = 4
+
+
+class Link(Protocol):
+    """The master's side of the wire (`cavesim/nodes/master_link.py`, or a test's memory)."""
+
+    events: queue.Queue[Event]
+
+    def send(self, message: FrameMessage | ControlMessage) -> None: ...
+
+    def ask_info(self, wall: str) -> None: ...
+
+
+class Master:
+    def __init__(self, config: MasterConfig, link: Link,
+                 before_frame: Callable[[int], None] | None = None) -> None:
+        if config.on_loss not in LOSS_POLICIES:
+            raise ValueError(f"on_loss must be one of {LOSS_POLICIES}, got {config.on_loss!r}")
+        self.config = config
+        self.link = link
+        self.before_frame = before_frame or (lambda k: None)
+        scene = load_scene(config.scene)
+        self.texture_size = scene.random_texture_size
+        self.driver = driver_for(scene)
+        # a resync may take as long as the largest state the scene holds takes to stream
+        self.resync_seconds = transfer_seconds(scene.capacity) + RESYNC_MARGIN
+        self.matrix_rng = np.random.Generator(np.random.PCG64(config.clock_seed))
+        self.reports: dict[int, dict[str, ReportMessage]] = {}  # frame -> wall -> report
+        self.last_sent: dict[str, int] = {}
+        self.last_received: dict[str, int] = {}
+        self.rejects = RejectCounter("master")
+        self.membership = Membership(config.walls)
+        self.clock = Clock(config.dt, config.realtime, config.max_frame_time,
+                           config.max_substeps)
+        self.head = ScriptedHead()
+        self.tracked: TrackingMessage | None = None
+        self.stopping = False
+        self.record = RunRecord(config.walls)
+
+    # -- events ----------------------------------------------------------------------------
+
+    def _pump(self, until: float) -> None:
+        """Handle the next event, waiting for one until the monotonic deadline `until`."""
+        try:
+            event = self.link.events.get(timeout=max(0.0, until - time.monotonic()))
+        except queue.Empty:
+            return
+        self._handle(event)
+
+    def _handle(self, event: Event) -> None:
+        match event:
+            case Reported(report):
+                self.reports.setdefault(report.frame, {})[report.node] = report
+                self.last_received[report.node] = report.frame
+                self.record.node_rejected[report.node] = report.rejected
+            case Described(info):
+                self.record.gpus[info.node] = info.gpu()
+            case Tracked(message):
+                self.tracked = message  # sampled once, when the next frame is made
+            case WallUp(wall):
+                self.membership = self.membership.came_up(wall)
+                self.link.ask_info(wall)  # the answer comes as an event
+            case WallDown(wall) if not self.stopping:
+                self.membership, lost = self.membership.went_down(wall, self.config.on_loss)
+                if lost:
+                    self.record.losses.append(Loss(max(self.last_sent.values(), default=0),
+                                                   wall, "liveliness"))
+                    log.warning("lost node %s", wall)
+            case WallDown(wall):
+                self.membership, _ = self.membership.went_down(wall, self.config.on_loss)
+            case Rejected(error, where):
+                self.rejects.reject(error, where)
+            case ProcessEnded(_, failure) if not self.stopping:
+                raise ClusterError(failure)
+
+    # -- the run ---------------------------------------------------------------------------
+
+    def wait_for_walls(self) -> None:
+        deadline = time.monotonic() + self.config.join_timeout
+        while not self.membership.all_up():
+            if time.monotonic() > deadline:
+                missing = sorted(set(self.config.walls) - self.membership.alive)
+                raise ClusterError(f"walls {missing} did not come up within "
+                                   f"{self.config.join_timeout:g} s (--join-timeout); see "
+                                   f"their logs")
+            self._pump(deadline)
+        self.membership = self.membership.started()
+
+    def run(self, progress: Callable[[int, int], None] = lambda k, live: None) -> RunRecord:
+        log_writer = None
+        if self.config.frame_log is not None:
+            log_writer = FrameLogWriter(self.config.frame_log, {
+                "session": self.config.session, "scene": str(self.config.scene),
+                "walls": list(self.config.walls), "clock_seed": self.config.clock_seed})
+        started = time.monotonic()
+        try:
+            for k in range(1, self.config.frames + 1):
+                self.clock.wait_for_frame()
+                self.before_frame(k)
+                message = self._make_frame(k)
+                self.record.barrier_seconds.append(self._barrier(k, message))
+                vote = self._agree(k)
+                self._admit_joiners(k, vote)
+                if log_writer is not None:
+                    log_writer.append(message, vote.agreed, vote.particles)
+                self.record.frames = k
+                self.record.live_particles.append(vote.particles)
+                progress(k, vote.particles)
+        finally:
+            self.record.seconds = time.monotonic() - started
+            self.record.clock_dropped_seconds = self.clock.dropped_seconds
+            if log_writer is not None:
+                log_writer.close()
+        self._record_final_agreement()
+        return self.record
+
+    def _make_frame(self, k: int) -> FrameMessage:
+        """Frame k's inputs, drawn and sampled once: the clock's matrix, the tracked head
+        (or the script's when no tracker has spoken), and the scene driver's state."""
+        t = k * self.config.dt
+        tracked = self.tracked
+        step = self.driver.advance(t, self.config.dt, tracked.wand if tracked else None)
+        self.record.clamped_inputs += step.clamped
+        if step.flight is not None:
+            self.record.flight.append(step.flight)
+        inputs = FrameInput(self.config.dt, draw_transform(self.matrix_rng, self.texture_size))
+        return FrameMessage(k, inputs, step.wand, self.driver.encode(step.frame),
+                            tracked.head if tracked else self.head.at(t))
+
+    def _record_final_agreement(self) -> None:
+        last = self.record.frames
+        reports = self.reports.get(last, {})
+        members = self.membership.members
+        digests = {n: reports[n].digest for n in members if n in reports}
+        self.record.final = FinalAgreement(last, members,
+                                           set(digests) == set(self.config.walls),
+                                           len(set(digests.values())) == 1)
+
+    def stop(self, wait: float = STOP_WAIT) -> None:
+        """Tell every node to STOP, and wait (on liveliness) until they have left."""
+        self.stopping = True
+        self.link.send(ControlMessage(self.record.frames, Command.STOP))
+        deadline = time.monotonic() + wait
+        while self.membership.alive and time.monotonic() < deadline:
+            self._pump(deadline)
+
+    def _send_frame(self, k: int, message: FrameMessage) -> None:
+        self.link.send(message)
+        for node in self.membership.members:
+            self.last_sent[node] = k
+
+    def _barrier(self, k: int, message: FrameMessage) -> float:
+        """Publish frame k and wait until every member reported it; the seconds it took."""
+        sent = time.monotonic()
+        self._send_frame(k, message)
+        deadline = sent + self.config.barrier_timeout
+        while missing := lockstep.missing(self.membership.members, self.reports.get(k, {})):
+            if time.monotonic() < deadline:
+                self._pump(deadline)
+                continue
+            self.record.stalls.append(Stall(k, {
+                n: (self.last_sent.get(n, 0), self.last_received.get(n, 0)) for n in missing}))
+            log.warning("frame %d: stalled on %s", k, ", ".join(missing))
+            for node, source in lockstep.stall_resyncs(self.membership, self.reports.get(k, {})):
+                self._resync(k, node, source)
+            self._send_frame(k, message)
+            deadline = time.monotonic() + self.config.barrier_timeout
+        if not self.membership.members:
+            raise ClusterError(f"frame {k}: every wall node is gone")
+        return time.monotonic() - sent
+
+    def _agree(self, k: int) -> Vote:
+        """Vote on the members' checksums of frame k and resync the odd ones."""
+        members, reports = self.membership.members, self.reports[k]
+        vote = lockstep.vote(members, reports, compare=k % self.config.check_every == 0)
+        if vote.diverged:
+            self.record.divergences.append(Divergence(
+                k, vote.named, vote.agreed, {n: reports[n].digest for n in members},
+                {n: reports[n].particles for n in members}))
+            log.warning("frame %d: divergence, odd node(s): %s", k, ", ".join(vote.named))
+            for node in vote.odd:
+                self._resync(k, node, vote.source)
+        return vote
+
+    def _resync(self, k: int, node: str, source: str) -> bool:
+        """Have `node` load `source`'s snapshot of frame k; wait for its RESYNCED report."""
+        started = time.monotonic()
+        reports = self.reports.setdefault(k, {})
+        reports.pop(node, None)
+        self.link.send(ControlMessage(k, Command.RESYNC, node, source))
+        deadline = started + self.resync_seconds
+        while time.monotonic() < deadline:
+            ok = lockstep.resync_outcome(reports.get(node), reports[source])
+            if ok is not None:
+                self.record.resyncs.append(Resync(k, node, source, ok,
+                                                  time.monotonic() - started))
+                if ok:
+                    self.membership = self.membership.healed(node)
+                return ok
+            self._pump(deadline)
+        self.record.resyncs.append(Resync(k, node, source, False, time.monotonic() - started))
+        return False
+
+    def _admit_joiners(self, k: int, vote: Vote) -> None:
+        """Walls that are up but not members (late, or back after a loss) enter by resync."""
+        for node in self.membership.joiners():
+            source = lockstep.agreeing_source(self.membership.members, self.reports[k],
+                                              vote.agreed)
+            if self._resync(k, node, source):
+                self.membership = self.membership.admitted(node)
+                self.record.joins.append(Join(k, node))
+
+
+def run_master(config: MasterConfig, link: Link,
+               progress: Callable[[int, int], None] = lambda k, live: None,
+               before_frame: Callable[[int], None] | None = None) -> RunRecord:
+    """Run the cluster for `config.frames` frames over `link` and tell the nodes to stop.
+
+    Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
+    """
+    master = Master(config, link, before_frame)
+    try:
+        master.wait_for_walls()
+        master.run(progress)
+    except KeyboardInterrupt:
+        master.record.interrupted = True
+        log.warning("interrupted at frame %d", master.record.frames)
+    finally:
+        master.stop()
+        master.record.master_rejected = dict(master.rejects.counts)
+    return master.record
+
+
+def main(config: MasterConfig,
+         progress: Callable[[int, int], None] = lambda k, live: None) -> RunRecord:
+    """`cavesim master`: the master as a process of its own, over Zenoh."""
+    from cavesim.nodes.master_link import open_master_link
+
+    with open_master_link(config) as link:
+        return run_master(config, link, progress)

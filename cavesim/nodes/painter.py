@@ -1,0 +1,48 @@
+"""A node's pictures of its wall: rendered from the frame's head pose, saved as PNG.
+
+Drawing happens after the node has reported the frame and only reads the particle
+stream, so it can neither delay the checksum nor change it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import moderngl
+from PIL import Image
+
+from cavesim.core.cave.geometry import load_cave
+from cavesim.core.cave.projection import eye_positions
+from cavesim.core.scene_frame import SceneFrame
+from cavesim.core.wire import FrameMessage
+from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.render.wall_renderer import WallRenderer
+
+
+class WallPainter:
+    def __init__(self, config, ctx: moderngl.Context, system: ParticleSystem) -> None:
+        if config.cave is None or config.images is None:
+            raise ValueError("rendering needs both a CAVE file (--cave) and an image folder "
+                             "(--images)")
+        cave = load_cave(config.cave)
+        if config.wall not in cave.names:
+            raise ValueError(f"wall {config.wall!r} is not in {config.cave}: it has "
+                             f"{', '.join(cave.names)}")
+        self.renderer = WallRenderer(ctx, system, cave.wall(config.wall))
+        self.folder = Path(config.images) / config.wall
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.stereo = config.stereo
+
+    def paint(self, k: int, message: FrameMessage, scene: SceneFrame) -> list[Path]:
+        """Render frame k for each eye; the left (or only) eye is frame_<k>.png."""
+        eyes = eye_positions(message.head.position, message.head.orientation,
+                             stereo=self.stereo)
+        helicopter = scene.helicopter
+        written = []
+        for eye, position in eyes.items():
+            suffix = "_right" if eye == "right" else ""
+            path = self.folder / f"frame_{k:06d}{suffix}.png"
+            Image.fromarray(self.renderer.render(position, helicopter)).save(
+                path, compress_level=1)
+            written.append(path)
+        return written

@@ -1,0 +1,126 @@
+"""Snapshots between wall nodes over zenoh: a state query answered by a stream of replies.
+
+`send_snapshot` answers one `state/<wall>` query with a header and the chunks, reading each
+chunk from the GPU just before sending it; `fetch_snapshot` asks for one and streams the
+chunks straight into the receiver's back particle buffer (`SnapshotLoad`), committing only
+a whole, verified state. Every wait has a deadline (wire/snapshot.py: `transfer_seconds`).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+
+import zenoh
+
+from cavesim.core.errors import ProtocolError, StateError
+from cavesim.core.wire.messages import Message, SnapshotChunk, SnapshotHeader
+from cavesim.core.wire.rejects import RejectCounter
+from cavesim.core.wire.snapshot import (
+    CHUNK_PARTICLES,
+    SnapshotAssembly,
+    chunk_spans,
+    transfer_seconds,
+)
+from cavesim.gpu.engine import ParticleSystem
+
+log = logging.getLogger("cavesim.snapshot")
+REPLY_QUEUE = 4  # replies a receiver holds before zenoh waits for it (back-pressure)
+
+
+class SnapshotLoad:
+    """One snapshot streaming into a ParticleSystem: staged chunk by chunk, committed whole.
+
+    Until `commit` succeeds the system's current state is untouched.
+    """
+
+    def __init__(self, system: ParticleSystem) -> None:
+        self.system = system
+        self.assembly: SnapshotAssembly | None = None
+
+    def feed(self, message: Message) -> None:
+        """Take the next message of the stream: the header first, then chunks in any order."""
+        if self.assembly is None:
+            if not isinstance(message, SnapshotHeader):
+                raise ProtocolError("unexpected", f"a {type(message).__name__} before the "
+                                                  f"snapshot's header")
+            self.assembly = SnapshotAssembly(message, self.system.capacity,
+                                             len(self.system.emitters))
+            self.system.begin_load(message.particles)
+        elif not isinstance(message, SnapshotChunk):
+            raise ProtocolError("unexpected", f"a {type(message).__name__} among the "
+                                              f"snapshot's chunks")
+        else:
+            self.system.write_particle_chunk(self.assembly.place(message), message.data)
+
+    def commit(self) -> SnapshotHeader:
+        """Make the staged state current once every chunk is in and its checksum matches."""
+        if self.assembly is None:
+            raise ProtocolError("missing-chunks", "the snapshot's header never came")
+        self.assembly.check_complete()
+        header = self.assembly.header
+        try:
+            self.system.commit_load(header.emitters, header.seed, header.digest)
+        except StateError as e:
+            raise ProtocolError("bad-digest", str(e)) from e
+        return header
+
+
+def send_snapshot(query: zenoh.Query, key: str, system: ParticleSystem, frame: int,
+                  seal: Callable[[Message], bytes],
+                  chunk_particles: int = CHUNK_PARTICLES) -> None:
+    """Answer `query` with the current state of `system`, frame `frame`, sealed by `seal`.
+
+    A reply waits while the receiver's queue is full (zenoh closes a link blocked past its
+    `wait_before_close`, 5 s by default); past the transfer's deadline the rest is not sent.
+    """
+    live = system.live_count
+    deadline = time.monotonic() + transfer_seconds(live)
+    header = SnapshotHeader(frame, system.scene.seed, live, chunk_particles,
+                            system.checksum().digest, system.read_emitters())
+    try:
+        query.reply(key, seal(header))
+        for index, first, count in chunk_spans(live, chunk_particles):
+            if time.monotonic() > deadline:
+                log.warning("snapshot of frame %d: deadline passed after %d of %d chunks",
+                            frame, index, header.chunks)
+                return
+            data = system.read_particle_chunk(first, count)
+            query.reply(key, seal(SnapshotChunk(frame, index, data)))
+    except zenoh.ZError as e:  # the receiver went away
+        log.warning("snapshot of frame %d: a reply failed: %s", frame, e)
+    finally:
+        query.drop()
+
+
+def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem,
+                   unseal: Callable[[bytes], Message], deadline: float,
+                   rejects: RejectCounter) -> SnapshotHeader | None:
+    """Ask `key` for a snapshot and load it into `system`; its header, or None when nothing
+    was loaded (nobody answered, the deadline passed, or the stream was refused: counted)."""
+    load = SnapshotLoad(system)
+    replies = session.get(
+        key, handler=zenoh.handlers.FifoChannel(REPLY_QUEUE),
+        consolidation=zenoh.ConsolidationMode.NONE,  # the default keeps one reply per key
+        congestion_control=zenoh.CongestionControl.BLOCK,  # so replies wait, never drop
+        timeout=max(deadline - time.monotonic(), 1e-3))
+    for reply in replies:
+        if time.monotonic() > deadline:
+            log.warning("snapshot from %s: deadline passed while streaming", key)
+            return None
+        if reply.ok is None:
+            continue
+        try:
+            load.feed(unseal(reply.ok.payload.to_bytes()))
+        except ProtocolError as e:
+            rejects.reject(e, key)
+            if load.assembly is None:  # no header to assemble against: drop this stream
+                return None
+    if load.assembly is None:
+        return None
+    try:
+        return load.commit()
+    except ProtocolError as e:
+        rejects.reject(e, key)
+        return None

@@ -1,7 +1,0 @@
-"""Pictures of a run: each wall's view, the unfolded-CAVE composite, the run's animation."""
-
-from cavesim.render.animation import write_animation
-from cavesim.render.composite import compose, compose_run
-from cavesim.render.unfold import unfold_layout
-
-__all__ = ["compose", "compose_run", "unfold_layout", "write_animation"]

@@ -1,0 +1,106 @@
+"""What every `cavesim` command shares at its edge: argument types with one-line errors,
+the output folder made before any work, logging, and the network flags."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+from cavesim.core.wire.keys import check_name
+from cavesim.core.wire.network import network_from_arguments, read_key
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+USAGE_ERROR, RUN_ERROR, INTERRUPTED = 2, 1, 130
+CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
+MAX_WALLS = 64
+
+
+class UsageError(Exception):
+    """Bad command-line input; the message is the whole line to print."""
+
+
+def number_in(parse: type, low: float, high: float, what: str):
+    """An argparse type: one number parsed by `parse` in [low, high], named `what`."""
+
+    def check(text: str):
+        try:
+            value = parse(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} in [{low}, {high}], got {text!r}")
+        return value
+
+    return check
+
+
+def count_list(high: int, what: str):
+    """An argparse type: comma-separated whole numbers, each in 1..high."""
+    one = number_in(int, 1, high, what)
+
+    def check(text: str) -> list[int]:
+        try:
+            return [one(part) for part in text.split(",")]
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated {what}, each 1..{high}, got {text!r}") from e
+
+    return check
+
+
+frame_count = number_in(int, 1, 10**9, "a whole number of frames")
+seconds = number_in(float, 1e-3, 3600.0, "seconds")
+wall_count = number_in(int, 1, MAX_WALLS, "a number of walls")
+
+
+def scene_file(text: str) -> Path:
+    """An existing scene file: relative to the current directory, else to the repository."""
+    path = Path(text)
+    for candidate in (path, REPO_ROOT / path):
+        if candidate.is_file():
+            return candidate
+    raise argparse.ArgumentTypeError(
+        f"no scene file {text!r} in the current directory or in {REPO_ROOT}; "
+        f"give the path of a scene .toml file")
+
+
+def wall_list(text: str) -> tuple[str, ...]:
+    """An argparse type: unique comma-separated wall names."""
+    try:
+        walls = tuple(check_name("wall", name) for name in text.split(","))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected comma-separated wall names: {e}") from e
+    if len(set(walls)) != len(walls):
+        raise argparse.ArgumentTypeError(f"wall names must be unique, got {text!r}")
+    return walls
+
+
+def wall_names(count: int) -> tuple[str, ...]:
+    """Names of `count` walls: the CAVE's own names first, then wall7, wall8, ..."""
+    return tuple(CAVE_WALL_NAMES[i] if i < len(CAVE_WALL_NAMES) else f"wall{i + 1}"
+                 for i in range(count))
+
+
+def output_directory(path: Path, command: str, flag: str = "--out") -> Path:
+    """Make the output directory before any work, so a bad one costs no run."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"cavesim {command}: error: argument {flag}: cannot make directory "
+                         f"{str(path)!r}: {e.strerror or e}; give a writable directory") from e
+    return path
+
+
+def network_and_key(args: argparse.Namespace, command: str):
+    """The zenoh settings and the session's key from the network flags (UsageError)."""
+    try:
+        return network_from_arguments(args), read_key(args.key_file)
+    except ValueError as e:
+        raise UsageError(f"cavesim {command}: error: {e}") from e
+
+
+def configure_logging(verbose: bool) -> None:
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, stream=sys.stderr,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")

@@ -1,0 +1,53 @@
+"""The benchmark's workload: a full pool of long-lived particles and the frames that step it.
+
+Everything is drawn from PCG64 seeded by the scene's seed and the size, so two runs of the
+benchmark (and the GPU and numpy paths of one run) step exactly the same particles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cavesim.core.frame import FrameInput
+from cavesim.core.heightfield import HeightGrid
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.records import PARTICLE_DTYPE
+from cavesim.core.scene.model import CollisionKind, Scene
+
+FRAME_DT = 1 / 60  # s
+LIFETIME = 1e6  # s: no particle dies while measured, so every frame moves the full pool
+SPEED_SD = 0.5  # m/s per axis: small random velocities
+CUBE_EDGE = 10.0  # m: where particles start when the scene has no field box
+
+
+def preload(scene: Scene, count: int, ground: HeightGrid | None) -> np.ndarray:
+    """`count` particles (PARTICLE_DTYPE) spread over the field box, else a cube above ground."""
+    rng = np.random.Generator(np.random.PCG64([scene.seed, count]))
+    if scene.field is not None:
+        low = np.array(scene.field.box_min, dtype=np.float64)
+        high = np.array(scene.field.box_max, dtype=np.float64)
+    else:
+        low = np.array([-CUBE_EDGE / 2, -CUBE_EDGE / 2, ground_level(scene, ground)])
+        high = low + CUBE_EDGE
+    records = np.zeros(count, dtype=PARTICLE_DTYPE)
+    records["pos"] = rng.uniform(low, high, size=(count, 3))
+    records["vel"] = rng.normal(0.0, SPEED_SD, size=(count, 3))
+    records["lifetime"] = LIFETIME
+    records["class_id"] = np.arange(count) % max(1, len(scene.particle_classes))
+    return records
+
+
+def ground_level(scene: Scene, ground: HeightGrid | None) -> float:
+    """Height of the scene's ground (the top of a height field), 0 without collision."""
+    if scene.collision is None:
+        return 0.0
+    if scene.collision.kind is CollisionKind.PLANE:
+        return scene.collision.height
+    return float(ground.height.max())
+
+
+def frame_inputs(scene: Scene, count: int) -> list[FrameInput]:
+    """`count` frames at 60 Hz, each with its own random-texture transform."""
+    rng = np.random.Generator(np.random.PCG64([scene.seed, 1]))
+    return [FrameInput(FRAME_DT, draw_transform(rng, scene.random_texture_size))
+            for _ in range(count)]

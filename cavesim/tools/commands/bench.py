@@ -1,0 +1,94 @@
+"""`cavesim bench`: engine throughput, or with --cluster the cost of the lock-step."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from rich.console import Console
+
+from cavesim.core.errors import SceneError
+from cavesim.core.limits import MAX_PARTICLES
+from cavesim.tools.arguments import (
+    MAX_WALLS,
+    UsageError,
+    count_list,
+    frame_count,
+    output_directory,
+    scene_file,
+)
+
+BENCH_SCENE = "config/scenes/bench.toml"
+BENCH_SIZES = "100000,300000,1000000"
+BENCH_FRAMES = 10
+CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
+CLUSTER_FRAMES = 300
+# Parsing stops at the engine's addressing bound; the GL context's own limits are checked
+# before measuring (a CapacityError, exit 1: the same flags may fit another driver).
+particle_counts = count_list(MAX_PARTICLES, "particle counts")
+node_counts = count_list(MAX_WALLS, "node counts")
+
+
+def add(commands) -> None:
+    parser = commands.add_parser(
+        "bench", help="throughput of the GS/TF step against numpy and a compute-shader bound")
+    parser.add_argument("--scene", type=scene_file,
+                        help=f"scene file (default: {BENCH_SCENE}; with --cluster: the "
+                             f"lock-step run's scene, default config/scenes/dust_devil.toml)")
+    parser.add_argument("--sizes", type=particle_counts,
+                        help=f"comma-separated particle counts (default: {BENCH_SIZES})")
+    parser.add_argument("--frames", type=frame_count,
+                        help=f"timed frames per path after 2 warm-up frames (default: "
+                             f"{BENCH_FRAMES}); with --cluster: frames per run "
+                             f"(default: {CLUSTER_FRAMES})")
+    parser.add_argument("--out", type=Path, default=Path("out/bench"),
+                        help="directory for bench.json and bench.md, or cluster.json and "
+                             "cluster.md (default: out/bench)")
+    parser.add_argument("--cluster", action="store_true",
+                        help="lock-step figures instead: barrier round trip with 2, 4 and 8 "
+                             "nodes, and a 4-wall run against four systems back to back")
+    parser.add_argument("--nodes", type=node_counts,
+                        help=f"with --cluster: node counts of the barrier runs "
+                             f"(default: {CLUSTER_NODES})")
+    parser.set_defaults(handler=bench)
+
+
+def _bench_scene(path: Path):
+    from cavesim.core.scene import load_scene
+
+    try:
+        return load_scene(path)
+    except SceneError as e:
+        raise UsageError(f"cavesim bench: error: argument --scene: {e}") from e
+
+
+def bench(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench`: check the scene and the output directory, then `run_bench`
+    (or, with --cluster, `bench_cluster`)."""
+    if args.cluster:
+        return bench_cluster(args, console)
+    if args.nodes is not None:
+        raise UsageError("cavesim bench: error: argument --nodes: only with --cluster")
+    from cavesim.tools.bench import run_bench  # GL loads only for the commands that use it
+
+    scene = _bench_scene(args.scene or scene_file(BENCH_SCENE))
+    output_directory(args.out, "bench")
+    run_bench(scene, args.sizes or particle_counts(BENCH_SIZES), args.frames or BENCH_FRAMES,
+              args.out, console)
+    return 0
+
+
+def bench_cluster(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench --cluster`: check the flags, then `run_cluster_bench`."""
+    from cavesim.tools.bench.cluster import BARRIER_SCENE, LOCKSTEP_SCENE, run_cluster_bench
+
+    if args.sizes is not None:
+        raise UsageError("cavesim bench: error: argument --sizes: not with --cluster "
+                         "(the barrier runs use --nodes)")
+    lockstep_scene = args.scene or scene_file(LOCKSTEP_SCENE)
+    _bench_scene(lockstep_scene)
+    output_directory(args.out, "bench")
+    run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene,
+                      args.nodes or node_counts(CLUSTER_NODES), args.frames or CLUSTER_FRAMES,
+                      args.out, console)
+    return 0

@@ -1,0 +1,70 @@
+"""`cavesim check`: the consistency harness; inject faults, prove each is detected and
+healed."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from rich.progress import Progress
+
+from cavesim.nodes.faults import KINDS
+from cavesim.tools.arguments import (
+    RUN_ERROR,
+    UsageError,
+    configure_logging,
+    frame_count,
+    output_directory,
+    scene_file,
+    seconds,
+    wall_count,
+    wall_names,
+)
+from cavesim.tools.commands.cluster import fault
+
+CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faults show at once
+
+
+def add(commands) -> None:
+    parser = commands.add_parser("check", help="consistency harness: inject faults, prove "
+                                               "each is detected and healed")
+    parser.add_argument("--walls", type=wall_count, default=3)
+    parser.add_argument("--scene", type=scene_file, default=CHECK_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=300)
+    parser.add_argument("--inject", type=fault, action="append", default=[],
+                        metavar="KIND@FRAME[:NODE]",
+                        help=f"{', '.join(KINDS)} (repeatable)")
+    parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
+    parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
+    parser.add_argument("--check-every", type=frame_count, default=1)
+    parser.add_argument("--out", type=Path, default=Path("out/check"))
+    parser.add_argument("--session", default="check")
+    parser.set_defaults(handler=check)
+
+
+def check(args: argparse.Namespace, console) -> int:
+    from cavesim.nodes.check import CheckPlan, run_check
+    from cavesim.tools.reports.check import check_table
+
+    walls = wall_names(args.walls)
+    for f in args.inject:
+        if f.node is not None and f.node not in walls:
+            raise UsageError(f"cavesim check: error: argument --inject: node {f.node!r} of "
+                             f"{f} is not one of the walls {', '.join(walls)}")
+        if f.frame > args.frames:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
+                             f"last frame {args.frames}")
+    output_directory(args.out, "check")
+    configure_logging(False)
+    plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
+                     args.session, args.barrier_timeout, on_loss=args.on_loss,
+                     check_every=args.check_every)
+    with Progress(console=console) as progress:
+        task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
+        report = run_check(plan, lambda k, live: progress.update(task, completed=k))
+    (args.out / "check.json").write_text(json.dumps(report, indent=2) + "\n")
+    console.print(check_table(report))
+    console.print(f"wrote {args.out / 'check.json'}")
+    healthy = report["final"].get("agree") and report["all_detected"] and report["all_healed"]
+    return 0 if healthy and (args.inject or report["divergences"] == 0) else RUN_ERROR

@@ -1,0 +1,127 @@
+"""`cavesim master` and `cavesim node`: one process each, for a cluster of several hosts
+(`deploy/launch.sh`, the systemd unit); flags in, typed configs out."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from cavesim.core.limits import GPU_RANGE
+from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
+from cavesim.core.wire.network import add_network_arguments
+from cavesim.core.wire.snapshot import CHUNK_PARTICLES
+from cavesim.nodes.faults import parse_fault
+from cavesim.tools.arguments import (
+    INTERRUPTED,
+    UsageError,
+    configure_logging,
+    frame_count,
+    network_and_key,
+    number_in,
+    scene_file,
+    seconds,
+    wall_list,
+)
+
+DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
+
+
+def fault(text: str):
+    try:
+        return parse_fault(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
+
+
+def add_master(commands) -> None:
+    parser = commands.add_parser("master", help="the clock, the barrier and divergence handling")
+    parser.add_argument("--walls", type=wall_list, required=True, help="e.g. front,left,floor")
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=600)
+    parser.add_argument("--barrier-timeout", type=seconds, default=2.0)
+    parser.add_argument("--join-timeout", type=seconds, default=60.0)
+    parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
+    parser.add_argument("--check-every", type=frame_count, default=1,
+                        help="compare checksums every K frames (default: every frame)")
+    parser.add_argument("--clock-seed", type=int, default=0)
+    parser.add_argument("--dt", type=number_in(float, 1e-4, 0.1, "seconds"), default=1 / 60,
+                        help="the fixed time step (default 1/60 s)")
+    parser.add_argument("--realtime", action="store_true",
+                        help="pace frames by the wall clock (accumulator, fixed dt)")
+    parser.add_argument("--max-frame-time", type=number_in(float, 1e-3, 10.0, "seconds"),
+                        default=0.1, help="real time: most wall time one tick may count")
+    parser.add_argument("--max-substeps", type=number_in(int, 1, 100, "frames"), default=4,
+                        help="real time: most frames sent back to back to catch up")
+    parser.add_argument("--report", type=Path, help="write the run's JSON report here")
+    parser.add_argument("--frame-log", type=Path, help="record every frame's inputs here")
+    parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
+    parser.add_argument("--verbose", action="store_true")
+    add_network_arguments(parser)
+    parser.set_defaults(handler=master)
+
+
+def master(args: argparse.Namespace, console) -> int:
+    from cavesim.nodes.master import MasterConfig
+    from cavesim.nodes.master import main as run_master
+
+    configure_logging(args.verbose)
+    network, key = network_and_key(args, "master")
+    config = MasterConfig(args.walls, args.scene, args.frames, args.session, network, key,
+                          barrier_timeout=args.barrier_timeout, join_timeout=args.join_timeout,
+                          on_loss=args.on_loss, check_every=args.check_every,
+                          clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
+                          realtime=args.realtime, max_frame_time=args.max_frame_time,
+                          max_substeps=args.max_substeps)
+
+    def progress(k: int, live: int) -> None:
+        if args.progress:
+            print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
+
+    record = run_master(config, progress)
+    if args.report:
+        args.report.parent.mkdir(parents=True, exist_ok=True)
+        args.report.write_text(json.dumps(record.summary(), indent=2) + "\n")
+    return INTERRUPTED if record.interrupted else 0
+
+
+def add_node(commands) -> None:
+    parser = commands.add_parser("node", help="one wall: a GL context stepping in lock-step")
+    parser.add_argument("--wall", type=lambda t: wall_list(t)[0], required=True)
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--inject", type=fault, action="append", default=[],
+                        help="fault to inject into this node, KIND@FRAME (testing)")
+    parser.add_argument("--slow-delay", type=seconds, default=1.5)
+    parser.add_argument("--cave", type=scene_file, help="CAVE geometry (.toml) to draw the wall of")
+    parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
+                        help="draw the wall every K frames (0: never)")
+    parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")
+    parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
+    parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
+                        help="EGL device to compute on (default: device 0; `cavesim doctor` "
+                             "lists them)")
+    parser.add_argument("--snapshot-chunk", type=number_in(int, 1, MAX_CHUNK_PARTICLES,
+                                                           "particles"),
+                        default=CHUNK_PARTICLES,
+                        help=f"particles per reply of a snapshot this node sends "
+                             f"(default: {CHUNK_PARTICLES}, 4 MiB)")
+    parser.add_argument("--verbose", action="store_true")
+    add_network_arguments(parser)
+    parser.set_defaults(handler=node)
+
+
+def node(args: argparse.Namespace, console) -> int:
+    from cavesim.nodes.node import NodeConfig
+    from cavesim.nodes.node import main as run_node
+
+    configure_logging(args.verbose)
+    network, key = network_and_key(args, "node")
+    if args.render_every and (args.cave is None or args.images is None):
+        raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
+                         "and --images too")
+    config = NodeConfig(wall=args.wall, scene=args.scene, session=args.session,
+                        network=network, key=key, faults=tuple(args.inject),
+                        slow_delay=args.slow_delay, cave=args.cave,
+                        render_every=args.render_every, images=args.images,
+                        stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu)
+    return run_node(config)

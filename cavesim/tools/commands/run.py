@@ -1,0 +1,195 @@
+"""`cavesim run`: the master and one node per wall on this machine, with a progress bar.
+
+Each wall computes on the EGL device its plan gives it (`cavesim.nodes.gpus`); the summary names
+the GPU every wall reported. report.json is written once, after the pictures and plots.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from cavesim.core.errors import CaveError, ContextError, SceneError
+from cavesim.core.wire.keys import check_name
+from cavesim.core.wire.network import read_key
+from cavesim.nodes.cluster import ClusterPlan, run_cluster
+from cavesim.nodes.master import MasterConfig
+from cavesim.tools.arguments import (
+    INTERRUPTED,
+    UsageError,
+    frame_count,
+    number_in,
+    output_directory,
+    scene_file,
+    wall_count,
+    wall_names,
+)
+from cavesim.tools.reports.run import demo_table, gpu_table, summary_table
+
+DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
+DEFAULT_CAVE = "config/cave/flex4.toml"
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    walls: tuple[str, ...]
+    scene: Path
+    frames: int
+    out: Path
+    session: str = "run"
+    key_file: Path | None = None
+    cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
+    render_every: int = 0
+    stereo: bool = False
+    gpus: Mapping[str, int] = field(default_factory=dict)  # wall -> EGL device (else default)
+
+    @property
+    def draws(self) -> bool:
+        return self.cave is not None and self.render_every > 0
+
+    def node_args(self, wall: str) -> tuple[str, ...]:
+        """The flags of `wall`'s node beyond the cluster's own: drawing, its GPU."""
+        gpu = ("--gpu", str(self.gpus[wall])) if wall in self.gpus else ()
+        if not self.draws:
+            return gpu
+        return ("--cave", str(self.cave), "--render-every", str(self.render_every),
+                "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()),
+                *gpu)
+
+    def cluster(self) -> ClusterPlan:
+        master = MasterConfig(self.walls, self.scene, self.frames, self.session,
+                              key=read_key(self.key_file), frame_log=self.out / "frames.log")
+        return ClusterPlan(master, self.out, self.key_file,
+                           {wall: self.node_args(wall) for wall in self.walls})
+
+
+def run_walls(plan: RunPlan, console: Console) -> dict:
+    """Run the cluster to the end (or Ctrl-C); write and return report.json's content."""
+    plan.out.mkdir(parents=True, exist_ok=True)
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=False) as progress:
+        task = progress.add_task(f"{len(plan.walls)} walls", total=plan.frames, live=0)
+        record = run_cluster(plan.cluster(), lambda k, live: progress.update(
+            task, completed=k, live=live))
+    if record.interrupted:
+        console.print("[yellow]interrupted: the cluster was stopped")
+    report = record.summary()
+    if plan.draws:
+        report["images"] = assemble_images(plan, console)
+    report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+    report_path = plan.out / "report.json"
+    report_path.write_text(json.dumps(report, indent=2) + "\n")
+    console.print(summary_table(report))
+    console.print(gpu_table(report))
+    if report.get("flight"):
+        console.print(demo_table(report))
+    console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
+    return report
+
+
+def assemble_images(plan: RunPlan, console: Console) -> dict:
+    """Unfolded-CAVE composites of every saved frame, and an animation of the run."""
+    from cavesim.core.cave.geometry import load_cave
+    from cavesim.gpu.render.animation import write_animation
+    from cavesim.gpu.render.composite import compose_run
+
+    composites = compose_run(load_cave(plan.cave), plan.out / "walls",
+                             plan.out / "composites")
+    images = {"walls": str(plan.out / "walls"), "composites": len(composites)}
+    if composites:
+        images["animation"] = str(write_animation(composites, plan.out / "run.gif"))
+        images["last_composite"] = str(composites[-1])
+        console.print(f"wrote {len(composites)} composites and {images['animation']}")
+    return images
+
+
+def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
+    """The brownout demo's plots of a helicopter run (none for other scenes)."""
+    if not report.get("flight"):
+        return []
+    from cavesim.tools.reports.demo import write_demo_plots  # matplotlib: only when there is a plot
+
+    paths = write_demo_plots(report, out)
+    console.print(f"wrote {len(paths)} plots in {out / 'plots'}")
+    return paths
+
+
+def add(commands) -> None:
+    parser = commands.add_parser("run", help="master + one node per wall on this machine")
+    walls = parser.add_mutually_exclusive_group()
+    walls.add_argument("--cave", type=scene_file, default=DEFAULT_CAVE,
+                       help=f"CAVE geometry whose walls are drawn (default: {DEFAULT_CAVE})")
+    walls.add_argument("--walls", type=wall_count, help="N undrawn walls instead of a CAVE")
+    parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
+                        help="each wall writes its picture every K frames (default 10; 0: never)")
+    parser.add_argument("--stereo", action="store_true")
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--frames", type=frame_count,
+                        help="default: the scene's wand timeline to its end, else 600")
+    parser.add_argument("--out", type=Path, default=Path("out"))
+    parser.add_argument("--session", default="run")
+    parser.add_argument("--key-file", type=Path)
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace, console) -> int:
+    try:
+        check_name("session", args.session)
+        read_key(args.key_file)
+    except ValueError as e:
+        raise UsageError(f"cavesim run: error: {e}") from e
+    scene, cave = _checked_files(args)  # before anything is started
+    walls = wall_names(args.walls) if args.walls else cave.names
+    gpus = _gpus(args, walls, cave)
+    output_directory(args.out, "run")
+    frames = args.frames or default_frames(scene)
+    plan = RunPlan(walls, args.scene, frames, args.out, args.session, args.key_file,
+                   cave=None if args.walls else args.cave, render_every=args.render_every,
+                   stereo=args.stereo, gpus=gpus)
+    report = run_walls(plan, console)
+    return INTERRUPTED if report["interrupted"] else 0
+
+
+def default_frames(scene, dt: float = 1 / 60) -> int:
+    """Frames to play a scene's wand timeline to its end (600 without a timeline)."""
+    helicopter = scene.helicopter
+    if helicopter is None or not helicopter.timeline:
+        return 600
+    return round(helicopter.timeline[-1].t / dt)
+
+
+def _checked_files(args: argparse.Namespace):
+    """The run's scene and CAVE (None with --walls), checked before any process starts."""
+    from cavesim.core.cave.geometry import load_cave
+    from cavesim.core.scene import load_scene
+
+    try:
+        scene = load_scene(args.scene)
+    except SceneError as e:
+        raise UsageError(f"cavesim run: error: argument --scene: {e}") from e
+    if args.walls:
+        return scene, None
+    try:
+        return scene, load_cave(args.cave)
+    except CaveError as e:
+        raise UsageError(f"cavesim run: error: argument --cave: {e}") from e
+
+
+def _gpus(args: argparse.Namespace, walls: tuple[str, ...], cave) -> dict[str, int]:
+    """Each wall's EGL device: the CAVE file's `gpu`, else spread over this machine's GPUs."""
+    from cavesim.gpu.gl.devices import list_devices
+    from cavesim.nodes.gpus import spread_walls
+
+    pinned = {} if cave is None else {w.name: w.gpu for w in cave.walls if w.gpu is not None}
+    devices = list_devices()  # no EGL at all: its error says what to install
+    try:
+        return spread_walls(walls, pinned, devices)
+    except ContextError as e:
+        raise UsageError(f"cavesim run: error: argument --cave: {args.cave}: {e}") from e

@@ -1,0 +1,106 @@
+"""`cavesim doctor`'s findings: gathered, judged, written as JSON and shown as tables."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+from importlib import metadata
+from pathlib import Path
+
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from cavesim.core.errors import ContextError
+from cavesim.core.wire.network import NetworkConfig
+from cavesim.gpu.gl.devices import VENDOR_VARIABLE, library_name, list_devices
+from cavesim.tools.doctor.checks import check_windows, check_zenoh
+from cavesim.tools.doctor.probe import LIMITS, probe
+from cavesim.tools.doctor.verdict import Verdict, judge
+
+
+def gather(network: NetworkConfig) -> dict:
+    """Everything the doctor looks at, as JSON-ready values (the verdict comes after)."""
+    egl = {"library": library_name(), "vendor_files": os.environ.get(VENDOR_VARIABLE)}
+    try:
+        listed = list_devices()
+    except ContextError as e:
+        egl.update(problem=e.problem, fix=e.fix)
+        listed = ()
+    return {"cavesim": metadata.version("cavesim"), "python": platform.python_version(),
+            "host": platform.node(), "egl": egl,
+            "devices": [{**device.summary(), **probe(device.index)} for device in listed],
+            "zenoh": check_zenoh(network), "windows": check_windows()}
+
+
+def run_doctor(network: NetworkConfig, out: Path, console: Console) -> Verdict:
+    """Examine this node, write `out` (doctor.json), print the tables; the verdict."""
+    findings = gather(network)
+    verdict = judge(findings)
+    findings["verdict"] = verdict.summary()
+    out.write_text(json.dumps(findings, indent=2) + "\n")
+    if findings["devices"]:
+        console.print(device_table(findings["devices"]))
+    if any(d["opened"] for d in findings["devices"]):
+        console.print(limit_table(findings["devices"]))
+    console.print(node_table(findings))
+    for warning in verdict.warnings:
+        console.print(f"[yellow]warning:[/] {escape(warning)}")
+    if verdict.ok:
+        console.print(f"[green]ok:[/] {escape(verdict.reason)}")
+    else:
+        console.print(f"[red]cannot run cavesim:[/] {escape(verdict.reason)}\n"
+                      f"[red]fix:[/] {escape(verdict.fix)}")
+    console.print(f"wrote {escape(str(out))}")
+    return verdict
+
+
+def device_table(devices: list[dict]) -> Table:
+    table = Table(title="EGL devices")
+    for column in ("device", "kind", "DRM node", "GL renderer", "OpenGL version",
+                   "largest capacity", "checks"):
+        table.add_column(column)
+    for d in devices:
+        checks = "[green]ok" if d["usable"] else f"[red]{escape(d['problem'])}"
+        table.add_row(str(d["index"]), d["kind"], escape(d["render_node"] or d["drm_file"] or "-"),
+                      escape(d.get("renderer", "-")), escape(d.get("version", "-")),
+                      f"{d['largest_capacity']:,}" if d["opened"] else "-", checks)
+    return table
+
+
+def limit_table(devices: list[dict]) -> Table:
+    opened = [d for d in devices if d["opened"]]
+    table = Table(title="GL limits")
+    table.add_column("limit")
+    for d in opened:
+        table.add_column(f"device {d['index']}", justify="right")
+    for name in LIMITS:
+        table.add_row(name, *(escape(_shown(d["limits"][name])) for d in opened))
+    return table
+
+
+def node_table(findings: dict) -> Table:
+    zenoh, windows = findings["zenoh"], findings["windows"]
+    session = f"opened, zid {zenoh['zid']}" if zenoh["opened"] else f"[red]{escape(zenoh['error'])}"
+    reached = ", ".join(zenoh["peers"] + zenoh["routers"]) or "-"
+    window = "can open" if windows["can_open"] else escape(windows["reason"])
+    rows = [("EGL library", escape(str(findings["egl"]["library"]))),
+            ("zenoh-python", zenoh["version"]), ("zenoh mode", zenoh["mode"]),
+            ("listen", escape(", ".join(zenoh["listen"]) or "-")),
+            ("connect", escape(", ".join(zenoh["connect"]) or "-")),
+            ("zenoh session", session), ("peers and routers reached", reached),
+            ("windows (glfw)", window),
+            ("DISPLAY", escape(windows["display"] or "(not set)"))]
+    table = Table(title="node")
+    table.add_column("what")
+    table.add_column("found")
+    for name, value in rows:
+        table.add_row(name, value)
+    return table
+
+
+def _shown(value) -> str:
+    if isinstance(value, list):
+        return " x ".join(f"{v:,}" for v in value)
+    return f"{value:,}" if isinstance(value, int) else str(value)

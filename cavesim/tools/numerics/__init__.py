@@ -1,0 +1,14 @@
+"""Accuracy of the integrators: error against run time on the GPU, with the float64 twin.
+
+`cavesim accuracy` runs every integrator of `METHODS` (the one table of method, order and
+tolerance that the tests read too) over a range of dts in the cases of `cases.py`, and
+writes accuracy.csv, accuracy.md, accuracy.json and work_precision.png.
+"""
+
+from cavesim.tools.numerics.accuracy import AccuracyResult, run_accuracy, run_command
+from cavesim.tools.numerics.cases import DTS, QUICK_DTS, Case, build_cases
+from cavesim.tools.numerics.methods import METHODS, Method
+
+__all__ = ["DTS", "METHODS", "QUICK_DTS", "AccuracyResult", "Case", "Method", "build_cases",
+           "run_accuracy",
+           "run_command"]

@@ -1,0 +1,201 @@
+"""`run_accuracy`: every integrator, every dt, every case - on the GPU, then in float64.
+
+The GPU runs come first and alone, so their step times are not shared with the numpy work;
+the float64 work (twin runs, fine references) then runs in worker processes, one job per
+case and integrator, the references split by particles (which never interact).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+
+import moderngl
+import numpy as np
+from rich.console import Console
+
+from cavesim.core.scene.model import FieldSampling
+from cavesim.gpu.engine.capacity import capacity_limits
+from cavesim.gpu.gl.context import create_context, describe
+from cavesim.tools.numerics.cases import (
+    DTS,
+    FINAL_TIME,
+    PARTICLES,
+    QUICK_DTS,
+    QUICK_PARTICLES,
+    REPORT_DT,
+    Case,
+    build_cases,
+)
+from cavesim.tools.numerics.display import progress_bar, show
+from cavesim.tools.numerics.methods import METHODS
+from cavesim.tools.numerics.reference import (
+    REFINEMENT,
+    Reference,
+    closed_form,
+    concatenate,
+    fine_rk4,
+)
+from cavesim.tools.numerics.report import build_report, write_outputs
+from cavesim.tools.numerics.results import Row, Summary, make_rows, summarize
+from cavesim.tools.numerics.runs import Run, gpu_runs, twin_runs
+
+MAX_WORKERS = 4
+
+
+@dataclass(frozen=True)
+class AccuracyResult:
+    rows: list[Row]
+    summaries: list[Summary]
+    report: dict[str, object]
+    paths: list[Path]
+
+
+def run_command(helicopter_scene: Path, out_dir: Path, console: Console,
+                particles: int | None = None, quick: bool = False,
+                ctx: moderngl.Context | None = None, workers: int | None = None
+                ) -> AccuracyResult:
+    """`cavesim accuracy`: the three cases with `particles` each (default: PARTICLES, or
+    QUICK_PARTICLES with `quick`) over DTS (QUICK_DTS with `quick`).
+
+    Opens (and releases) its own GL context unless one is given; a count the context
+    cannot hold is a CapacityError before any case is built.
+    """
+    count = particles or (QUICK_PARTICLES if quick else PARTICLES)
+    own_context = ctx is None
+    ctx = create_context() if own_context else ctx
+    try:
+        capacity_limits(ctx.info).check(count)
+        return run_accuracy(build_cases(helicopter_scene, count), QUICK_DTS if quick else DTS,
+                            out_dir, console, ctx, workers)
+    finally:
+        if own_context:
+            ctx.release()
+
+
+def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, console: Console,
+                 ctx: moderngl.Context, workers: int | None = None,
+                 final_time: float = FINAL_TIME) -> AccuracyResult:
+    """Measure on `ctx`, print the table, write accuracy.csv/.md/.json and work_precision.png.
+
+    `workers` float64 processes (default: one per CPU; 1 runs them in this process).
+    """
+    if REPORT_DT not in dts:
+        raise ValueError(f"dts must include the report dt {REPORT_DT!r}, got {dts=!r}")
+    uneven = [dt for dt in dts if not math.isclose(final_time / dt, round(final_time / dt))]
+    if uneven:
+        raise ValueError(f"every dt must divide final_time={final_time!r} into whole steps "
+                         f"(the references are carried only a float32 rounding's time to each "
+                         f"run's end), got {uneven=!r}")
+    workers = workers or min(os.cpu_count() or 1, MAX_WORKERS)
+    gl = describe(ctx)
+    jobs = _float64_jobs(cases, dts, final_time, workers)
+    gpu_total = sum(len(dts) * len(METHODS) * (2 if c.filtering else 1) for c in cases)
+    with progress_bar(console) as progress:
+        task = progress.add_task("accuracy", total=gpu_total + len(jobs))
+
+        def tick(what: str) -> None:
+            progress.update(task, advance=1, description=what)
+
+        gpu = _gpu_phase(ctx, cases, dts, final_time, tick)
+        done = _run_jobs(jobs, workers, tick)
+    rows, summaries = _evaluate(cases, gpu, done, final_time)
+    report = build_report(cases, dts, final_time, summaries, gl, workers)
+    show(report, summaries, console)
+    paths = write_outputs(report, rows, summaries, out_dir)
+    for path in paths:
+        console.print(f"wrote {path}", markup=False, highlight=False, soft_wrap=True)
+    return AccuracyResult(rows, summaries, report, paths)
+
+
+def _gpu_phase(ctx: moderngl.Context, cases: list[Case], dts: tuple[float, ...],
+               final_time: float, tick: Callable[[str], None]
+               ) -> dict[tuple[str, str, str], list[Run]]:
+    """GPU runs by (case, integrator, sampling)."""
+    runs = {}
+    for case in cases:
+        samplings = [FieldSampling.MANUAL] + ([FieldSampling.HARDWARE] if case.filtering else [])
+        for method in METHODS:
+            for sampling in samplings:
+                label = f"GPU {case.name} {method.name} ({sampling.value})"
+                runs[case.name, method.name, sampling.value] = gpu_runs(
+                    ctx, case, method.integrator, sampling, dts, final_time,
+                    lambda label=label: tick(label))
+    return runs
+
+
+@dataclass(frozen=True)
+class _Job:
+    key: tuple[str, ...]  # ("twin", case, integrator) or ("reference", case, chunk)
+    function: Callable
+    args: tuple
+
+
+def _float64_jobs(cases: list[Case], dts: tuple[float, ...], final_time: float,
+                  workers: int) -> list[_Job]:
+    """References first, one chunk of particles per worker: they are the longest jobs."""
+    jobs = []
+    step = min(dts) / REFINEMENT
+    for case in cases:
+        if not case.closed_form:
+            bounds = np.linspace(0, len(case.particles), workers + 1).astype(int)
+            jobs += [_Job(("reference", case.name, str(k)), fine_rk4,
+                          (case.subset(slice(a, b)), final_time, step))
+                     for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True))
+                     if b > a]
+    for case in cases:
+        jobs += [_Job(("twin", case.name, m.name), twin_runs,
+                      (case, m.integrator, dts, final_time)) for m in METHODS]
+    return jobs
+
+
+def _run_jobs(jobs: list[_Job], workers: int,
+              tick: Callable[[str], None]) -> dict[tuple[str, ...], object]:
+    def label(job: _Job) -> str:
+        kind, case, what = job.key
+        return f"float64 {case} {what}" if kind == "twin" else f"float64 {case} reference"
+
+    if workers == 1:
+        done = {}
+        for job in jobs:
+            done[job.key] = job.function(*job.args)
+            tick(label(job))
+        return done
+    # spawn, not fork: this process runs llvmpipe's threads, and a forked child keeps none
+    with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
+        futures = {pool.submit(job.function, *job.args): job for job in jobs}
+        done = {}
+        for future in as_completed(futures):
+            job = futures[future]
+            done[job.key] = future.result()
+            tick(label(job))
+        return done
+
+
+def _reference(case: Case, done, final_time: float) -> Reference:
+    if case.closed_form:
+        return closed_form(case, final_time)
+    parts = sorted((int(k[2]), r) for k, r in done.items()
+                   if k[0] == "reference" and k[1] == case.name)
+    return concatenate([r for _, r in parts])
+
+
+def _evaluate(cases: list[Case], gpu: dict, done: dict,
+              final_time: float) -> tuple[list[Row], list[Summary]]:
+    rows, summaries = [], []
+    for case in cases:
+        reference = _reference(case, done, final_time)
+        scale = float(np.sqrt(np.mean(np.sum(reference.pos**2, axis=1))))
+        for method in METHODS:
+            hardware = gpu.get((case.name, method.name, FieldSampling.HARDWARE.value))
+            case_rows = make_rows(case, method, reference,
+                                  gpu[case.name, method.name, FieldSampling.MANUAL.value],
+                                  done["twin", case.name, method.name], hardware, scale)
+            rows += case_rows
+            summaries.append(summarize(case, method, case_rows, REPORT_DT))
+    return rows, summaries

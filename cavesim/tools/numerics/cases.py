@@ -1,0 +1,154 @@
+"""The flows the integrators are measured in, each a scene (built as a dict and checked by
+the real loader), a fixed seeded particle set and the frame parameters of every step.
+
+  uniform   uniform flow + gravity + Stokes drag: a closed-form solution exists
+  vortex    a Lamb-Oseen vortex sampled from its trilinear grid, + gravity
+  downwash  the helicopter scene's rotor downwash under a fixed rotor frame, + gravity
+
+One particle class with tau = 0.5 s; no emitters, no collision, nothing dies before T.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from cavesim.core._toml import read_toml
+from cavesim.core.errors import SceneError
+from cavesim.core.helicopter.rotor import induced_velocity
+from cavesim.core.records import PARTICLE_DTYPE
+from cavesim.core.scene import parse_scene
+from cavesim.core.scene.model import AIR_VISCOSITY, FieldSampling, Integrator, Scene
+from cavesim.core.scene_frame import RotorFrame, SceneFrame
+
+FINAL_TIME = 1.0  # s: a whole number of steps of every dt below
+DTS = tuple(1.0 / (15 * 2**k) for k in range(7))  # 1/15 ... 1/960 s
+QUICK_DTS = DTS[:5]  # 1/15 ... 1/240 s
+REPORT_DT = 1.0 / 60  # the frame rate the table's error and cost columns are read at
+PARTICLES, QUICK_PARTICLES = 20_000, 2_000
+SEED = 2024
+HELICOPTER_SCENE = "config/scenes/brownout.toml"  # the downwash case's default scene
+
+TAU = 0.5  # s, Stokes relaxation time of the probe particles
+DENSITY = 1000.0  # kg/m³
+PROBE = {"name": "probe", "density": DENSITY,
+         "diameter": math.sqrt(18.0 * AIR_VISCOSITY * TAU / DENSITY)}  # tau = rho d² / (18 mu)
+GRAVITY = [0.0, 0.0, -9.81]
+LIFETIME = 1e9  # s: nobody dies
+HUB_HEIGHT = 8.0  # m above the ground, for the downwash case
+TRILINEAR_ORDER_LIMIT = 2  # see Case.order_limit
+
+
+@dataclass(frozen=True, eq=False)
+class Case:
+    name: str
+    description: str
+    data: dict[str, Any]  # the scene as the dict tomllib would give; integrator set per run
+    particles: np.ndarray  # PARTICLE_DTYPE: the fixed start of every run
+    frame: SceneFrame = SceneFrame()  # the scene's state (a rotor), the same every step
+    closed_form: bool = False  # reference: the closed form, else a fine float64 RK4 run
+    smooth: bool = True  # observed orders are held to the table (tests, report verdicts)
+    # The highest order the field lets any method show. A trilinear grid is only Lipschitz:
+    # its gradient jumps at every cell face, a step across a face errs by O(h²) (a quadrature
+    # of a kinked integrand), and a path crosses a fixed number of faces, so the global error
+    # is O(h²) whatever the method's order (RK4 on the analytic vortex shows 4).
+    order_limit: int | None = None
+    filtering: bool = False  # also run with hardware filtering and compare with manual
+    source: Path | None = None  # the scene file, for errors
+
+    def scene(self, integrator: Integrator,
+              sampling: FieldSampling = FieldSampling.MANUAL) -> Scene:
+        data = copy.deepcopy(self.data)
+        data["simulation"]["integrator"] = integrator.value
+        if sampling is not FieldSampling.MANUAL:
+            data["field"]["sampling"] = sampling.value
+        return parse_scene(data, self.source, self.name)
+
+    def subset(self, rows: slice) -> Case:
+        """The same case with only the particles in `rows` (particles never interact)."""
+        return dataclasses.replace(self, particles=self.particles[rows])
+
+
+def _simulation(capacity: int) -> dict[str, Any]:
+    return {"capacity": capacity, "seed": SEED, "integrator": Integrator.RK4.value,
+            "random_texture_size": 64}
+
+
+def _analytic_scene(field: dict[str, Any], capacity: int) -> dict[str, Any]:
+    return {"simulation": _simulation(capacity), "particle_class": [dict(PROBE)],
+            "forces": {"gravity": list(GRAVITY), "drag": {}}, "field": field}
+
+
+def particle_set(positions: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Probe particles at `positions` (N, 3) with standard-normal velocities, never dying."""
+    records = np.zeros(len(positions), dtype=PARTICLE_DTYPE)
+    records["pos"] = positions
+    records["vel"] = rng.normal(0.0, 1.0, size=(len(positions), 3))
+    records["lifetime"] = LIFETIME
+    return records
+
+
+def _box_particles(count: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return particle_set(rng.uniform((-3.0, -3.0, 0.5), (3.0, 3.0, 3.5), (count, 3)), rng)
+
+
+def uniform_case(count: int) -> Case:
+    # a constant is trilinear-interpolated exactly, and "clamp" keeps it constant outside
+    field = {"kind": "uniform", "box_min": [-100.0, -100.0, -100.0],
+             "box_max": [100.0, 100.0, 100.0], "resolution": [2, 2, 2], "out_of_domain": "clamp",
+             "params": {"velocity": [3.0, -1.0, 0.5]}}
+    return Case("uniform", "uniform flow (3, -1, 0.5) m/s + gravity + drag: closed form",
+                _analytic_scene(field, count), _box_particles(count, SEED), closed_form=True)
+
+
+def vortex_case(count: int) -> Case:
+    # 0.5 m cells in x and y; the flow does not vary in z, so two nodes span z exactly
+    field = {"kind": "vortex", "box_min": [-6.0, -6.0, -10.0], "box_max": [6.0, 6.0, 10.0],
+             "resolution": [25, 25, 2], "out_of_domain": "clamp",
+             "params": {"center": [0.3, -0.2], "circulation": 20.0, "core_radius": 1.0,
+                        "axial_speed": 0.5}}
+    return Case("vortex", "Lamb-Oseen vortex (circulation 20 m²/s, core 1 m) on a 25x25x2 "
+                "grid + gravity + drag", _analytic_scene(field, count),
+                _box_particles(count, SEED + 1), order_limit=TRILINEAR_ORDER_LIMIT,
+                filtering=True)
+
+
+def downwash_case(helicopter_scene: Path, count: int) -> Case:
+    """The scene file's rotor downwash (its helicopter, forces and field), without its
+    emitters and ground, under a fixed rotor HUB_HEIGHT above the ground at full speed."""
+    data = read_toml(helicopter_scene, SceneError, "scene file")
+    if "helicopter" not in data or data.get("field", {}).get("kind") != "rotor":
+        raise SceneError(f"{helicopter_scene}: the downwash case needs a helicopter scene with "
+                         f"field.kind = 'rotor', got helicopter "
+                         f"{'present' if 'helicopter' in data else 'missing'} and field.kind = "
+                         f"{data.get('field', {}).get('kind')!r}")
+    data = {key: value for key, value in data.items() if key not in ("emitter", "collision")}
+    data["simulation"] = _simulation(count)
+    data["particle_class"] = [dict(PROBE)]
+    scene = parse_scene(data, helicopter_scene)
+    helicopter = scene.helicopter
+    rotor = RotorFrame(hub=(0.0, 0.0, HUB_HEIGHT),
+                       induced_velocity=induced_velocity(helicopter, 1.0, HUB_HEIGHT),
+                       rotor_speed=1.0, emission_factors=())
+    # the wake and the wall jet: 0.5 R to 2.5 R from the rotor axis, 1 m to 6 m up
+    rng = np.random.default_rng(SEED + 2)
+    radius = helicopter.rotor_radius * rng.uniform(0.5, 2.5, count)
+    angle = rng.uniform(0.0, 2 * np.pi, count)
+    positions = np.stack([radius * np.cos(angle), radius * np.sin(angle),
+                          rng.uniform(1.0, 6.0, count)], axis=1)
+    return Case("downwash", f"rotor downwash of {scene.name} (hub {HUB_HEIGHT:g} m up, "
+                f"v_i {rotor.induced_velocity:.2f} m/s) + gravity + drag; no ground",
+                data, particle_set(positions, rng), SceneFrame(rotor=rotor), smooth=False,
+                source=helicopter_scene)
+
+
+def build_cases(helicopter_scene: Path, count: int) -> list[Case]:
+    """The three cases with `count` particles each."""
+    return [uniform_case(count), vortex_case(count), downwash_case(helicopter_scene, count)]

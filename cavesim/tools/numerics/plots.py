@@ -1,0 +1,41 @@
+"""work_precision.png: GPU RMS error against GPU run time to T, log-log, one panel per case."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # headless: no display, no GUI event loop
+import matplotlib.pyplot as plt  # noqa: E402  (must follow the backend choice)
+
+from cavesim.tools.numerics.methods import METHODS  # noqa: E402
+from cavesim.tools.numerics.results import Row  # noqa: E402
+
+FLOOR = 1e-16  # m: where an error of 0 is drawn on the log axis
+
+
+def work_precision(rows: list[Row], cases: list[str], path: Path) -> None:
+    figure, axes = plt.subplots(1, len(cases), figsize=(5.2 * len(cases), 4.6), squeeze=False)
+    for ax, case in zip(axes[0], cases, strict=True):
+        for method in METHODS:
+            line = sorted((r for r in rows if r.case == case and r.integrator == method.name),
+                          key=lambda r: -r.dt)
+            if not line:
+                continue
+            x = [r.gpu_run_s for r in line]
+            y = [max(r.gpu_rms, FLOOR) for r in line]
+            ax.loglog(x, y, marker="o", markersize=3, linewidth=1.2, label=method.name)
+            for r, xi, yi in ((line[0], x[0], y[0]), (line[-1], x[-1], y[-1])):
+                ax.annotate(r.dt_label, (xi, yi), fontsize=6, textcoords="offset points",
+                            xytext=(3, 3))
+        ax.set_title(case)
+        ax.set_xlabel("GPU run time to T (s)")
+        ax.grid(True, which="major", linewidth=0.4, alpha=0.5)
+    axes[0][0].set_ylabel("GPU RMS position error (m)")
+    axes[0][-1].legend(fontsize=7, loc="best")
+    figure.suptitle("work-precision: dt from 1/15 s (left) halving to the finest (right)",
+                    fontsize=9)
+    figure.tight_layout()
+    figure.savefig(path, dpi=130)
+    plt.close(figure)

@@ -1,0 +1,53 @@
+"""`cavesim run`'s closing tables: the run's figures, each wall's GPU, the demo's peaks."""
+
+from __future__ import annotations
+
+from rich.table import Table
+
+
+def summary_table(report: dict) -> Table:
+    rows = [
+        ("frames", report["frames"]),
+        ("walls", ", ".join(report["nodes"])),
+        ("frames per second", report["frames_per_second"]),
+        ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
+        ("live particles (last / max)",
+         f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
+        ("divergences", len(report["divergences"])),
+        ("resyncs", len(report["resyncs"])),
+        ("stalls", len(report["stalls"])),
+        ("rejected messages", sum(report["rejected_messages"]["master"].values())
+         + sum(report["rejected_messages"]["nodes"].values())),
+    ]
+    return _table("cavesim run", rows)
+
+
+def gpu_table(report: dict) -> Table:
+    """What each wall computed on, as its node told the master."""
+    table = Table(title="GPUs")
+    for column in ("wall", "EGL device", "renderer", "OpenGL version (driver)"):
+        table.add_column(column)
+    for wall in report["nodes"]:
+        gpu = report["gpus"].get(wall)
+        if gpu is None:
+            table.add_row(wall, "?", "did not answer the info query", "")
+        else:
+            table.add_row(wall, f"{gpu['device']} ({gpu['kind']})", gpu["renderer"],
+                          gpu["version"])
+    return table
+
+
+def demo_table(report: dict) -> Table:
+    """The helicopter's figures: peaks of the dust, the altitude they came at."""
+    from cavesim.tools.reports.demo import demo_summary
+
+    return _table("brownout demo", demo_summary(report))
+
+
+def _table(title: str, rows) -> Table:
+    table = Table(title=title)
+    table.add_column("figure")
+    table.add_column("value", justify="right")
+    for name, value in rows:
+        table.add_row(name, str(value))
+    return table
