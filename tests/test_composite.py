@@ -14,18 +14,9 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from cavesim.core.cave.geometry import Cave, Wall
 from cavesim.gpu.render import compose, compose_run, unfold_layout, write_animation
 from cavesim.gpu.render.animation import MAX_WIDTH_PX
-
-try:
-    from cavesim.core.cave.geometry import Cave, Wall
-except ImportError as e:  # another change adds the module; the layout tests need its Wall
-    Cave = Wall = None
-    GEOMETRY_MISSING = f"cavesim.core.cave.geometry is not importable yet: {e}"
-else:
-    GEOMETRY_MISSING = ""
-
-needs_geometry = pytest.mark.skipif(Wall is None, reason=GEOMETRY_MISSING or "-")
 
 PPM = 16  # pixels per metre of every test wall: small pictures, whole-pixel edges
 
@@ -121,7 +112,6 @@ def joins(rs):
     return out
 
 
-@needs_geometry
 @pytest.mark.parametrize("kind", CAVES)
 def test_layout_is_a_cross_around_the_front(kind):
     cave = CAVES[kind]()
@@ -145,7 +135,6 @@ def test_layout_is_a_cross_around_the_front(kind):
     assert image.size == (max(r[2] for r in rs.values()), max(r[3] for r in rs.values()))
 
 
-@needs_geometry
 @pytest.mark.parametrize("kind", CAVES)
 def test_room_points_continue_across_every_join(kind):
     cave = CAVES[kind]()
@@ -163,13 +152,11 @@ def test_room_points_continue_across_every_join(kind):
     assert found >= {j for j in expected if j <= set(cave.names)}
 
 
-@needs_geometry
 def test_a_turned_wall_is_turned_back():
     assert unfold_layout(room(sides=6, turns=1))["floor"][2] % 4 != 0
     assert {t for _, _, t in unfold_layout(room(sides=6)).values()} == {0}
 
 
-@needs_geometry
 def test_a_power_wall_is_itself():
     cave = power_wall()
     assert unfold_layout(cave) == {"front": (0, 0, 0)}
@@ -177,7 +164,6 @@ def test_a_power_wall_is_itself():
     assert np.array_equal(np.asarray(compose(cave, {"front": picture})), picture)
 
 
-@needs_geometry
 def test_compose_resizes_and_leaves_missing_walls_background():
     cave = room(sides=4)
     rs = rects(cave)
@@ -201,7 +187,6 @@ def write_frames(cave, walls_dir: Path, frames: dict[str, list[int]]) -> None:
             Image.fromarray(shade).save(walls_dir / w.name / f"frame_{n:06d}.png")
 
 
-@needs_geometry
 def test_compose_run_writes_only_frames_every_wall_has(tmp_path, caplog):
     cave = room(sides=4)
     frames = {w.name: [0, 1, 2, 3] for w in cave.walls}
@@ -219,7 +204,6 @@ def test_compose_run_writes_only_frames_every_wall_has(tmp_path, caplog):
         assert im.getpixel((x0, y0)) == (120, 120, 120)
 
 
-@needs_geometry
 def test_compose_run_needs_the_walls_dir(tmp_path):
     with pytest.raises(FileNotFoundError, match="walls_dir"):
         compose_run(room(sides=4), tmp_path / "nowhere", tmp_path / "out")
@@ -259,7 +243,6 @@ def test_write_animation_rejects_bad_input(tmp_path):
 
 
 def test_mp4_without_imageio_ffmpeg_says_what_to_do(tmp_path):
-    pytest.importorskip("imageio")
     try:
         import imageio_ffmpeg  # noqa: F401
     except ImportError:

@@ -4,11 +4,23 @@ import re
 from pathlib import Path
 
 import moderngl
+import numpy as np
+import pytest
 from scenes import FOUNTAIN, make_scene
 
+from cavesim.core.errors import ShaderError
 from cavesim.core.scene import load_scene
 from cavesim.gpu.engine import ParticleSystem
-from cavesim.gpu.engine.programs import PARTICLE_UPDATE, physics_defines
+from cavesim.gpu.engine.programs import (
+    COLLISION_IDS,
+    INTEGRATOR_IDS,
+    OUT_OF_DOMAIN_IDS,
+    PARTICLE_UPDATE,
+    SAMPLING_IDS,
+    physics_defines,
+)
+from cavesim.gpu.engine.uniforms import write_uniforms
+from cavesim.gpu.shader_source import SHADER_ROOT
 
 SCENES = Path(__file__).parents[1] / "config" / "scenes"
 FEATURE_CODE = {  # what each feature puts in the compiled particle pass
@@ -108,3 +120,23 @@ def test_drag_and_ground_allocate_their_textures(ctx, tmp_path):
         "kind": "plane", "friction": 0.1, "resilience": 0.5}))
     assert {"flow_field", "random_texture"} <= set(system.resources)
     assert {"flow_field", "inv_tau", "friction", "ground_z"} <= uniforms(system.particle_program)
+
+
+def test_a_uniform_the_source_never_declares_is_an_error_not_skipped(ctx):
+    system = ParticleSystem(ctx, load_scene(SCENES / "minimal.toml"))
+    program = system.particle_program
+    assert "inv_tau" in program.extra["declared"] and "inv_tau" not in program  # dropped
+    write_uniforms(program, {"inv_tau": np.zeros(1, np.float32)})  # skipped, like a feature off
+    with pytest.raises(ShaderError, match=r"particles/update.glsl declares no uniform gravty"):
+        write_uniforms(program, {"gravty": np.zeros(3, np.float32)})
+
+
+@pytest.mark.parametrize(("prefix", "ids"), [
+    ("INTEGRATOR_", INTEGRATOR_IDS), ("COLLISION_", COLLISION_IDS),
+    ("OUT_OF_DOMAIN_", OUT_OF_DOMAIN_IDS), ("SAMPLING_", SAMPLING_IDS)])
+def test_feature_ids_are_the_same_on_both_sides(prefix, ids):
+    physics = (SHADER_ROOT / "include" / "physics.glsl").read_text()
+    glsl = {name: int(value) for name, value
+            in re.findall(rf"#define {prefix}(\w+) (\d+)", physics)}
+    python = {("NONE" if key is None else key.name): value for key, value in ids.items()}
+    assert glsl == python

@@ -1,4 +1,4 @@
-"""The ground as a height field: the surface particles collide with (and, later, the terrain drawn).
+"""The ground as a height field: the surface particles collide with and the walls draw.
 
 Data flow: a scene's `Collision` of kind HEIGHTFIELD names an .npz file; `load_heightfield`
 checks it at the door and gives a `HeightGrid`; the GL engine uploads

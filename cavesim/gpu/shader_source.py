@@ -28,6 +28,7 @@ MAX_INCLUDE_DEPTH = 8
 
 Defines = Mapping[str, int | float | bool]
 _NAME = re.compile(r"[A-Z][A-Z0-9_]*")
+_UNIFORM = re.compile(r"^\s*uniform\s+\w+\s+(\w+)", re.M)
 _INT32_RANGE = range(-(2**31), 2**31)
 _FLOAT32_MAX = 3.4028234663852886e38
 _INCLUDE = re.compile(r'\s*#\s*include\s+"([^"]+)"\s*')
@@ -127,12 +128,13 @@ def build_program(
     sources = {stage: assemble(name, stage, defines, allowed, root) for stage in stages}
     try:
         if "compute" in sources:
-            return ctx.compute_shader(sources["compute"].text)
-        return ctx.program(
-            **{f"{stage}_shader": source.text for stage, source in sources.items()},
-            varyings=varyings,
-            varyings_capture_mode=varyings_capture_mode,
-        )
+            program = ctx.compute_shader(sources["compute"].text)
+        else:
+            program = ctx.program(
+                **{f"{stage}_shader": source.text for stage, source in sources.items()},
+                varyings=varyings,
+                varyings_capture_mode=varyings_capture_mode,
+            )
     except moderngl.Error as e:
         log = str(e)
         # moderngl titles a compile log with e.g. "fragment_shader"; a link log with "Program".
@@ -140,6 +142,10 @@ def build_program(
         stage = failed[1] if failed else "link"
         explained = sources[stage].explain(log) if failed else log
         raise ShaderError(f"{name} ({stage} stage): {explained.strip()}") from e
+    # the uniforms its source declares (the compiler may drop unused ones from `program`)
+    program.extra = {"name": name, "declared": {
+        match[1] for source in sources.values() for match in _UNIFORM.finditer(source.text)}}
+    return program
 
 
 def _define_lines(defines: Defines, allowed: Collection[str]) -> list[str]:

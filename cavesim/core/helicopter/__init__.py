@@ -1,2 +1,3 @@
 """The brownout demo's helicopter: rotor momentum theory, its downwash, saltation under
-it, and the wand-driven flight that the master turns into each frame's parameters."""
+it, the wand-driven flight the helicopter scene driver advances on the master, and what a
+frame's rotor gives the engine and the twin (`inputs`)."""

@@ -26,7 +26,12 @@ from cavesim.core.scene.model import (
 )
 from cavesim.gpu.shader_source import ProgramSpec
 
-INTEGRATOR_IDS = {integrator: i for i, integrator in enumerate(Integrator)}
+# Feature ids as the shaders spell them (#define INTEGRATOR_RK4 5 ... in
+# shaders/include/physics.glsl); tests/test_features.py holds the two sides together.
+INTEGRATOR_IDS = {
+    Integrator.EXPLICIT_EULER: 0, Integrator.SEMI_IMPLICIT_EULER: 1, Integrator.TRAPEZOID: 2,
+    Integrator.VERLET: 3, Integrator.RK2: 4, Integrator.RK4: 5, Integrator.EXPONENTIAL: 6,
+}
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}

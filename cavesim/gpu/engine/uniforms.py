@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import moderngl
 import numpy as np
 
+from cavesim.core.errors import ShaderError
 from cavesim.core.fields import FieldGrid
 from cavesim.core.heightfield import HeightGrid
 from cavesim.core.helicopter.flight import ground_height
@@ -59,11 +60,16 @@ def index_scale(box_min, box_max, resolution) -> np.ndarray:
 
 
 def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> None:
-    """Write each value's exact bytes to the uniform of that name the program uses.
+    """Write each value's exact bytes to the uniform of that name in the program.
 
-    A name the compiler optimized out of this program (the emitter programs share one
-    table) is skipped; dtype decides the bits, so float32 and uint32 go up untouched.
+    A uniform its source declares but the compiler dropped (unused in this combination of
+    features) is skipped; a name its source never declares is a ShaderError (a typo, or
+    host and shader out of step). dtype decides the bits: float32 and uint32 go up as is.
     """
+    unknown = sorted(set(values) - program.extra["declared"])
+    if unknown:
+        raise ShaderError(f"{program.extra['name']} declares no uniform {', '.join(unknown)}; "
+                          f"it declares {', '.join(sorted(program.extra['declared']))}")
     for name, value in values.items():
         if name in program:
             program[name].write(np.ascontiguousarray(value).tobytes())

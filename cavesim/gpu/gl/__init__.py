@@ -1,1 +1,2 @@
-"""OpenGL plumbing shared by the engine and, later, the renderer."""
+"""OpenGL plumbing: the context, the EGL devices and what the driver offers (its filter
+precision, its limits), shared by the engine, the renderer and `cavesim doctor`."""

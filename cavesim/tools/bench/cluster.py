@@ -39,9 +39,7 @@ from cavesim.tools.reports.cluster import show, write_reports
 
 BARRIER_SCENE = "config/scenes/minimal.toml"  # a few hundred to 2,000 live particles
 LOCKSTEP_SCENE = "config/scenes/dust_devil.toml"
-NODE_COUNTS = (2, 4, 8)
 LOCKSTEP_WALLS = 4
-FRAMES = 300
 FRAME_DT = 1 / 60  # the master's dt and clock seed: back to back steps the cluster's frames
 CLOCK_SEED = 0
 

@@ -43,4 +43,3 @@ METHODS: tuple[Method, ...] = tuple(
            frozenset({"uniform"}) if i is Integrator.EXPONENTIAL else frozenset())
     for i in Integrator)
 
-METHOD_BY_NAME = {m.name: m for m in METHODS}

@@ -1,0 +1,133 @@
+"""The layers point one way: core -> gpu -> nodes -> tools, and nothing imports in a circle.
+
+Read from the source (every `import` and `from ... import`, at module level or inside a
+function), so a late import cannot hide an upward edge; and run: the core, the wire and
+the master's whole loop work in a process where moderngl cannot be imported.
+"""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1]
+PACKAGE = ROOT / "cavesim"
+LAYERS = ("core", "gpu", "nodes", "tools")  # each may import only those before it
+ENTRY_POINTS = {"cavesim.__main__"}  # `python -m cavesim`: the command line itself
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imports(path: Path) -> set[str]:
+    """The cavesim modules `path` imports: `from package import name` counts the module
+    `package.name` where there is one, else the package."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name.startswith("cavesim")}
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
+                and node.module.startswith("cavesim"):
+            names = {f"{node.module}.{a.name}" for a in node.names}
+            found |= (names & MODULES.keys()) or {node.module}
+            if names - MODULES.keys():
+                found.add(node.module)
+    return found
+
+
+MODULES = {module_name(p): p for p in PACKAGE.rglob("*.py")}
+GRAPH = {name: imports(path) & set(MODULES) for name, path in MODULES.items()}
+
+
+def layer(module: str) -> int | None:
+    parts = module.split(".")
+    return LAYERS.index(parts[1]) if len(parts) > 1 and parts[1] in LAYERS else None
+
+
+def test_every_module_lives_in_a_layer():
+    outside = sorted(m for m in MODULES if layer(m) is None
+                     and m not in ENTRY_POINTS and m != "cavesim")
+    assert outside == []
+
+
+def test_no_import_points_up_a_layer():
+    upward = sorted(f"{m} -> {target}" for m, targets in GRAPH.items() for target in targets
+                    if layer(m) is not None and layer(target) is not None
+                    and layer(target) > layer(m))
+    assert upward == []
+
+
+def test_the_package_root_imports_nothing():
+    assert GRAPH["cavesim"] == set()  # `import cavesim` loads no GL and no process
+
+
+def test_no_modules_import_each_other_in_a_circle():
+    cycles = _cycles(GRAPH)
+    assert cycles == [], "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_a_circle_would_be_found():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components of more than one module (Tarjan), each sorted."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+BLOCKED_GL = """
+import importlib, pkgutil, sys
+sys.modules["moderngl"] = None  # `import moderngl` raises ImportError from here on
+sys.path.insert(0, "tests")
+import cavesim.core
+for module in pkgutil.walk_packages(cavesim.core.__path__, "cavesim.core."):
+    importlib.import_module(module.name)
+from memory_walls import MemoryLink
+from cavesim.nodes.master import MasterConfig, run_master
+link = MemoryLink(("front", "left", "right"))
+link.walls["left"].flip_at.add(5)
+record = run_master(MasterConfig(("front", "left", "right"),
+                                 "config/scenes/brownout.toml", 20, "nogl"), link)
+assert record.frames == 20 and record.final.agree, record.summary()
+assert [d.nodes for d in record.divergences] == [("left",)]
+assert len(record.flight) == 20  # the helicopter's driver ran on the master
+assert "moderngl" not in {m for m in sys.modules if sys.modules[m] is not None}
+print("ok")
+"""
+
+
+@pytest.mark.slow
+def test_core_wire_and_master_run_where_moderngl_cannot_be_imported():
+    done = subprocess.run([sys.executable, "-c", BLOCKED_GL], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
