@@ -3,13 +3,16 @@ process, for `cavesim run`, `cavesim check` and `cavesim bench --cluster` alike.
 
 The master runs here so that a caller can act between frames (the consistency harness
 kills, restarts and forges) and gets the run's `RunRecord` itself; a node process that
-exits while the run needs it ends the run at once with that node's own error line.
+exits while the run needs it ends the run at once with that node's own error line. The
+master logs into OUT/logs/master.log beside the nodes' logs, not onto the terminal.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Mapping
+import logging
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,5 +43,26 @@ def run_cluster(plan: ClusterPlan,
         config = dataclasses.replace(config, network=NetworkConfig(
             listen=(cluster.master_endpoint,)))
         hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
-        with open_master_link(config) as link, cluster.watch(link.events):
+        with _master_log(cluster.log_path("master")), open_master_link(config) as link, \
+                cluster.watch(link.events):
             return run_master(config, link, progress, hook)
+
+
+@contextmanager
+def _master_log(path: Path) -> Iterator[None]:
+    """cavesim's log records of this process go to `path` (INFO and up), not the terminal."""
+    logger = logging.getLogger("cavesim")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handler = logging.FileHandler(path)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
+    saved = logger.level, logger.propagate
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        handler.close()
+        logger.setLevel(saved[0])
+        logger.propagate = saved[1]

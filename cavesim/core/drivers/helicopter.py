@@ -26,7 +26,7 @@ from cavesim.core.scene.model import Scene
 from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame, float32
 from cavesim.core.wire.messages import WandState
 
-log = logging.getLogger("cavesim.core.helicopter")
+log = logging.getLogger("cavesim.helicopter")
 FIXED_PARAMS = 7  # hub (3), yaw, rotor angle, induced velocity, rotor speed; then factors
 
 

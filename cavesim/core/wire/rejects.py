@@ -7,7 +7,7 @@ from collections import Counter
 
 from cavesim.core.errors import ProtocolError
 
-log = logging.getLogger("cavesim.core.wire")
+log = logging.getLogger("cavesim.wire")
 
 
 class RejectCounter:
