@@ -21,9 +21,11 @@ from cavesim.core.wire.messages import (
     MAX_TEXT,
     Command,
     ControlMessage,
+    DisplayMessage,
     FrameMessage,
     HeadState,
     InfoMessage,
+    Phase,
     ReportMessage,
     SnapshotChunk,
     SnapshotHeader,
@@ -93,13 +95,16 @@ tracking_messages = st.builds(TrackingMessage, frame_numbers, heads, wands)
 
 texts = st.text(st.characters(min_codepoint=0x20, max_codepoint=0x7E), max_size=MAX_TEXT)
 info_messages = st.builds(InfoMessage, frame_numbers, names, st.integers(0, 2**16 - 1),
-                          st.booleans(), texts, texts, texts)
+                          st.booleans(), texts, texts, texts, st.booleans())
+
+display_messages = st.builds(DisplayMessage, frame_numbers, names, st.sampled_from(Phase),
+                             st.integers(0, U64))
 
 
 def messages() -> st.SearchStrategy:
     """Any valid message of any kind."""
     return st.one_of(frame_messages, report_messages, control_messages, snapshot_messages,
-                     tracking_messages, info_messages)
+                     tracking_messages, info_messages, display_messages)
 
 
 MUTATIONS = ("flip", "insert", "delete", "truncate")

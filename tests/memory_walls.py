@@ -10,11 +10,19 @@ from __future__ import annotations
 
 import hashlib
 import queue
+import time
 from dataclasses import dataclass, field
 
-from cavesim.core.wire import Command, ControlMessage, FrameMessage, InfoMessage, ReportMessage
-from cavesim.core.wire.messages import Status
-from cavesim.nodes.events import Described, Reported, WallDown, WallUp
+from cavesim.core.wire import (
+    Command,
+    ControlMessage,
+    DisplayMessage,
+    FrameMessage,
+    InfoMessage,
+    ReportMessage,
+)
+from cavesim.core.wire.messages import Phase, Status
+from cavesim.nodes.events import Described, Displayed, Reported, WallDown, WallUp
 
 START = "0" * 32
 
@@ -27,12 +35,17 @@ class MemoryWall:
     up: bool = True
     flip_at: set[int] = field(default_factory=set)  # frames after which its state is wrong
     drop_once: set[int] = field(default_factory=set)  # frames it misses the first time
+    displays: bool = False  # a swap-locked window: DRAWN after its report, SWAPPED on SWAP
+    draws_late: set[int] = field(default_factory=set)  # frames whose DRAWN never comes
+    swaps: list[tuple[int, int]] = field(default_factory=list)  # (frame, time_ns)
 
 
 class MemoryLink:
-    def __init__(self, walls: tuple[str, ...], late: tuple[str, ...] = ()) -> None:
+    def __init__(self, walls: tuple[str, ...], late: tuple[str, ...] = (),
+                 displaying: tuple[str, ...] = ()) -> None:
         self.events: queue.Queue = queue.Queue()
-        self.walls = {name: MemoryWall(name, up=name not in late) for name in walls}
+        self.walls = {name: MemoryWall(name, up=name not in late, displays=name in displaying)
+                      for name in walls}
         self.sent: list = []
         for wall in self.walls.values():
             if wall.up:
@@ -47,12 +60,18 @@ class MemoryLink:
             target, source = self.walls[message.target], self.walls[message.source]
             target.digest, target.done = source.digest, source.done
             self._report(target, Status.RESYNCED)
+        elif message.command is Command.SWAP:
+            for wall in self.walls.values():
+                if wall.up and wall.displays and wall.done == message.frame:
+                    wall.swaps.append((message.frame, time.monotonic_ns()))
+                    self._display(wall, Phase.SWAPPED, wall.swaps[-1][1])
         elif message.command is Command.STOP:
             for wall in self.walls.values():
                 self.go_down(wall.name)
 
     def ask_info(self, wall: str) -> None:
-        self.events.put(Described(InfoMessage(0, wall, 0, True, "memory", "tests", "none")))
+        self.events.put(Described(InfoMessage(0, wall, 0, True, "memory", "tests", "none",
+                                              swap_locked=self.walls[wall].displays)))
 
     def go_down(self, name: str) -> None:
         if self.walls[name].up:
@@ -78,6 +97,11 @@ class MemoryLink:
         if k in wall.flip_at:
             wall.digest = f"{int(wall.digest, 16) ^ 1:032x}"
         self._report(wall, Status.STEPPED)
+        if wall.displays and k not in wall.draws_late:
+            self._display(wall, Phase.DRAWN, time.monotonic_ns())
+
+    def _display(self, wall: MemoryWall, phase: Phase, time_ns: int) -> None:
+        self.events.put(Displayed(DisplayMessage(wall.done, wall.name, phase, time_ns)))
 
     def _report(self, wall: MemoryWall, status: Status) -> None:
         self.events.put(Reported(ReportMessage(wall.done, wall.name, wall.digest, wall.done,

@@ -7,11 +7,12 @@ import pytest
 from memory_walls import MemoryLink
 
 from cavesim.core.errors import ClusterError
-from cavesim.core.wire import Command, ControlMessage, ReportMessage
-from cavesim.core.wire.messages import Status
+from cavesim.core.wire import Command, ControlMessage, DisplayMessage, ReportMessage
+from cavesim.core.wire.messages import Phase, Status
 from cavesim.nodes import lockstep
 from cavesim.nodes.lockstep import Membership
 from cavesim.nodes.master import MasterConfig, run_master
+from cavesim.nodes.swaps import WINDOW, SwapBook
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")
@@ -148,10 +149,46 @@ def test_a_lost_wall_is_dropped_then_rejoins_by_resync():
 
 
 def test_a_late_wall_times_the_join_out_with_a_clear_error():
-    with pytest.raises(ClusterError, match=r"walls \['right'\] did not come up within 0.2 s"):
+    with pytest.raises(ClusterError, match=r"walls \['right'\] did not come up \(or answer "
+                                           r"the info query\) within 0.2 s"):
         run(MemoryLink(WALLS, late=("right",)), join_timeout=0.2)
 
 
 def test_an_unknown_loss_policy_is_refused():
     with pytest.raises(ValueError, match="on_loss must be one of"):
         run(MemoryLink(WALLS), on_loss="panic")
+
+
+# -- the swap barrier ---------------------------------------------------------------------------
+
+def test_displaying_walls_swap_each_frame_only_after_all_have_drawn_it():
+    link = MemoryLink(WALLS, displaying=("front", "left"))
+    record = run(link)
+    swap = record.summary()["swap"]
+    assert swap["walls"] == ["front", "left"] and swap["frames"] == 30
+    assert swap["order_violations"] == 0 and swap["stalls"] == [] and swap["incomplete"] == 0
+    assert [k for k, _ in link.walls["front"].swaps] == list(range(1, 31))
+    assert not link.walls["right"].swaps  # headless: never in the swap barrier
+    assert swap["skew_ms"]["p99"] >= 0
+
+
+def test_a_wall_that_never_says_drawn_stalls_the_swap_which_is_released_anyway():
+    link = MemoryLink(WALLS, displaying=("front", "left"))
+    link.walls["left"].draws_late.add(12)
+    record = run(link)
+    swap = record.summary()["swap"]
+    assert swap["stalls"] == [12] and record.frames == 30
+    assert swap["order_violations"] == 1  # frame 12 swapped without left's DRAWN
+    assert len(link.walls["front"].swaps) == 30
+
+
+def test_the_swap_book_finds_a_swap_before_the_last_drawing():
+    book = SwapBook()
+    for node, phase, t in (("a", Phase.DRAWN, 100), ("a", Phase.SWAPPED, 150),
+                           ("b", Phase.DRAWN, 200), ("b", Phase.SWAPPED, 210)):
+        book.note(DisplayMessage(1, node, phase, t))
+    book.released(1, ("a", "b"), stalled=False)
+    assert book.order_violations == 1 and book.skews_ms == [60 / 1e6]
+    book.released(2, ("a", "b"), stalled=False)
+    book.released(2 + WINDOW + 1, ("a",), stalled=False)
+    assert book.incomplete == 1  # frame 2's swaps never came

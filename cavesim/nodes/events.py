@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from cavesim.core.errors import ProtocolError
-from cavesim.core.wire import InfoMessage, ReportMessage, TrackingMessage
+from cavesim.core.wire import DisplayMessage, InfoMessage, ReportMessage, TrackingMessage
 
 
 @dataclass(frozen=True)
@@ -21,6 +21,13 @@ class Described:
     """A wall's answer to the info query: the GPU it computes on."""
 
     info: InfoMessage
+
+
+@dataclass(frozen=True)
+class Displayed:
+    """A displaying wall drew or swapped a frame (the swap barrier)."""
+
+    message: DisplayMessage
 
 
 @dataclass(frozen=True)
@@ -50,10 +57,14 @@ class Rejected:
 
 @dataclass(frozen=True)
 class ProcessEnded:
-    """A node process this machine started has exited while the run needed it."""
+    """A node process this machine started has exited while the run needed it: a failure
+    (code other than 0) ends the run; a node that left on its own (its window was closed)
+    is a lost wall, which liveliness reports."""
 
     name: str
+    returncode: int
     failure: str  # one line: its exit code, its own last error line, its log
 
 
-Event = Reported | Described | Tracked | WallUp | WallDown | Rejected | ProcessEnded
+Event = (Reported | Described | Displayed | Tracked | WallUp | WallDown | Rejected
+         | ProcessEnded)

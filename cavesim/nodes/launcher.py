@@ -89,7 +89,8 @@ class LocalCluster:
                              if p.pid not in reported and p.poll() is not None]
                 for wall, process in ended:
                     reported.add(process.pid)
-                    events.put(ProcessEnded(wall, self.failure(wall, process)))
+                    events.put(ProcessEnded(wall, process.returncode,
+                                            self.failure(wall, process)))
 
         watcher = threading.Thread(target=look, daemon=True)
         watcher.start()

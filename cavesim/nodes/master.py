@@ -34,6 +34,7 @@ from cavesim.core.wire.snapshot import transfer_seconds
 from cavesim.nodes import lockstep
 from cavesim.nodes.events import (
     Described,
+    Displayed,
     Event,
     ProcessEnded,
     Rejected,
@@ -106,6 +107,8 @@ class Master:
         self.tracked: TrackingMessage | None = None
         self.stopping = False
         self.record = RunRecord(config.walls)
+        self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
+        self.swaps = self.record.swaps
 
     # -- events ----------------------------------------------------------------------------
 
@@ -125,6 +128,9 @@ class Master:
                 self.record.node_rejected[report.node] = report.rejected
             case Described(info):
                 self.record.gpus[info.node] = info.gpu()
+                self.swap_locked[info.node] = info.swap_locked
+            case Displayed(message):
+                self.swaps.note(message)
             case Tracked(message):
                 self.tracked = message  # sampled once, when the next frame is made
             case WallUp(wall):
@@ -140,19 +146,21 @@ class Master:
                 self.membership, _ = self.membership.went_down(wall, self.config.on_loss)
             case Rejected(error, where):
                 self.rejects.reject(error, where)
-            case ProcessEnded(_, failure) if not self.stopping:
+            case ProcessEnded(_, code, failure) if code != 0 and not self.stopping:
                 raise ClusterError(failure)
 
     # -- the run ---------------------------------------------------------------------------
 
     def wait_for_walls(self) -> None:
+        """Until every wall is up and has said what it computes on and whether it is
+        swap-locked (the swap barrier needs to know from frame 1)."""
         deadline = time.monotonic() + self.config.join_timeout
-        while not self.membership.all_up():
+        while missing := sorted((set(self.config.walls) - self.membership.alive)
+                                | (set(self.config.walls) - set(self.swap_locked))):
             if time.monotonic() > deadline:
-                missing = sorted(set(self.config.walls) - self.membership.alive)
-                raise ClusterError(f"walls {missing} did not come up within "
-                                   f"{self.config.join_timeout:g} s (--join-timeout); see "
-                                   f"their logs")
+                raise ClusterError(f"walls {missing} did not come up (or answer the info "
+                                   f"query) within {self.config.join_timeout:g} s "
+                                   f"(--join-timeout); see their logs")
             self._pump(deadline)
         self.membership = self.membership.started()
 
@@ -171,6 +179,7 @@ class Master:
                 self.record.barrier_seconds.append(self._barrier(k, message))
                 vote = self._agree(k)
                 self._admit_joiners(k, vote)
+                self._release_swap(k)
                 if log_writer is not None:
                     log_writer.append(message, vote.agreed, vote.particles)
                 self.record.frames = k
@@ -251,6 +260,22 @@ class Master:
             for node in vote.odd:
                 self._resync(k, node, vote.source)
         return vote
+
+    def _release_swap(self, k: int) -> None:
+        """The swap barrier: SWAP k once every swap-locked member has drawn k, or when the
+        barrier timeout passes (a swap stall: the others must not freeze)."""
+        locked = tuple(m for m in self.membership.members if self.swap_locked.get(m))
+        if not locked:
+            return
+        deadline = time.monotonic() + self.config.barrier_timeout
+        while missing := set(locked) - self.swaps.drawn(k):
+            if time.monotonic() >= deadline:
+                log.warning("frame %d: released without DRAWN from %s", k,
+                            ", ".join(sorted(missing)))
+                break
+            self._pump(deadline)
+        self.swaps.released(k, locked, stalled=bool(missing))
+        self.link.send(ControlMessage(k, Command.SWAP))
 
     def _resync(self, k: int, node: str, source: str) -> bool:
         """Have `node` load `source`'s snapshot of frame k; wait for its RESYNCED report."""

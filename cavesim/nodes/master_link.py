@@ -17,6 +17,7 @@ import zenoh
 from cavesim.core.errors import ProtocolError
 from cavesim.core.wire import (
     ControlMessage,
+    DisplayMessage,
     FrameMessage,
     InfoMessage,
     ReportMessage,
@@ -25,8 +26,17 @@ from cavesim.core.wire import (
     decode,
     encode,
 )
-from cavesim.core.wire.network import open_session
-from cavesim.nodes.events import Described, Event, Rejected, Reported, Tracked, WallDown, WallUp
+from cavesim.core.wire.network import lockstep_publisher, open_session
+from cavesim.nodes.events import (
+    Described,
+    Displayed,
+    Event,
+    Rejected,
+    Reported,
+    Tracked,
+    WallDown,
+    WallUp,
+)
 
 log = logging.getLogger("cavesim.master")
 INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
@@ -38,10 +48,11 @@ class ZenohMasterLink:
         self.session, self.name, self.key, self.walls = session, name, key, walls
         self.keys = SessionKeys(name)
         self.events: queue.Queue[Event] = queue.Queue()
-        self._frames = session.declare_publisher(self.keys.frame, express=True)
-        self._control = session.declare_publisher(self.keys.control, express=True)
+        self._frames = lockstep_publisher(session, self.keys.frame)
+        self._control = lockstep_publisher(session, self.keys.control)
         self._declarations = [
             session.declare_subscriber(self.keys.report(), self._on_report),
+            session.declare_subscriber(self.keys.display(), self._on_display),
             session.declare_subscriber(self.keys.tracking, self._on_tracking),
             session.liveliness().declare_subscriber(self.keys.alive(), self._on_alive,
                                                     history=True),
@@ -69,6 +80,9 @@ class ZenohMasterLink:
 
     def _on_report(self, sample: zenoh.Sample) -> None:
         self._from_wall(sample, ReportMessage, Reported, "report")
+
+    def _on_display(self, sample: zenoh.Sample) -> None:
+        self._from_wall(sample, DisplayMessage, Displayed, "display")
 
     def _on_info(self, reply: zenoh.Reply) -> None:
         if reply.ok is None:

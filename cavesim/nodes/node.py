@@ -1,11 +1,15 @@
 """A wall node: one GL context, one ParticleSystem, stepped in lock-step with the cluster.
 
-The context is opened on the EGL device the node was given (`--gpu`, default device 0).
-Zenoh callbacks only enqueue; the main thread, which owns the GL context, does all work:
+The context is opened on the EGL device the node was given (`--gpu`, default device 0),
+or, with `--display`, is the context of the wall's window on its X display (`--preview`:
+one window showing every wall). Zenoh callbacks only enqueue; the main thread, which owns
+the GL context, does all work:
 frame k -> step, checksum, report k; a repeated frame -> repeat the report; a frame
 ahead of us -> wait for a resync; RESYNC -> stream a healthy node's snapshot in and load
 it; a state query -> stream our snapshot out (cavesim/nodes/snapshots.py); an info query ->
-answer with our GPU; STOP -> leave cleanly.
+answer with our GPU; STOP -> leave cleanly. A displaying node also draws every frame after
+its report and swaps when the master says SWAP (`cavesim/nodes/screen.py`); closing its
+window makes it leave, which the master sees as a lost wall.
 """
 
 from __future__ import annotations
@@ -20,13 +24,15 @@ from pathlib import Path
 import numpy as np
 import zenoh
 
+from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.drivers import driver_for
-from cavesim.core.errors import ProtocolError
+from cavesim.core.errors import ContextError, ProtocolError
 from cavesim.core.scene import load_scene
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import (
     Command,
     ControlMessage,
+    DisplayMessage,
     FrameMessage,
     InfoMessage,
     ReportMessage,
@@ -34,18 +40,23 @@ from cavesim.core.wire import (
     decode,
     encode,
 )
-from cavesim.core.wire.messages import Message, Status
-from cavesim.core.wire.network import NetworkConfig, open_session
+from cavesim.core.wire.messages import Message, Phase, Status
+from cavesim.core.wire.network import NetworkConfig, lockstep_publisher, open_session
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
+from cavesim.gpu.render.unfold import slots_of
+from cavesim.gpu.window import WallWindow, open_window
 from cavesim.nodes.faults import Fault
 from cavesim.nodes.painter import WallPainter
+from cavesim.nodes.preview_controls import PreviewControls
+from cavesim.nodes.screen import LiveDisplay, PreviewScreen, WallScreen, scaled
 from cavesim.nodes.snapshots import fetch_snapshot, send_snapshot
 
 log = logging.getLogger("cavesim.node")
 SLOW_DELAY = 1.5  # s a `slow` fault holds a report back (tests use a shorter barrier)
+POLL = 0.02  # s between looks at a window's events when no message comes
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,9 @@ class NodeConfig:
     stereo: bool = False
     chunk_particles: int = CHUNK_PARTICLES  # particles per reply of a snapshot we send
     gpu: int | None = None  # EGL device index (None: the default device, 0)
+    display: bool = False  # show the wall live in a window, as the CAVE's [wall.display] says
+    preview: bool = False  # show every wall of the CAVE unfolded in one desktop window
+    preview_scale: float = 0.5  # of each wall's resolution, in the preview
 
 
 class WallNode:
@@ -74,12 +88,18 @@ class WallNode:
         scene = load_scene(config.scene)
         if self._fault("seed"):
             scene = dataclasses.replace(scene, seed=scene.seed + 1)
-        self.ctx = create_context(device=config.gpu)
+        self.session = session
+        cave = load_cave(config.cave) if config.cave is not None else None
+        window = open_node_window(config, cave)
+        self.ctx = window.ctx if window is not None else create_context(device=config.gpu)
         self.gpu = gpu_of(self.ctx)
         self.system = ParticleSystem(self.ctx, scene)
         self.driver = driver_for(scene)
-        self.session = session
-        self.painter = WallPainter(config, self.ctx, self.system) if config.render_every else None
+        self.live = None if window is None else LiveDisplay(
+            node_screen(config, cave, window, self.system), self._display)
+        self.controls = PreviewControls(window.window) if config.preview else None
+        self.painter = WallPainter(config, self.ctx, self.system) \
+            if config.render_every and window is None else None
         self.rejects = RejectCounter(f"node {config.wall}")
         self.done = 0  # last frame whose state we hold
         self.last_report: ReportMessage | None = None
@@ -96,7 +116,8 @@ class WallNode:
         """Subscribe, answer state queries, then announce ourselves (liveliness last)."""
         put = self.events.put
         keys, wall = self.keys, self.config.wall
-        self.report_publisher = self.session.declare_publisher(keys.report(wall), express=True)
+        self.report_publisher = lockstep_publisher(self.session, keys.report(wall))
+        self.display_publisher = lockstep_publisher(self.session, keys.display(wall))
         return [
             self.session.declare_subscriber(keys.frame, lambda s: put(("frame", s))),
             self.session.declare_subscriber(keys.control, lambda s: put(("control", s))),
@@ -107,7 +128,12 @@ class WallNode:
 
     def run(self) -> None:
         while self.running:
-            kind, item = self.events.get()
+            try:
+                kind, item = self.events.get(timeout=None if self.live is None else POLL)
+            except queue.Empty:
+                self._tend_window()
+                continue
+            self._tend_window()
             if kind in ("query", "info"):
                 self._answer(kind, item)
                 continue
@@ -142,7 +168,9 @@ class WallNode:
                 self.rejects.reject(e, f"frame {k}")
                 return
             self._step(k, message.inputs, scene)
-            if self.painter is not None and k % self.config.render_every == 0:
+            if self.live is not None:
+                self.live.show(k, message, scene)
+            elif self.painter is not None and k % self.config.render_every == 0:
                 self.painter.paint(k, message, scene)
         elif k > self.done + 1:
             log.info("%s: frame %d is ahead of our frame %d; waiting for a resync",
@@ -184,11 +212,30 @@ class WallNode:
     def _unseal(self, data: bytes) -> Message:
         return decode(data, self.config.session, self.config.key)
 
+    # -- the window ----------------------------------------------------------------------
+
+    def _tend_window(self) -> None:
+        """Between events: the window system's events; a closed window ends the node; the
+        preview's input goes out as a tracker's would."""
+        if self.live is None:
+            return
+        if self.live.closed():
+            log.info("%s: the window was closed; leaving", self.config.wall)
+            self.running = False
+        if self.controls is not None and (tracked := self.controls.advance()) is not None:
+            self.session.put(self.keys.tracking, self._seal(tracked))
+
+    def _display(self, k: int, phase: Phase, time_ns: int) -> None:
+        self.display_publisher.put(self._seal(DisplayMessage(k, self.config.wall, phase,
+                                                             time_ns)))
+
     # -- control and snapshots -------------------------------------------------------------
 
     def _on_control(self, message: ControlMessage) -> None:
         if message.command is Command.STOP:
             self.running = False
+        elif message.command is Command.SWAP and self.live is not None:
+            self.live.swap(message.frame)
         elif message.command is Command.RESYNC and message.target == self.config.wall:
             self._resync(message.source)
 
@@ -226,7 +273,8 @@ class WallNode:
         """A state query gets our snapshot, streamed; an info query our GPU."""
         wall = self.config.wall
         if kind == "info":
-            message = InfoMessage.of_gpu(self.done, wall, self.gpu)
+            swap_locked = self.live is not None and self.live.screen.swap_locked
+            message = InfoMessage.of_gpu(self.done, wall, self.gpu, swap_locked)
             query.reply(self.keys.info(wall), self._seal(message))
             query.drop()
         else:
@@ -249,4 +297,29 @@ def main(config: NodeConfig) -> int:
         finally:
             for declaration in reversed(declarations):
                 declaration.undeclare()
+            if node.live is not None:
+                node.live.close()
     return 0
+
+
+def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None:
+    """The node's window (None for a headless node): its wall's, or the preview's."""
+    if not (config.display or config.preview):
+        return None
+    if cave is None:
+        raise ContextError("a window needs the CAVE: which wall to draw and how to show it",
+                           "give --cave FILE with --display or --preview")
+    title = f"cavesim {config.wall}"
+    if config.preview:
+        size = slots_of(scaled(cave, config.preview_scale))[1]
+        return open_window(Display(vsync=False, swap_lock=False), size, title)
+    wall = cave.wall(config.wall)
+    return open_window(wall.display, wall.resolution, title)
+
+
+def node_screen(config: NodeConfig, cave: Cave, window: WallWindow,
+                system: ParticleSystem) -> WallScreen | PreviewScreen:
+    if config.preview:
+        return PreviewScreen(window, system, cave, config.preview_scale)
+    return WallScreen(window, system, cave.wall(config.wall), cave.eye_separation,
+                      config.images, config.render_every)

@@ -29,6 +29,7 @@ class WallPainter:
             raise ValueError(f"wall {config.wall!r} is not in {config.cave}: it has "
                              f"{', '.join(cave.names)}")
         self.renderer = WallRenderer(ctx, system, cave.wall(config.wall))
+        self.eye_separation = cave.eye_separation
         self.folder = Path(config.images) / config.wall
         self.folder.mkdir(parents=True, exist_ok=True)
         self.stereo = config.stereo
@@ -36,7 +37,7 @@ class WallPainter:
     def paint(self, k: int, message: FrameMessage, scene: SceneFrame) -> list[Path]:
         """Render frame k for each eye; the left (or only) eye is frame_<k>.png."""
         eyes = eye_positions(message.head.position, message.head.orientation,
-                             stereo=self.stereo)
+                             self.eye_separation, self.stereo)
         helicopter = scene.helicopter
         written = []
         for eye, position in eyes.items():

@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from cavesim.core.drivers import FlightSample
+from cavesim.nodes.swaps import SwapBook
 
 
 @dataclass(frozen=True)
@@ -96,6 +97,7 @@ class RunRecord:
     node_rejected: dict[str, int] = field(default_factory=dict)
     master_rejected: dict[str, int] = field(default_factory=dict)
     gpus: dict[str, dict] = field(default_factory=dict)  # wall -> what it computes on
+    swaps: SwapBook = field(default_factory=SwapBook)  # the swap barrier of displaying walls
 
     def agreed_at_the_end(self) -> bool:
         return self.final is not None and self.final.agree
@@ -127,6 +129,7 @@ class RunRecord:
             "flight": [_flight_json(f) for f in self.flight],
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
             "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},
+            "swap": self.swaps.summary(),
         }
 
 

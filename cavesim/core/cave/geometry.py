@@ -12,7 +12,8 @@ on; `cavesim run` spreads the other walls over the machine's GPUs. The file's ta
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -27,6 +28,7 @@ MIN_EDGE_M = 1e-6  # shorter edges make a wall of no area
 MAX_COS = 1e-6  # |cos| of the angle between the bottom and left edges of a rectangle
 CORNER_TOL_M = 1e-6  # how far a given upper_right may sit from the one the rectangle implies
 ASPECT_TOL = 0.01  # pixels may be 1% away from square
+DEFAULT_EYE_SEPARATION = 0.064  # m, an adult's interpupillary distance
 
 
 def _is_name(text: str) -> bool:
@@ -35,6 +37,35 @@ def _is_name(text: str) -> bool:
 
 Name = Annotated[str, Rule("1-32 characters, each a letter, digit, '_' or '-'", _is_name)]
 Point = Annotated[tuple[float, float, float], Note("[x, y, z] in metres")]
+
+
+class StereoMode(StrEnum):
+    """How a wall shows two eyes: not at all, in the driver's left and right back buffers
+    (quad-buffered), or frame-packed for passive/active 3D projectors."""
+
+    MONO = "mono"
+    QUAD = "quad"
+    SIDE_BY_SIDE = "side_by_side"
+    TOP_BOTTOM = "top_bottom"
+
+
+def _positive_size(rect: tuple[int, int, int, int]) -> bool:
+    return rect[2] > 0 and rect[3] > 0
+
+
+@dataclass(frozen=True, kw_only=True)
+class Display:
+    """How a wall's node shows it live (`cavesim node --display`): the [wall.display] table."""
+
+    x_display: str | None = None  # the X display, e.g. ":0.1" (default: the node's DISPLAY)
+    monitor: Annotated[int, Range(ge=0), Note("a GLFW monitor index")] | None = None
+    fullscreen: bool = False  # on `monitor` (default: the primary monitor)
+    window: Annotated[tuple[int, int, int, int], Rule("[x, y, width, height] in pixels with "
+                                                      "width and height > 0", _positive_size)
+                      ] | None = None  # default: at 0, 0 with the wall's resolution
+    vsync: bool = True  # swap on the display's vertical blank
+    stereo: StereoMode = StereoMode.MONO
+    swap_lock: bool = True  # swap with every other swap-locked wall (the swap barrier)
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
@@ -58,6 +89,7 @@ class Wall:
     upper_left: np.ndarray
     resolution: tuple[int, int]  # (width_px, height_px)
     gpu: int | None = None  # EGL device index (None: `cavesim run` chooses)
+    display: Display = field(default_factory=Display)  # how it is shown live
 
     def __post_init__(self) -> None:
         for key in ("lower_left", "lower_right", "upper_left"):
@@ -72,7 +104,7 @@ class Wall:
         if not isinstance(other, Wall):
             return NotImplemented
         return (self.name == other.name and self.resolution == other.resolution
-                and self.gpu == other.gpu
+                and self.gpu == other.gpu and self.display == other.display
                 and all(np.array_equal(getattr(self, k), getattr(other, k))
                         for k in ("lower_left", "lower_right", "upper_left")))
 
@@ -122,6 +154,7 @@ class Cave:
 
     name: str
     walls: tuple[Wall, ...]
+    eye_separation: float = DEFAULT_EYE_SEPARATION  # m, for stereo
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "walls", tuple(self.walls))
@@ -151,6 +184,7 @@ class WallTable:
                           Note("[width_px, height_px]")]
     gpu: Annotated[int, Range.within(GPU_RANGE),
                    Note("an EGL device index (`cavesim doctor` lists the devices)")] | None = None
+    display: Display | None = None  # default: a window of the wall's resolution, mono
 
 
 @dataclass(frozen=True)
@@ -158,6 +192,8 @@ class CaveFile:
     """The top level of a CAVE file."""
 
     name: Name | None = None  # default: the file's stem
+    eye_separation: Annotated[float, Range(ge=0.0, le=0.1), Note("metres between the eyes")
+                              ] = DEFAULT_EYE_SEPARATION
     wall: tuple[WallTable, ...] = ()  # at least one
 
 
@@ -179,7 +215,7 @@ def parse_cave(data: Mapping[str, Any], source: Path | None = None) -> Cave:
         raise top.source.fail("wall is missing: a cave needs at least one [[wall]] table")
     walls = tuple(_wall(t) for t in tables)
     unique_names(tables, (w.name for w in walls))
-    return Cave(name=name, walls=walls)
+    return Cave(name=name, walls=walls, eye_separation=top.get("eye_separation"))
 
 
 def _wall(t: Table) -> Wall:
@@ -208,4 +244,4 @@ def _wall(t: Table) -> Wall:
                                   f"but the wall is {width:g} m x {height:g} m (aspect "
                                   f"{m_aspect:.4g}); the two must agree within {ASPECT_TOL:.0%}")
     return Wall(name=w.name, lower_left=ll, lower_right=lr, upper_left=ul,
-                resolution=w.resolution, gpu=w.gpu)
+                resolution=w.resolution, gpu=w.gpu, display=w.display or Display())

@@ -51,16 +51,18 @@ def pitch_quaternion(tilt: float) -> tuple[float, float, float, float]:
 
 
 def heading_of(orientation_xyzw) -> float:
-    """Yaw of a wand quaternion in radians: where it points in the horizontal plane, with
-    0 along +y (into the CAVE, toward the front wall)."""
+    """Where a wand points in the horizontal plane, radians: the azimuth of its forward
+    axis (+y in its own frame), 0 along +y (into the CAVE, toward the front wall), positive
+    turning toward -x (counter-clockwise seen from above)."""
     x, y, z, w = orientation_xyzw
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return math.atan2(2.0 * (w * z - x * y), 1.0 - 2.0 * (x * x + z * z))
 
 
 def tilt_of(orientation_xyzw) -> float:
-    """Pitch of a wand quaternion in degrees (nose up positive)."""
+    """How far a wand points up, degrees: the elevation of its forward axis (nose up
+    positive), whatever its heading and roll."""
     x, y, z, w = orientation_xyzw
-    return math.degrees(math.asin(max(-1.0, min(1.0, 2.0 * (w * x - y * z)))))
+    return math.degrees(math.asin(max(-1.0, min(1.0, 2.0 * (y * z + w * x)))))
 
 
 class Flight:

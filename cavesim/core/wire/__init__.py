@@ -4,6 +4,7 @@ from cavesim.core.wire.keys import SessionKeys
 from cavesim.core.wire.messages import (
     Command,
     ControlMessage,
+    DisplayMessage,
     FrameMessage,
     HeadState,
     InfoMessage,
@@ -16,6 +17,6 @@ from cavesim.core.wire.messages import (
     encode,
 )
 
-__all__ = ["Command", "ControlMessage", "FrameMessage", "HeadState", "InfoMessage",
-           "ReportMessage", "SessionKeys", "SnapshotChunk", "SnapshotHeader", "TrackingMessage",
-           "WandState", "decode", "encode"]
+__all__ = ["Command", "ControlMessage", "DisplayMessage", "FrameMessage", "HeadState",
+           "InfoMessage", "ReportMessage", "SessionKeys", "SnapshotChunk", "SnapshotHeader",
+           "TrackingMessage", "WandState", "decode", "encode"]

@@ -44,6 +44,10 @@ class SessionKeys:
     def state(self, node: str = "*") -> str:
         return f"{self.prefix}/state/{node}"
 
+    def display(self, node: str = "*") -> str:
+        """Where a displaying wall reports drawing and swapping a frame (the swap barrier)."""
+        return f"{self.prefix}/display/{node}"
+
     def info(self, node: str = "*") -> str:
         """Where a node answers the master's question: which GPU do you compute on?"""
         return f"{self.prefix}/info/{node}"

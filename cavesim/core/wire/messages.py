@@ -27,7 +27,8 @@ from cavesim.core.wire.keys import check_name
 
 MAGIC = b"CVSM"
 VERSION = 3  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
-# and a node's info (its GPU) answers a query
+# a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
+# take part in the swap barrier
 HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED = 0x01
@@ -40,7 +41,9 @@ _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejec
 _SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
 _CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
-_INFO = struct.Struct("<HB")  # EGL device index, software (0 or 1); then three strings
+_INFO = struct.Struct("<HB")  # EGL device index, flags (INFO_FLAGS); then three strings
+INFO_SOFTWARE, INFO_SWAP_LOCKED = 0x01, 0x02
+_DISPLAY = struct.Struct("<BQ")  # phase, the node's monotonic clock in ns
 
 
 class Kind(IntEnum):
@@ -51,11 +54,13 @@ class Kind(IntEnum):
     TRACKING = 5
     CHUNK = 6
     INFO = 7
+    DISPLAY = 8
 
 
 class Command(IntEnum):
     RESYNC = 1  # target loads the state of `source`
     STOP = 2  # every node ends cleanly
+    SWAP = 3  # every swap-locked wall has drawn the frame: show it
 
 
 class Status(IntEnum):
@@ -154,16 +159,18 @@ class InfoMessage:
     renderer: str  # GL_RENDERER, GL_VENDOR and GL_VERSION (which names the driver) ...
     vendor: str
     version: str  # ... each printable ASCII, at most MAX_TEXT characters
+    swap_locked: bool = False  # it shows frames live and swaps only on the master's SWAP
 
     @classmethod
-    def of_gpu(cls, frame: int, node: str, gpu: Mapping) -> InfoMessage:
+    def of_gpu(cls, frame: int, node: str, gpu: Mapping, swap_locked: bool = False
+               ) -> InfoMessage:
         """The message for a GPU as `cavesim.gpu.gl.context.gpu_of` describes it; characters
         the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
         def fit(text: str) -> str:
             return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
 
         return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
-                   fit(gpu["vendor"]), fit(gpu["version"]))
+                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked)
 
     def gpu(self) -> dict:
         """The GPU as `gpu_of` describes it, for report.json."""
@@ -171,8 +178,23 @@ class InfoMessage:
                 "renderer": self.renderer, "vendor": self.vendor, "version": self.version}
 
 
+class Phase(IntEnum):
+    DRAWN = 1  # the wall has drawn the frame into its back buffer
+    SWAPPED = 2  # its swap returned: the frame is on the wall
+
+
+@dataclass(frozen=True)
+class DisplayMessage:
+    """A displaying wall's step of the swap barrier, with its monotonic clock (ns)."""
+
+    frame: int
+    node: str
+    phase: Phase
+    time_ns: int
+
+
 Message = (FrameMessage | ReportMessage | ControlMessage | SnapshotHeader | SnapshotChunk
-           | TrackingMessage | InfoMessage)
+           | TrackingMessage | InfoMessage | DisplayMessage)
 
 
 def session_id(session: str) -> int:
@@ -381,16 +403,18 @@ def _write_info(m: InfoMessage) -> tuple[Kind, bytes]:
         raise ValueError(f"EGL device index must be in [0, 65535], got {m.device}")
     texts = b"".join(_text_bytes(what, getattr(m, what))
                      for what in ("renderer", "vendor", "version"))
-    return Kind.INFO, _name_bytes(m.node) + _INFO.pack(m.device, int(m.software)) + texts
+    flags = (INFO_SOFTWARE if m.software else 0) | (INFO_SWAP_LOCKED if m.swap_locked else 0)
+    return Kind.INFO, _name_bytes(m.node) + _INFO.pack(m.device, flags) + texts
 
 
 def _read_info(frame: int, payload: bytes) -> InfoMessage:
     node, rest = _read_name(payload)
     if len(rest) < _INFO.size:
         raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
-    device, software = _INFO.unpack_from(rest)
-    if software > 1:
-        raise ProtocolError("bad-value", f"info software flag {software} is neither 0 nor 1")
+    device, flags = _INFO.unpack_from(rest)
+    if flags & ~(INFO_SOFTWARE | INFO_SWAP_LOCKED):
+        raise ProtocolError("bad-value", f"info flags {flags:#x}: only "
+                                         f"{INFO_SOFTWARE | INFO_SWAP_LOCKED:#x} are defined")
     rest = rest[_INFO.size:]
     texts = []
     for _ in range(3):
@@ -398,7 +422,25 @@ def _read_info(frame: int, payload: bytes) -> InfoMessage:
         texts.append(text)
     if rest:
         raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info message")
-    return InfoMessage(frame, node, device, bool(software), *texts)
+    return InfoMessage(frame, node, device, bool(flags & INFO_SOFTWARE), *texts,
+                       swap_locked=bool(flags & INFO_SWAP_LOCKED))
+
+
+def _write_display(m: DisplayMessage) -> tuple[Kind, bytes]:
+    if not 0 <= m.time_ns < 2**64:
+        raise ValueError(f"time_ns must be in [0, 2**64), got {m.time_ns}")
+    return Kind.DISPLAY, _name_bytes(m.node) + _DISPLAY.pack(Phase(m.phase), m.time_ns)
+
+
+def _read_display(frame: int, payload: bytes) -> DisplayMessage:
+    node, rest = _read_name(payload)
+    if len(rest) != _DISPLAY.size:
+        raise ProtocolError("bad-payload", f"display body of {len(rest)} bytes, expected "
+                                           f"{_DISPLAY.size}")
+    phase, time_ns = _DISPLAY.unpack(rest)
+    if phase not in Phase.__members__.values():
+        raise ProtocolError("bad-value", f"display phase {phase} is unknown")
+    return DisplayMessage(frame, node, Phase(phase), time_ns)
 
 
 def _text_bytes(what: str, text: str) -> bytes:
@@ -439,8 +481,8 @@ def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
 _PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
                     ControlMessage: _write_control, SnapshotHeader: _write_snapshot,
                     SnapshotChunk: _write_chunk, TrackingMessage: _write_tracking,
-                    InfoMessage: _write_info}
+                    InfoMessage: _write_info, DisplayMessage: _write_display}
 _PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
                     Kind.CONTROL: _read_control, Kind.SNAPSHOT: _read_snapshot,
                     Kind.CHUNK: _read_chunk, Kind.TRACKING: _read_tracking,
-                    Kind.INFO: _read_info}
+                    Kind.INFO: _read_info, Kind.DISPLAY: _read_display}

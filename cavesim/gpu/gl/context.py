@@ -21,6 +21,7 @@ from cavesim.gpu.gl.devices import LIST_HINT, PACKAGE_HINT, find_device
 
 REQUIRED_GL_VERSION = 430  # compute shaders, SSBOs (GS + TF need 3.3); every program's #version
 DEVICE_VARIABLE = "GLCONTEXT_DEVICE_INDEX"  # glcontext lets it override device_index
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")  # CPU renderers a display may give
 
 
 def create_context(require: int = REQUIRED_GL_VERSION,
@@ -40,15 +41,30 @@ def create_context(require: int = REQUIRED_GL_VERSION,
         raise ContextError(f"cannot open a headless OpenGL context through EGL on device "
                            f"{index} ({egl_device.kind}, one of {count}): {message}",
                            f"{PACKAGE_HINT}; {LIST_HINT}") from e
+    return _ready(ctx, require, f"EGL device {index}", egl_device.index, egl_device.kind)
+
+
+def attach_context(require: int = REQUIRED_GL_VERSION) -> moderngl.Context:
+    """The context current on this thread (a window's, `cavesim.gpu.window`), made ready
+    like a headless one. Its GPU is the X display's; device 0 in reports."""
+    ctx = moderngl.create_context(require=require)
+    software = any(name in ctx.info["GL_RENDERER"] for name in SOFTWARE_RENDERERS)
+    return _ready(ctx, require, f"the display {os.environ.get('DISPLAY')!r}", 0,
+                  "software" if software else "hardware")
+
+
+def _ready(ctx: moderngl.Context, require: int, where: str, device: int,
+           kind: str) -> moderngl.Context:
+    """`ctx` checked for GL `require`, with a tiny framebuffer bound for transform feedback
+    and its device named for `gpu_of`."""
     if ctx.version_code < require:
         found = ctx.info.get("GL_VERSION")
         ctx.release()
         raise ContextError(f"OpenGL {require // 100}.{require % 100 // 10} core is required, "
-                           f"EGL device {index} offers {found!r}",
-                           f"{PACKAGE_HINT} for Mesa's llvmpipe")
+                           f"{where} offers {found!r}", f"{PACKAGE_HINT} for Mesa's llvmpipe")
     framebuffer = ctx.simple_framebuffer((1, 1))
     framebuffer.use()
-    ctx.extra = {"framebuffer": framebuffer, "device": egl_device}
+    ctx.extra = {"framebuffer": framebuffer, "device": device, "kind": kind}
     return ctx
 
 
@@ -61,8 +77,7 @@ def describe(ctx: moderngl.Context) -> dict[str, str]:
 def gpu_of(ctx: moderngl.Context) -> dict:
     """What a node computes on: the EGL device (index, hardware or software) and the GL
     renderer, vendor and version (the version names the driver), for logs and reports."""
-    device = ctx.extra["device"]
-    return {"device": device.index, "kind": device.kind, **describe(ctx)}
+    return {"device": ctx.extra["device"], "kind": ctx.extra["kind"], **describe(ctx)}
 
 
 def _device_index(device: int | None) -> int:

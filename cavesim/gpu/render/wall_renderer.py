@@ -22,6 +22,7 @@ from cavesim.gpu.render import meshes
 from cavesim.gpu.render.programs import COMPOSITE, DUST, SCENE, dust_defines
 
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
+POSITION_WORDS = "4u 24x"  # ... and with lifetime and class too
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
 
 
@@ -81,9 +82,13 @@ class WallRenderer:
         self.terrain = mesh(meshes.terrain(*ground)) if ground else None
         self.body = mesh(meshes.helicopter_body())
         self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS))
-        self.particles = {name: self.ctx.vertex_array(
-            self.dust_program, [(buffer, DRAWN_WORDS, "in_a", "in_c")])
-            for name, buffer in self.system.resources.items() if name.startswith("particles_")}
+        # one class and no lifetime fade: the compiler drops in_c, and so must the layout
+        layout, names = (DRAWN_WORDS, ("in_a", "in_c")) if "in_c" in self.dust_program \
+            else (POSITION_WORDS, ("in_a",))
+        self.particles = {name: self.ctx.vertex_array(self.dust_program,
+                                                      [(buffer, layout, *names)])
+                          for name, buffer in self.system.resources.items()
+                          if name.startswith("particles_")}
         self.full_screen = self.ctx.vertex_array(self.composite_program, [])
 
     def _constant_uniforms(self) -> None:
@@ -108,6 +113,14 @@ class WallRenderer:
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:
         """The wall's picture from `eye` (room = world metres): (height, width, 3) uint8."""
+        self.draw(eye, helicopter)
+        pixels = self.picture.read()
+        width, height = self.size
+        return np.frombuffer(pixels, np.uint8).reshape(height, width, 4)[::-1, :, :3].copy()
+
+    def draw(self, eye, helicopter: HelicopterPose | None) -> None:
+        """Draw the wall's picture from `eye` into `self.picture` (the one drawing path of
+        the PNGs and of the window, `cavesim.gpu.window`)."""
         projection, view = off_axis(self.wall, np.asarray(eye, float), self.settings.near,
                                     self.settings.far)
         ctx = self.ctx
@@ -115,13 +128,10 @@ class WallRenderer:
             self._scene_pass(projection, view, helicopter)
             self._dust_pass(projection, view)
             self._composite_pass(view)
-            pixels = self.picture_target.read(components=3)
         finally:
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
             ctx.extra["framebuffer"].use()  # the engine's transform feedback needs it bound
-        width, height = self.size
-        return np.frombuffer(pixels, np.uint8).reshape(height, width, 3)[::-1].copy()
 
     def _scene_pass(self, projection, view, helicopter) -> None:
         ctx, program = self.ctx, self.scene_program

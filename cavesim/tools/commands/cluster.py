@@ -105,6 +105,14 @@ def add_node(commands) -> None:
                         default=CHUNK_PARTICLES,
                         help=f"particles per reply of a snapshot this node sends "
                              f"(default: {CHUNK_PARTICLES}, 4 MiB)")
+    parser.add_argument("--display", action="store_true",
+                        help="show the wall live in a window, as the CAVE file's "
+                             "[wall.display] says (needs --cave and an X display)")
+    parser.add_argument("--preview", action="store_true",
+                        help="show every wall of --cave unfolded in one desktop window; "
+                             "keys, mouse and gamepad move the head and fly the wand")
+    parser.add_argument("--preview-scale", type=number_in(float, 0.05, 2.0, "a scale"),
+                        default=0.5, help="walls' size in the preview (default 0.5)")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
@@ -119,9 +127,20 @@ def node(args: argparse.Namespace, console) -> int:
     if args.render_every and (args.cave is None or args.images is None):
         raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
                          "and --images too")
+    if args.display and args.preview:
+        raise UsageError("cavesim node: error: argument --preview: not with --display (a node "
+                         "shows its wall or the whole CAVE)")
+    if (args.display or args.preview) and args.cave is None:
+        raise UsageError("cavesim node: error: argument --display/--preview: a window needs "
+                         "--cave FILE (the wall's geometry and its [wall.display])")
+    if (args.display or args.preview) and args.gpu is not None:
+        raise UsageError("cavesim node: error: argument --gpu: a window computes on its X "
+                         "display's GPU; choose the display ([wall.display] x_display)")
     config = NodeConfig(wall=args.wall, scene=args.scene, session=args.session,
                         network=network, key=key, faults=tuple(args.inject),
                         slow_delay=args.slow_delay, cave=args.cave,
                         render_every=args.render_every, images=args.images,
-                        stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu)
+                        stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu,
+                        display=args.display, preview=args.preview,
+                        preview_scale=args.preview_scale)
     return run_node(config)

@@ -34,6 +34,7 @@ from cavesim.tools.reports.run import demo_table, gpu_table, summary_table
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 DEFAULT_CAVE = "config/cave/flex4.toml"
+PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
 
 @dataclass(frozen=True)
@@ -48,13 +49,25 @@ class RunPlan:
     render_every: int = 0
     stereo: bool = False
     gpus: Mapping[str, int] = field(default_factory=dict)  # wall -> EGL device (else default)
+    display: bool = False  # every wall live in its window ([wall.display] of the CAVE)
+    preview: bool = False  # a member "preview" shows the CAVE unfolded in a desktop window
+
+    @property
+    def members(self) -> tuple[str, ...]:
+        """The walls in lock-step: the CAVE's, and the preview when there is one."""
+        return (*self.walls, PREVIEW) if self.preview else self.walls
 
     @property
     def draws(self) -> bool:
         return self.cave is not None and self.render_every > 0
 
     def node_args(self, wall: str) -> tuple[str, ...]:
-        """The flags of `wall`'s node beyond the cluster's own: drawing, its GPU."""
+        """The flags of `wall`'s node beyond the cluster's own: drawing, its GPU, its window."""
+        if wall == PREVIEW:
+            return ("--preview", "--cave", str(self.cave))
+        if self.display:
+            return ("--display", "--cave", str(self.cave), "--render-every",
+                    str(self.render_every), "--images", str(self.out / "walls"))
         gpu = ("--gpu", str(self.gpus[wall])) if wall in self.gpus else ()
         if not self.draws:
             return gpu
@@ -63,10 +76,10 @@ class RunPlan:
                 *gpu)
 
     def cluster(self) -> ClusterPlan:
-        master = MasterConfig(self.walls, self.scene, self.frames, self.session,
+        master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               key=read_key(self.key_file), frame_log=self.out / "frames.log")
         return ClusterPlan(master, self.out, self.key_file,
-                           {wall: self.node_args(wall) for wall in self.walls})
+                           {wall: self.node_args(wall) for wall in self.members})
 
 
 def run_walls(plan: RunPlan, console: Console) -> dict:
@@ -75,7 +88,7 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
     with Progress(*columns, console=console, transient=False) as progress:
-        task = progress.add_task(f"{len(plan.walls)} walls", total=plan.frames, live=0)
+        task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
         record = run_cluster(plan.cluster(), lambda k, live: progress.update(
             task, completed=k, live=live))
     if record.interrupted:
@@ -130,6 +143,12 @@ def add(commands) -> None:
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
                         help="each wall writes its picture every K frames (default 10; 0: never)")
     parser.add_argument("--stereo", action="store_true")
+    parser.add_argument("--display", action="store_true",
+                        help="every wall live in its own window, as the CAVE file's "
+                             "[wall.display] says, swap-locked (needs an X display)")
+    parser.add_argument("--preview", action="store_true",
+                        help="one desktop window with every wall unfolded, live; its keys, "
+                             "mouse and gamepad move the head and fly the wand")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
@@ -147,12 +166,19 @@ def run(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim run: error: {e}") from e
     scene, cave = _checked_files(args)  # before anything is started
     walls = wall_names(args.walls) if args.walls else cave.names
-    gpus = _gpus(args, walls, cave)
+    if (args.display or args.preview) and args.walls:
+        raise UsageError("cavesim run: error: argument --display/--preview: windows show the "
+                         "walls of a CAVE; use --cave, not --walls")
+    if PREVIEW in walls:
+        raise UsageError(f"cavesim run: error: argument --cave: a wall may not be called "
+                         f"{PREVIEW!r} (the preview's name)")
+    gpus = {} if args.display else _gpus(args, walls, cave)
     output_directory(args.out, "run")
     frames = args.frames or default_frames(scene)
     plan = RunPlan(walls, args.scene, frames, args.out, args.session, args.key_file,
                    cave=None if args.walls else args.cave, render_every=args.render_every,
-                   stereo=args.stereo, gpus=gpus)
+                   stereo=args.stereo, gpus=gpus, display=args.display,
+                   preview=args.preview)
     report = run_walls(plan, console)
     return INTERRUPTED if report["interrupted"] else 0
 

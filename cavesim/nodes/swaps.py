@@ -1,0 +1,82 @@
+"""The swap barrier's book: which displaying wall drew and swapped which frame, when.
+
+The master releases frame k's SWAP once every swap-locked wall has drawn k (or its barrier
+timeout passed, a swap stall). Each wall sends its monotonic clock with DRAWN and SWAPPED;
+on one machine the clocks are one, so a released frame whose expected walls have all
+swapped gives a skew (latest swap - earliest swap) and tells whether any wall swapped
+before the last one had drawn (a broken barrier). Frames whose swaps never all come in
+are dropped after a window and counted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from cavesim.core.wire import DisplayMessage
+from cavesim.core.wire.messages import Phase
+
+WINDOW = 120  # frames a released frame may wait for its walls' SWAPPED
+
+
+@dataclass
+class SwapBook:
+    walls: set[str] = field(default_factory=set)  # every wall ever swap-locked
+    skews_ms: list[float] = field(default_factory=list)  # one per finished frame
+    order_violations: int = 0  # finished frames where a swap came before the last drawing
+    stalls: list[int] = field(default_factory=list)  # frames released without every DRAWN
+    incomplete: int = 0  # released frames whose SWAPPED never all came in
+    _expected: dict[int, frozenset[str]] = field(default_factory=dict)
+    _drawn: dict[int, dict[str, int]] = field(default_factory=dict)
+    _swapped: dict[int, dict[str, int]] = field(default_factory=dict)
+
+    def drawn(self, k: int) -> set[str]:
+        return set(self._drawn.get(k, ()))
+
+    def released(self, k: int, walls: tuple[str, ...], stalled: bool) -> None:
+        """Frame k's SWAP went out to `walls` (every swap-locked member)."""
+        self.walls |= set(walls)
+        self._expected[k] = frozenset(walls)
+        if stalled:
+            self.stalls.append(k)
+        self._finish(k)
+        for old in [f for f in self._expected if f < k - WINDOW]:
+            self.incomplete += 1
+            self._forget(old)
+        for old in [f for f in (*self._drawn, *self._swapped) if f < k - WINDOW]:
+            self._forget(old)
+
+    def note(self, message: DisplayMessage) -> None:
+        times = self._drawn if message.phase is Phase.DRAWN else self._swapped
+        times.setdefault(message.frame, {})[message.node] = message.time_ns
+        self._finish(message.frame)
+
+    def _finish(self, k: int) -> None:
+        walls = self._expected.get(k)
+        swapped = self._swapped.get(k, {})
+        if walls is None or not walls <= swapped.keys():
+            return
+        swaps = [swapped[w] for w in walls]
+        drawn = [self._drawn.get(k, {}).get(w) for w in walls]
+        self.skews_ms.append((max(swaps) - min(swaps)) / 1e6)
+        if None in drawn or min(swaps) < max(drawn):
+            self.order_violations += 1
+        self._forget(k)
+
+    def _forget(self, k: int) -> None:
+        for book in (self._expected, self._drawn, self._swapped):
+            book.pop(k, None)
+
+    def summary(self) -> dict:
+        """report.json's "swap" section."""
+        skews = np.array(self.skews_ms)
+
+        def percentile(q: float) -> float | None:
+            return round(float(np.percentile(skews, q)), 3) if len(skews) else None
+
+        return {"walls": sorted(self.walls), "frames": len(skews),
+                "skew_ms": {"p50": percentile(50), "p99": percentile(99),
+                            "max": percentile(100)},
+                "order_violations": self.order_violations, "stalls": self.stalls,
+                "incomplete": self.incomplete}
