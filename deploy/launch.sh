@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # Launch a cavesim cluster: a master and N wall nodes, on this machine or on several hosts.
 #
-#   deploy/launch.sh [--hosts FILE] [--walls N] [--scene FILE] [--frames F] [--out DIR]
-#                    [--session NAME] [--key-file FILE] [--config FILE] [--realtime]
-#                    [--dry-run]
+#   deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display] [--scene FILE]
+#                    [--frames F] [--out DIR] [--session NAME] [--key-file FILE]
+#                    [--config FILE] [--realtime] [--dry-run]
 #
 # Without --hosts everything runs here: this execs `.venv/bin/cavesim run --walls N ...`
-# (after deploy/setup.sh if .venv is missing), which writes OUT/report.json.
+# (or `--cave FILE`; after deploy/setup.sh if .venv is missing), which writes
+# OUT/report.json. --display shows every wall live in its window, as the CAVE file's
+# [wall.display] tables say (needs --cave), swap-locked.
 #
 # With --hosts FILE the processes start where the file says. Hosts file format (see
 # config/cluster/hosts.example), one entry per line, '#' starts a comment, blank lines
@@ -26,11 +28,15 @@
 # On each node host it runs
 #   $CAVESIM_REMOTE node --wall WALL --scene S --session NAME --connect tcp/MASTER:PORT
 #                        --listen tcp/0.0.0.0:0 --verbose [--key-file K] [--config Z]
+#                        [--cave C --display]
 # and on the master host `mkdir -p OUT`, then
 #   $CAVESIM_REMOTE master --walls a,b,c --listen tcp/0.0.0.0:PORT --frames F
 #                          --report OUT/report.json --frame-log OUT/frames.log ...
 #                          [--realtime]
 # CAVESIM_REMOTE is the cavesim command on the hosts (default: `cavesim` on the PATH).
+# With --display each node opens its wall's window on the X display its [wall.display]
+# x_display names (e.g. ":0"), else on the DISPLAY its command gets (via="ssh -tt HOST
+# env DISPLAY=:0"); C is the CAVE file's path on the hosts.
 # Hosts mode only: --config Z gives every process that zenoh JSON5 file, e.g.
 # config/zenoh/multihost.json5 (a short lease and fast reconnects for a LAN; the endpoints
 # still come from the hosts file), and --realtime has the master pace frames by the wall
@@ -47,9 +53,9 @@ me="launch.sh"
 DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/test_launch.py checks it)
 
 usage() {
-    echo "usage: deploy/launch.sh [--hosts FILE] [--walls N] [--scene FILE] [--frames F]" \
-         "[--out DIR] [--session NAME] [--key-file FILE] [--config FILE] [--realtime]" \
-         "[--dry-run]" >&2
+    echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \
+         "[--scene FILE] [--frames F] [--out DIR] [--session NAME] [--key-file FILE]" \
+         "[--config FILE] [--realtime] [--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
 }
@@ -60,10 +66,11 @@ die() {  # a usage or input error: one line, exit 2
 }
 
 hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
-session="run" key_file="" zenoh_config="" realtime=0 dry_run=0
+session="run" key_file="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0
 while (($#)); do
     case "$1" in
-        --hosts | --walls | --scene | --frames | --out | --session | --key-file | --config)
+        --hosts | --walls | --scene | --frames | --out | --session | --key-file | --config \
+            | --cave)
             (($# >= 2)) || die "argument $1: expected a value"
             case "$1" in
                 --hosts) hosts_file="$2" ;;
@@ -74,9 +81,11 @@ while (($#)); do
                 --session) session="$2" ;;
                 --key-file) key_file="$2" ;;
                 --config) zenoh_config="$2" ;;
+                --cave) cave="$2" ;;
             esac
             shift 2 ;;
         --realtime) realtime=1; shift ;;
+        --display) display=1; shift ;;
         --dry-run) dry_run=1; shift ;;
         -h | --help) usage ;;
         *) die "unknown argument $1 (see deploy/launch.sh --help)" ;;
@@ -86,6 +95,7 @@ done
 [[ -z "$walls" || "$walls" =~ ^[1-9][0-9]*$ ]] \
     || die "argument --walls: expected a number >= 1, got '$walls'"
 [[ "$frames" =~ ^[1-9][0-9]*$ ]] || die "argument --frames: expected a number >= 1, got '$frames'"
+((!display)) || [ -n "$cave" ] || die "argument --display: needs --cave FILE (the walls' windows)"
 
 show() {  # print a command as one line that a shell would read back the same way
     local line="" word
@@ -102,8 +112,12 @@ if [ -z "$hosts_file" ]; then
     [ -z "$zenoh_config" ] \
         || die "argument --config: only with --hosts (one machine runs on loopback)"
     ((!realtime)) || die "argument --realtime: only with --hosts"
-    command=("$root/.venv/bin/cavesim" run --walls "${walls:-4}" --scene "$scene"
-             --frames "$frames" --out "$out" --session "$session")
+    [ -z "$cave" ] || [ -z "$walls" ] \
+        || die "argument --walls: not with --cave (the CAVE names its walls)"
+    command=("$root/.venv/bin/cavesim" run --scene "$scene" --frames "$frames" --out "$out"
+             --session "$session")
+    if [ -n "$cave" ]; then command+=(--cave "$cave"); else command+=(--walls "${walls:-4}"); fi
+    ((!display)) || command+=(--display)
     [ -z "$key_file" ] || command+=(--key-file "$key_file")
     if ((dry_run)); then
         [ -x "$root/.venv/bin/cavesim" ] || show "$root/deploy/setup.sh"
@@ -182,7 +196,7 @@ done <"$hosts_file"
 
 remote="${CAVESIM_REMOTE:-cavesim}"
 for pair in "--scene:$scene" "--out:$out" "--session:$session" "--key-file:$key_file" \
-            "--config:$zenoh_config" "CAVESIM_REMOTE:$remote"; do
+            "--config:$zenoh_config" "--cave:$cave" "CAVESIM_REMOTE:$remote"; do
     value="${pair#*:}"
     [[ -z "$value" || "$value" =~ ^[A-Za-z0-9._/:@%+=,~-]+$ ]] \
         || die "${pair%%:*} '$value': only letters, digits and ._/:@%+=,~- (it may go through ssh)"
@@ -204,6 +218,7 @@ node_command() {  # node_command I: the command of node I, in the global array `
     eval "command=(${node_vias[$1]})"
     command+=("$remote" node --wall "${node_walls[$1]}" "${common[@]}"
               --connect "tcp/$master_host:$master_port" --listen "tcp/0.0.0.0:0" --verbose)
+    ((!display)) || command+=(--cave "$cave" --display)
 }
 
 if ((dry_run)); then

@@ -2,15 +2,16 @@
 # Set up cavesim on a Debian machine: the headless OpenGL packages where missing, then a
 # virtualenv in .venv with cavesim installed (editable). Safe to run again: it only does
 # what is missing. Usage: deploy/setup.sh [--test]   (--test adds the test dependencies:
-# the Python ones, iproute2 and iptables for the multi-host test's network namespaces, and
-# glslang-tools for the shader portability gate)
+# the Python ones, iproute2 and iptables for the multi-host test's network namespaces,
+# glslang-tools for the shader portability gate, xvfb and xdotool for the window tests)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-GL_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri)  # EGL dispatch, Mesa's EGL, llvmpipe
+# EGL dispatch, Mesa's EGL, llvmpipe; GL and GLX dispatch and Mesa's GLX for live windows
+GL_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libgl1 libglx-mesa0)
 # tests/test_multihost.py: `ip netns`, veth, packet loss; tests/test_shader_gate.py: the
-# Khronos reference GLSL front-end
-TEST_PACKAGES=(iproute2 iptables glslang-tools)
+# Khronos reference GLSL front-end; tests/test_live_walls.py: an X server and a keyboard
+TEST_PACKAGES=(iproute2 iptables glslang-tools xvfb xdotool)
 
 packages=("${GL_PACKAGES[@]}")
 [ "${1:-}" = "--test" ] && packages+=("${TEST_PACKAGES[@]}")

@@ -132,6 +132,27 @@ def test_without_hosts_it_runs_cavesim_run_here():
     assert flag(argv, "--scene") == MINIMAL
 
 
+def test_display_runs_the_cave_live_here_and_on_every_host(tmp_path):
+    done = launch("--dry-run", "--cave", "config/cave/flex4.toml", "--display")
+    assert done.returncode == 0, done.stderr
+    argv = shlex.split(done.stdout.splitlines()[-1])
+    assert flag(argv, "--cave") == "config/cave/flex4.toml" and "--display" in argv
+    assert "--walls" not in argv
+    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--cave",
+                  "/opt/cave.toml", "--display")
+    assert done.returncode == 0, done.stderr
+    found = commands(done.stdout)
+    for wall in ("front", "left", "floor"):
+        assert flag(found[wall], "--cave") == "/opt/cave.toml" and "--display" in found[wall]
+    assert "--display" not in found["master"]
+
+
+def test_display_needs_a_cave():
+    done = launch("--dry-run", "--display")
+    assert done.returncode == 2
+    assert "argument --display: needs --cave FILE" in done.stderr
+
+
 @pytest.mark.parametrize("text, line, message", [
     ("node front a\nnode left b\n", None, "no 'master HOST[:PORT]' line"),
     ("master a\nnode front b\n\nmaster c\n", 4, "a second master (the first is line 1)"),
