@@ -28,7 +28,8 @@ uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class
 uniform float pixels_per_unit_slope;  // viewport height / (top - bottom) at depth 1
 uniform float min_radius_pixels;
 out vec2 corner;  // -1..1 across the billboard
-out float view_depth;  // distance along -z in view space
+out vec3 billboard_point;  // view space: where this fragment's ray meets the billboard
+flat out mat3 billboard_axes;  // view space: right, up and toward the eye
 out float coverage;  // < 1 when a far billboard is drawn larger than it is
 
 void main() {
@@ -39,14 +40,26 @@ void main() {
     float radius = billboard_radius[min(particle_class[0], uint(CLASS_COUNT - 1))];
     // A billboard smaller than a few pixels would fall between pixel centres and vanish:
     // draw it at the minimum size and thin it by the area ratio, keeping its optical depth.
+    // `pixels` is r * (pixels per metre) * L / D, with L and D the eye's distances to the
+    // wall point and to the particle on one ray: the narrowest radius of the billboard's
+    // footprint on the wall, so walls of one pixel size grow a particle on their shared
+    // edge alike.
     float pixels = radius * pixels_per_unit_slope / -center.z;
     float grow = max(min_radius_pixels / pixels, 1.0);
+    // The billboard faces the eye itself, not the wall's view axis: every wall then sees
+    // the same disc with the same normals, whatever the wall's orientation. Its spin about
+    // the line of sight does not show (a disc), so any perpendicular pair will do.
+    vec3 toward = -normalize(center);
+    vec3 right = normalize(cross(abs(toward.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0),
+                                 toward));
+    mat3 axes = mat3(right, cross(toward, right), toward);
     for (int i = 0; i < 4; ++i) {
         vec2 c = vec2(i & 1, i >> 1) * 2.0 - 1.0;
         corner = c;
-        view_depth = -center.z;
+        billboard_point = center + axes * vec3(c * radius * grow, 0.0);
+        billboard_axes = axes;
         coverage = 1.0 / (grow * grow);
-        gl_Position = projection * vec4(center + vec3(c * radius * grow, 0.0), 1.0);
+        gl_Position = projection * vec4(billboard_point, 1.0);
         EmitVertex();
     }
     EndPrimitive();
@@ -55,7 +68,8 @@ void main() {
 
 #if defined FRAGMENT_SHADER
 in vec2 corner;
-in float view_depth;
+in vec3 billboard_point;
+flat in mat3 billboard_axes;
 in float coverage;
 uniform sampler2D scene_depth;
 uniform vec2 viewport_size;
@@ -75,10 +89,14 @@ void main() {
     if (r2 > 1.0) {
         discard;
     }
+    // Depths along the wall's axis differ between walls for the same point: measure the gap
+    // to the scene along the ray, which every wall shares.
+    float depth = -billboard_point.z;
     float scene = linear_depth(texture(scene_depth, gl_FragCoord.xy / viewport_size).r);
-    float soft = clamp((scene - view_depth) / soft_distance, 0.0, 1.0);
+    float gap = (scene - depth) * length(billboard_point) / depth;
+    float soft = clamp(gap / soft_distance, 0.0, 1.0);
     float density = density_per_particle * coverage * (1.0 - r2) * soft;
-    vec3 normal = vec3(corner, sqrt(1.0 - r2));
+    vec3 normal = billboard_axes * vec3(corner, sqrt(1.0 - r2));
     accumulated = vec4(normal * density, density);
 }
 #endif
