@@ -26,6 +26,7 @@ from cavesim.gpu.render.wall_renderer import RenderSettings, WallRenderer
 
 FLEX4 = Path(__file__).parents[1] / "config" / "cave" / "flex4.toml"
 EYE = np.array([0.45, -0.35, 1.5])  # off centre: each edge is seen at other angles per wall
+NEAR_CORNER = np.array([1.0, 0.9, 2.2])  # seen from here, the front and right walls graze
 PLANE = {"kind": "plane", "friction": 0.3, "resilience": 0.4}
 MAX_JUMP = 1.5  # times the step between neighbouring pixel lines inside a wall
 
@@ -41,16 +42,19 @@ def flex4(side_px: int):
 CAVES = pytest.mark.parametrize("make_cave", [flex4, angled_cave], ids=["flex4", "angled_120"])
 
 
-def edge_cloud(cave, per_edge: int, seed: int = 0) -> np.ndarray:
-    """Dense dust on rays from EYE through every shared edge, from inside the room to far
+def edge_cloud(cave, eye, per_edge: int, seed: int = 0) -> np.ndarray:
+    """Dense dust on rays from `eye` through every shared edge, from inside the room to far
     beyond it (where billboards reach their minimum size in pixels), half of it low over
-    the ground so the soft edges take part; both particle classes."""
+    the ground so the soft edges take part, and some all around the eye, whose discs
+    reach over several walls; both particle classes."""
     rng = np.random.default_rng(seed)
-    clouds = []
+    around = rng.normal(0, 1, (per_edge // 10, 3))
+    around *= rng.uniform(0.1, 0.5, (len(around), 1)) / np.linalg.norm(around, axis=1)[:, None]
+    clouds = [eye + around]
     for _, _, edge in shared_edges(cave):
         on_edge = edge[0] + np.outer(rng.uniform(0, 1, per_edge), edge[1] - edge[0])
         reach = np.exp(rng.uniform(np.log(0.7), np.log(20.0), (per_edge, 1)))
-        points = EYE + reach * (on_edge - EYE + rng.normal(0, 0.1, (per_edge, 3)))
+        points = eye + reach * (on_edge - eye + rng.normal(0, 0.1, (per_edge, 3)))
         points[::2, 2] = rng.uniform(0.0, 0.4, per_edge - per_edge // 2)
         clouds.append(points)
     records = particles_at(np.concatenate(clouds))
@@ -58,26 +62,27 @@ def edge_cloud(cave, per_edge: int, seed: int = 0) -> np.ndarray:
     return records
 
 
-def pictures(ctx, cave, records, ground=True, **settings):
-    """Every wall's picture of `records` from EYE, over a ground plane or only the sky."""
+def pictures(ctx, cave, records, eye=EYE, ground=True, **settings):
+    """Every wall's picture of `records` from `eye`, over a ground plane or only the sky."""
     scene = make_scene(drag=False, collision=PLANE if ground else None, capacity=len(records))
     system = ParticleSystem(ctx, scene)
     system.write_particles(records)
-    return {w.name: WallRenderer(ctx, system, w, RenderSettings(**settings)).render(EYE, None)
+    return {w.name: WallRenderer(ctx, system, w, RenderSettings(**settings)).render(eye, None)
             for w in cave.walls}
 
 
 @CAVES
-def test_a_dense_cloud_is_as_bright_on_both_sides_of_every_edge(ctx, make_cave):
+@pytest.mark.parametrize("eye", [EYE, NEAR_CORNER], ids=["off_centre", "near_a_corner"])
+def test_a_dense_cloud_is_as_bright_on_both_sides_of_every_edge(ctx, make_cave, eye):
     cave = make_cave(128)
-    jumps = seam_jumps(cave, pictures(ctx, cave, edge_cloud(cave, per_edge=4000)))
+    jumps = seam_jumps(cave, pictures(ctx, cave, edge_cloud(cave, eye, per_edge=4000), eye))
     assert len(jumps) == {"flex4": 5, "angled": 3}[cave.name]
     assert max(jumps.values()) < MAX_JUMP, jumps
 
 
 def test_the_seam_measure_sees_a_wall_drawn_a_tenth_darker(ctx):
     cave = flex4(128)
-    images = pictures(ctx, cave, edge_cloud(cave, per_edge=4000))
+    images = pictures(ctx, cave, edge_cloud(cave, EYE, per_edge=4000))
     images["right"] = (images["right"] * 0.9).astype(np.uint8)
     jumps = seam_jumps(cave, images)
     assert jumps["front", "right"] > MAX_JUMP, jumps

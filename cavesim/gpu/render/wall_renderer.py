@@ -23,6 +23,7 @@ from cavesim.gpu.render.programs import COMPOSITE, DUST, SCENE, dust_defines
 
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
+DUST_CLIP_NEAR = 1e-4  # m: the dust pass's near plane, well inside the shader's near sphere
 
 
 @dataclass(frozen=True)
@@ -108,12 +109,12 @@ class WallRenderer:
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:
         """The wall's picture from `eye` (room = world metres): (height, width, 3) uint8."""
-        projection, view = off_axis(self.wall, np.asarray(eye, float), self.settings.near,
-                                    self.settings.far)
+        eye = np.asarray(eye, float)
+        projection, view = off_axis(self.wall, eye, self.settings.near, self.settings.far)
         ctx = self.ctx
         try:
             self._scene_pass(projection, view, helicopter)
-            self._dust_pass(projection, view)
+            self._dust_pass(eye, view)
             self._composite_pass(view)
             pixels = self.picture_target.read(components=3)
         finally:
@@ -138,8 +139,9 @@ class WallRenderer:
             program["model"].write(gl_matrix(model))
             vao.render(moderngl.TRIANGLES, vertices=count)
 
-    def _dust_pass(self, projection, view) -> None:
+    def _dust_pass(self, eye, view) -> None:
         ctx = self.ctx
+        projection, _ = off_axis(self.wall, eye, DUST_CLIP_NEAR, self.settings.far)
         self.dust_target.use()
         self.dust_target.clear(0.0, 0.0, 0.0, 0.0)
         live = self.system.live_count

@@ -27,6 +27,7 @@ uniform mat4 projection;
 uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class
 uniform float pixels_per_unit_slope;  // viewport height / (top - bottom) at depth 1
 uniform float min_radius_pixels;
+uniform float near_plane;  // metres: nearer to the eye, dust is not drawn
 out vec2 corner;  // -1..1 across the billboard
 out vec3 billboard_point;  // view space: where this fragment's ray meets the billboard
 flat out mat3 billboard_axes;  // view space: right, up and toward the eye
@@ -34,8 +35,9 @@ out float coverage;  // < 1 when a far billboard is drawn larger than it is
 
 void main() {
     vec3 center = view_position[0];
-    if (center.z > -0.05) {
-        return;  // behind or at the eye
+    float distance = length(center);
+    if (distance < near_plane) {
+        return;  // the eye is inside the particle: no wall draws it
     }
     float radius = billboard_radius[min(particle_class[0], uint(CLASS_COUNT - 1))];
     // A billboard smaller than a few pixels would fall between pixel centres and vanish:
@@ -44,12 +46,17 @@ void main() {
     // wall point and to the particle on one ray: the narrowest radius of the billboard's
     // footprint on the wall, so walls of one pixel size grow a particle on their shared
     // edge alike.
-    float pixels = radius * pixels_per_unit_slope / -center.z;
+    float pixels = radius * pixels_per_unit_slope / max(-center.z, near_plane);
     float grow = max(min_radius_pixels / pixels, 1.0);
     // The billboard faces the eye itself, not the wall's view axis: every wall then sees
     // the same disc with the same normals, whatever the wall's orientation. Its spin about
     // the line of sight does not show (a disc), so any perpendicular pair will do.
-    vec3 toward = -normalize(center);
+    vec3 toward = -center / distance;
+    // Cull only discs wholly behind the eye: one whose centre is behind this wall's eye
+    // plane may still reach onto this wall, as it does onto its neighbour.
+    if (center.z - radius * grow * length(toward.xy) > 0.0) {
+        return;
+    }
     vec3 right = normalize(cross(abs(toward.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0),
                                  toward));
     mat3 axes = mat3(right, cross(toward, right), toward);
@@ -86,7 +93,9 @@ float linear_depth(float window_depth) {
 
 void main() {
     float r2 = dot(corner, corner);
-    if (r2 > 1.0) {
+    // Dust near the eye is cut at a sphere, the same on every wall; a wall's near plane
+    // would cut each ray at its own distance (the dust pass's near plane sits far closer).
+    if (r2 > 1.0 || length(billboard_point) < near_plane) {
         discard;
     }
     // Depths along the wall's axis differ between walls for the same point: measure the gap
