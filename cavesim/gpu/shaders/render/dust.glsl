@@ -28,9 +28,9 @@ uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class
 uniform float pixels_per_unit_slope;  // viewport height / (top - bottom) at depth 1
 uniform float min_radius_pixels;
 uniform float near_plane;  // metres: nearer to the eye, dust is not drawn
-out vec2 corner;  // -1..1 across the billboard
+out vec3 across;  // view space: offset in the billboard's plane from its centre, in radii
 out vec3 billboard_point;  // view space: where this fragment's ray meets the billboard
-flat out mat3 billboard_axes;  // view space: right, up and toward the eye
+flat out vec3 toward_eye;  // view space: the billboard's normal
 out float coverage;  // < 1 when a far billboard is drawn larger than it is
 
 void main() {
@@ -62,9 +62,9 @@ void main() {
     mat3 axes = mat3(right, cross(toward, right), toward);
     for (int i = 0; i < 4; ++i) {
         vec2 c = vec2(i & 1, i >> 1) * 2.0 - 1.0;
-        corner = c;
-        billboard_point = center + axes * vec3(c * radius * grow, 0.0);
-        billboard_axes = axes;
+        across = axes * vec3(c, 0.0);
+        billboard_point = center + across * radius * grow;
+        toward_eye = toward;
         coverage = 1.0 / (grow * grow);
         gl_Position = projection * vec4(billboard_point, 1.0);
         EmitVertex();
@@ -74,13 +74,13 @@ void main() {
 #endif
 
 #if defined FRAGMENT_SHADER
-in vec2 corner;
+in vec3 across;
 in vec3 billboard_point;
-flat in mat3 billboard_axes;
+flat in vec3 toward_eye;
 in float coverage;
 uniform sampler2D scene_depth;
 uniform vec2 viewport_size;
-uniform float near_plane;
+uniform float near_plane;  // the scene pass's near plane, and the dust's near sphere
 uniform float far_plane;
 uniform float soft_distance;  // metres over which a particle fades into the scene
 uniform float density_per_particle;
@@ -92,20 +92,21 @@ float linear_depth(float window_depth) {
 }
 
 void main() {
-    float r2 = dot(corner, corner);
+    float r2 = dot(across, across);
     // Dust near the eye is cut at a sphere, the same on every wall; a wall's near plane
     // would cut each ray at its own distance (the dust pass's near plane sits far closer).
-    if (r2 > 1.0 || length(billboard_point) < near_plane) {
+    float distance = length(billboard_point);
+    if (r2 > 1.0 || distance < near_plane) {
         discard;
     }
     // Depths along the wall's axis differ between walls for the same point: measure the gap
     // to the scene along the ray, which every wall shares.
     float depth = -billboard_point.z;
     float scene = linear_depth(texture(scene_depth, gl_FragCoord.xy / viewport_size).r);
-    float gap = (scene - depth) * length(billboard_point) / depth;
+    float gap = (scene - depth) * distance / depth;
     float soft = clamp(gap / soft_distance, 0.0, 1.0);
     float density = density_per_particle * coverage * (1.0 - r2) * soft;
-    vec3 normal = billboard_axes * vec3(corner, sqrt(1.0 - r2));
+    vec3 normal = across + toward_eye * sqrt(1.0 - r2);
     accumulated = vec4(normal * density, density);
 }
 #endif
