@@ -14,7 +14,7 @@ import moderngl
 import numpy as np
 
 from cavesim.core.cave.geometry import Wall
-from cavesim.core.cave.projection import gl_matrix, off_axis
+from cavesim.core.cave.projection import gl_matrix, off_axis, recut
 from cavesim.core.scene.model import CollisionKind, Scene
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
@@ -109,12 +109,12 @@ class WallRenderer:
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:
         """The wall's picture from `eye` (room = world metres): (height, width, 3) uint8."""
-        eye = np.asarray(eye, float)
-        projection, view = off_axis(self.wall, eye, self.settings.near, self.settings.far)
+        projection, view = off_axis(self.wall, np.asarray(eye, float), self.settings.near,
+                                    self.settings.far)
         ctx = self.ctx
         try:
             self._scene_pass(projection, view, helicopter)
-            self._dust_pass(eye, view)
+            self._dust_pass(projection, view)
             self._composite_pass(view)
             pixels = self.picture_target.read(components=3)
         finally:
@@ -139,9 +139,8 @@ class WallRenderer:
             program["model"].write(gl_matrix(model))
             vao.render(moderngl.TRIANGLES, vertices=count)
 
-    def _dust_pass(self, eye, view) -> None:
+    def _dust_pass(self, projection, view) -> None:
         ctx = self.ctx
-        projection, _ = off_axis(self.wall, eye, DUST_CLIP_NEAR, self.settings.far)
         self.dust_target.use()
         self.dust_target.clear(0.0, 0.0, 0.0, 0.0)
         live = self.system.live_count
@@ -151,7 +150,8 @@ class WallRenderer:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         self.dust_program["view"].write(gl_matrix(view))
-        self.dust_program["projection"].write(gl_matrix(projection))
+        self.dust_program["projection"].write(
+            gl_matrix(recut(projection, DUST_CLIP_NEAR, self.settings.far)))
         # P[1][1] = 2n / (t - b): pixels per unit of y/z slope is P[1][1] * height / 2
         self.dust_program["pixels_per_unit_slope"].value = projection[1, 1] * self.size[1] / 2
         self.scene_depth.use(0)
