@@ -16,6 +16,7 @@ from cavesim.core.cave import (
     matrices_for_gl,
     off_axis,
     project_to_pixels,
+    recut,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -73,6 +74,15 @@ def test_wall_corners_land_on_the_ndc_square():
 def test_wall_corners_project_to_pixel_corners(x, y, z):
     px = project_to_pixels(WALL, [x, y, z], WALL.corners)
     np.testing.assert_allclose(px, [[0, 0], [200, 0], [200, 200], [0, 200]], atol=1e-6)
+
+
+def test_a_recut_frustum_is_the_frustum_with_other_clip_planes():
+    eye = [0.5, 0.5, 0.25]
+    P, _ = off_axis(WALL, eye, NEAR, FAR)
+    np.testing.assert_allclose(recut(P, 1e-4, 50.0), off_axis(WALL, eye, 1e-4, 50.0)[0],
+                               rtol=1e-12, atol=1e-15)
+    with pytest.raises(ValueError, match="0 < near < far"):
+        recut(P, 0.0, FAR)
 
 
 def test_points_behind_the_eye_are_nan():

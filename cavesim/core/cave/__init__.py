@@ -12,6 +12,7 @@ from cavesim.core.cave.projection import (
     matrices_for_gl,
     off_axis,
     project_to_pixels,
+    recut,
 )
 
 DEFAULT_CAVE = "config/cave/flex4.toml"  # relative to the repository root
@@ -28,4 +29,5 @@ __all__ = [
     "off_axis",
     "parse_cave",
     "project_to_pixels",
+    "recut",
 ]

@@ -62,6 +62,17 @@ def off_axis(wall: Wall, eye: object, near: float = 0.05,
     return P, V
 
 
+def recut(projection: np.ndarray, near: float, far: float) -> np.ndarray:
+    """`projection`, a `frustum` (as `off_axis` makes), cut at other `near` and `far` planes:
+    the same picture, only the depths it keeps and their mapping differ."""
+    if not (np.isfinite(near) and np.isfinite(far) and 0 < near < far):
+        raise ValueError(f"near and far must be finite with 0 < near < far, got {near=!r}, "
+                         f"{far=!r}")
+    cut = np.array(projection, dtype=np.float64)
+    cut[2, 2:] = -(far + near) / (far - near), -2 * far * near / (far - near)
+    return cut
+
+
 def project_to_pixels(wall: Wall, eye: object, points: object) -> np.ndarray:
     """(N, 2) window coordinates of room `points` (N, 3) on `wall` as seen from `eye`.
 

@@ -14,7 +14,7 @@ import moderngl
 import numpy as np
 
 from cavesim.core.cave.geometry import Wall
-from cavesim.core.cave.projection import gl_matrix, off_axis
+from cavesim.core.cave.projection import gl_matrix, off_axis, recut
 from cavesim.core.scene.model import CollisionKind, Scene
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
@@ -24,6 +24,7 @@ from cavesim.gpu.render.programs import COMPOSITE, DUST, SCENE, dust_defines
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
 POSITION_WORDS = "4u 24x"  # ... and with lifetime and class too
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
+DUST_CLIP_NEAR = 1e-4  # m: the dust pass's near plane, well inside the shader's near sphere
 
 
 @dataclass(frozen=True)
@@ -159,7 +160,8 @@ class WallRenderer:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         self.dust_program["view"].write(gl_matrix(view))
-        self.dust_program["projection"].write(gl_matrix(projection))
+        self.dust_program["projection"].write(
+            gl_matrix(recut(projection, DUST_CLIP_NEAR, self.settings.far)))
         # P[1][1] = 2n / (t - b): pixels per unit of y/z slope is P[1][1] * height / 2
         self.dust_program["pixels_per_unit_slope"].value = projection[1, 1] * self.size[1] / 2
         self.scene_depth.use(0)

@@ -27,26 +27,46 @@ uniform mat4 projection;
 uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class
 uniform float pixels_per_unit_slope;  // viewport height / (top - bottom) at depth 1
 uniform float min_radius_pixels;
-out vec2 corner;  // -1..1 across the billboard
-out float view_depth;  // distance along -z in view space
+uniform float near_plane;  // metres: nearer to the eye, dust is not drawn
+out vec3 across;  // view space: offset in the billboard's plane from its centre, in radii
+out vec3 billboard_point;  // view space: where this fragment's ray meets the billboard
+flat out vec3 toward_eye;  // view space: the billboard's normal
 out float coverage;  // < 1 when a far billboard is drawn larger than it is
 
 void main() {
     vec3 center = view_position[0];
-    if (center.z > -0.05) {
-        return;  // behind or at the eye
+    float distance = length(center);
+    if (distance < near_plane) {
+        return;  // the eye is inside the particle: no wall draws it
     }
     float radius = billboard_radius[min(particle_class[0], uint(CLASS_COUNT - 1))];
     // A billboard smaller than a few pixels would fall between pixel centres and vanish:
     // draw it at the minimum size and thin it by the area ratio, keeping its optical depth.
-    float pixels = radius * pixels_per_unit_slope / -center.z;
+    // `pixels` is r * (pixels per metre) * L / D, with L and D the eye's distances to the
+    // wall point and to the particle on one ray: the narrowest radius of the billboard's
+    // footprint on the wall, so walls of one pixel size grow a particle on their shared
+    // edge alike.
+    float pixels = radius * pixels_per_unit_slope / max(-center.z, near_plane);
     float grow = max(min_radius_pixels / pixels, 1.0);
+    // The billboard faces the eye itself, not the wall's view axis: every wall then sees
+    // the same disc with the same normals, whatever the wall's orientation. Its spin about
+    // the line of sight does not show (a disc), so any perpendicular pair will do.
+    vec3 toward = -center / distance;
+    // Cull only discs wholly behind the eye: one whose centre is behind this wall's eye
+    // plane may still reach onto this wall, as it does onto its neighbour.
+    if (center.z - radius * grow * length(toward.xy) > 0.0) {
+        return;
+    }
+    vec3 right = normalize(cross(abs(toward.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0),
+                                 toward));
+    mat3 axes = mat3(right, cross(toward, right), toward);
     for (int i = 0; i < 4; ++i) {
         vec2 c = vec2(i & 1, i >> 1) * 2.0 - 1.0;
-        corner = c;
-        view_depth = -center.z;
+        across = axes * vec3(c, 0.0);
+        billboard_point = center + across * radius * grow;
+        toward_eye = toward;
         coverage = 1.0 / (grow * grow);
-        gl_Position = projection * vec4(center + vec3(c * radius * grow, 0.0), 1.0);
+        gl_Position = projection * vec4(billboard_point, 1.0);
         EmitVertex();
     }
     EndPrimitive();
@@ -54,12 +74,13 @@ void main() {
 #endif
 
 #if defined FRAGMENT_SHADER
-in vec2 corner;
-in float view_depth;
+in vec3 across;
+in vec3 billboard_point;
+flat in vec3 toward_eye;
 in float coverage;
 uniform sampler2D scene_depth;
 uniform vec2 viewport_size;
-uniform float near_plane;
+uniform float near_plane;  // the scene pass's near plane, and the dust's near sphere
 uniform float far_plane;
 uniform float soft_distance;  // metres over which a particle fades into the scene
 uniform float density_per_particle;
@@ -71,14 +92,21 @@ float linear_depth(float window_depth) {
 }
 
 void main() {
-    float r2 = dot(corner, corner);
-    if (r2 > 1.0) {
+    float r2 = dot(across, across);
+    // Dust near the eye is cut at a sphere, the same on every wall; a wall's near plane
+    // would cut each ray at its own distance (the dust pass's near plane sits far closer).
+    float distance = length(billboard_point);
+    if (r2 > 1.0 || distance < near_plane) {
         discard;
     }
+    // Depths along the wall's axis differ between walls for the same point: measure the gap
+    // to the scene along the ray, which every wall shares.
+    float depth = -billboard_point.z;
     float scene = linear_depth(texture(scene_depth, gl_FragCoord.xy / viewport_size).r);
-    float soft = clamp((scene - view_depth) / soft_distance, 0.0, 1.0);
+    float gap = (scene - depth) * distance / depth;
+    float soft = clamp(gap / soft_distance, 0.0, 1.0);
     float density = density_per_particle * coverage * (1.0 - r2) * soft;
-    vec3 normal = vec3(corner, sqrt(1.0 - r2));
+    vec3 normal = across + toward_eye * sqrt(1.0 - r2);
     accumulated = vec4(normal * density, density);
 }
 #endif
