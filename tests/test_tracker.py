@@ -174,8 +174,9 @@ def test_recorded_datagrams_reach_a_subscriber_as_signed_tracking_messages(tmp_p
     received: queue.Queue[TrackingMessage] = queue.Queue()
     with zenoh.open(NetworkConfig(connect=(endpoint,)).zenoh_config()) as listener, \
             socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as dtrack:
-        listener.declare_subscriber(SessionKeys(session).tracking, lambda sample: received.put(
-            decode(sample.payload.to_bytes(), session, key)))
+        subscriber = listener.declare_subscriber(SessionKeys(session).tracking, lambda sample:
+                                                 received.put(decode(sample.payload.to_bytes(),
+                                                                     session, key)))
         deadline, sent = time.monotonic() + 60, 0
         while received.empty():  # until the tracker is up and the subscriber is heard
             assert tracker.poll() is None, tracker.communicate()[1]
@@ -189,6 +190,7 @@ def test_recorded_datagrams_reach_a_subscriber_as_signed_tracking_messages(tmp_p
         while 21755 not in messages:
             message = received.get(timeout=30)
             messages[message.frame] = message
+        subscriber.undeclare()
     tracker.send_signal(signal.SIGINT)
     out, err = tracker.communicate(timeout=30)
     assert tracker.returncode == 0, err
