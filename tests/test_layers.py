@@ -1,8 +1,9 @@
 """The layers point one way: core -> gpu -> nodes -> tools, and nothing imports in a circle.
 
 Read from the source (every `import` and `from ... import`, at module level or inside a
-function), so a late import cannot hide an upward edge; and run: the core, the wire and
-the master's whole loop work in a process where moderngl cannot be imported.
+function), so a late import cannot hide an upward edge; and run: the core, the wire, the
+master's whole loop and the tracker bridge work in a process where moderngl cannot be
+imported.
 """
 
 import ast
@@ -121,13 +122,18 @@ record = run_master(MasterConfig(("front", "left", "right"),
 assert record.frames == 20 and record.final.agree, record.summary()
 assert [d.nodes for d in record.divergences] == [("left",)]
 assert len(record.flight) == 20  # the helicopter's driver ran on the master
+from cavesim.core.tracking import load_mapping
+from cavesim.nodes.tracker import Bridge
+sent = []
+Bridge(load_mapping("config/tracking/dtrack.toml"), sent.append).receive(b"fr 1\\r\\n6d 0\\r\\n", 0)
+assert [m.frame for m in sent] == [1]
 assert "moderngl" not in {m for m in sys.modules if sys.modules[m] is not None}
 print("ok")
 """
 
 
 @pytest.mark.slow
-def test_core_wire_and_master_run_where_moderngl_cannot_be_imported():
+def test_core_wire_master_and_tracker_run_where_moderngl_cannot_be_imported():
     done = subprocess.run([sys.executable, "-c", BLOCKED_GL], cwd=ROOT, capture_output=True,
                           text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr

@@ -221,6 +221,18 @@ def test_range_reads_as_in_a_message() -> None:
     assert Range(gt=0.0).holds(1e-300) and not Range(gt=0.0).holds(0.0)
 
 
+def test_a_tuple_of_strings_keeps_its_rules() -> None:
+    @dataclass(frozen=True)
+    class Pair:
+        names: Annotated[tuple[str, str], Rule("two different names", lambda p: p[0] != p[1])]
+
+    assert build({"names": ["a", "b"]}, Pair) == Pair(("a", "b"))
+    for bad in (["a", "a"], ["a", ""], ["a", 1], ["a"], "ab"):
+        assert message({"names": bad}, Pair) == (
+            f"f.toml: names = {bad!r} is not allowed: must be a list of 2 non-empty strings, "
+            f"two different names")
+
+
 def test_an_unsupported_type_is_a_programming_error() -> None:
     with pytest.raises(TypeError, match="no rule for the type"):
         build({"count": 2, "tags": {"a": 1}})

@@ -10,8 +10,8 @@ an index, keys that depend on a kind) the loaders convert explicitly and pass th
 `<file>: <dotted.key> is missing: required, <what is allowed>`.
 
 Types: bool; int; float (finite, an int is converted); str (non-empty); Path (an existing
-file, relative to the file's folder); an Enum (by value); a tuple of n ints or n floats; a
-dataclass (a table); tuple[Dataclass, ...] (an array of tables); any of them `| None`.
+file, relative to the file's folder); an Enum (by value); a tuple of n ints, n floats or n
+strs; a dataclass (a table); tuple[Dataclass, ...] (an array of tables); any of them `| None`.
 """
 
 from __future__ import annotations
@@ -140,6 +140,14 @@ def _as_int(value: object) -> int | None:
     return value if isinstance(value, int) and not isinstance(value, bool) else None
 
 
+def _as_str(value: object) -> str | None:
+    return value if isinstance(value, str) and value.strip() else None
+
+
+_ITEMS = {int: (_as_int, "integers"), float: (_as_float, "finite numbers"),
+          str: (_as_str, "non-empty strings")}  # what a tuple may hold, and its plural
+
+
 def _allowed(spec: _Spec, key: str) -> str:
     """What a value of `spec` must be, as the end of an error message."""
     tp, bounds = spec.type, f" {spec.range}" if spec.range else ""
@@ -161,7 +169,7 @@ def _allowed(spec: _Spec, key: str) -> str:
         text = f"an array of tables, written [[{key}]]"
     else:
         items = typing.get_args(tp)
-        text = (f"a list of {len(items)} " + ("integers" if items[0] is int else "finite numbers")
+        text = (f"a list of {len(items)} {_ITEMS[items[0]][1]}"
                 + (f", each{bounds}" if bounds else ""))
     return "must be " + text + "".join(f", {r.text}" for r in spec.rules)
 
@@ -175,18 +183,18 @@ def _convert(tp: Any, value: object, base: Path) -> Any:
     if tp is float:
         return _as_float(value)
     if tp is str:
-        return value if isinstance(value, str) and value.strip() else None
+        return _as_str(value)
     if tp is Path:
         return base / Path(value).expanduser() if isinstance(value, str) and value.strip() else None
     if isinstance(tp, type) and issubclass(tp, Enum):
         return next((m for m in tp if type(m.value) is type(value) and m.value == value), None)
     items = typing.get_args(tp)
-    if typing.get_origin(tp) is not tuple or len(set(items)) != 1 or items[0] not in (int, float):
+    if typing.get_origin(tp) is not tuple or len(set(items)) != 1 or items[0] not in _ITEMS:
         raise TypeError(f"the checker has no rule for the type {tp!r}")
     if not isinstance(value, list | tuple) or len(value) != len(items):
         return None
-    numbers = tuple(map(_as_int if items[0] is int else _as_float, value))
-    return None if None in numbers else numbers
+    converted = tuple(map(_ITEMS[items[0]][0], value))
+    return None if None in converted else converted
 
 
 def _holds(spec: _Spec, value: Any) -> bool:

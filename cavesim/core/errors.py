@@ -42,11 +42,17 @@ class FieldError(CavesimError, ValueError):
 
 
 class ProtocolError(CavesimError, ValueError):
-    """A wire message was rejected; `reason` is a short stable name for counting."""
+    """A wire message, or a tracking system's datagram, was rejected; `reason` is a short
+    stable name for counting."""
 
     def __init__(self, reason: str, detail: str) -> None:
         super().__init__(f"{reason}: {detail}")
         self.reason = reason
+
+
+class TrackerError(CavesimError, ValueError):
+    """A tracker bridge cannot start: its mapping file is malformed (names file, key, value
+    and what is allowed) or its UDP port cannot be opened (names the address)."""
 
 
 class ClusterError(CavesimError, RuntimeError):

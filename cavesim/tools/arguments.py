@@ -55,15 +55,23 @@ seconds = number_in(float, 1e-3, 3600.0, "seconds")
 wall_count = number_in(int, 1, MAX_WALLS, "a number of walls")
 
 
-def scene_file(text: str) -> Path:
-    """An existing scene file: relative to the current directory, else to the repository."""
-    path = Path(text)
-    for candidate in (path, REPO_ROOT / path):
-        if candidate.is_file():
-            return candidate
-    raise argparse.ArgumentTypeError(
-        f"no scene file {text!r} in the current directory or in {REPO_ROOT}; "
-        f"give the path of a scene .toml file")
+def existing_file(what: str):
+    """An argparse type: an existing `what` file, relative to the current directory, else
+    to the repository."""
+
+    def check(text: str) -> Path:
+        path = Path(text)
+        for candidate in (path, REPO_ROOT / path):
+            if candidate.is_file():
+                return candidate
+        raise argparse.ArgumentTypeError(
+            f"no {what} file {text!r} in the current directory or in {REPO_ROOT}; "
+            f"give the path of a {what} .toml file")
+
+    return check
+
+
+scene_file = existing_file("scene")
 
 
 def wall_list(text: str) -> tuple[str, ...]:
