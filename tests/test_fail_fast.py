@@ -172,3 +172,16 @@ def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monke
     assert cli.main(["stability"]) == cli.RUN_ERROR
     assert "Traceback" in log.getvalue()
     assert log.getvalue().strip().splitlines()[-1].startswith("cavesim: error: internal error")
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["node", "--wall", "front", "--session", "a/b"],
+     "cavesim node: error: session must be 1-32 letters"),
+    (["master", "--walls", "front", "--session", "a b"],
+     "cavesim master: error: session must be 1-32 letters"),
+    (["run", "--cave", "no/such/cave.toml"], "argument --cave: no CAVE file"),
+])
+def test_bad_names_and_files_are_usage_errors(args, message):
+    done, _ = cavesim(*args)
+    assert done.returncode == 2
+    assert message in assert_one_clear_line(done.stderr)

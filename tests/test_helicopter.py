@@ -169,3 +169,18 @@ def test_wand_tilt_sets_rotor_speed_and_heading_turns_the_nose():
     assert faster.rotor.rotor_speed == pytest.approx(1.25)
     assert faster.helicopter.yaw == pytest.approx(0.0)
     assert faster.rotor.induced_velocity > level.rotor.induced_velocity
+
+
+def test_a_turned_wand_keeps_its_tilt_and_its_heading():
+    import math
+
+    from cavesim.core.helicopter.flight import heading_of, tilt_of
+
+    for heading, tilt in ((90.0, 20.0), (-135.0, -10.0), (10.0, 60.0)):
+        h, t = math.radians(heading) / 2, math.radians(tilt) / 2
+        yaw = np.array([0.0, 0.0, math.sin(h), math.cos(h)])
+        # the wand turned by `heading` about z, then pitched by `tilt` about its own x
+        q = np.array([yaw[3] * math.sin(t), yaw[2] * math.sin(t), yaw[2] * math.cos(t),
+                      yaw[3] * math.cos(t)])
+        assert tilt_of(q) == pytest.approx(tilt)
+        assert math.degrees(heading_of(q)) == pytest.approx(heading)

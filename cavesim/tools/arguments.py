@@ -72,6 +72,7 @@ def existing_file(what: str):
 
 
 scene_file = existing_file("scene")
+cave_file = existing_file("CAVE")
 
 
 def wall_list(text: str) -> tuple[str, ...]:
@@ -102,8 +103,10 @@ def output_directory(path: Path, command: str, flag: str = "--out") -> Path:
 
 
 def network_and_key(args: argparse.Namespace, command: str):
-    """The zenoh settings and the session's key from the network flags (UsageError)."""
+    """The zenoh settings and the session's key from the network flags, the session name
+    checked (UsageError)."""
     try:
+        check_name("session", args.session)
         return network_from_arguments(args), read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e

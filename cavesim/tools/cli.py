@@ -19,7 +19,7 @@ from typing import NoReturn
 from rich.console import Console
 
 from cavesim.core.errors import CavesimError
-from cavesim.tools.arguments import RUN_ERROR, USAGE_ERROR, UsageError
+from cavesim.tools.arguments import INTERRUPTED, RUN_ERROR, USAGE_ERROR, UsageError
 from cavesim.tools.commands import bench, check, cluster, doctor, numerics, replay, run, tracker
 
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
@@ -56,6 +56,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as e:
         print(e, file=sys.stderr)
         return USAGE_ERROR
+    except KeyboardInterrupt:  # a second Ctrl-C while a command was already stopping
+        print("cavesim: interrupted", file=sys.stderr)
+        return INTERRUPTED
     except CavesimError as e:
         print(f"cavesim: error: {e}", file=sys.stderr)
         return RUN_ERROR

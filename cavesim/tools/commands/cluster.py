@@ -15,6 +15,7 @@ from cavesim.nodes.faults import parse_fault
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
+    cave_file,
     configure_logging,
     frame_count,
     network_and_key,
@@ -92,7 +93,7 @@ def add_node(commands) -> None:
     parser.add_argument("--inject", type=fault, action="append", default=[],
                         help="fault to inject into this node, KIND@FRAME (testing)")
     parser.add_argument("--slow-delay", type=seconds, default=1.5)
-    parser.add_argument("--cave", type=scene_file, help="CAVE geometry (.toml) to draw the wall of")
+    parser.add_argument("--cave", type=cave_file, help="CAVE geometry (.toml) to draw the wall of")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
                         help="draw the wall every K frames (0: never)")
     parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")

@@ -23,6 +23,7 @@ from cavesim.nodes.master import MasterConfig
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
+    cave_file,
     frame_count,
     number_in,
     output_directory,
@@ -137,7 +138,7 @@ def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
 def add(commands) -> None:
     parser = commands.add_parser("run", help="master + one node per wall on this machine")
     walls = parser.add_mutually_exclusive_group()
-    walls.add_argument("--cave", type=scene_file, default=DEFAULT_CAVE,
+    walls.add_argument("--cave", type=cave_file, default=DEFAULT_CAVE,
                        help=f"CAVE geometry whose walls are drawn (default: {DEFAULT_CAVE})")
     walls.add_argument("--walls", type=wall_count, help="N undrawn walls instead of a CAVE")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
