@@ -36,8 +36,8 @@ def run_cluster(plan: ClusterPlan,
                 before_frame: Callable[[LocalCluster, int], None] | None = None) -> RunRecord:
     """Start a node per wall, run the master to the end (or Ctrl-C), stop every node."""
     config = plan.master
-    with LocalCluster(config.scene, plan.out, config.session,
-                      key_file=plan.key_file) as cluster:
+    with LocalCluster(config.scene, plan.out, config.session, key_file=plan.key_file,
+                      expected_nodes=len(config.walls)) as cluster:
         for wall in config.walls:
             cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
         config = dataclasses.replace(config, network=NetworkConfig(

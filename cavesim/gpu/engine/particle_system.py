@@ -119,8 +119,8 @@ class ParticleSystem:
                            ("random_texture", RANDOM_UNIT), ("emitter_table", EMITTER_UNIT)):
             if name in self.resources:
                 self.resources[name].use(unit)
-                if name in program:
-                    program[name].value = unit
+                if (sampler := program.get(name, None)) is not None:  # O(1); `in` iterates
+                    sampler.value = unit
 
     def _build_emission(self) -> None:
         scene, count = self.scene, len(self.emitters)
