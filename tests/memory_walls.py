@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import queue
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -37,6 +38,8 @@ class MemoryWall:
     drop_once: set[int] = field(default_factory=set)  # frames it misses the first time
     displays: bool = False  # a swap-locked window: DRAWN after its report, SWAPPED on SWAP
     draws_late: set[int] = field(default_factory=set)  # frames whose DRAWN never comes
+    swap_seconds: float = 0.0  # how long its swap takes (SWAPPED comes that much later)
+    swap_hangs: set[int] = field(default_factory=set)  # frames whose SWAPPED never comes
     swaps: list[tuple[int, int]] = field(default_factory=list)  # (frame, time_ns)
 
 
@@ -47,12 +50,14 @@ class MemoryLink:
         self.walls = {name: MemoryWall(name, up=name not in late, displays=name in displaying)
                       for name in walls}
         self.sent: list = []
+        self.sent_ns: list[int] = []  # when each of `sent` went out
         for wall in self.walls.values():
             if wall.up:
                 self.events.put(WallUp(wall.name))
 
     def send(self, message: FrameMessage | ControlMessage) -> None:
         self.sent.append(message)
+        self.sent_ns.append(time.monotonic_ns())
         if isinstance(message, FrameMessage):
             for wall in self.walls.values():
                 self._step(wall, message)
@@ -62,9 +67,9 @@ class MemoryLink:
             self._report(target, Status.RESYNCED)
         elif message.command is Command.SWAP:
             for wall in self.walls.values():
-                if wall.up and wall.displays and wall.done == message.frame:
-                    wall.swaps.append((message.frame, time.monotonic_ns()))
-                    self._display(wall, Phase.SWAPPED, wall.swaps[-1][1])
+                if wall.up and wall.displays and wall.done == message.frame \
+                        and message.frame not in wall.swap_hangs:
+                    threading.Timer(wall.swap_seconds, self._swap, (wall, message.frame)).start()
         elif message.command is Command.STOP:
             for wall in self.walls.values():
                 self.go_down(wall.name)
@@ -99,6 +104,10 @@ class MemoryLink:
         self._report(wall, Status.STEPPED)
         if wall.displays and k not in wall.draws_late:
             self._display(wall, Phase.DRAWN, time.monotonic_ns())
+
+    def _swap(self, wall: MemoryWall, k: int) -> None:
+        wall.swaps.append((k, time.monotonic_ns()))
+        self.events.put(Displayed(DisplayMessage(k, wall.name, Phase.SWAPPED, wall.swaps[-1][1])))
 
     def _display(self, wall: MemoryWall, phase: Phase, time_ns: int) -> None:
         self.events.put(Displayed(DisplayMessage(wall.done, wall.name, phase, time_ns)))

@@ -1,12 +1,15 @@
 """CAVE geometry files: the shipped configs, and the loader's refusal of broken walls."""
 
+import dataclasses
 import math
+import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from cavesim.core.cave import DEFAULT_CAVE, Cave, Wall, load_cave, parse_cave
+from cavesim.core.cave.desktop import WINDOW_GAP, desktop_cave_file
 from cavesim.core.errors import CaveError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -237,3 +240,16 @@ def test_parse_cave_from_dict_and_error_is_a_value_error():
     assert parse_cave({"wall": [FRONT]}).name == "cave"
     with pytest.raises(ValueError, match="<dict>: wall = 3"):
         parse_cave({"wall": 3})
+
+
+def test_a_desktop_cave_keeps_the_walls_and_lays_their_windows_side_by_side():
+    flex4 = load_cave(ROOT / "config" / "cave" / "flex4.toml")
+    desktop = parse_cave(tomllib.loads(desktop_cave_file(flex4, ("front", "floor"), 64)))
+    assert desktop.names == ("front", "floor")
+    assert desktop.eye_separation == flex4.eye_separation
+    for wall in desktop.walls:
+        assert wall == dataclasses.replace(flex4.wall(wall.name), resolution=(64, 64),
+                                           display=wall.display)
+        assert not wall.display.vsync and wall.display.swap_lock
+    windows = [w.display.window for w in desktop.walls]
+    assert windows == [(0, 0, 64, 64), (64 + WINDOW_GAP, 0, 64, 64)]

@@ -12,6 +12,7 @@ import pytest
 from PIL import Image
 from xserver import close_window, hold_key, window_id, xserver  # noqa: F401  (a fixture)
 
+from cavesim.core.cave.desktop import desktop_cave_file
 from cavesim.core.cave.geometry import load_cave
 from cavesim.core.cave.projection import eye_positions
 from cavesim.core.drivers import driver_for
@@ -25,25 +26,13 @@ from cavesim.nodes.master import MasterConfig
 ROOT = Path(__file__).parents[1]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
 DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"
-CORNERS = {  # the flex4 CAVE's walls (config/cave/flex4.toml)
-    "front": ([-1.5, 1.5, 0.0], [1.5, 1.5, 0.0], [-1.5, 1.5, 3.0]),
-    "left": ([-1.5, -1.5, 0.0], [-1.5, 1.5, 0.0], [-1.5, -1.5, 3.0]),
-    "right": ([1.5, 1.5, 0.0], [1.5, -1.5, 0.0], [1.5, 1.5, 3.0]),
-    "floor": ([-1.5, -1.5, 0.0], [1.5, -1.5, 0.0], [-1.5, 1.5, 0.0]),
-}
+FLEX4 = ROOT / "config" / "cave" / "flex4.toml"
 
 
 def live_cave(folder: Path, walls: tuple[str, ...], size: int = 64) -> Path:
-    """A CAVE file whose walls open side by side as `size`-pixel windows, no vsync."""
-    lines = ['name = "live"']
-    for i, wall in enumerate(walls):
-        ll, lr, ul = CORNERS[wall]
-        lines += ["[[wall]]", f'name = "{wall}"', f"lower_left = {ll}", f"lower_right = {lr}",
-                  f"upper_left = {ul}", f"resolution = [{size}, {size}]",
-                  f"display = {{ vsync = false, window = [{i * (size + 8)}, 0, {size}, "
-                  f"{size}] }}"]
+    """A CAVE file whose flex4 walls open side by side as `size`-pixel windows, no vsync."""
     path = folder / "live.toml"
-    path.write_text("\n".join(lines) + "\n")
+    path.write_text(desktop_cave_file(load_cave(FLEX4), walls, size))
     return path
 
 

@@ -1,6 +1,7 @@
 """The master's rules as pure functions, and the master's whole loop in this process over
 walls simulated in memory (tests/memory_walls.py): no Zenoh, no GL, no child process."""
 
+import time
 from pathlib import Path
 
 import pytest
@@ -182,13 +183,41 @@ def test_a_wall_that_never_says_drawn_stalls_the_swap_which_is_released_anyway()
     assert len(link.walls["front"].swaps) == 30
 
 
+def test_the_next_frame_goes_out_only_after_every_wall_swapped_the_last():
+    link = MemoryLink(WALLS, displaying=("front", "left"))
+    link.walls["left"].swap_seconds = 0.01  # a slow swap: the frame lock waits for it
+    run(link, frames=10, barrier_timeout=1.0)
+    time.sleep(0.1)  # any swap still under way comes in
+    assert [k for k, _ in link.walls["left"].swaps] == list(range(1, 11))
+    frames_sent = {m.frame: t for m, t in zip(link.sent, link.sent_ns, strict=True)
+                   if not isinstance(m, ControlMessage)}
+    for k, swapped in link.walls["left"].swaps[:-1]:
+        assert frames_sent[k + 1] > swapped, f"frame {k + 1} went out before left swapped {k}"
+
+
+def test_a_swap_that_never_returns_is_given_up_and_the_run_goes_on():
+    link = MemoryLink(WALLS, displaying=("front", "left"))
+    link.walls["left"].swap_hangs.add(7)
+    record = run(link)
+    swap = record.summary()["swap"]
+    assert record.frames == 30 and swap["incomplete"] == 1 and swap["frames"] == 29
+
+
 def test_the_swap_book_finds_a_swap_before_the_last_drawing():
     book = SwapBook()
     for node, phase, t in (("a", Phase.DRAWN, 100), ("a", Phase.SWAPPED, 150),
                            ("b", Phase.DRAWN, 200), ("b", Phase.SWAPPED, 210)):
         book.note(DisplayMessage(1, node, phase, t))
     book.released(1, ("a", "b"), stalled=False)
-    assert book.order_violations == 1 and book.skews_ms == [60 / 1e6]
+    assert book.order_violations == 1 and book.skews_ms == [60 / 1e6] and book.settled(1)
     book.released(2, ("a", "b"), stalled=False)
-    book.released(2 + WINDOW + 1, ("a",), stalled=False)
-    assert book.incomplete == 1  # frame 2's swaps never came
+    assert not book.settled(2)
+    book.give_up(2)
+    assert book.incomplete == 1 and book.settled(2)
+
+
+def test_the_swap_book_forgets_late_messages_of_old_frames():
+    book = SwapBook()
+    book.note(DisplayMessage(3, "a", Phase.SWAPPED, 1))  # for a frame it never waits on
+    book.released(3 + WINDOW + 1, ("a",), stalled=False)
+    assert not book._swapped.get(3)

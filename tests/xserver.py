@@ -6,46 +6,28 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import os
 import shutil
 import subprocess
 import time
-from pathlib import Path
+from contextlib import ExitStack
 
 import pytest
 
-SOCKETS = Path("/tmp/.X11-unix")
-START_SECONDS = 10.0
+from cavesim.tools.xvfb import XServerError, virtual_display
 
 
 @pytest.fixture(scope="module")
 def xserver():
     """An Xvfb display (":N") for the module's tests; DISPLAY names it while they run."""
-    if shutil.which("Xvfb") is None or shutil.which("xdotool") is None:
-        pytest.fail("the window tests need Xvfb and xdotool: deploy/setup.sh --test installs "
-                    "the Debian packages xvfb and xdotool")
-    number = next(n for n in range(90, 200) if not (SOCKETS / f"X{n}").exists()
-                  and not Path(f"/tmp/.X{n}-lock").exists())
-    display = f":{number}"
-    server = subprocess.Popen(["Xvfb", display, "-screen", "0", "1280x1024x24", "-nolisten",
-                               "tcp"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + START_SECONDS
-    while not (SOCKETS / f"X{number}").exists():
-        if time.monotonic() > deadline or server.poll() is not None:
-            server.kill()
-            pytest.fail(f"Xvfb did not start on {display}")
-        time.sleep(0.05)
-    saved = os.environ.get("DISPLAY")
-    os.environ["DISPLAY"] = display
-    try:
+    if shutil.which("xdotool") is None:
+        pytest.fail("the window tests need xdotool: deploy/setup.sh --test installs the "
+                    "Debian packages xvfb and xdotool")
+    with ExitStack() as stack:
+        try:
+            display = stack.enter_context(virtual_display())
+        except XServerError as e:
+            pytest.fail(str(e))
         yield display
-    finally:
-        if saved is None:
-            os.environ.pop("DISPLAY", None)
-        else:
-            os.environ["DISPLAY"] = saved
-        server.terminate()
-        server.wait(timeout=10)
 
 
 def xdotool(*args: str) -> str:

@@ -93,7 +93,8 @@ class LiveDisplay:
     report, finishes the GPU's work, says DRAWN k, and swaps on the master's SWAP k (a wall
     with `swap_lock = false`, or the preview, swaps at once); after each swap it says
     SWAPPED k with its clock. Frame k + 1 also releases k: the master sends it only after
-    SWAP k, and Zenoh keeps no order between the two keys."""
+    SWAP k (and every wall's SWAPPED k, or its timeout), and Zenoh keeps no order between
+    the two keys."""
 
     def __init__(self, screen: WallScreen | PreviewScreen,
                  publish: Callable[[int, Phase, int], None]) -> None:

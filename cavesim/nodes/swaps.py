@@ -1,11 +1,11 @@
 """The swap barrier's book: which displaying wall drew and swapped which frame, when.
 
 The master releases frame k's SWAP once every swap-locked wall has drawn k (or its barrier
-timeout passed, a swap stall). Each wall sends its monotonic clock with DRAWN and SWAPPED;
-on one machine the clocks are one, so a released frame whose expected walls have all
-swapped gives a skew (latest swap - earliest swap) and tells whether any wall swapped
-before the last one had drawn (a broken barrier). Frames whose swaps never all come in
-are dropped after a window and counted.
+timeout passed, a swap stall), and sends frame k + 1 once they have all swapped k (or it
+gave up waiting: an incomplete frame). Each wall sends its monotonic clock with DRAWN and
+SWAPPED; on one machine the clocks are one, so a released frame whose expected walls have
+all swapped gives a skew (latest swap - earliest swap) and tells whether any wall swapped
+before the last one had drawn (a broken barrier).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 from cavesim.core.wire import DisplayMessage
 from cavesim.core.wire.messages import Phase
 
-WINDOW = 120  # frames a released frame may wait for its walls' SWAPPED
+WINDOW = 120  # frames a late DRAWN or SWAPPED of a finished frame is kept
 
 
 @dataclass
@@ -26,13 +26,18 @@ class SwapBook:
     skews_ms: list[float] = field(default_factory=list)  # one per finished frame
     order_violations: int = 0  # finished frames where a swap came before the last drawing
     stalls: list[int] = field(default_factory=list)  # frames released without every DRAWN
-    incomplete: int = 0  # released frames whose SWAPPED never all came in
+    incomplete: int = 0  # released frames the master stopped waiting for every SWAPPED of
     _expected: dict[int, frozenset[str]] = field(default_factory=dict)
     _drawn: dict[int, dict[str, int]] = field(default_factory=dict)
     _swapped: dict[int, dict[str, int]] = field(default_factory=dict)
 
     def drawn(self, k: int) -> set[str]:
         return set(self._drawn.get(k, ()))
+
+    def settled(self, k: int) -> bool:
+        """Whether every wall frame k's SWAP went to has said SWAPPED k (or k was never
+        released, or was given up on)."""
+        return k not in self._expected
 
     def released(self, k: int, walls: tuple[str, ...], stalled: bool) -> None:
         """Frame k's SWAP went out to `walls` (every swap-locked member)."""
@@ -41,11 +46,14 @@ class SwapBook:
         if stalled:
             self.stalls.append(k)
         self._finish(k)
-        for old in [f for f in self._expected if f < k - WINDOW]:
-            self.incomplete += 1
-            self._forget(old)
         for old in [f for f in (*self._drawn, *self._swapped) if f < k - WINDOW]:
             self._forget(old)
+
+    def give_up(self, k: int) -> None:
+        """The master stopped waiting for frame k's SWAPPED (a wall's swap hung or was lost)."""
+        if not self.settled(k):
+            self.incomplete += 1
+            self._forget(k)
 
     def note(self, message: DisplayMessage) -> None:
         times = self._drawn if message.phase is Phase.DRAWN else self._swapped

@@ -1,26 +1,25 @@
 """`cavesim bench --cluster`: what keeping the walls in lock-step costs, on loopback.
 
-Two figures, each held to the issue's target (benchmark figures, not timed tests):
+Three figures, each held to the issue's target (benchmark figures, not timed tests):
 
 - the barrier round trip per frame with 2, 4 and 8 wall nodes of a tiny scene: the master's
-  `barrier_ms` from the run's report.json (publish frame k -> every node's report of k in);
+  `barrier_ms` from the run's report.json (publish frame k -> every node's report of k in),
+  beside the CPU every process spent per frame (`cluster_runs.CpuMeter`);
+- the swap barrier's skew with 2 and 4 walls live in windows (`swap.py`);
 - the lock-step cost: a 4-wall cluster's frames per second against the same four
   simulations stepped back to back in one process on one GL context,
   cost = 1 - cluster_fps / back_to_back_fps.
 
 The cluster runs keep their report.json, frames.log and logs under OUT/cluster/; the
-figures go to OUT/cluster.json and OUT/cluster.md. The processes live in nodes/, so this
-module imports nodes.* only inside the functions that start them.
+figures go to OUT/cluster.json and OUT/cluster.md.
 """
 
 from __future__ import annotations
 
 import importlib.metadata
-import json
 import operator
 import os
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -33,8 +32,11 @@ from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, describe
+from cavesim.tools.arguments import wall_names
+from cavesim.tools.bench.cluster_runs import Tick, cluster_run
 from cavesim.tools.bench.display import progress_bar
 from cavesim.tools.bench.measure import BenchError
+from cavesim.tools.bench.swap import SWAP_WALL_COUNTS, measure_swap
 from cavesim.tools.reports.cluster import show, write_reports
 
 BARRIER_SCENE = "config/scenes/minimal.toml"  # a few hundred to 2,000 live particles
@@ -42,8 +44,6 @@ LOCKSTEP_SCENE = "config/scenes/dust_devil.toml"
 LOCKSTEP_WALLS = 4
 FRAME_DT = 1 / 60  # the master's dt and clock seed: back to back steps the cluster's frames
 CLOCK_SEED = 0
-
-Tick = Callable[[int], None]  # called with the number of frames done so far in one run
 
 
 @dataclass(frozen=True)
@@ -62,6 +62,8 @@ class ClusterTarget:
 # The issue's targets on loopback
 TARGETS = (
     ClusterTarget("barrier_p99_ms", "<", 2.0, "barrier round trip per frame, 99th percentile"),
+    ClusterTarget("swap_skew_p99_ms", "<", 1.0,
+                  "latest - earliest swap of a frame across the walls, 99th percentile"),
     ClusterTarget("lockstep_cost", "<=", 0.15,
                   "throughput lost to lock-step: 1 - cluster fps / back-to-back fps"),
 )
@@ -72,7 +74,12 @@ NOTES = (
     "the network",
     "one node's step + checksum: the tiny scene's frames stepped and checksummed by one "
     "ParticleSystem in this process, the node's own share of each round trip",
-    "the master and every node run on this machine and share its cores",
+    "the master and every node run on this machine and share its cores: cpu ms/frame is "
+    "what the master and all nodes spent together per frame (user + system, every thread), "
+    "and cpu floor = that / the cores, under which no round trip can average",
+    "swap skew: the walls of a swap-locked run in small windows on one X server (no vsync); "
+    "each node sends the monotonic time its swap returned, one clock on one machine; the "
+    "master sends frame k + 1 only once every wall swapped k (the frame lock)",
     "cluster fps: frames / seconds of the master's frame loop once every wall has joined "
     "(report.json frames_per_second); back-to-back fps: frames / seconds of one process "
     "stepping and checksumming the four ParticleSystems on one GL context, after building them",
@@ -84,70 +91,45 @@ NOTES = (
 )
 
 
-def run_cluster_bench(barrier_scene: Path, lockstep_scene: Path, node_counts: list[int],
-                      frames: int, out_dir: Path, console: Console) -> dict[str, object]:
-    """Measure, print the tables and targets, write cluster.json and cluster.md."""
+def run_cluster_bench(barrier_scene: Path, lockstep_scene: Path, cave: Path,
+                      node_counts: list[int], frames: int, out_dir: Path,
+                      console: Console) -> dict[str, object]:
+    """Measure, print the tables and targets, write cluster.json and cluster.md; the swap
+    runs show walls of `cave`."""
     runs_dir = out_dir / "cluster"
     with progress_bar(console) as progress:
-        task = progress.add_task("cluster bench", total=frames * (len(node_counts) + 3))
+        runs_total = len(node_counts) + len(SWAP_WALL_COUNTS) + 3
+        task = progress.add_task("cluster bench", total=frames * runs_total)
         done = 0
 
         def ticker(label: str) -> Tick:
+            nonlocal done
+            start, done = done, done + frames
+
             def tick(k: int) -> None:
-                progress.update(task, completed=done + k, description=label)
+                progress.update(task, completed=start + k, description=label)
             return tick
 
-        runs = []
-        for n in node_counts:
-            runs.append(_cluster_run(barrier_scene, n, frames, runs_dir / f"barrier-{n}",
-                                     ticker(f"barrier, {n} nodes")))
-            done += frames
-        cluster = _cluster_run(lockstep_scene, LOCKSTEP_WALLS, frames,
-                               runs_dir / f"lockstep-{LOCKSTEP_WALLS}",
-                               ticker(f"lock-step, {LOCKSTEP_WALLS} walls"))
-        done += frames
+        runs = [cluster_run(barrier_scene, wall_names(n), frames, runs_dir / f"barrier-{n}",
+                            ticker(f"barrier, {n} nodes")) for n in node_counts]
+        swap = measure_swap(barrier_scene, cave, frames, runs_dir, ticker)
+        cluster = cluster_run(lockstep_scene, wall_names(LOCKSTEP_WALLS), frames,
+                              runs_dir / f"lockstep-{LOCKSTEP_WALLS}",
+                              ticker(f"lock-step, {LOCKSTEP_WALLS} walls"))
         ctx = create_context()
         try:
             gl = describe(ctx)
             one_node = _in_process(ctx, barrier_scene, 1, frames, ticker("one node's work"))
-            done += frames
             back_to_back = _in_process(ctx, lockstep_scene, LOCKSTEP_WALLS, frames,
                                        ticker(f"back to back, {LOCKSTEP_WALLS} systems"))
         finally:
             ctx.release()
     report = build_report({"scene": str(barrier_scene), "runs": runs, "one_node": one_node},
-                          cluster, back_to_back, gl, frames)
+                          swap, cluster, back_to_back, gl, frames)
     show(report, console)
     for path in write_reports(report, out_dir):
         console.print(f"wrote {path}", markup=False, highlight=False, soft_wrap=True)
     return report
-
-
-def _cluster_run(scene: Path, walls: int, frames: int, run_dir: Path,
-                 tick: Tick) -> dict[str, object]:
-    """One cluster run to the end; its figures."""
-    from cavesim.core.framelog import read_frame_log
-    from cavesim.nodes.cluster import ClusterPlan, run_cluster
-    from cavesim.nodes.master import MasterConfig
-    from cavesim.tools.arguments import wall_names
-
-    run_dir.mkdir(parents=True, exist_ok=True)
-    config = MasterConfig(wall_names(walls), scene, frames, f"bench-{os.getpid()}-{run_dir.name}",
-                          frame_log=run_dir / "frames.log")
-    record = run_cluster(ClusterPlan(config, run_dir), lambda k, live: tick(k))
-    if record.interrupted or record.frames != frames:
-        raise BenchError(f"the {walls}-node cluster run ended after {record.frames} of "
-                         f"{frames} frames; see {run_dir / 'logs'}")
-    report = record.summary()
-    report_path = run_dir / "report.json"
-    report_path.write_text(json.dumps(report, indent=2) + "\n")
-    *_, last = read_frame_log(run_dir / "frames.log")[1]
-    return {"nodes": walls, "scene": str(scene), "frames": report["frames"],
-            "frames_per_second": report["frames_per_second"],
-            "barrier_ms": report["barrier_ms"],
-            "live_particles_max": report["live_particles"]["max"],
-            "divergences": len(record.divergences), "stalls": len(record.stalls),
-            "final_checksum": last.digest, "report": str(report_path)}
 
 
 def _in_process(ctx: moderngl.Context, scene_path: Path, systems: int, frames: int,
@@ -183,18 +165,25 @@ def _in_process(ctx: moderngl.Context, scene_path: Path, systems: int, frames: i
             "final_checksum": digests.pop()}
 
 
-def build_report(barrier: dict, cluster: dict, back_to_back: dict, gl: dict[str, str],
-                 frames: int) -> dict[str, object]:
-    """`barrier`: {"scene", "runs": one per node count, "one_node": a node's work in process}."""
+def build_report(barrier: dict, swap: dict, cluster: dict, back_to_back: dict,
+                 gl: dict[str, str], frames: int) -> dict[str, object]:
+    """`barrier`: {"scene", "runs": one per node count, "one_node": a node's work in process};
+    `swap`: `measure_swap`'s {"runs": ...} or {"skipped": why}."""
     cluster_fps, serial_fps = cluster["frames_per_second"], back_to_back["frames_per_second"]
     lockstep = {"walls": cluster["nodes"], "cluster": cluster, "back_to_back": back_to_back,
                 "cluster_fps": cluster_fps, "back_to_back_fps": serial_fps,
                 "lockstep_cost": 1 - cluster_fps / serial_fps,
                 "same_final_checksum": cluster["final_checksum"]
                 == back_to_back["final_checksum"]}
-    p99, cost = TARGETS
+    cores = os.cpu_count() or 1
+    for run in barrier["runs"]:
+        cpu = run["cpu_ms_per_frame"]
+        run["cpu_floor_ms"] = None if cpu is None else round(cpu["total"] / cores, 3)
+    p99, skew, cost = TARGETS
     targets = [p99.judge(run["barrier_ms"]["p99"], nodes=run["nodes"])
                for run in barrier["runs"]]
+    targets += [skew.judge(run["swap"]["skew_ms"]["p99"], nodes=run["nodes"])
+                for run in swap.get("runs", ()) if run["swap"]["skew_ms"]["p99"] is not None]
     targets.append(cost.judge(lockstep["lockstep_cost"], nodes=cluster["nodes"]))
     return {
         "command": "bench --cluster",
@@ -204,6 +193,7 @@ def build_report(barrier: dict, cluster: dict, back_to_back: dict, gl: dict[str,
                      "numpy": np.__version__},
         "frames": frames,
         "barrier": barrier,
+        "swap": swap,
         "lockstep": lockstep,
         "targets": targets,
         "notes": list(NOTES),

@@ -7,11 +7,13 @@ from pathlib import Path
 
 from rich.console import Console
 
+from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import SceneError
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.tools.arguments import (
     MAX_WALLS,
     UsageError,
+    cave_file,
     count_list,
     frame_count,
     output_directory,
@@ -88,7 +90,7 @@ def bench_cluster(args: argparse.Namespace, console: Console) -> int:
     lockstep_scene = args.scene or scene_file(LOCKSTEP_SCENE)
     _bench_scene(lockstep_scene)
     output_directory(args.out, "bench")
-    run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene,
+    run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene, cave_file(DEFAULT_CAVE),
                       args.nodes or node_counts(CLUSTER_NODES), args.frames or CLUSTER_FRAMES,
                       args.out, console)
     return 0

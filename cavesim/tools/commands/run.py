@@ -15,6 +15,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
 from cavesim.core.wire.keys import check_name
 from cavesim.core.wire.network import read_key
@@ -34,7 +35,6 @@ from cavesim.tools.arguments import (
 from cavesim.tools.reports.run import demo_table, gpu_table, summary_table
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
-DEFAULT_CAVE = "config/cave/flex4.toml"
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
 

@@ -8,16 +8,39 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-BARRIER_HEADERS = ("nodes", "p50 ms", "p99 ms", "max ms", "frames/s", "live max",
-                   "divergences")
+BARRIER_HEADERS = ("nodes", "p50 ms", "p99 ms", "max ms", "cpu ms/frame", "cpu floor ms",
+                   "frames/s", "live max", "divergences")
+SWAP_HEADERS = ("walls", "skew p50 ms", "skew p99 ms", "skew max ms", "frames",
+                "order violations", "stalls", "incomplete", "barrier p99 ms", "frames/s")
 LOCKSTEP_HEADERS = ("walls", "cluster frames/s", "back-to-back frames/s", "lock-step cost",
                     "same final checksum")
 
 
+def _ms(value: float | None) -> str:
+    return "-" if value is None else f"{value:.3f}"
+
+
 def barrier_rows(report: dict) -> list[tuple[str, ...]]:
-    return [(str(run["nodes"]), *(f"{run['barrier_ms'][q]:.3f}" for q in ("p50", "p99", "max")),
+    return [(str(run["nodes"]), *(_ms(run["barrier_ms"][q]) for q in ("p50", "p99", "max")),
+             _ms((run["cpu_ms_per_frame"] or {}).get("total")), _ms(run["cpu_floor_ms"]),
              f"{run['frames_per_second']:.1f}", f"{run['live_particles_max']:,}",
              str(run["divergences"])) for run in report["barrier"]["runs"]]
+
+
+def swap_rows(report: dict) -> list[tuple[str, ...]]:
+    return [(str(run["nodes"]), *(_ms(run["swap"]["skew_ms"][q]) for q in ("p50", "p99", "max")),
+             str(run["swap"]["frames"]), str(run["swap"]["order_violations"]),
+             str(len(run["swap"]["stalls"])), str(run["swap"]["incomplete"]),
+             _ms(run["barrier_ms"]["p99"]), f"{run['frames_per_second']:.1f}")
+            for run in report["swap"].get("runs", ())]
+
+
+def swap_title(report: dict) -> str:
+    swap = report["swap"]
+    if "skipped" in swap:
+        return f"swap barrier - skipped: {swap['skipped']}"
+    return (f"swap barrier - {swap['scene']}, {swap['window_px']} px windows on "
+            f"{swap['x_server']}, {report['frames']} frames")
 
 
 def one_node_line(report: dict) -> str:
@@ -49,6 +72,7 @@ def show(report: dict, console: Console) -> None:
     for title, headers, rows in (
             (f"barrier round trip - {scenes[0]}, {report['frames']} frames", BARRIER_HEADERS,
              barrier_rows(report)),
+            (swap_title(report), SWAP_HEADERS, swap_rows(report)),
             (f"lock-step vs back to back - {scenes[1]}, {report['frames']} frames",
              LOCKSTEP_HEADERS, [lockstep_row(report)])):
         table = Table(title=title)
@@ -77,6 +101,9 @@ def markdown(report: dict) -> str:
              f"## Barrier round trip ({report['barrier']['scene']})", "",
              *_markdown_table(BARRIER_HEADERS, barrier_rows(report)), "",
              one_node_line(report), "",
+             f"## {swap_title(report)}", "",
+             *(_markdown_table(SWAP_HEADERS, swap_rows(report)) if swap_rows(report) else []),
+             "",
              f"## Lock-step vs back to back ({report['lockstep']['cluster']['scene']})", "",
              *_markdown_table(LOCKSTEP_HEADERS, [lockstep_row(report)]), "",
              "## Targets", "", *(f"- {target_line(t)}" for t in report["targets"]), "",

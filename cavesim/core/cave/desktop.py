@@ -1,0 +1,28 @@
+"""A CAVE's walls as small windows side by side on one desktop: for trying live walls, and
+for measuring the swap barrier, on a machine without projectors (or under Xvfb)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from cavesim.core.cave.geometry import Cave
+
+WINDOW_GAP = 8  # px between neighbouring windows
+
+
+def desktop_cave_file(cave: Cave, walls: Sequence[str], width: int) -> str:
+    """The text of a CAVE file holding `walls` of `cave`, each drawn `width` pixels wide (its
+    height keeps the wall's aspect) in a window of that size, left to right along the top of
+    the screen, without vsync, swap-locked."""
+    lines = [f'name = "{cave.name}-desktop"', f"eye_separation = {cave.eye_separation!r}"]
+    x = 0
+    for name in walls:
+        wall = cave.wall(name)
+        height = max(1, round(width * wall.height / wall.width))
+        lines += ["", "[[wall]]", f'name = "{name}"']
+        lines += [f"{corner} = [{', '.join(repr(float(v)) for v in getattr(wall, corner))}]"
+                  for corner in ("lower_left", "lower_right", "upper_left")]
+        lines += [f"resolution = [{width}, {height}]",
+                  f"display = {{ vsync = false, window = [{x}, 0, {width}, {height}] }}"]
+        x += width + WINDOW_GAP
+    return "\n".join(lines) + "\n"
