@@ -176,9 +176,12 @@ def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monke
 
 @pytest.mark.parametrize(("args", "message"), [
     (["node", "--wall", "front", "--session", "a/b"],
-     "cavesim node: error: session must be 1-32 letters"),
+     "cavesim node: error: argument --session: session must be 1-32 letters"),
     (["master", "--walls", "front", "--session", "a b"],
-     "cavesim master: error: session must be 1-32 letters"),
+     "cavesim master: error: argument --session: session must be 1-32 letters"),
+    (["run", "--session", "a/b"], "cavesim run: error: argument --session: session must be"),
+    (["check", "--session", "a/b"], "cavesim check: error: argument --session: session must"),
+    (["doctor", "--session", "x.y"], "cavesim doctor: error: argument --session: session"),
     (["run", "--cave", "no/such/cave.toml"], "argument --cave: no CAVE file"),
 ])
 def test_bad_names_and_files_are_usage_errors(args, message):

@@ -103,10 +103,8 @@ def output_directory(path: Path, command: str, flag: str = "--out") -> Path:
 
 
 def network_and_key(args: argparse.Namespace, command: str):
-    """The zenoh settings and the session's key from the network flags, the session name
-    checked (UsageError)."""
+    """The zenoh settings and the session's key from the network flags (UsageError)."""
     try:
-        check_name("session", args.session)
         return network_from_arguments(args), read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e

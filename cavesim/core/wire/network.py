@@ -17,6 +17,7 @@ from pathlib import Path
 import zenoh
 
 from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.core.wire.keys import check_name
 
 # Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
 # its default single tx thread that froze the healthy peers' traffic when a wall's link
@@ -65,6 +66,14 @@ def lockstep_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
                                      congestion_control=zenoh.CongestionControl.BLOCK)
 
 
+def session_name(text: str) -> str:
+    """An argparse type: a session name (1-32 letters, digits, '_' or '-')."""
+    try:
+        return check_name("session", text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
+
+
 def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     """The network flags every cavesim process takes."""
     group = parser.add_argument_group("network (zenoh)")
@@ -76,7 +85,8 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
                             "(repeatable)")
     group.add_argument("--config", type=Path, dest="zenoh_config", metavar="FILE",
                        help="zenoh JSON5 config file (see config/zenoh/)")
-    group.add_argument("--session", default="default", help="session name: the key prefix")
+    group.add_argument("--session", default="default", type=session_name,
+                       help="session name: the key prefix")
     group.add_argument("--key-file", type=Path, metavar="FILE",
                        help="shared secret: every message carries an HMAC-SHA256 with it")
 

@@ -119,7 +119,7 @@ class ParticleSystem:
                            ("random_texture", RANDOM_UNIT), ("emitter_table", EMITTER_UNIT)):
             if name in self.resources:
                 self.resources[name].use(unit)
-                if (sampler := program.get(name, None)) is not None:  # O(1); `in` iterates
+                if (sampler := program.get(name, None)) is not None:
                     sampler.value = unit
 
     def _build_emission(self) -> None:

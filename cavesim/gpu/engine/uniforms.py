@@ -71,5 +71,5 @@ def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> N
         raise ShaderError(f"{program.extra['name']} declares no uniform {', '.join(unknown)}; "
                           f"it declares {', '.join(sorted(program.extra['declared']))}")
     for name, value in values.items():
-        if (uniform := program.get(name, None)) is not None:  # O(1); `in` iterates
+        if (uniform := program.get(name, None)) is not None:
             uniform.write(np.ascontiguousarray(value).tobytes())

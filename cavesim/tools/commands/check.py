@@ -9,6 +9,7 @@ from pathlib import Path
 
 from rich.progress import Progress
 
+from cavesim.core.wire.network import session_name
 from cavesim.nodes.faults import KINDS
 from cavesim.tools.arguments import (
     RUN_ERROR,
@@ -39,7 +40,7 @@ def add(commands) -> None:
     parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
     parser.add_argument("--check-every", type=frame_count, default=1)
     parser.add_argument("--out", type=Path, default=Path("out/check"))
-    parser.add_argument("--session", default="check")
+    parser.add_argument("--session", default="check", type=session_name)
     parser.set_defaults(handler=check)
 
 

@@ -8,7 +8,6 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cavesim.core.wire.keys import check_name
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.tools.arguments import RUN_ERROR, UsageError, network_and_key, output_directory
 
@@ -27,10 +26,6 @@ def doctor(args: argparse.Namespace, console: Console) -> int:
     """`cavesim doctor`: check the flags as a node would, then `run_doctor`."""
     from cavesim.tools.doctor.report import run_doctor
 
-    try:
-        check_name("session", args.session)
-    except ValueError as e:
-        raise UsageError(f"cavesim doctor: error: {e}") from e
     network, _ = network_and_key(args, "doctor")
     try:
         network.zenoh_config()

@@ -17,8 +17,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
-from cavesim.core.wire.keys import check_name
-from cavesim.core.wire.network import read_key
+from cavesim.core.wire.network import read_key, session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
 from cavesim.nodes.master import MasterConfig
 from cavesim.tools.arguments import (
@@ -154,14 +153,13 @@ def add(commands) -> None:
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
     parser.add_argument("--out", type=Path, default=Path("out"))
-    parser.add_argument("--session", default="run")
+    parser.add_argument("--session", default="run", type=session_name)
     parser.add_argument("--key-file", type=Path)
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace, console) -> int:
     try:
-        check_name("session", args.session)
         read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim run: error: {e}") from e

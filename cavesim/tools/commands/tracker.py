@@ -8,7 +8,6 @@ import json
 from pathlib import Path
 
 from cavesim.core.errors import TrackerError
-from cavesim.core.wire.keys import check_name
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.tools.arguments import (
     UsageError,
@@ -50,12 +49,9 @@ def tracker(args: argparse.Namespace, console) -> int:
     configure_logging(args.verbose)
     network, key = network_and_key(args, "tracker")
     try:
-        check_name("session", args.session)
         mapping = load_mapping(args.map)
     except TrackerError as e:
         raise UsageError(f"cavesim tracker: error: argument --map: {e}") from e
-    except ValueError as e:
-        raise UsageError(f"cavesim tracker: error: argument --session: {e}") from e
     counts = run_tracker(TrackerConfig(args.dtrack, mapping, args.bind, args.session, network,
                                        key, args.max_rate))
     console.print(f"tracker: {counts.datagrams} datagrams, {counts.published} published; "
