@@ -169,3 +169,17 @@ def test_sessions_with_different_prefixes_never_interfere(tmp_path):
         assert report["frames"] == 300 and report["divergences"] == []
         assert not report["rejected_messages"]["master"]
         assert not any(report["rejected_messages"]["nodes"].values())
+
+
+@pytest.mark.parametrize(("cores", "nodes", "threads"), [(2, 4, "0"), (2, 2, "0"), (16, 4, "4"),
+                                                         (16, 8, "2"), (16, 9, "0")])
+def test_a_node_that_never_draws_gets_its_share_of_llvmpipes_threads(monkeypatch, tmp_path,
+                                                                   cores, nodes, threads):
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    monkeypatch.delenv("LP_NUM_THREADS", raising=False)
+    cluster = LocalCluster(MINIMAL, tmp_path, "t", expected_nodes=nodes,
+                           drawing=frozenset({"front"}))
+    assert cluster.node_environment("left")["LP_NUM_THREADS"] == threads
+    assert "LP_NUM_THREADS" not in cluster.node_environment("front")  # it draws: Mesa's own
+    monkeypatch.setenv("LP_NUM_THREADS", "3")  # the user's setting wins
+    assert cluster.node_environment("left")["LP_NUM_THREADS"] == "3"

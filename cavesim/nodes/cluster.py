@@ -29,6 +29,7 @@ class ClusterPlan:
     out: Path  # logs/<wall>.log of the node processes
     key_file: Path | None = None  # where the nodes read the session's key
     node_args: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # per wall
+    drawing: frozenset[str] = frozenset()  # walls whose nodes draw pictures
 
 
 def run_cluster(plan: ClusterPlan,
@@ -37,7 +38,7 @@ def run_cluster(plan: ClusterPlan,
     """Start a node per wall, run the master to the end (or Ctrl-C), stop every node."""
     config = plan.master
     with LocalCluster(config.scene, plan.out, config.session, key_file=plan.key_file,
-                      expected_nodes=len(config.walls)) as cluster:
+                      expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
         for wall in config.walls:
             cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
         config = dataclasses.replace(config, network=NetworkConfig(

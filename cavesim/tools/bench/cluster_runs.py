@@ -58,9 +58,9 @@ class CpuMeter:
 
 
 def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, tick: Tick,
-                node_args: tuple[str, ...] = ()) -> dict[str, object]:
-    """One cluster run to the end (every node started with `node_args`), its report.json
-    kept in `run_dir`; its figures."""
+                node_args: tuple[str, ...] = (), draws: bool = False) -> dict[str, object]:
+    """One cluster run to the end (every node started with `node_args`; `draws`: they draw
+    pictures), its report.json kept in `run_dir`; its figures."""
     from cavesim.core.framelog import read_frame_log
     from cavesim.nodes.cluster import ClusterPlan, run_cluster
     from cavesim.nodes.master import MasterConfig
@@ -69,7 +69,8 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
     config = MasterConfig(tuple(walls), scene, frames,
                           f"bench-{os.getpid()}-{run_dir.name}", frame_log=run_dir / "frames.log")
     meter = CpuMeter(frames)
-    plan = ClusterPlan(config, run_dir, node_args=dict.fromkeys(walls, node_args))
+    plan = ClusterPlan(config, run_dir, node_args=dict.fromkeys(walls, node_args),
+                       drawing=frozenset(walls) if draws else frozenset())
     record = run_cluster(plan, lambda k, live: tick(k), meter.before_frame)
     if record.interrupted or record.frames != frames:
         raise BenchError(f"the {len(walls)}-node cluster run ended after {record.frames} of "

@@ -45,6 +45,6 @@ def measure_swap(scene: Path, cave_file: Path, frames: int, runs_dir: Path,
             windows.write_text(desktop_cave_file(cave, walls, SWAP_WINDOW_PX))
             runs.append(cluster_run(scene, walls, frames, run_dir,
                                     ticker(f"swap barrier, {count} windows"),
-                                    ("--display", "--cave", str(windows))))
+                                    ("--display", "--cave", str(windows)), draws=True))
     return {"x_server": x_server, "window_px": SWAP_WINDOW_PX, "scene": str(scene),
             "runs": runs}

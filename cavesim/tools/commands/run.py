@@ -78,8 +78,10 @@ class RunPlan:
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               key=read_key(self.key_file), frame_log=self.out / "frames.log")
+        drawing = frozenset(self.members) if self.draws or self.display \
+            else frozenset({PREVIEW} & set(self.members))
         return ClusterPlan(master, self.out, self.key_file,
-                           {wall: self.node_args(wall) for wall in self.members})
+                           {wall: self.node_args(wall) for wall in self.members}, drawing)
 
 
 def run_walls(plan: RunPlan, console: Console) -> dict:
