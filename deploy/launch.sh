@@ -2,7 +2,7 @@
 # Launch a cavesim cluster: a master and N wall nodes, on this machine or on several hosts.
 #
 #   deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display] [--scene FILE]
-#                    [--frames F] [--out DIR] [--session NAME] [--key-file FILE]
+#                    [--frames F] [--out DIR] [--session NAME] [--keys DIR]
 #                    [--config FILE] [--realtime] [--dry-run]
 #
 # Without --hosts everything runs here: this execs `.venv/bin/cavesim run --walls N ...`
@@ -27,7 +27,8 @@
 #
 # On each node host it runs
 #   $CAVESIM_REMOTE node --wall WALL --scene S --session NAME --connect tcp/MASTER:PORT
-#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K] [--config Z]
+#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K/session.key]
+#                        [--config Z]
 #                        [--cave C --display]
 # and on the master host `mkdir -p OUT`, then
 #   $CAVESIM_REMOTE master --walls a,b,c --listen tcp/0.0.0.0:PORT --frames F
@@ -41,7 +42,9 @@
 # config/zenoh/multihost.json5 (a short lease and fast reconnects for a LAN; the endpoints
 # still come from the hosts file), and --realtime has the master pace frames by the wall
 # clock, as a CAVE's displays need (default: as fast as the barrier allows).
-# The scene, OUT, the key file and Z are paths on the hosts (relative ones are resolved by
+# --keys DIR signs every message: DIR holds what `cavesim keys --out DIR` made; the master
+# reads DIR/master.key (on the master host only), each node DIR/session.key (which cannot
+# sign frames or commands). The scene, OUT, DIR and Z are paths on the hosts (relative ones are resolved by
 # the remote command: the login directory for ssh; a scene also by the cavesim checkout).
 # Node output is collected here in OUT/logs/WALL.log; the master's goes to the terminal.
 # The launcher waits for the master, exits with its status, and on exit or Ctrl-C stops
@@ -54,7 +57,7 @@ DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/test_launc
 
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \
-         "[--scene FILE] [--frames F] [--out DIR] [--session NAME] [--key-file FILE]" \
+         "[--scene FILE] [--frames F] [--out DIR] [--session NAME] [--keys DIR]" \
          "[--config FILE] [--realtime] [--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
@@ -66,10 +69,10 @@ die() {  # a usage or input error: one line, exit 2
 }
 
 hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
-session="run" key_file="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0
+session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0
 while (($#)); do
     case "$1" in
-        --hosts | --walls | --scene | --frames | --out | --session | --key-file | --config \
+        --hosts | --walls | --scene | --frames | --out | --session | --keys | --config \
             | --cave)
             (($# >= 2)) || die "argument $1: expected a value"
             case "$1" in
@@ -79,7 +82,7 @@ while (($#)); do
                 --frames) frames="$2" ;;
                 --out) out="$2" ;;
                 --session) session="$2" ;;
-                --key-file) key_file="$2" ;;
+                --keys) keys="${2%/}" ;;
                 --config) zenoh_config="$2" ;;
                 --cave) cave="$2" ;;
             esac
@@ -118,7 +121,7 @@ if [ -z "$hosts_file" ]; then
              --session "$session")
     if [ -n "$cave" ]; then command+=(--cave "$cave"); else command+=(--walls "${walls:-4}"); fi
     ((!display)) || command+=(--display)
-    [ -z "$key_file" ] || command+=(--key-file "$key_file")
+    [ -z "$keys" ] || command+=(--key-file "$keys/master.key")
     if ((dry_run)); then
         [ -x "$root/.venv/bin/cavesim" ] || show "$root/deploy/setup.sh"
         show "${command[@]}"
@@ -195,7 +198,7 @@ done <"$hosts_file"
     || die "argument --walls: $walls walls, but $hosts_file names ${#node_walls[@]}"
 
 remote="${CAVESIM_REMOTE:-cavesim}"
-for pair in "--scene:$scene" "--out:$out" "--session:$session" "--key-file:$key_file" \
+for pair in "--scene:$scene" "--out:$out" "--session:$session" "--keys:$keys" \
             "--config:$zenoh_config" "--cave:$cave" "CAVESIM_REMOTE:$remote"; do
     value="${pair#*:}"
     [[ -z "$value" || "$value" =~ ^[A-Za-z0-9._/:@%+=,~-]+$ ]] \
@@ -207,17 +210,18 @@ done
 # -- the commands -------------------------------------------------------------------------------
 
 common=(--scene "$scene" --session "$session")
-[ -z "$key_file" ] || common+=(--key-file "$key_file")
 [ -z "$zenoh_config" ] || common+=(--config "$zenoh_config")
 wall_list="$(IFS=,; echo "${node_walls[*]}")"
 master_command=("${master_via[@]}" "$remote" master --walls "$wall_list" --frames "$frames"
                 "${common[@]}" --listen "tcp/0.0.0.0:$master_port"
                 --report "$out/report.json" --frame-log "$out/frames.log")
+[ -z "$keys" ] || master_command+=(--key-file "$keys/master.key")
 ((!realtime)) || master_command+=(--realtime)
 node_command() {  # node_command I: the command of node I, in the global array `command`
     eval "command=(${node_vias[$1]})"
     command+=("$remote" node --wall "${node_walls[$1]}" "${common[@]}"
               --connect "tcp/$master_host:$master_port" --listen "tcp/0.0.0.0:0" --verbose)
+    [ -z "$keys" ] || command+=(--key-file "$keys/session.key")
     ((!display)) || command+=(--cave "$cave" --display)
 }
 

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.wire.credentials import ED25519_BYTES, SECRET_BYTES, of_master
 from cavesim.core.wire.messages import (
     MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
@@ -43,7 +44,8 @@ names = st.from_regex(r"[A-Za-z0-9_-]{1,32}", fullmatch=True)
 frame_numbers = st.integers(0, U64)
 f32 = st.floats(width=32, allow_nan=False, allow_infinity=False)
 dts = st.floats(min_value=0.0, width=32, allow_infinity=False)  # subnormals and max included
-hmac_keys = st.binary(min_size=16, max_size=64)
+credential_sets = st.builds(of_master, st.binary(min_size=SECRET_BYTES, max_size=SECRET_BYTES),
+                            st.binary(min_size=ED25519_BYTES, max_size=ED25519_BYTES))
 
 
 @st.composite

@@ -5,17 +5,19 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 from cavesim.nodes.launcher import LocalCluster
 
 
 def spawn_master(cluster: LocalCluster, walls: tuple[str, ...], frames: int,
-                 extra=()) -> subprocess.Popen:
-    """Start the master of `cluster`'s session: JSON progress lines on its stdout, its log
-    in OUT/logs/master.log, report.json and frames.log in OUT."""
+                 extra=(), key_file: Path | None = None) -> subprocess.Popen:
+    """Start the master of `cluster`'s session (signing with `key_file`, a master.key, when
+    given): JSON progress lines on its stdout, its log in OUT/logs/master.log, report.json
+    and frames.log in OUT."""
     args = ["master", "--walls", ",".join(walls), "--frames", str(frames),
             "--scene", str(cluster.scene), "--session", cluster.session, "--verbose",
-            *(["--key-file", str(cluster.key_file)] if cluster.key_file else []),
+            *(["--key-file", str(key_file)] if key_file else []),
             "--listen", cluster.master_endpoint, "--progress",
             "--report", str(cluster.out / "report.json"),
             "--frame-log", str(cluster.out / "frames.log"), *extra]

@@ -23,6 +23,7 @@ from cavesim.core.wire import (
     ReportMessage,
 )
 from cavesim.core.wire.messages import Phase, Status
+from cavesim.core.wire.rejects import RejectCounter
 from cavesim.nodes.events import Described, Displayed, Reported, WallDown, WallUp
 
 START = "0" * 32
@@ -41,6 +42,7 @@ class MemoryWall:
     swap_seconds: float = 0.0  # how long its swap takes (SWAPPED comes that much later)
     swap_hangs: set[int] = field(default_factory=set)  # frames whose SWAPPED never comes
     swaps: list[tuple[int, int]] = field(default_factory=list)  # (frame, time_ns)
+    silent_from: int | None = None  # from this frame on it is up but never reports
 
 
 class MemoryLink:
@@ -51,6 +53,11 @@ class MemoryLink:
                       for name in walls}
         self.sent: list = []
         self.sent_ns: list[int] = []  # when each of `sent` went out
+        self.run_id = 0x5EED
+        self.rejects = RejectCounter("memory")
+        self.dropped = 0
+        self.tracking = None
+        self.resync_fails: set[str] = set()  # walls whose every resync fails
         for wall in self.walls.values():
             if wall.up:
                 self.events.put(WallUp(wall.name))
@@ -61,10 +68,13 @@ class MemoryLink:
         if isinstance(message, FrameMessage):
             for wall in self.walls.values():
                 self._step(wall, message)
+        elif message.command is Command.WELCOME:
+            self._report(self.walls[message.target], Status.JOINED)
         elif message.command is Command.RESYNC:
             target, source = self.walls[message.target], self.walls[message.source]
-            target.digest, target.done = source.digest, source.done
-            self._report(target, Status.RESYNCED)
+            if source.digest == message.digest and target.name not in self.resync_fails:
+                target.digest, target.done = source.digest, source.done  # verified, loaded
+            self._report(target, Status.RESYNCED)  # a failed one reports the state it kept
         elif message.command is Command.SWAP:
             for wall in self.walls.values():
                 if wall.up and wall.displays and wall.done == message.frame \
@@ -78,6 +88,9 @@ class MemoryLink:
         self.events.put(Described(InfoMessage(0, wall, 0, True, "memory", "tests", "none",
                                               swap_locked=self.walls[wall].displays)))
 
+    def sender_hint(self, wall: str) -> str | None:
+        return None
+
     def go_down(self, name: str) -> None:
         if self.walls[name].up:
             self.walls[name].up = False
@@ -90,7 +103,8 @@ class MemoryLink:
 
     def _step(self, wall: MemoryWall, message: FrameMessage) -> None:
         k = message.frame
-        if not wall.up or k != wall.done + 1:
+        if not wall.up or k != wall.done + 1 or wall.silent_from is not None \
+                and k >= wall.silent_from:
             return
         if k in wall.drop_once:
             wall.drop_once.discard(k)

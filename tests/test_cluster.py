@@ -79,8 +79,30 @@ def test_process_faults_are_detected_and_healed(tmp_path):
     report = check(tmp_path, faults, walls=("front", "left", "right", "floor"), frames=200)
     assert_each_fault_caught(report, faults)
     assert report["divergences"] == 0
-    assert report["rogue_messages_sent"] == 4
+    assert sum(report["rogue_messages_sent"].values()) == 4
     assert sum(report["run"]["rejected_messages"]["nodes"].values()) >= 4 * 3
+
+
+def test_attacks_and_a_killed_master_are_refused_and_survived(tmp_path):
+    """Forged snapshots and a query flood at a resync, the master killed mid-run and a new
+    master taking the nodes over, then the killed run's captured traffic (and an earlier
+    run's, a member's and unsent reports) replayed into the new run."""
+    faults = ["snapshot-forgery@20:left", "bitflip@30:right", "master-kill@40",
+              "replay-attack@70"]
+    report = check(tmp_path, faults, frames=100)
+    assert_each_fault_caught(report, faults)
+    forgery, _, kill, replay = report["faults"]
+    assert set(forgery["detection"]["forged_snapshots_served"]) >= {"old-snapshot"}
+    assert forgery["detection"]["refused_by_node"] >= 1
+    assert report["killed_run"]["frames"] == 39 and kill["detection"]["frames_before"] == 39
+    assert kill["detection"]["nodes_that_noticed"] == list(WALLS)
+    assert kill["detection"]["nodes_in_the_new_run"] == list(WALLS)
+    assert kill["detection"]["killed_run"] != kill["detection"]["new_run"]
+    assert report["frames"] == 100 and report["run"]["frames"] == 61
+    refused = replay["detection"]["refused_by_master"]
+    assert refused.get("wrong-run", 0) >= 1 and refused.get("unsent-frame", 0) >= 1
+    assert replay["detection"]["refused_by_nodes"] >= 3 * 3  # earlier run's, member's
+    assert report["divergences"] == 0 and report["final"]["agree"]  # in the new run
 
 
 def test_two_nodes_name_both_on_a_divergence(tmp_path):

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
-from cluster_helpers import Mutation, hmac_keys, messages, mutations, names
+from cluster_helpers import Mutation, credential_sets, messages, mutations, names
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from master_process import spawn_master
@@ -30,6 +30,7 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import SessionKeys, decode, encode
+from cavesim.core.wire.credentials import Credentials, write_key_files
 from cavesim.core.wire.messages import HEADER
 from cavesim.core.wire.network import NetworkConfig, read_key
 from cavesim.gpu.engine import FrameInput, ParticleSystem
@@ -67,10 +68,10 @@ def fuzz_strategies(session: str) -> dict[str, st.SearchStrategy[Fuzz]]:
                               messages(), walls),
         "wrong-key": st.builds(
             lambda m, key, wall: Fuzz("wrong-key", encode(m, session, key), wall=wall),
-            messages(), hmac_keys, walls),
+            messages(), credential_sets, walls),
         "other-session": st.builds(
             lambda m, other, key, wall: Fuzz("other-session", encode(m, other, key), wall=wall),
-            messages(), others, st.none() | hmac_keys, walls),
+            messages(), others, st.none() | credential_sets, walls),
         "mutated": st.builds(Fuzz, st.just("mutated"), mutation=mutations,
                              captured=st.sampled_from(["frame", "report"]), wall=walls),
         "replayed": st.builds(Fuzz, st.just("replayed"), wall=walls),
@@ -114,7 +115,7 @@ class Traffic:
         data = sample.payload.to_bytes()
         with self.changed:
             self.latest["frame"] = data
-            self.frame = max(self.frame, HEADER.unpack_from(data)[6])
+            self.frame = max(self.frame, HEADER.unpack_from(data)[7])
             self.changed.notify_all()
 
     def on_report(self, sample: zenoh.Sample) -> None:
@@ -161,7 +162,7 @@ def fuzz_the_run(session: zenoh.Session, keys: SessionKeys, traffic: Traffic,
 
 
 def expected_master_rejects(sent: list[tuple[str, bytes]], keys: SessionKeys,
-                            key: bytes) -> Counter:
+                            key: Credentials) -> Counter:
     """The reasons the master must count for what went to report keys (checked with the key,
     after the run: the fuzzer itself never holds it)."""
     reasons = Counter()
@@ -198,15 +199,15 @@ def replay(ctx, log: Path) -> int:
 def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     session_name = f"fuzz-{secrets.token_hex(6)}"
     keys = SessionKeys(session_name)
-    key_file = tmp_path / "key"
-    key_file.write_text(secrets.token_hex(16))
+    master_key, session_key = write_key_files(tmp_path / "keys")
     plan = draw_plan(session_name)
     per_category = EXAMPLES // len(CATEGORIES)
     assert Counter(fuzz.category for fuzz in plan) == dict.fromkeys(CATEGORIES, per_category)
     traffic = Traffic(WALLS)
 
-    with LocalCluster(SCENE, tmp_path, session_name, key_file=key_file) as cluster:
-        master = spawn_master(cluster, WALLS, frames=FRAMES, extra=("--barrier-timeout", "1"))
+    with LocalCluster(SCENE, tmp_path, session_name, key_file=session_key) as cluster:
+        master = spawn_master(cluster, WALLS, frames=FRAMES, extra=("--barrier-timeout", "1"),
+                              key_file=master_key)
         config = NetworkConfig(connect=(cluster.master_endpoint,)).zenoh_config()
         # retry the master's endpoint often: it listens a moment after its process starts
         config.insert_json5("connect/retry", '{"period_init_ms": 50, "period_max_ms": 200}')
@@ -245,7 +246,7 @@ def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     rejected = report["rejected_messages"]
     to_nodes = sum(1 for where, _ in sent if where in (keys.frame, keys.control))
     assert to_nodes > 0 and rejected["nodes"] == dict.fromkeys(WALLS, to_nodes)
-    master_expected = expected_master_rejects(sent, keys, read_key(key_file))
+    master_expected = expected_master_rejects(sent, keys, read_key(session_key))
     assert sum(master_expected.values()) > 0 and rejected["master"] == master_expected
 
     assert replay(ctx, tmp_path / "frames.log") == FRAMES

@@ -74,7 +74,7 @@ def prefix(argv: list[str], remote: str = "cavesim") -> list[str]:
 def dry_run(tmp_path):
     done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--frames", "30",
                   "--scene", MINIMAL, "--out", "runs/a", "--session", "cave1",
-                  "--key-file", "/etc/cavesim/key")
+                  "--keys", "/etc/cavesim/keys")
     assert done.returncode == 0, done.stderr
     return commands(done.stdout)
 
@@ -102,11 +102,13 @@ def test_every_node_connects_to_the_master_through_its_via(dry_run):
         assert flag(node, "--listen") == "tcp/0.0.0.0:0"
 
 
-def test_scene_session_and_key_reach_every_process(dry_run):
+def test_scene_session_and_keys_reach_every_process(dry_run):
     for argv in (dry_run["master"], dry_run["front"], dry_run["left"], dry_run["floor"]):
         assert flag(argv, "--scene") == MINIMAL
         assert flag(argv, "--session") == "cave1"
-        assert flag(argv, "--key-file") == "/etc/cavesim/key"
+    assert flag(dry_run["master"], "--key-file") == "/etc/cavesim/keys/master.key"
+    for wall in ("front", "left", "floor"):  # nodes never get the master's signing key
+        assert flag(dry_run[wall], "--key-file") == "/etc/cavesim/keys/session.key"
 
 
 def test_default_port_ipv6_master_and_remote_cavesim(tmp_path):

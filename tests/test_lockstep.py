@@ -12,7 +12,7 @@ from cavesim.core.wire import Command, ControlMessage, DisplayMessage, ReportMes
 from cavesim.core.wire.messages import Phase, Status
 from cavesim.nodes import lockstep
 from cavesim.nodes.lockstep import Membership
-from cavesim.nodes.master import MasterConfig, run_master
+from cavesim.nodes.master import MAX_RESYNC_FAILURES, Master, MasterConfig, run_master
 from cavesim.nodes.swaps import WINDOW, SwapBook
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
@@ -45,8 +45,10 @@ def test_a_lost_member_leaves_or_holds_the_barrier_by_policy(policy, members):
 
 
 def test_a_wall_back_after_a_loss_joins_in_wall_order():
-    m = Membership(WALLS, members=("front", "right"), alive=frozenset(WALLS),
+    m = Membership(WALLS, members=("front", "right"), alive=frozenset(WALLS) - {"left"},
                    lost=frozenset({"left"}))
+    assert m.joiners() == ()  # up is not enough: its node must join this run
+    m = m.came_up("left")
     assert m.joiners() == ("left",)
     m = m.admitted("left")
     assert m.members == WALLS and not m.lost and not m.joiners()
@@ -88,11 +90,11 @@ def test_agreement_and_frames_between_checks_name_nobody():
 
 
 def test_a_resync_heals_only_with_the_sources_checksum():
-    source = report("front", "a")
-    assert lockstep.resync_outcome(None, source) is None
-    assert lockstep.resync_outcome(report("left", "a"), source) is None  # a stepped report
-    assert lockstep.resync_outcome(report("left", "a", status=Status.RESYNCED), source)
-    assert not lockstep.resync_outcome(report("left", "b", status=Status.RESYNCED), source)
+    named = "a" * 32  # the digest the master named in its RESYNC
+    assert lockstep.resync_outcome(None, named) is None
+    assert lockstep.resync_outcome(report("left", "a"), named) is None  # a stepped report
+    assert lockstep.resync_outcome(report("left", "a", status=Status.RESYNCED), named)
+    assert not lockstep.resync_outcome(report("left", "b", status=Status.RESYNCED), named)
 
 
 # -- the master's loop in this process ------------------------------------------------------
@@ -145,13 +147,52 @@ def test_a_lost_wall_is_dropped_then_rejoins_by_resync():
     (loss,) = record.losses
     assert (loss.node, loss.frame) == ("left", 10)  # the frame in flight when it went
     (join,) = record.joins
-    assert join.node == "left" and join.frame == 20
+    # up at 20; info asked and WELCOME sent at 20-21, JOINED then admitted by resync
+    assert join.node == "left" and 20 <= join.frame <= 22
     assert record.final.agree and record.final.all_walls_in
 
 
+@pytest.mark.parametrize("policy", ["continue", "pause"])
+def test_a_member_silent_past_the_limit_is_evicted_or_ends_the_run_by_policy(policy):
+    link = MemoryLink(WALLS)
+    link.walls["left"].silent_from = 5  # up (its liveliness stays) but never reports again
+    if policy == "pause":
+        with pytest.raises(ClusterError, match=r"frame 5: left silent for \d+ s under "
+                                               r"--on-loss pause \(--max-pause 0.3 s\)"):
+            run(link, on_loss="pause", max_pause=0.3)
+        return
+    record = run(link, on_loss="continue", evict_after=0.3)
+    (loss,) = record.losses
+    assert (loss.frame, loss.node, loss.detected_by) == (5, "left", "barrier")
+    assert record.frames == 30 and record.final.lost == ("left",)
+    assert record.summary()["final"]["lost"] == ["left"]
+
+
+def test_a_node_whose_resyncs_keep_failing_is_given_up_after_a_bounded_number():
+    link = MemoryLink(WALLS)
+    link.walls["left"].flip_at.add(8)
+    link.resync_fails.add("left")
+    record = run(link)
+    tries = [r for r in record.resyncs if r.node == "left"]
+    assert len(tries) == MAX_RESYNC_FAILURES and not any(r.ok for r in tries)
+    (loss,) = record.losses
+    assert (loss.node, loss.detected_by) == ("left", "resync-failed")
+    assert record.frames == 30 and record.final.lost == ("left",) and record.final.agree
+
+
+def test_the_master_keeps_only_the_reports_of_the_frame_in_flight():
+    link = MemoryLink(WALLS)
+    config = MasterConfig(WALLS, MINIMAL, 50, "memory", barrier_timeout=0.05)
+    master = Master(config, link)
+    master.wait_for_walls()
+    master.run()
+    assert master.frame == 50 and set(master.reports) <= set(WALLS)
+    assert all(r.frame == 50 for r in master.reports.values())
+
+
 def test_a_late_wall_times_the_join_out_with_a_clear_error():
-    with pytest.raises(ClusterError, match=r"walls \['right'\] did not come up \(or answer "
-                                           r"the info query\) within 0.2 s"):
+    with pytest.raises(ClusterError, match=r"walls \['right'\] did not join within 0.2 s "
+                                           r"\(--join-timeout\)"):
         run(MemoryLink(WALLS, late=("right",)), join_timeout=0.2)
 
 

@@ -22,7 +22,6 @@ out/multihost.json. Needs root and `ip netns`; skipped otherwise (CI runs as roo
 
 from __future__ import annotations
 
-import base64
 import json
 import os
 import signal
@@ -37,6 +36,7 @@ from netns import Network, remove_stale, unavailable
 
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.core.wire.credentials import write_key_files
 from cavesim.core.wire.network import RUNTIME_THREADS
 
 ROOT = Path(__file__).parents[1]
@@ -185,16 +185,15 @@ def logs(out: Path) -> str:
 
 def run(net: Network, condition: Condition, out: Path) -> tuple[dict, Cut | None]:
     """One cluster run under `condition`; the master's report and the cut (if any)."""
-    key = out / "cave.key"
-    key.write_bytes(base64.b64encode(os.urandom(32)))
-    key.chmod(0o600)
+    keys = out / "keys"
+    write_key_files(keys)
     relay = start_relay(net, condition.delay_ms) if condition.delay_ms else None
     if condition.loss:
         net.drop_share(condition.loss)
     master_host = net.switch_address if relay else net.address("master")
     command = [str(LAUNCH), "--hosts", str(hosts_file(net, master_host, out / "hosts")),
                "--frames", str(condition.frames), "--scene", SCENE, "--out", str(out),
-               "--session", f"mh{run_id(condition)}", "--key-file", str(key),
+               "--session", f"mh{run_id(condition)}", "--keys", str(keys),
                "--config", ZENOH_CONFIG, "--realtime"]
     env = {**os.environ, "CAVESIM_REMOTE": str(CAVESIM), "ZENOH_RUNTIME": RUNTIME_THREADS}
     cut = None
@@ -259,7 +258,7 @@ def test_cluster_on_network_hosts(network, condition, tmp_path):
     _, logged = read_frame_log(tmp_path / "frames.log")
     assert [f.message.frame for f in logged] == list(range(1, condition.frames + 1))
     assert report["final"] == {"frame": condition.frames, "members": list(WALLS),
-                               "all_walls_in": True, "agree": True}, where
+                               "all_walls_in": True, "agree": True, "lost": []}, where
     assert not report["rejected_messages"]["master"], where
     assert not any(report["rejected_messages"]["nodes"].values()), where
 

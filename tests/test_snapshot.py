@@ -4,6 +4,7 @@ system in any order; every broken stream is refused and leaves the receiver unto
 from __future__ import annotations
 
 import random
+import time
 
 import numpy as np
 import pytest
@@ -11,12 +12,20 @@ from scenes import FOUNTAIN, make_scene
 
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.wire.messages import SnapshotChunk, SnapshotHeader, decode, encode
+from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.messages import (
+    SnapshotChunk,
+    SnapshotHeader,
+    StateRequest,
+    decode,
+    encode,
+)
+from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
-from cavesim.nodes.snapshots import SnapshotLoad, send_snapshot
+from cavesim.nodes.snapshots import SnapshotLoad, fetch_snapshot, send_snapshot
 
-SESSION, KEY = "snap", b"k" * 32
+SESSION, KEY = "snap", generate().for_members()
 FRAME = 12
 CHUNK = 37  # particles per reply: about ten chunks, the last one short
 
@@ -193,3 +202,78 @@ def test_transfer_deadline_grows_with_the_state():
     two_gb = 53_687_091
     assert transfer_seconds(two_gb) == pytest.approx(TRANSFER_BASE + two_gb * 40 / TRANSFER_RATE)
     assert transfer_seconds(two_gb) > 60
+
+
+# -- fetching: only the named state, whole and verified, from a replier that has not failed --
+
+class Reply:
+    """A zenoh reply stand-in: its replier and its payload."""
+
+    def __init__(self, replier: str, data: bytes) -> None:
+        self.replier_id = replier
+        self.ok = type("Sample", (), {"payload": type("Payload", (), {
+            "to_bytes": staticmethod(lambda: data)})})()
+
+
+class RepliesSession:
+    """A zenoh session stand-in whose state query gets the replies given, in order."""
+
+    def __init__(self, replies: list[Reply]) -> None:
+        self.replies = replies
+
+    def get(self, key, **options):
+        return iter(self.replies)
+
+
+def replies_of(replier: str, system: ParticleSystem, frame: int = FRAME) -> list[Reply]:
+    query = CapturedQuery()
+    send_snapshot(query, "cavesim/snap/state/front", system, frame, seal, CHUNK)
+    return [Reply(replier, data) for data in query.replies]
+
+
+def fetch(target: ParticleSystem, replies: list[Reply], wanted: StateRequest,
+          failed: set[str] | None = None) -> tuple:
+    rejects = RejectCounter("test")
+    failed = set() if failed is None else failed
+    header = fetch_snapshot(RepliesSession(replies), "cavesim/snap/state/front", target,
+                            b"", unseal, wanted, time.monotonic() + 30, rejects, failed)
+    return header, dict(rejects.counts), failed
+
+
+def test_an_old_snapshot_first_is_ignored_and_the_named_one_loaded(ctx, source, target):
+    old = stepped(ctx, seed=7, frames=30)  # the same node's state of an earlier frame
+    wanted = StateRequest(FRAME, "front", source.checksum().digest)
+    header, rejected, failed = fetch(target, replies_of("rogue", old, FRAME - 10)
+                                     + replies_of("front", source), wanted)
+    old.release()
+    assert header is not None and header.frame == FRAME
+    assert target.checksum() == source.checksum()
+    assert rejected == {"wrong-snapshot": 1} and failed == {"rogue"}  # its stream not followed
+
+
+def test_a_snapshot_that_does_not_fit_the_scene_is_refused_and_nothing_is_touched(
+        ctx, source, target):
+    wanted = StateRequest(FRAME, "front", source.checksum().digest)
+    header, *_ = snapshot_of(source)
+    misfit = SnapshotHeader(FRAME, header.seed, target.capacity + 1, CHUNK, header.digest,
+                            header.emitters)
+    before = state_of(target)
+    loaded, rejected, failed = fetch(target, [Reply("rogue", seal(misfit))], wanted)
+    assert loaded is None and rejected == {"wrong-counts": 1} and failed == {"rogue"}
+    assert state_of(target) == before
+
+
+def test_a_forged_stream_fails_its_digest_and_its_replier_is_not_followed_again(source, target):
+    wanted = StateRequest(FRAME, "front", source.checksum().digest)
+    replies = replies_of("rogue", source)
+    tampered = unseal(replies[3].ok.payload.to_bytes())
+    data = bytearray(tampered.data)
+    data[0] ^= 1
+    replies[3] = Reply("rogue", seal(SnapshotChunk(FRAME, tampered.index, bytes(data))))
+    before = state_of(target)
+    loaded, rejected, failed = fetch(target, replies, wanted)
+    assert loaded is None and rejected == {"bad-digest": 1} and failed == {"rogue"}
+    assert state_of(target) == before
+    loaded, _, _ = fetch(target, replies_of("rogue", source) + replies_of("front", source),
+                         wanted, failed)
+    assert loaded is not None and target.checksum() == source.checksum()

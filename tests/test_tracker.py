@@ -23,6 +23,7 @@ from cavesim.core.errors import TrackerError
 from cavesim.core.tracking import Target, Tracked, TrackerMapping, TrackingState, parse_datagram
 from cavesim.core.tracking.dtrack import MAX_DATAGRAM
 from cavesim.core.wire import HeadState, SessionKeys, TrackingMessage, WandState, decode
+from cavesim.core.wire.credentials import read_credentials, write_key_files
 from cavesim.core.wire.network import NetworkConfig
 from cavesim.nodes.launcher import free_port
 from cavesim.nodes.tracker import Bridge, open_dtrack_socket
@@ -164,12 +165,13 @@ def free_udp_port() -> int:
 
 @pytest.mark.slow
 def test_recorded_datagrams_reach_a_subscriber_as_signed_tracking_messages(tmp_path):
-    session, key = f"dtrack{os.getpid()}", b"k" * 32
-    (tmp_path / "key").write_bytes(key)
+    session = f"dtrack{os.getpid()}"
+    _, session_key = write_key_files(tmp_path)
+    key = read_credentials(session_key)  # a member's: a tracker signs with the secret
     endpoint, port = f"tcp/127.0.0.1:{free_port()}", free_udp_port()
     tracker = cavesim("tracker", "--dtrack", str(port), "--bind", "127.0.0.1", "--map",
                       "config/tracking/dtrack.toml", "--listen", endpoint, "--session", session,
-                      "--key-file", str(tmp_path / "key"), "--report", str(tmp_path / "r.json"),
+                      "--key-file", str(session_key), "--report", str(tmp_path / "r.json"),
                       "--verbose", start_new_session=True)
     received: queue.Queue[TrackingMessage] = queue.Queue()
     with zenoh.open(NetworkConfig(connect=(endpoint,)).zenoh_config()) as listener, \

@@ -2,30 +2,40 @@
 
 Nodes run as child processes (node faults are passed to them as --inject); the master
 runs in this process so the harness can act between frames: kill and restart a node,
-or publish forged frames from a foreign session. Afterwards every fault is matched with
-what the master recorded: when it was detected, which node was named, when it healed.
+attack the session as a rogue peer (`cavesim/nodes/rogue.py`: junk, replayed signed
+traffic, an earlier run's messages, forged snapshots), or kill the master and have a new
+one take the nodes over. Afterwards every fault is matched with what the master recorded:
+when it was detected, which node was named, when it healed; an attack also says what was
+refused and what became of the run.
 """
 
 from __future__ import annotations
 
-import secrets
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import zenoh
 
-from cavesim.core.errors import ClusterError
 from cavesim.core.frame import FrameInput
-from cavesim.core.wire import FrameMessage, SessionKeys, encode
-from cavesim.core.wire.network import NetworkConfig, open_session, read_key
-from cavesim.nodes.cluster import ClusterPlan, run_cluster
+from cavesim.core.scene import load_scene
+from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
+from cavesim.core.wire.credentials import generate
+from cavesim.nodes.cluster import ClusterPlan, run_cluster, started_cluster
 from cavesim.nodes.faults import NODE_FAULTS, Fault
 from cavesim.nodes.launcher import LocalCluster
-from cavesim.nodes.master import MasterConfig
+from cavesim.nodes.lockstep import MASTER_GONE
+from cavesim.nodes.master import MasterConfig, run_master
+from cavesim.nodes.master_link import open_master_link
 from cavesim.nodes.record import RunRecord
+from cavesim.nodes.rogue import RoguePeer, run_id_of
+
+WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill")  # faults of no one node
+ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery")  # done by a RoguePeer
+REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
+FLOOD_QUERIES = 50  # unsigned state queries sent with the forged snapshots
 
 
 @dataclass(frozen=True)
@@ -47,38 +57,94 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
               ) -> dict:
     """Run the plan; return the JSON report (faults, detection, resyncs, final agreement)."""
     plan.out.mkdir(parents=True, exist_ok=True)
-    key_file = plan.out / "session.key"
-    key_file.write_text(secrets.token_hex(32))
-    faults = tuple(f if f.node or f.kind == "rogue" else Fault(f.kind, f.frame, plan.walls[-1])
+    credentials = generate()
+    faults = tuple(f if f.node or f.kind in WHOLE_CLUSTER else Fault(f.kind, f.frame,
+                                                                     plan.walls[-1])
                    for f in plan.faults)
     node_args = ("--slow-delay", str(plan.slow_delay))
     if plan.snapshot_chunk is not None:
         node_args += ("--snapshot-chunk", str(plan.snapshot_chunk))
     master = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
-                          key=read_key(key_file), barrier_timeout=plan.barrier_timeout,
+                          credentials=credentials, barrier_timeout=plan.barrier_timeout,
                           on_loss=plan.on_loss, check_every=plan.check_every,
                           frame_log=plan.out / "frames.log")
-    cluster = ClusterPlan(master, plan.out, key_file, {wall: (*node_args, *(
-        arg for f in faults if f.node == wall and f.kind in NODE_FAULTS
-        for arg in ("--inject", str(f)))) for wall in plan.walls})
-    harness = _Harness(faults, node_args)
+    kill = master_kill_frame(faults)
+    injected = [(f.node, own) for f in faults if (own := _injected(f)) is not None]
+    cluster = ClusterPlan(master, plan.out, {wall: (*node_args, *(
+        arg for node, own in injected if node == wall for arg in ("--inject", str(own))))
+        for wall in plan.walls})
+    harness = _Harness(faults, node_args, credentials, plan.scene)
     try:
-        record = run_cluster(cluster, progress, harness.before_frame)
+        if kill is None:
+            record, killed = run_cluster(cluster, progress, harness.before_frame), None
+        else:
+            record, killed = _past_a_master_kill(cluster, kill, progress, harness)
     finally:
         harness.close()
-    return _report(plan, faults, record, harness.rogue_sent)
+    return _report(plan, faults, record, harness, killed)
+
+
+def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
+    """The frame of the plan's master-kill (None without one); ValueError when a fault the
+    nodes do themselves comes at or after it (the new master's run numbers its frames from
+    1 again: a node could not tell which frame was meant)."""
+    kill = next((f.frame for f in faults if f.kind == "master-kill"), None)
+    late = [str(f) for f in faults if kill is not None and f.frame >= kill
+            and (f.kind in NODE_FAULTS or f.kind == "snapshot-forgery")]
+    if late:
+        raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
+                         f"master-kill@{kill} (the new master's run counts frames from 1)")
+    return kill
+
+
+def _injected(fault: Fault) -> Fault | None:
+    """What the node itself must do for `fault`: its own faults, and the divergence a
+    snapshot forgery needs (the forged snapshots are served to its resync)."""
+    if fault.kind in NODE_FAULTS:
+        return fault
+    if fault.kind == "snapshot-forgery":
+        return Fault("bitflip", fault.frame, fault.node)
+    return None
+
+
+def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harness
+                        ) -> tuple[RunRecord, RunRecord]:
+    """The master dies before frame `frame` (no STOP: its liveliness token just goes, as
+    with kill -9); a new master on the same session, with a run of its own, must take the
+    same nodes over and run the frames left (its frame k is the plan's k + frame - 1, for
+    the faults and the progress). Both runs' records."""
+    with started_cluster(plan) as (cluster, config):
+        first = dataclasses.replace(config, frames=frame - 1,
+                                    frame_log=plan.out / "frames.killed-master.log")
+        with open_master_link(first) as link, cluster.watch(link.events):
+            killed = run_master(first, link, progress, lambda k: harness.before_frame(
+                cluster, k), abandon=True)
+        harness.master_killed(cluster)
+        second = dataclasses.replace(config, frames=config.frames - frame + 1)
+        with open_master_link(second) as link, cluster.watch(link.events):
+            record = run_master(second, link, lambda k, live: progress(k + frame - 1, live),
+                                lambda k: harness.before_frame(cluster, k + frame - 1))
+    return record, killed
 
 
 class _Harness:
     """Does the faults that come from outside the nodes, just before their frame."""
 
-    def __init__(self, faults: tuple[Fault, ...], node_args) -> None:
+    def __init__(self, faults: tuple[Fault, ...], node_args, credentials: Credentials,
+                 scene: Path) -> None:
         self.faults = faults
         self.node_args = node_args
-        self.rogue_sent = 0
-        self._rogue_session: zenoh.Session | None = None
+        self.credentials = credentials
+        self.emitters = len(load_scene(scene).emitters)
+        self.rogue: RoguePeer | None = None
+        self.noticed: list[str] = []  # walls whose log says they saw the master go
 
     def before_frame(self, cluster: LocalCluster, k: int) -> None:
+        if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
+            self.rogue = RoguePeer(cluster.master_endpoint, cluster.session,
+                                   tuple(cluster.nodes))
+            self.rogue.await_cluster()
+            self.rogue.capture()
         for fault in self.faults:
             if fault.frame != k:
                 continue
@@ -86,60 +152,98 @@ class _Harness:
                 cluster.kill_node(fault.node)
                 cluster.start_node(fault.node, extra=self.node_args)  # restarts, rejoins
             elif fault.kind == "rogue":
-                self._forge(cluster, k)
+                self._forge(cluster.session, k)
+            elif fault.kind == "replay-attack":
+                self._replay(k)
+            elif fault.kind == "snapshot-forgery":
+                self.rogue.serve_forged_snapshots(cluster.master_endpoint,
+                                                  self.credentials.for_members(),
+                                                  self.emitters)
+                self.rogue.flood(FLOOD_QUERIES)
 
-    def _forge(self, cluster: LocalCluster, k: int) -> None:
+    def _forge(self, session: str, k: int) -> None:
         """Frames from a foreign publisher: unsigned, wrongly signed, or of another session."""
-        if self._rogue_session is None:
-            network = NetworkConfig(connect=(cluster.master_endpoint,))
-            self._rogue_session = open_session(network)
-            self._await_walls(cluster, self._rogue_session)
-        session = cluster.session
         forged = FrameMessage(k + 1, FrameInput(1.0, np.eye(3)))
-        for data in (encode(forged, session), encode(forged, session, b"not-the-key" * 3),
-                     encode(forged, "another-session", b"not-the-key" * 3),
-                     b"\x00" * 64):
-            self._rogue_session.put(SessionKeys(session).frame, data)
-            self.rogue_sent += 1
+        stranger = generate()  # another session's keys
+        for what, data in (("unsigned-frame", encode(forged, session)),
+                           ("wrongly-signed-frame", encode(forged, session, stranger)),
+                           ("other-session-frame", encode(forged, "another-session", stranger)),
+                           ("junk", b"\x00" * 64)):
+            self.rogue.put(what, SessionKeys(session).frame, data)
 
-    def _await_walls(self, cluster: LocalCluster, rogue: zenoh.Session,
-                     timeout: float = 10.0) -> None:
-        """Wait until the rogue session sees every wall's liveliness token (it is connected)."""
-        keys = SessionKeys(cluster.session)
+    def _replay(self, k: int) -> None:
+        """Signed traffic played back: this run's own earlier frames, reports and commands
+        captured off the network; an earlier run's frame, RESYNC, STOP and report; a
+        member's frame and STOP without the master's signature; a report of a frame not
+        sent."""
+        rogue = self.rogue
+        rogue.await_cluster()  # the master may be a new one since the rogue connected
+        for kind in ("frame", "report", "control"):
+            rogue.replay_captured(kind, REPLAYED_PER_KIND)
+        rogue.as_an_earlier_run(self.credentials, k)
+        latest = rogue.latest("frame")
+        run_id = run_id_of(latest) if latest is not None else 0
+        rogue.as_a_member(self.credentials.for_members(), run_id, k)
+
+    def master_killed(self, cluster: LocalCluster, timeout: float = 10.0) -> None:
+        """Wait until every node has logged the master's loss (they notice it on liveliness)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            seen = {keys.node_of(reply.ok.key_expr)
-                    for reply in rogue.liveliness().get(keys.alive(), timeout=1.0) if reply.ok}
-            if seen >= set(cluster.nodes):
+            self.noticed = [w for w in cluster.nodes
+                            if MASTER_GONE in cluster.log_path(w).read_text(errors="replace")]
+            if len(self.noticed) == len(cluster.nodes):
                 return
-        raise ClusterError(f"the rogue publisher did not reach the walls within {timeout} s")
+            time.sleep(0.05)
 
     def close(self) -> None:
-        if self._rogue_session is not None:
-            self._rogue_session.close()
+        if self.rogue is not None:
+            self.rogue.close()
 
 
 def _report(plan: CheckPlan, faults: tuple[Fault, ...], record: RunRecord,
-            rogue_sent: int) -> dict:
+            harness: _Harness, killed: RunRecord | None) -> dict:
     summary = record.summary()
-    outcomes = [_outcome(fault, record) for fault in faults]
-    return {
+    frames = record.frames + (killed.frames if killed is not None else 0)
+    outcomes = [_in_plan_frames(fault, record, harness, killed) for fault in faults]
+    report = {
         "command": "check",
         "walls": list(plan.walls),
-        "frames": record.frames,
+        "frames": frames,
         "faults": outcomes,
         "all_detected": all(o["detected_frame"] is not None for o in outcomes),
         "all_healed": all(o["healed"] for o in outcomes),
         "divergences": len(record.divergences),
-        "rogue_messages_sent": rogue_sent,
+        "rogue_messages_sent": dict(harness.rogue.sent) if harness.rogue else {},
         "final": summary["final"],
         "run": summary,
     }
+    if killed is not None:
+        report["killed_run"] = killed.summary()
+    return report
 
 
-def _outcome(fault: Fault, record: RunRecord) -> dict:
-    """When the master noticed `fault`, whom it named, and when the node was whole again."""
-    detected, named, healed_at = None, [], None
+def _in_plan_frames(fault: Fault, record: RunRecord, harness: _Harness,
+                    killed: RunRecord | None) -> dict:
+    """`fault`'s outcome in the run it happened in (the killed master's, or the last, whose
+    frame 1 is the plan's frame after the killed run's last), its frames the plan's."""
+    if killed is None or fault.kind == "master-kill":
+        return _outcome(fault, record, harness, killed)
+    if fault.frame <= killed.frames:
+        return _outcome(fault, killed, harness, killed)
+    offset = killed.frames
+    outcome = _outcome(dataclasses.replace(fault, frame=fault.frame - offset), record,
+                       harness, killed)
+    shifted = {key: outcome[key] + offset for key in ("detected_frame", "healed_frame")
+               if outcome[key] is not None}
+    return {**outcome, **shifted, "fault": str(fault), "frame": fault.frame}
+
+
+def _outcome(fault: Fault, record: RunRecord, harness: _Harness,
+             killed: RunRecord | None) -> dict:
+    """When the master noticed `fault`, whom it named, and when the node was whole again;
+    for the attacks, what was refused (`detection`) and what became of the run (`outcome`)."""
+    detected, named, healed_at, detection, outcome = None, [], None, {}, ""
+    node_rejected = sum(record.node_rejected.values())
     if fault.kind in ("bitflip", "seed", "stale"):
         hit = next((d for d in record.divergences
                     if d.frame >= fault.frame and fault.node in d.nodes), None)
@@ -160,13 +264,43 @@ def _outcome(fault: Fault, record: RunRecord) -> dict:
             healed_at = next((j.frame for j in record.joins
                               if j.node == fault.node and j.frame >= hit.frame),
                              _resynced(record, fault.node, hit.frame))
-    elif fault.kind == "rogue":
-        rejected = sum(record.node_rejected.values())
-        if rejected:
+    elif fault.kind in ("rogue", "replay-attack"):
+        detection = {"sent": dict(harness.rogue.sent), "refused_by_nodes": node_rejected,
+                     "refused_by_master": dict(record.master_rejected)}
+        if node_rejected:
             detected, healed_at = fault.frame, fault.frame
-    return {"fault": str(fault), "kind": fault.kind, "frame": fault.frame, "node": fault.node,
-            "detected_frame": detected, "named": named, "healed_frame": healed_at,
-            "healed": healed_at is not None and record.agreed_at_the_end()}
+        outcome = (f"{record.frames} frames ran to the end with "
+                   f"{len(record.divergences)} divergence(s): no replayed or forged message "
+                   f"was stepped or obeyed")
+    elif fault.kind == "snapshot-forgery":
+        forged = {k: n for k, n in harness.rogue.sent.items() if k.endswith("-snapshot")}
+        rejected = record.node_rejected.get(fault.node, 0)
+        detection = {"forged_snapshots_served": forged, "refused_by_node": rejected}
+        hit = next((d for d in record.divergences
+                    if d.frame >= fault.frame and fault.node in d.nodes), None)
+        if hit and rejected:
+            detected, named = hit.frame, [fault.node]
+            healed_at = _resynced(record, fault.node, hit.frame)
+        outcome = (f"{fault.node} loaded only the state the master named"
+                   if healed_at is not None else f"{fault.node} was not healed")
+    elif fault.kind == "master-kill":
+        rejoined = list(record.final.members) if record.final else []
+        detection = {"killed_run": f"{killed.run_id:016x}", "frames_before": killed.frames,
+                     "nodes_that_noticed": harness.noticed, "new_run": f"{record.run_id:016x}",
+                     "nodes_in_the_new_run": rejoined}
+        if len(harness.noticed) == len(record.walls):
+            detected, named = fault.frame, list(harness.noticed)
+        if set(rejoined) == set(record.walls) and record.frames:
+            healed_at = fault.frame
+        outcome = (f"a new master took the {len(rejoined)} nodes over from the scene's start "
+                   f"and ran {record.frames} more frames")
+    result = {"fault": str(fault), "kind": fault.kind, "frame": fault.frame,
+              "node": fault.node, "detected_frame": detected, "named": named,
+              "healed_frame": healed_at,
+              "healed": healed_at is not None and record.agreed_at_the_end()}
+    if detection:
+        result |= {"detection": detection, "outcome": outcome}
+    return result
 
 
 def _resynced(record: RunRecord, node: str, frame: int) -> int | None:

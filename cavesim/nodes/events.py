@@ -1,12 +1,12 @@
 """What happens to the master, as typed events: its link to the nodes (and the launcher's
-watch over the node processes) puts them in one queue; the master's loop takes them."""
+watch over the node processes) puts them in one queue; the master's loop takes them.
+Only checked messages of the run become events: refusals are counted by the link."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cavesim.core.errors import ProtocolError
-from cavesim.core.wire import DisplayMessage, InfoMessage, ReportMessage, TrackingMessage
+from cavesim.core.wire import DisplayMessage, InfoMessage, ReportMessage
 
 
 @dataclass(frozen=True)
@@ -31,13 +31,6 @@ class Displayed:
 
 
 @dataclass(frozen=True)
-class Tracked:
-    """A tracker's latest head and wand."""
-
-    message: TrackingMessage
-
-
-@dataclass(frozen=True)
 class WallUp:
     wall: str
 
@@ -45,14 +38,6 @@ class WallUp:
 @dataclass(frozen=True)
 class WallDown:
     wall: str
-
-
-@dataclass(frozen=True)
-class Rejected:
-    """A message that failed its checks, and where it came from."""
-
-    error: ProtocolError
-    where: str
 
 
 @dataclass(frozen=True)
@@ -66,5 +51,4 @@ class ProcessEnded:
     failure: str  # one line: its exit code, its own last error line, its log
 
 
-Event = (Reported | Described | Displayed | Tracked | WallUp | WallDown | Rejected
-         | ProcessEnded)
+Event = Reported | Described | Displayed | WallUp | WallDown | ProcessEnded

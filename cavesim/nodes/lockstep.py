@@ -16,20 +16,37 @@ from cavesim.core.wire import ReportMessage
 from cavesim.core.wire.messages import Status
 
 LOSS_POLICIES = ("continue", "pause")  # drop a lost member and go on, or wait for it
+MASTER_LOSS_POLICIES = ("wait", "exit")  # a node whose master is gone: wait for a new one, or exit
+MASTER_GONE = "the master is gone"  # a node's log line says so (the harness looks for it)
 
 
 @dataclass(frozen=True)
 class Membership:
-    """Who is in the lock-step. `members` keep wall order; a member lost by liveliness is
-    `lost` until a resync brings it back."""
+    """Who is in the lock-step. `alive`: walls that joined this run and are up; `members`
+    (wall order) step in the barrier; a member lost (by liveliness, or evicted by the
+    barrier or by failed resyncs) is `lost` until a resync brings it back. `waiting`: walls
+    that asked to enter (they joined, or they fell behind); `given_up`: walls whose resyncs
+    failed too often, out until their node joins anew."""
 
     walls: tuple[str, ...]
     members: tuple[str, ...] = ()
     alive: frozenset[str] = frozenset()
     lost: frozenset[str] = frozenset()
+    waiting: frozenset[str] = frozenset()
+    given_up: frozenset[str] = frozenset()
 
     def came_up(self, wall: str) -> Membership:
-        return replace(self, alive=self.alive | {wall}) if wall in self.walls else self
+        """`wall`'s node joined this run (a new process, or a node that started over)."""
+        if wall not in self.walls:
+            return self
+        return replace(self, alive=self.alive | {wall}, waiting=self.waiting | {wall},
+                       given_up=self.given_up - {wall})
+
+    def fell_behind(self, wall: str) -> Membership:
+        """`wall`'s node holds an older frame than the cluster: it asks to be resynced."""
+        if wall not in self.alive or wall in self.given_up:
+            return self
+        return replace(self, waiting=self.waiting | {wall})
 
     def went_down(self, wall: str, policy: str) -> tuple[Membership, bool]:
         """The membership after `wall`'s liveliness token went away, and whether a member
@@ -48,19 +65,31 @@ class Membership:
 
     def started(self) -> Membership:
         """Every wall a member: the run begins."""
-        return replace(self, members=self.walls)
+        return replace(self, members=self.walls, waiting=frozenset())
 
     def joiners(self) -> tuple[str, ...]:
-        """Walls that are up but not in the lock-step (late, or back after a loss)."""
-        return tuple(w for w in self.walls if w in self.alive and w not in self.members)
+        """Walls that are up and asked to enter but are not in the lock-step (late, back
+        after a loss, or evicted and heard from again)."""
+        return tuple(w for w in self.walls if w in self.alive and w in self.waiting
+                     and w not in self.members)
 
     def admitted(self, wall: str) -> Membership:
         """`wall` resynced: a member again, in wall order, no longer lost."""
         members = tuple(w for w in self.walls if w in self.members or w == wall)
-        return replace(self, members=members, lost=self.lost - {wall})
+        return replace(self, members=members, lost=self.lost - {wall},
+                       waiting=self.waiting - {wall})
+
+    def evicted(self, wall: str) -> Membership:
+        """A member dropped by the master (silent past the limit): lost, still up."""
+        return replace(self, members=tuple(m for m in self.members if m != wall),
+                       lost=self.lost | {wall}, waiting=self.waiting - {wall})
+
+    def gave_up(self, wall: str) -> Membership:
+        """`wall`'s resyncs failed too often: out (and lost) until its node joins anew."""
+        return replace(self.evicted(wall), given_up=self.given_up | {wall})
 
     def healed(self, wall: str) -> Membership:
-        return replace(self, lost=self.lost - {wall})
+        return replace(self, lost=self.lost - {wall}, waiting=self.waiting - {wall})
 
 
 def missing(members: tuple[str, ...], reported: Mapping[str, ReportMessage]) -> list[str]:
@@ -118,9 +147,9 @@ def agreeing_source(members: tuple[str, ...], reports: Mapping[str, ReportMessag
     return next(m for m in members if reports[m].digest == digest)
 
 
-def resync_outcome(report: ReportMessage | None, source: ReportMessage) -> bool | None:
-    """Whether a resync healed the node (its RESYNCED report holds the source's checksum);
+def resync_outcome(report: ReportMessage | None, digest: str) -> bool | None:
+    """Whether a resync healed the node (its RESYNCED report holds the named checksum);
     None while its RESYNCED report is not in."""
     if report is None or report.status is not Status.RESYNCED:
         return None
-    return report.digest == source.digest
+    return report.digest == digest

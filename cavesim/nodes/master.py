@@ -1,10 +1,17 @@
 """The master: owns the clock and the randomness, and holds the cluster in lock-step.
 
-Per frame k: draw the inputs once (the clock's matrix, the tracked or scripted head, the
-scene driver's state), publish them, wait until every member has reported k (the
-barrier: on a timeout, record who is stalled and send the frame again), vote on the
-checksums, resync the odd nodes from a healthy one, admit walls that joined late, log
-the frame. It takes typed events from a link (Zenoh in a real run, memory in the tests)
+A run has an id (the link's, drawn when it starts). A wall enters it in three steps: its
+liveliness token appears, the master asks for its info (GPU, swap lock, a fresh nonce),
+and the master's WELCOME naming that nonce makes the node start this run from the
+scene's start state and report JOINED; an old WELCOME cannot be replayed (the nonce is
+used up). Per frame k: draw the inputs once (the clock's matrix, the tracked or scripted
+head, the scene driver's state), publish them, wait until every member has reported k
+(the barrier: on a timeout, record who is stalled and send the frame again; a member
+silent past `evict_after` is evicted under --on-loss continue, or the run ends once it
+has been silent `max_pause` under --on-loss pause), vote on the checksums, resync the odd
+nodes from a healthy one (a node whose resyncs fail MAX_RESYNC_FAILURES times in a row is
+given up), admit walls that joined or fell behind, log the frame. Only frame k's reports
+are kept. It takes typed events from a link (Zenoh in a real run, memory in the tests)
 and leaves the rules to `cavesim/nodes/lockstep.py`; it needs no GL.
 """
 
@@ -27,7 +34,16 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.framelog import FrameLogWriter
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene
-from cavesim.core.wire import Command, ControlMessage, FrameMessage, ReportMessage, TrackingMessage
+from cavesim.core.wire import (
+    Command,
+    ControlMessage,
+    Credentials,
+    FrameMessage,
+    InfoMessage,
+    ReportMessage,
+    TrackingMessage,
+)
+from cavesim.core.wire.messages import Status
 from cavesim.core.wire.network import NetworkConfig
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
@@ -37,9 +53,7 @@ from cavesim.nodes.events import (
     Displayed,
     Event,
     ProcessEnded,
-    Rejected,
     Reported,
-    Tracked,
     WallDown,
     WallUp,
 )
@@ -50,6 +64,8 @@ from cavesim.nodes.script import ScriptedHead
 log = logging.getLogger("cavesim.master")
 RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the node's report
 STOP_WAIT = 5.0  # s for the nodes to leave after STOP
+INFO_RETRY = 2.0  # s before a wall that is up but has not joined is asked again
+MAX_RESYNC_FAILURES = 3  # in a row: then the wall is given up until its node joins anew
 
 
 @dataclass(frozen=True)
@@ -59,12 +75,14 @@ class MasterConfig:
     frames: int
     session: str = "default"
     network: NetworkConfig = NetworkConfig()
-    key: bytes | None = None
+    credentials: Credentials | None = None  # master.key: signs frames and commands
     dt: float = 1 / 60
     clock_seed: int = 0
     barrier_timeout: float = 2.0
     join_timeout: float = 60.0
     on_loss: str = "continue"  # drop a lost node and go on, or "pause" until it is back
+    evict_after: float = 10.0  # s a member may stay silent in the barrier (continue)
+    max_pause: float = 300.0  # s the barrier holds for a silent member (pause)
     check_every: int = 1
     frame_log: Path | None = None
     realtime: bool = False  # pace frames by the wall clock (see cavesim/core/clock.py)
@@ -76,10 +94,16 @@ class Link(Protocol):
     """The master's side of the wire (`cavesim/nodes/master_link.py`, or a test's memory)."""
 
     events: queue.Queue[Event]
+    run_id: int
+    rejects: RejectCounter  # the messages it refused, by reason
+    dropped: int  # events its full queue could not take
+    tracking: TrackingMessage | None  # the latest tracker message
 
     def send(self, message: FrameMessage | ControlMessage) -> None: ...
 
     def ask_info(self, wall: str) -> None: ...
+
+    def sender_hint(self, wall: str) -> str | None: ...
 
 
 class Master:
@@ -96,19 +120,22 @@ class Master:
         # a resync may take as long as the largest state the scene holds takes to stream
         self.resync_seconds = transfer_seconds(scene.capacity) + RESYNC_MARGIN
         self.matrix_rng = np.random.Generator(np.random.PCG64(config.clock_seed))
-        self.reports: dict[int, dict[str, ReportMessage]] = {}  # frame -> wall -> report
+        self.frame = 0  # the frame in flight
+        self.reports: dict[str, ReportMessage] = {}  # wall -> its report of `frame`
         self.last_sent: dict[str, int] = {}
         self.last_received: dict[str, int] = {}
-        self.rejects = RejectCounter("master")
         self.membership = Membership(config.walls)
         self.clock = Clock(config.dt, config.realtime, config.max_frame_time,
                            config.max_substeps)
         self.head = ScriptedHead()
-        self.tracked: TrackingMessage | None = None
         self.stopping = False
         self.record = RunRecord(config.walls)
+        self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
         self.swaps = self.record.swaps
+        self.up: set[str] = set()  # walls whose liveliness token is there
+        self.asked: dict[str, float] = {}  # wall -> when its info was last asked for
+        self.resync_failures: dict[str, int] = {}  # wall -> failed resyncs in a row
 
     # -- events ----------------------------------------------------------------------------
 
@@ -122,46 +149,73 @@ class Master:
 
     def _handle(self, event: Event) -> None:
         match event:
+            case Reported(report) if report.status is Status.JOINED:
+                self.membership = self.membership.came_up(report.node)
+                log.info("%s joined run %016x", report.node, self.link.run_id)
+            case Reported(report) if report.status is Status.BEHIND:
+                self.membership = self.membership.fell_behind(report.node)
             case Reported(report):
-                self.reports.setdefault(report.frame, {})[report.node] = report
-                self.last_received[report.node] = report.frame
+                if report.frame == self.frame:
+                    self.reports[report.node] = report
+                self.last_received[report.node] = max(report.frame,
+                                                      self.last_received.get(report.node, 0))
                 self.record.node_rejected[report.node] = report.rejected
             case Described(info):
-                self.record.gpus[info.node] = info.gpu()
-                self.swap_locked[info.node] = info.swap_locked
+                self._welcome(info)
             case Displayed(message):
                 self.swaps.note(message)
-            case Tracked(message):
-                self.tracked = message  # sampled once, when the next frame is made
             case WallUp(wall):
-                self.membership = self.membership.came_up(wall)
-                self.link.ask_info(wall)  # the answer comes as an event
+                self.up.add(wall)
+                self._ask_info(wall)
             case WallDown(wall) if not self.stopping:
+                self.up.discard(wall)
                 self.membership, lost = self.membership.went_down(wall, self.config.on_loss)
                 if lost:
                     self.record.losses.append(Loss(max(self.last_sent.values(), default=0),
                                                    wall, "liveliness"))
                     log.warning("lost node %s", wall)
             case WallDown(wall):
+                self.up.discard(wall)
                 self.membership, _ = self.membership.went_down(wall, self.config.on_loss)
-            case Rejected(error, where):
-                self.rejects.reject(error, where)
             case ProcessEnded(_, code, failure) if code != 0 and not self.stopping:
                 raise ClusterError(failure)
+
+    def _ask_info(self, wall: str) -> None:
+        self.asked[wall] = time.monotonic()
+        self.link.ask_info(wall)  # the answer comes as an event
+
+    def _ask_again(self) -> None:
+        """Walls that are up but have not joined: ask again (a lost query, a slow start)."""
+        now = time.monotonic()
+        for wall in self.up - self.membership.alive:
+            if now - self.asked.get(wall, 0.0) >= INFO_RETRY:
+                self._ask_info(wall)
+
+    def _welcome(self, info: InfoMessage) -> None:
+        """A wall described itself: note its GPU and swap lock, and welcome it into the run
+        with its own nonce (it then starts this run and reports JOINED)."""
+        self.record.gpus[info.node] = info.gpu()
+        self.swap_locked[info.node] = info.swap_locked
+        self.link.send(ControlMessage(self.frame, Command.WELCOME, info.node,
+                                      nonce=info.nonce))
 
     # -- the run ---------------------------------------------------------------------------
 
     def wait_for_walls(self) -> None:
-        """Until every wall is up and has said what it computes on and whether it is
-        swap-locked (the swap barrier needs to know from frame 1)."""
+        """Until every wall has joined this run and said whether it is swap-locked (the
+        swap barrier needs to know from frame 1)."""
         deadline = time.monotonic() + self.config.join_timeout
         while missing := sorted((set(self.config.walls) - self.membership.alive)
                                 | (set(self.config.walls) - set(self.swap_locked))):
             if time.monotonic() > deadline:
-                raise ClusterError(f"walls {missing} did not come up (or answer the info "
-                                   f"query) within {self.config.join_timeout:g} s "
-                                   f"(--join-timeout); see their logs")
-            self._pump(deadline)
+                hints = [hint for wall in missing if (hint := self.link.sender_hint(wall))]
+                raise ClusterError(f"walls {missing} did not join within "
+                                   f"{self.config.join_timeout:g} s (--join-timeout): "
+                                   + ("; ".join(hints) if hints else
+                                      "are their nodes running with this --session? See "
+                                      "their logs"))
+            self._ask_again()
+            self._pump(min(deadline, time.monotonic() + INFO_RETRY))
         self.membership = self.membership.started()
 
     def run(self, progress: Callable[[int, int], None] = lambda k, live: None) -> RunRecord:
@@ -197,7 +251,7 @@ class Master:
         """Frame k's inputs, drawn and sampled once: the clock's matrix, the tracked head
         (or the script's when no tracker has spoken), and the scene driver's state."""
         t = k * self.config.dt
-        tracked = self.tracked
+        tracked = self.link.tracking
         step = self.driver.advance(t, self.config.dt, tracked.wand if tracked else None)
         self.record.clamped_inputs += step.clamped
         if step.flight is not None:
@@ -208,12 +262,14 @@ class Master:
 
     def _record_final_agreement(self) -> None:
         last = self.record.frames
-        reports = self.reports.get(last, {})
+        reports = self.reports if self.frame == last else {}
         members = self.membership.members
         digests = {n: reports[n].digest for n in members if n in reports}
         self.record.final = FinalAgreement(last, members,
                                            set(digests) == set(self.config.walls),
-                                           len(set(digests.values())) == 1)
+                                           len(set(digests.values())) == 1,
+                                           tuple(w for w in self.config.walls
+                                                 if w not in members))
 
     def stop(self, wait: float = STOP_WAIT) -> None:
         """Tell every node to STOP, and wait (on liveliness) until they have left."""
@@ -229,28 +285,48 @@ class Master:
             self.last_sent[node] = k
 
     def _barrier(self, k: int, message: FrameMessage) -> float:
-        """Publish frame k and wait until every member reported it; the seconds it took."""
+        """Publish frame k and wait until every member reported it; the seconds it took.
+        A member silent past the limits is evicted (continue) or ends the run (pause)."""
+        self.frame, self.reports = k, {}
         sent = time.monotonic()
         self._send_frame(k, message)
         deadline = sent + self.config.barrier_timeout
-        while missing := lockstep.missing(self.membership.members, self.reports.get(k, {})):
+        while missing := lockstep.missing(self.membership.members, self.reports):
             if time.monotonic() < deadline:
                 self._pump(deadline)
                 continue
             self.record.stalls.append(Stall(k, {
                 n: (self.last_sent.get(n, 0), self.last_received.get(n, 0)) for n in missing}))
             log.warning("frame %d: stalled on %s", k, ", ".join(missing))
-            for node, source in lockstep.stall_resyncs(self.membership, self.reports.get(k, {})):
+            for node, source in lockstep.stall_resyncs(self.membership, self.reports):
                 self._resync(k, node, source)
+            self._hold_or_evict(k, time.monotonic() - sent)
             self._send_frame(k, message)
             deadline = time.monotonic() + self.config.barrier_timeout
         if not self.membership.members:
             raise ClusterError(f"frame {k}: every wall node is gone")
         return time.monotonic() - sent
 
+    def _hold_or_evict(self, k: int, silent: float) -> None:
+        """The members still missing have been silent `silent` seconds in frame k."""
+        missing = lockstep.missing(self.membership.members, self.reports)
+        if self.config.on_loss == "pause":
+            if silent >= self.config.max_pause:
+                raise ClusterError(f"frame {k}: {', '.join(missing)} silent for {silent:.0f} s "
+                                   f"under --on-loss pause (--max-pause "
+                                   f"{self.config.max_pause:g} s): the run ends")
+            return
+        if silent < self.config.evict_after:
+            return
+        for node in missing:
+            self.membership = self.membership.evicted(node)
+            self.record.losses.append(Loss(k, node, "barrier"))
+            log.warning("frame %d: evicted %s, silent for %.1f s (--evict-after)", k, node,
+                        silent)
+
     def _agree(self, k: int) -> Vote:
         """Vote on the members' checksums of frame k and resync the odd ones."""
-        members, reports = self.membership.members, self.reports[k]
+        members, reports = self.membership.members, self.reports
         vote = lockstep.vote(members, reports, compare=k % self.config.check_every == 0)
         if vote.diverged:
             self.record.divergences.append(Divergence(
@@ -258,7 +334,7 @@ class Master:
                 {n: reports[n].particles for n in members}))
             log.warning("frame %d: divergence, odd node(s): %s", k, ", ".join(vote.named))
             for node in vote.odd:
-                self._resync(k, node, vote.source)
+                self._resync(k, node, vote.source, vote.agreed)
         return vote
 
     def _release_swap(self, k: int) -> None:
@@ -289,39 +365,53 @@ class Master:
                 break
             self._pump(deadline)
 
-    def _resync(self, k: int, node: str, source: str) -> bool:
-        """Have `node` load `source`'s snapshot of frame k; wait for its RESYNCED report."""
+    def _resync(self, k: int, node: str, source: str, digest: str | None = None) -> bool:
+        """Have `node` load `source`'s state of frame k (whose checksum is `digest`, by
+        default the source's report); wait for its RESYNCED report. A node whose resyncs
+        fail MAX_RESYNC_FAILURES times in a row is given up."""
         started = time.monotonic()
-        reports = self.reports.setdefault(k, {})
-        reports.pop(node, None)
-        self.link.send(ControlMessage(k, Command.RESYNC, node, source))
+        digest = digest or self.reports[source].digest
+        self.reports.pop(node, None)
+        self.link.send(ControlMessage(k, Command.RESYNC, node, source, digest))
         deadline = started + self.resync_seconds
-        while time.monotonic() < deadline:
-            ok = lockstep.resync_outcome(reports.get(node), reports[source])
-            if ok is not None:
-                self.record.resyncs.append(Resync(k, node, source, ok,
-                                                  time.monotonic() - started))
-                if ok:
-                    self.membership = self.membership.healed(node)
-                return ok
-            self._pump(deadline)
-        self.record.resyncs.append(Resync(k, node, source, False, time.monotonic() - started))
+        ok = None
+        while ok is None and time.monotonic() < deadline:
+            ok = lockstep.resync_outcome(self.reports.get(node), digest)
+            if ok is None:
+                self._pump(deadline)
+        ok = bool(ok)
+        self.record.resyncs.append(Resync(k, node, source, ok, time.monotonic() - started))
+        if ok:
+            self.resync_failures.pop(node, None)
+            self.membership = self.membership.healed(node)
+            return True
+        self.resync_failures[node] = failures = self.resync_failures.get(node, 0) + 1
+        if failures >= MAX_RESYNC_FAILURES:
+            self.resync_failures.pop(node)
+            if node in self.membership.members:
+                self.record.losses.append(Loss(k, node, "resync-failed"))
+            self.membership = self.membership.gave_up(node)
+            log.warning("frame %d: gave %s up after %d failed resyncs", k, node, failures)
         return False
 
     def _admit_joiners(self, k: int, vote: Vote) -> None:
-        """Walls that are up but not members (late, or back after a loss) enter by resync."""
+        """Walls that joined or fell behind, but are not members, enter by resync."""
         for node in self.membership.joiners():
-            source = lockstep.agreeing_source(self.membership.members, self.reports[k],
+            source = lockstep.agreeing_source(self.membership.members, self.reports,
                                               vote.agreed)
-            if self._resync(k, node, source):
+            if self._resync(k, node, source, vote.agreed):
                 self.membership = self.membership.admitted(node)
                 self.record.joins.append(Join(k, node))
+        self._ask_again()
 
 
 def run_master(config: MasterConfig, link: Link,
                progress: Callable[[int, int], None] = lambda k, live: None,
-               before_frame: Callable[[int], None] | None = None) -> RunRecord:
-    """Run the cluster for `config.frames` frames over `link` and tell the nodes to stop.
+               before_frame: Callable[[int], None] | None = None,
+               abandon: bool = False) -> RunRecord:
+    """Run the cluster for `config.frames` frames over `link` and tell the nodes to stop
+    (`abandon`: leave without a word, as a master that dies would; the harness's
+    master-kill).
 
     Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
     """
@@ -333,8 +423,10 @@ def run_master(config: MasterConfig, link: Link,
         master.record.interrupted = True
         log.warning("interrupted at frame %d", master.record.frames)
     finally:
-        master.stop()
-        master.record.master_rejected = dict(master.rejects.counts)
+        if not abandon:
+            master.stop()
+        master.record.master_rejected = dict(link.rejects.counts)
+        master.record.master_dropped = link.dropped
     return master.record
 
 

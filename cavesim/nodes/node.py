@@ -2,21 +2,30 @@
 
 The context is opened on the EGL device the node was given (`--gpu`, default device 0),
 or, with `--display`, is the context of the wall's window on its X display (`--preview`:
-one window showing every wall). Zenoh callbacks only enqueue; the main thread, which owns
-the GL context, does all work:
-frame k -> step, checksum, report k; a repeated frame -> repeat the report; a frame
-ahead of us -> wait for a resync; RESYNC -> stream a healthy node's snapshot in and load
-it; a state query -> stream our snapshot out (cavesim/nodes/snapshots.py); an info query ->
-answer with our GPU; STOP -> leave cleanly. A displaying node also draws every frame after
-its report and swaps when the master says SWAP (`cavesim/nodes/screen.py`); closing its
-window makes it leave, which the master sees as a lost wall.
+one window showing every wall). Zenoh's threads check every message before it reaches the
+main thread (`cavesim/nodes/inbox.py`); the main thread, which owns the GL context, does
+all work:
+an info query -> answer with our GPU and a fresh nonce; the master's WELCOME naming that
+nonce -> join its run (a node that held another run starts over from the scene's start
+state) and report JOINED; frame k -> step, checksum, report k; a repeated frame -> repeat
+the report; a frame ahead of us -> report BEHIND and wait for a resync; RESYNC -> stream the
+named node's snapshot of the named frame and checksum in, and load it only whole and
+verified; a state query -> stream our snapshot out (cavesim/nodes/snapshots.py); STOP ->
+leave cleanly. A displaying node also draws every frame after its report and swaps when
+the master says SWAP (`cavesim/nodes/screen.py`); closing its window makes it leave, which
+the master sees as a lost wall.
+
+Nothing waits forever: a node no master has welcomed within `--master-wait` exits with an
+error (naming a --key-file mismatch when it sees one); when the master's liveliness token
+goes away, the node exits (`--on-master-loss exit`) or waits `--master-wait` for a new
+master (`wait`); a master silent for MASTER_SILENCE x `--master-wait` counts as gone.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
-import queue
+import secrets
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,29 +35,39 @@ import zenoh
 
 from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.drivers import driver_for
-from cavesim.core.errors import ContextError, ProtocolError
+from cavesim.core.errors import ClusterError, ContextError, ProtocolError
 from cavesim.core.scene import load_scene
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import (
     Command,
     ControlMessage,
+    Credentials,
     DisplayMessage,
     FrameMessage,
     InfoMessage,
     ReportMessage,
     SessionKeys,
-    decode,
+    StateRequest,
+    decode_envelope,
     encode,
 )
 from cavesim.core.wire.messages import Message, Phase, Status
 from cavesim.core.wire.network import NetworkConfig, lockstep_publisher, open_session
-from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
 from cavesim.nodes.faults import Fault
+from cavesim.nodes.inbox import (
+    FromMaster,
+    InfoQuery,
+    MasterPresence,
+    NodeInbox,
+    NodeView,
+    StateQuery,
+)
+from cavesim.nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES
 from cavesim.nodes.painter import WallPainter
 from cavesim.nodes.preview_controls import PreviewControls
 from cavesim.nodes.screen import LiveDisplay, PreviewScreen, WallScreen, scaled
@@ -57,6 +76,11 @@ from cavesim.nodes.snapshots import fetch_snapshot, send_snapshot
 log = logging.getLogger("cavesim.node")
 SLOW_DELAY = 1.5  # s a `slow` fault holds a report back (tests use a shorter barrier)
 POLL = 0.02  # s between looks at a window's events when no message comes
+IDLE = 1.0  # s between looks at the master's presence when nothing comes
+
+MASTER_SILENCE = 10  # x --master-wait: a master this long silent counts as gone
+BEHIND_EVERY = 1.0  # s between two BEHIND reports
+RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
 
 
 @dataclass(frozen=True)
@@ -65,7 +89,7 @@ class NodeConfig:
     scene: Path
     session: str = "default"
     network: NetworkConfig = NetworkConfig()
-    key: bytes | None = None
+    credentials: Credentials | None = None  # session.key: checks the master's signature
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
     cave: Path | None = None  # draw this node's wall of this CAVE ...
@@ -77,17 +101,22 @@ class NodeConfig:
     display: bool = False  # show the wall live in a window, as the CAVE's [wall.display] says
     preview: bool = False  # show every wall of the CAVE unfolded in one desktop window
     preview_scale: float = 0.5  # of each wall's resolution, in the preview
+    on_master_loss: str = "wait"  # or "exit" when the master's liveliness token goes away
+    master_wait: float = 60.0  # s to wait for a master's WELCOME, or for a new master
 
 
 class WallNode:
     """The node's state machine; `run` is its loop."""
 
     def __init__(self, config: NodeConfig, session: zenoh.Session) -> None:
+        if config.on_master_loss not in MASTER_LOSS_POLICIES:
+            raise ValueError(f"on_master_loss must be one of {MASTER_LOSS_POLICIES}")
         self.config = config
         self.keys = SessionKeys(config.session)
         scene = load_scene(config.scene)
         if self._fault("seed"):
             scene = dataclasses.replace(scene, seed=scene.seed + 1)
+        self.seed = scene.seed  # the start state's: a new run starts from it
         self.session = session
         cave = load_cave(config.cave) if config.cave is not None else None
         window = open_node_window(config, cave)
@@ -100,56 +129,133 @@ class WallNode:
         self.controls = PreviewControls(window.window) if config.preview else None
         self.painter = WallPainter(config, self.ctx, self.system) \
             if config.render_every and window is None else None
-        self.rejects = RejectCounter(f"node {config.wall}")
-        self.done = 0  # last frame whose state we hold
+        self.view = NodeView(config.wall, secrets.randbits(64))
+        self.inbox = NodeInbox(config.session, config.credentials, self.view)
+        self.rejects = self.inbox.rejects
         self.last_report: ReportMessage | None = None
         self.previous_inputs: FrameInput | None = None
-        self.dropped: set[int] = set()
-        self.events: queue.Queue = queue.Queue()
+        self.fired: set[Fault] = set()  # injected faults done
+        self.started = self.heard = time.monotonic()  # from the master of our run
+        self.master_gone_at: float | None = None
+        self.behind_said = 0.0
         self.running = True
 
+    @property
+    def done(self) -> int:
+        """The last frame whose state we hold."""
+        return self.view.done
+
     def _fault(self, kind: str, frame: int | None = None) -> bool:
-        return any(f.kind == kind and (frame is None or f.frame == frame)
-                   for f in self.config.faults)
+        """Whether an injected fault of `kind` is due (at `frame`); each fires once, so a
+        frame number that comes again (a new master's run) does not repeat it."""
+        due = next((f for f in self.config.faults if f.kind == kind and f not in self.fired
+                    and (frame is None or f.frame == frame)), None)
+        if due is not None:
+            self.fired.add(due)
+        return due is not None
 
     def declare(self) -> list:
-        """Subscribe, answer state queries, then announce ourselves (liveliness last)."""
-        put = self.events.put
+        """Subscribe and answer queries, then announce ourselves (liveliness last)."""
         keys, wall = self.keys, self.config.wall
         self.report_publisher = lockstep_publisher(self.session, keys.report(wall))
         self.display_publisher = lockstep_publisher(self.session, keys.display(wall))
-        return [
-            self.session.declare_subscriber(keys.frame, lambda s: put(("frame", s))),
-            self.session.declare_subscriber(keys.control, lambda s: put(("control", s))),
-            self.session.declare_queryable(keys.state(wall), lambda q: put(("query", q))),
-            self.session.declare_queryable(keys.info(wall), lambda q: put(("info", q))),
-            self.session.liveliness().declare_token(keys.alive(wall)),
-        ]
+        return [*self.inbox.declare(self.session, keys),
+                self.session.liveliness().declare_token(keys.alive(wall))]
 
     def run(self) -> None:
         while self.running:
-            try:
-                kind, item = self.events.get(timeout=None if self.live is None else POLL)
-            except queue.Empty:
-                self._tend_window()
-                continue
+            event = self.inbox.get(POLL if self.live is not None else IDLE)
             self._tend_window()
-            if kind in ("query", "info"):
-                self._answer(kind, item)
-                continue
-            try:
-                message = self._unseal(item.payload.to_bytes())
-            except ProtocolError as e:
-                self.rejects.reject(e, str(item.key_expr))
-                continue
-            expected = FrameMessage if kind == "frame" else ControlMessage
-            if not isinstance(message, expected):
-                self.rejects.reject(ProtocolError("unexpected", f"a {type(message).__name__} "
-                                                  f"on the {kind} key"), str(item.key_expr))
-            elif kind == "frame":
-                self._on_frame(message)
-            else:
-                self._on_control(message)
+            match event:
+                case FromMaster(message, run_id):
+                    self.heard = time.monotonic()
+                    self._from_master(message, run_id)
+                case StateQuery(query, request):
+                    self._serve_state(query, request)
+                case InfoQuery(query, run_id):
+                    self._answer_info(query, run_id)
+                case MasterPresence(up):
+                    self._master_presence(up)
+            self._check_master()
+
+    def _from_master(self, message: FrameMessage | ControlMessage, run_id: int) -> None:
+        if isinstance(message, FrameMessage):
+            self._on_frame(message)
+        elif message.command is Command.WELCOME:
+            self._join(run_id)
+        elif message.command is Command.STOP:
+            self.running = False
+        elif message.command is Command.SWAP and self.live is not None:
+            self.live.swap(message.frame)
+        elif message.command is Command.RESYNC:
+            self._resync(message)
+
+    # -- joining a run, and the master's presence ----------------------------------------
+
+    def _answer_info(self, query: zenoh.Query, run_id: int) -> None:
+        """Our GPU, whether we are swap-locked, and the nonce a WELCOME must name."""
+        swap_locked = self.live is not None and self.live.screen.swap_locked
+        message = InfoMessage.of_gpu(self.done, self.config.wall, self.gpu, swap_locked,
+                                     self.view.nonce)
+        query.reply(self.keys.info(self.config.wall), self._seal(message, run_id))
+        query.drop()
+
+    def _join(self, run_id: int) -> None:
+        """The master's WELCOME named our nonce: join its run, from the scene's start state
+        if we held another run's."""
+        previous = self.view.run_id
+        if previous is not None and previous != run_id:
+            log.warning("%s: a new master's run %016x replaces run %016x: starting over "
+                        "from the scene's start state", self.config.wall, run_id, previous)
+            self._start_over()
+        if previous != run_id:
+            self.view.heard = 0
+        self.view.run_id, self.view.nonce = run_id, secrets.randbits(64)  # nonce used up
+        self.master_gone_at = None
+        state = self.system.checksum()
+        log.info("%s: joined run %016x at frame %d", self.config.wall, run_id, self.done)
+        self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
+                                    state.emitters, 0, 0, self.rejects.total, Status.JOINED))
+
+    def _start_over(self) -> None:
+        self.system.restart(self.seed)
+        self.view.done = 0
+        self.last_report = self.previous_inputs = None
+        if self.live is not None:
+            self.live.pending = None
+
+    def _master_presence(self, up: bool) -> None:
+        if up:
+            self.master_gone_at = None
+        elif self.view.run_id is not None and self.master_gone_at is None:
+            self.master_gone_at = time.monotonic()
+            if self.config.on_master_loss == "wait":
+                log.warning("%s: %s (run %016x); waiting up to %g s for a new master "
+                            "(--on-master-loss wait)", self.config.wall, MASTER_GONE,
+                            self.view.run_id, self.config.master_wait)
+
+    def _check_master(self) -> None:
+        """End the node (ClusterError, one line) when no master is there to follow."""
+        now, wall, wait = time.monotonic(), self.config.wall, self.config.master_wait
+        if self.view.run_id is None:
+            if now - self.started > wait:
+                hint = self.inbox.master_hint() or ("is the master running, with --session "
+                                                    f"{self.config.session}?")
+                raise ClusterError(f"node {wall}: no master welcomed it within {wait:g} s "
+                                   f"(--master-wait): {hint}")
+            return
+        if self.master_gone_at is not None and self.config.on_master_loss == "exit":
+            raise ClusterError(f"node {wall}: the master of run {self.view.run_id:016x} is "
+                               f"gone (its liveliness token went away); leaving "
+                               f"(--on-master-loss exit)")
+        if self.master_gone_at is not None and now - self.master_gone_at > wait:
+            raise ClusterError(f"node {wall}: the master of run {self.view.run_id:016x} is "
+                               f"gone and no new master came within {wait:g} s "
+                               f"(--master-wait, --on-master-loss wait)")
+        if now - self.heard > MASTER_SILENCE * wait:
+            raise ClusterError(f"node {wall}: nothing from the master of run "
+                               f"{self.view.run_id:016x} for {now - self.heard:.0f} s "
+                               f"({MASTER_SILENCE} x --master-wait); leaving")
 
     # -- frames --------------------------------------------------------------------------
 
@@ -158,8 +264,7 @@ class WallNode:
         if k == self.done and self.last_report is not None:
             self._publish(dataclasses.replace(self.last_report, status=Status.REPEATED))
         elif k == self.done + 1:
-            if self._fault("drop", k) and k not in self.dropped:
-                self.dropped.add(k)  # lose this copy; the master's retransmit gets through
+            if self._fault("drop", k):  # lose this copy; the master's retransmit gets through
                 log.warning("%s: fault: dropped frame %d", self.config.wall, k)
                 return
             try:
@@ -173,8 +278,20 @@ class WallNode:
             elif self.painter is not None and k % self.config.render_every == 0:
                 self.painter.paint(k, message, scene)
         elif k > self.done + 1:
-            log.info("%s: frame %d is ahead of our frame %d; waiting for a resync",
-                     self.config.wall, k, self.done)
+            self._behind(k)
+
+    def _behind(self, k: int) -> None:
+        """Frame k is ahead of ours: ask the master for a resync (at most every second)."""
+        now = time.monotonic()
+        if now - self.behind_said < BEHIND_EVERY:
+            return
+        self.behind_said = now
+        log.info("%s: frame %d is ahead of our frame %d; asking for a resync",
+                 self.config.wall, k, self.done)
+        state = self.system.checksum()
+        self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
+                                    state.emitters, 0, 0, self.rejects.total, Status.BEHIND),
+                      keep=False)
 
     def _step(self, k: int, inputs: FrameInput, scene: SceneFrame) -> None:
         used = inputs
@@ -186,7 +303,7 @@ class WallNode:
         if self._fault("bitflip", k) and self.system.live_count:
             self._flip_one_bit()
         self.previous_inputs = inputs
-        self.done = k
+        self.view.done = k
         state = self.system.checksum()
         finished = time.perf_counter()
         if self._fault("slow", k):
@@ -202,15 +319,15 @@ class WallNode:
         self.system.write_particles(particles)
         log.warning("%s: fault: flipped one bit of the particle buffer", self.config.wall)
 
-    def _publish(self, report: ReportMessage) -> None:
-        self.last_report = report
+    def _publish(self, report: ReportMessage, keep: bool = True) -> None:
+        """Send `report`; `keep`: it describes the state we hold (repeat it, serve it)."""
+        if keep:
+            self.last_report = report
         self.report_publisher.put(self._seal(report))
 
-    def _seal(self, message: Message) -> bytes:
-        return encode(message, self.config.session, self.config.key)
-
-    def _unseal(self, data: bytes) -> Message:
-        return decode(data, self.config.session, self.config.key)
+    def _seal(self, message: Message, run_id: int | None = None) -> bytes:
+        return encode(message, self.config.session, self.config.credentials,
+                      self.view.run_id or 0 if run_id is None else run_id)
 
     # -- the window ----------------------------------------------------------------------
 
@@ -229,57 +346,66 @@ class WallNode:
         self.display_publisher.put(self._seal(DisplayMessage(k, self.config.wall, phase,
                                                              time_ns)))
 
-    # -- control and snapshots -------------------------------------------------------------
+    # -- snapshots ---------------------------------------------------------------------------
 
-    def _on_control(self, message: ControlMessage) -> None:
-        if message.command is Command.STOP:
-            self.running = False
-        elif message.command is Command.SWAP and self.live is not None:
-            self.live.swap(message.frame)
-        elif message.command is Command.RESYNC and message.target == self.config.wall:
-            self._resync(message.source)
+    def _resync(self, command: ControlMessage) -> None:
+        """Stream in `command.source`'s snapshot of `command.frame`, whose checksum the master
+        named, and report RESYNCED; nothing is loaded unless the whole state arrives and has
+        that checksum.
 
-    def _resync(self, source: str) -> None:
-        """Stream in the snapshot of `source` (a healthy node) and report its frame.
-
-        A node that has just come back may not yet have its direct link to `source`: a
-        query then finds nobody at once. It asks again until the deadline (which scales
-        with the largest state the scene holds), each time first waiting (on liveliness,
-        up to a second) for `source` to be reachable.
+        A node that has just come back may not yet have its direct link to the source: a
+        query then finds nobody at once; a forged reply may come first. It asks again until
+        the deadline (which scales with the largest state the scene holds), each time after
+        a pause and after waiting (on liveliness, up to a second) for the source to be
+        reachable.
         """
+        source, wall = command.source, self.config.wall
         started = time.monotonic()
         deadline = started + transfer_seconds(self.system.capacity)
-        key = self.keys.state(source)
+        request = StateRequest(command.frame, source, command.digest)
+        failed_repliers: set[str] = set()
         while (remaining := deadline - time.monotonic()) > 0:
-            header = fetch_snapshot(self.session, key, self.system, self._unseal, deadline,
-                                    self.rejects)
+            header = fetch_snapshot(self.session, self.keys.state(source), self.system,
+                                    self._seal(request), self._open_reply, request, deadline,
+                                    self.rejects, failed_repliers)
             if header is not None:
                 self._loaded(header.frame, source, header.chunks, time.monotonic() - started)
                 return
+            time.sleep(min(RESYNC_PAUSE, max(deadline - time.monotonic(), 0.0)))
             list(self.session.liveliness().get(self.keys.alive(source),
                                                timeout=min(1.0, max(remaining, 0.01))))
-        log.error("%s: no snapshot from %s within %.0f s", self.config.wall, source,
-                  deadline - started)
+        log.error("%s: no verified snapshot of frame %d from %s within %.0f s; keeping our "
+                  "state", wall, command.frame, source, deadline - started)
+        state = self.system.checksum()  # the master sees at once that the resync failed
+        self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
+                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED),
+                      keep=False)
+
+    def _open_reply(self, data: bytes) -> Message:
+        """A snapshot reply, checked: of our run."""
+        envelope = decode_envelope(data, self.config.session, self.config.credentials)
+        if envelope.run_id != self.view.run_id:
+            raise ProtocolError("wrong-run", f"a snapshot reply of run {envelope.run_id:#018x}")
+        return envelope.message
 
     def _loaded(self, frame: int, source: str, chunks: int, seconds: float) -> None:
-        self.done = frame
+        self.view.done = frame
         state = self.system.checksum()
         log.info("%s: resynced to frame %d from %s: %d particles in %d chunks, %.2f s",
                  self.config.wall, frame, source, state.particles, chunks, seconds)
         self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
                                     state.emitters, 0, 0, self.rejects.total, Status.RESYNCED))
 
-    def _answer(self, kind: str, query: zenoh.Query) -> None:
-        """A state query gets our snapshot, streamed; an info query our GPU."""
-        wall = self.config.wall
-        if kind == "info":
-            swap_locked = self.live is not None and self.live.screen.swap_locked
-            message = InfoMessage.of_gpu(self.done, wall, self.gpu, swap_locked)
-            query.reply(self.keys.info(wall), self._seal(message))
+    def _serve_state(self, query: zenoh.Query, request: StateRequest) -> None:
+        """Stream our state to a resyncing node, if it is the one it asks for."""
+        held = self.last_report
+        if held is None or held.frame != request.frame or held.digest != request.digest:
+            log.info("%s: asked for the state of frame %d (%s); holding frame %d",
+                     self.config.wall, request.frame, request.digest[:8], self.done)
             query.drop()
-        else:
-            send_snapshot(query, self.keys.state(wall), self.system, self.done, self._seal,
-                          self.config.chunk_particles)
+            return
+        send_snapshot(query, self.keys.state(self.config.wall), self.system, self.done,
+                      self._seal, self.config.chunk_particles)
 
 
 def main(config: NodeConfig) -> int:

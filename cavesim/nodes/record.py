@@ -72,14 +72,16 @@ class FinalAgreement:
     members: tuple[str, ...]
     all_walls_in: bool
     agree: bool
+    lost: tuple[str, ...] = ()  # walls out of the lock-step at the end: lost for good
 
     def to_json(self) -> dict:
-        return {**asdict(self), "members": list(self.members)}
+        return {**asdict(self), "members": list(self.members), "lost": list(self.lost)}
 
 
 @dataclass
 class RunRecord:
     walls: tuple[str, ...]
+    run_id: int = 0  # the master's, in every message of the run
     frames: int = 0
     interrupted: bool = False
     clamped_inputs: int = 0  # tracked wand positions pulled back into reach
@@ -96,6 +98,7 @@ class RunRecord:
     final: FinalAgreement | None = None  # the last frame: members and whether they agree
     node_rejected: dict[str, int] = field(default_factory=dict)
     master_rejected: dict[str, int] = field(default_factory=dict)
+    master_dropped: int = 0  # events the master's full queue could not take
     gpus: dict[str, dict] = field(default_factory=dict)  # wall -> what it computes on
     swaps: SwapBook = field(default_factory=SwapBook)  # the swap barrier of displaying walls
 
@@ -108,6 +111,7 @@ class RunRecord:
         percentile = (lambda q: round(float(np.percentile(barrier_ms, q)), 3)) \
             if len(barrier_ms) else (lambda q: None)
         return {
+            "run_id": f"{self.run_id:016x}",
             "frames": self.frames,
             "interrupted": self.interrupted,
             "nodes": list(self.walls),
@@ -128,6 +132,7 @@ class RunRecord:
             "clock_dropped_seconds": round(self.clock_dropped_seconds, 4),
             "flight": [_flight_json(f) for f in self.flight],
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
+            "master_events_dropped": self.master_dropped,
             "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},
             "swap": self.swaps.summary(),
         }

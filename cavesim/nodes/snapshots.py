@@ -15,7 +15,7 @@ from collections.abc import Callable
 import zenoh
 
 from cavesim.core.errors import ProtocolError, StateError
-from cavesim.core.wire.messages import Message, SnapshotChunk, SnapshotHeader
+from cavesim.core.wire.messages import Message, SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import (
     CHUNK_PARTICLES,
@@ -94,14 +94,24 @@ def send_snapshot(query: zenoh.Query, key: str, system: ParticleSystem, frame: i
         query.drop()
 
 
-def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem,
-                   unseal: Callable[[bytes], Message], deadline: float,
-                   rejects: RejectCounter) -> SnapshotHeader | None:
-    """Ask `key` for a snapshot and load it into `system`; its header, or None when nothing
-    was loaded (nobody answered, the deadline passed, or the stream was refused: counted)."""
+def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, request: bytes,
+                   open_reply: Callable[[bytes], Message], wanted: StateRequest,
+                   deadline: float, rejects: RejectCounter,
+                   failed: set[str]) -> SnapshotHeader | None:
+    """Ask `key` for the state `wanted` names (`request`: that request, sealed) and load it
+    into `system`; its header, or None when nothing was loaded (nobody answered, the
+    deadline passed, or every stream was refused: counted).
+
+    Only a stream whose header is of the wanted frame and checksum is followed, from the
+    first replier that sends one; other repliers are ignored, and a replier that sent
+    another state or a broken stream (`failed`, kept across the caller's attempts) is not
+    heard again. The state
+    becomes current only whole and with the wanted checksum (which covers its seed).
+    """
     load = SnapshotLoad(system)
+    source: str | None = None
     replies = session.get(
-        key, handler=zenoh.handlers.FifoChannel(REPLY_QUEUE),
+        key, handler=zenoh.handlers.FifoChannel(REPLY_QUEUE), payload=request,
         consolidation=zenoh.ConsolidationMode.NONE,  # the default keeps one reply per key
         congestion_control=zenoh.CongestionControl.BLOCK,  # so replies wait, never drop
         timeout=max(deadline - time.monotonic(), 1e-3))
@@ -109,13 +119,19 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem,
         if time.monotonic() > deadline:
             log.warning("snapshot from %s: deadline passed while streaming", key)
             return None
-        if reply.ok is None:
+        replier = str(reply.replier_id)
+        if reply.ok is None or replier in failed or source not in (None, replier):
             continue
         try:
-            load.feed(unseal(reply.ok.payload.to_bytes()))
+            message = open_reply(reply.ok.payload.to_bytes())
+            if source is None:
+                _check_wanted(message, wanted)
+                source = replier
+            load.feed(message)
         except ProtocolError as e:
             rejects.reject(e, key)
-            if load.assembly is None:  # no header to assemble against: drop this stream
+            failed.add(replier)  # a wrong header or a broken stream: not followed again
+            if source == replier:
                 return None
     if load.assembly is None:
         return None
@@ -123,4 +139,16 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem,
         return load.commit()
     except ProtocolError as e:
         rejects.reject(e, key)
+        failed.add(source)
         return None
+
+
+def _check_wanted(message: Message, wanted: StateRequest) -> None:
+    """ProtocolError unless `message` is the header of the wanted state."""
+    if not isinstance(message, SnapshotHeader):
+        raise ProtocolError("unexpected", f"a {type(message).__name__} before the snapshot's "
+                                          f"header")
+    if message.frame != wanted.frame or message.digest != wanted.digest:
+        raise ProtocolError("wrong-snapshot", f"a snapshot of frame {message.frame} "
+                                              f"({message.digest[:8]}); the master named "
+                                              f"frame {wanted.frame} ({wanted.digest[:8]})")

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from cavesim.core.errors import ProtocolError, TrackerError
 from cavesim.core.tracking import TrackerMapping, TrackingState, parse_datagram
 from cavesim.core.tracking.dtrack import MAX_DATAGRAM
-from cavesim.core.wire import SessionKeys, TrackingMessage, encode
+from cavesim.core.wire import Credentials, SessionKeys, TrackingMessage, encode
 from cavesim.core.wire.network import NetworkConfig, open_session
 
 log = logging.getLogger("cavesim.tracker")
@@ -37,7 +37,7 @@ class TrackerConfig:
     bind: str  # address of this host to receive on (0.0.0.0: all)
     session: str = "default"
     network: NetworkConfig = NetworkConfig()
-    key: bytes | None = None
+    credentials: Credentials | None = None  # session.key
     max_rate: float = 0.0  # messages per second at most; 0: one per datagram
 
 
@@ -132,7 +132,7 @@ def main(config: TrackerConfig, stop: threading.Event | None = None) -> TrackerC
             open_session(config.network) as session:
         publisher = session.declare_publisher(key, express=True)
         bridge = Bridge(config.mapping, lambda m: publisher.put(
-            encode(m, config.session, config.key)), config.max_rate)
+            encode(m, config.session, config.credentials)), config.max_rate)
         log.info("receiving DTrack on udp %s:%d, publishing on %s", config.bind, config.port, key)
         try:
             while not stop.is_set():

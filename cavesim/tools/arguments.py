@@ -110,6 +110,32 @@ def network_and_key(args: argparse.Namespace, command: str):
         raise UsageError(f"cavesim {command}: error: {e}") from e
 
 
+def master_credentials(path: Path | None, command: str):
+    """The master's credentials from its --key-file (None without one): a master.key, since
+    only the master signs frames and commands (UsageError otherwise)."""
+    try:
+        credentials = read_key(path)
+    except ValueError as e:
+        raise UsageError(f"cavesim {command}: error: {e}") from e
+    if credentials is not None and not credentials.can_sign_as_master:
+        raise UsageError(f"cavesim {command}: error: argument --key-file: {path} holds no "
+                         f"master signing key (it is a session.key); the master needs the "
+                         f"master.key made with it by `cavesim keys`")
+    return credentials
+
+
+def lost_walls_code(lost, on_loss: str | None, command: str) -> int:
+    """The exit code of a run that ended with the walls `lost` out of the lock-step: 0 when
+    none was, or when `--on-loss continue` was asked for explicitly; else RUN_ERROR with the
+    one line that says so."""
+    if not lost or on_loss == "continue":
+        return 0
+    print(f"cavesim {command}: error: wall(s) {', '.join(lost)} lost for good: the run ended "
+          f"without them (see the report's losses); give --on-loss continue to accept that",
+          file=sys.stderr)
+    return RUN_ERROR
+
+
 def configure_logging(verbose: bool) -> None:
     logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, stream=sys.stderr,
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")

@@ -20,12 +20,22 @@ from rich.console import Console
 
 from cavesim.core.errors import CavesimError
 from cavesim.tools.arguments import INTERRUPTED, RUN_ERROR, USAGE_ERROR, UsageError
-from cavesim.tools.commands import bench, check, cluster, doctor, numerics, replay, run, tracker
+from cavesim.tools.commands import (
+    bench,
+    check,
+    cluster,
+    doctor,
+    keys,
+    numerics,
+    replay,
+    run,
+    tracker,
+)
 
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
 SUBCOMMANDS = (bench.add, numerics.add_accuracy, numerics.add_stability, doctor.add, run.add,
-               cluster.add_master, cluster.add_node, replay.add, check.add, tracker.add)
+               cluster.add_master, cluster.add_node, replay.add, check.add, tracker.add, keys.add)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,22 +1,29 @@
-"""The wire between master and wall nodes: key expressions and binary messages."""
+"""The wire between master and wall nodes: key expressions, credentials and binary
+messages."""
 
+from cavesim.core.wire.credentials import Credentials
 from cavesim.core.wire.keys import SessionKeys
 from cavesim.core.wire.messages import (
     Command,
     ControlMessage,
     DisplayMessage,
+    Envelope,
     FrameMessage,
     HeadState,
     InfoMessage,
+    InfoRequest,
     ReportMessage,
     SnapshotChunk,
     SnapshotHeader,
+    StateRequest,
     TrackingMessage,
     WandState,
     decode,
+    decode_envelope,
     encode,
 )
 
-__all__ = ["Command", "ControlMessage", "DisplayMessage", "FrameMessage", "HeadState",
-           "InfoMessage", "ReportMessage", "SessionKeys", "SnapshotChunk", "SnapshotHeader",
-           "TrackingMessage", "WandState", "decode", "encode"]
+__all__ = ["Command", "ControlMessage", "Credentials", "DisplayMessage", "Envelope",
+           "FrameMessage", "HeadState", "InfoMessage", "InfoRequest", "ReportMessage",
+           "SessionKeys", "SnapshotChunk", "SnapshotHeader", "StateRequest", "TrackingMessage",
+           "WandState", "decode", "decode_envelope", "encode"]

@@ -55,6 +55,11 @@ class SessionKeys:
     def alive(self, node: str = "*") -> str:
         return f"{self.prefix}/alive/{node}"
 
+    @property
+    def master_alive(self) -> str:
+        """The master's liveliness token: nodes notice when the master is gone."""
+        return f"{self.prefix}/master_alive"
+
     def node_of(self, key: str) -> str:
         """The wall name at the end of a report, state, info or alive key."""
         return str(key).rsplit("/", 1)[-1]

@@ -1,10 +1,14 @@
 """Versioned fixed binary layouts of the messages between master and wall nodes.
 
-Every message: a 28-byte header (magic, version, kind, flags, session id, frame number,
-payload length), the payload, and, when the session has a shared key, an HMAC-SHA256 of
-all that. A node's state never travels in one message: a snapshot is a header and chunks
-(see snapshot.py). `decode` checks everything before trusting anything and raises `ProtocolError`
-with a short reason the receivers count; it never returns a half-checked message.
+Every message: a 36-byte header (magic, version, kind, flags, session id, run id, frame
+number, payload length) and the payload; in a session with credentials
+(`credentials.py`), the master's own kinds (frames, commands, info requests) then carry
+the master's Ed25519 signature, and every message ends with an HMAC-SHA256 of all that
+under the session's secret. The run id is the master's, drawn when its run starts: a
+message of another run (a replay) is refused by its receiver. A node's state never
+travels in one message: a snapshot is a header and chunks (see snapshot.py). `decode`
+checks everything before trusting anything and raises `ProtocolError` with a short reason
+the receivers count; it never returns a half-checked message.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import hmac
 import math
+import secrets
 import struct
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -23,15 +28,16 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.frame import FrameInput
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
+from cavesim.core.wire.credentials import MASTER_SIGNATURE_BYTES, Credentials
 from cavesim.core.wire.keys import check_name
 
 MAGIC = b"CVSM"
-VERSION = 3  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 4  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
-# take part in the swap barrier
-HEADER = struct.Struct("<4sBBBBQQI")  # magic, version, kind, flags, reserved (0), ...
+# take part in the swap barrier; 4: a run id in the header, the master's signature, requests
+HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
-SIGNED = 0x01
+SIGNED, MASTER_SIGNED = 0x01, 0x02
 MAX_PARAMS = 32
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
 MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB messages
@@ -41,9 +47,11 @@ _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejec
 _SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
 _CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
-_INFO = struct.Struct("<HB")  # EGL device index, flags (INFO_FLAGS); then three strings
+_INFO = struct.Struct("<HBQ")  # EGL device index, flags, join nonce; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED = 0x01, 0x02
 _DISPLAY = struct.Struct("<BQ")  # phase, the node's monotonic clock in ns
+_CONTROL_TAIL = struct.Struct("<16sQ")  # the named state's digest (RESYNC), nonce (WELCOME)
+_STATE_REQUEST = struct.Struct("<16s")  # the digest of the state asked for
 
 
 class Kind(IntEnum):
@@ -55,18 +63,26 @@ class Kind(IntEnum):
     CHUNK = 6
     INFO = 7
     DISPLAY = 8
+    INFO_REQUEST = 9
+    STATE_REQUEST = 10
+
+
+MASTER_KINDS = frozenset({Kind.FRAME, Kind.CONTROL, Kind.INFO_REQUEST})  # the master signs
 
 
 class Command(IntEnum):
-    RESYNC = 1  # target loads the state of `source`
+    RESYNC = 1  # target loads `source`'s state of the frame, whose checksum is `digest`
     STOP = 2  # every node ends cleanly
     SWAP = 3  # every swap-locked wall has drawn the frame: show it
+    WELCOME = 4  # target joins this run (the header's run id); `nonce` is its own, fresh
 
 
 class Status(IntEnum):
     STEPPED = 0  # the node stepped this frame
     RESYNCED = 1  # the node loaded a snapshot of this frame
     REPEATED = 2  # a repeat of an earlier report (the frame came again)
+    JOINED = 3  # the node took the run's WELCOME: it holds the scene's start state
+    BEHIND = 4  # the node holds `frame`, older than the cluster's: it asks for a resync
 
 
 @dataclass(frozen=True)
@@ -111,6 +127,25 @@ class ControlMessage:
     command: Command
     target: str = ""
     source: str = ""
+    digest: str = ""  # RESYNC: the checksum of the state to load (32 hex digits)
+    nonce: int = 0  # WELCOME: the nonce the target last sent in its info
+
+
+@dataclass(frozen=True)
+class InfoRequest:
+    """The master's question to a node: which GPU do you compute on, and your nonce?"""
+
+    frame: int
+    node: str
+
+
+@dataclass(frozen=True)
+class StateRequest:
+    """A resyncing node's query for `node`'s state of `frame`, whose checksum is `digest`."""
+
+    frame: int
+    node: str
+    digest: str
 
 
 @dataclass(frozen=True)
@@ -160,17 +195,18 @@ class InfoMessage:
     vendor: str
     version: str  # ... each printable ASCII, at most MAX_TEXT characters
     swap_locked: bool = False  # it shows frames live and swaps only on the master's SWAP
+    nonce: int = 0  # fresh after every WELCOME: only a WELCOME naming it admits the node
 
     @classmethod
-    def of_gpu(cls, frame: int, node: str, gpu: Mapping, swap_locked: bool = False
-               ) -> InfoMessage:
+    def of_gpu(cls, frame: int, node: str, gpu: Mapping, swap_locked: bool = False,
+               nonce: int = 0) -> InfoMessage:
         """The message for a GPU as `cavesim.gpu.gl.context.gpu_of` describes it; characters
         the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
         def fit(text: str) -> str:
             return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
 
         return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
-                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked)
+                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce)
 
     def gpu(self) -> dict:
         """The GPU as `gpu_of` describes it, for report.json."""
@@ -194,7 +230,21 @@ class DisplayMessage:
 
 
 Message = (FrameMessage | ReportMessage | ControlMessage | SnapshotHeader | SnapshotChunk
-           | TrackingMessage | InfoMessage | DisplayMessage)
+           | TrackingMessage | InfoMessage | DisplayMessage | InfoRequest | StateRequest)
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """A checked message and what its header said of it."""
+
+    message: Message
+    run_id: int  # the run it belongs to (0: none, e.g. a tracker's)
+    from_master: bool  # it carries the master's valid signature
+
+
+def new_run_id() -> int:
+    """A run's id: 64 random bits (never 0, which means "no run")."""
+    return secrets.randbits(64) or 1
 
 
 def session_id(session: str) -> int:
@@ -202,23 +252,39 @@ def session_id(session: str) -> int:
     return int.from_bytes(hashlib.blake2b(session.encode(), digest_size=8).digest(), "little")
 
 
-def encode(message: Message, session: str, key: bytes | None = None) -> bytes:
-    """The message's bytes, signed when a key is given."""
-    if not 0 <= message.frame < 2**64:
-        raise ValueError(f"frame must be in [0, 2**64), got {message.frame}")
+def encode(message: Message, session: str, credentials: Credentials | None = None,
+           run_id: int = 0) -> bytes:
+    """The message's bytes: with credentials, signed (and a master kind signed by the
+    master, whose credentials must hold the signing key)."""
+    if not 0 <= message.frame < 2**64 or not 0 <= run_id < 2**64:
+        raise ValueError(f"frame and run id must be in [0, 2**64), got {message.frame} and "
+                         f"{run_id}")
     kind, payload = _PAYLOAD_WRITERS[type(message)](message)
-    flags = SIGNED if key is not None else 0
-    data = HEADER.pack(MAGIC, VERSION, kind, flags, 0, session_id(session), message.frame,
-                       len(payload)) + payload
-    return data + _signature(key, data) if key is not None else data
+    by_master = credentials is not None and kind in MASTER_KINDS
+    flags = (SIGNED | (MASTER_SIGNED if by_master else 0)) if credentials is not None else 0
+    data = HEADER.pack(MAGIC, VERSION, kind, flags, 0, session_id(session), run_id,
+                       message.frame, len(payload)) + payload
+    if credentials is None:
+        return data
+    if by_master:
+        data += credentials.sign_as_master(data)
+    return data + _signature(credentials.secret, data)
 
 
-def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
+def decode(data: bytes, session: str, credentials: Credentials | None = None) -> Message:
     """Check and parse one message of `session`; ProtocolError names what is wrong."""
+    return decode_envelope(data, session, credentials).message
+
+
+def decode_envelope(data: bytes, session: str,
+                    credentials: Credentials | None = None) -> Envelope:
+    """Check and parse one message of `session`, keeping its run id; ProtocolError names
+    what is wrong. With credentials, every message must carry the session's HMAC and the
+    master's kinds the master's signature."""
     data = bytes(data)
     if len(data) < HEADER.size:
         raise ProtocolError("truncated", f"{len(data)} bytes, a header alone is {HEADER.size}")
-    magic, version, kind, flags, reserved, sid, frame, length = HEADER.unpack_from(data)
+    magic, version, kind, flags, reserved, sid, run_id, frame, length = HEADER.unpack_from(data)
     if magic != MAGIC:
         raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
     if version != VERSION:
@@ -227,27 +293,40 @@ def decode(data: bytes, session: str, key: bytes | None = None) -> Message:
         raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
     if sid != session_id(session):
         raise ProtocolError("wrong-session", f"session id {sid:#x} is not {session!r}'s")
-    signed = bool(flags & SIGNED)
-    if flags & ~SIGNED or reserved:
+    if flags & ~(SIGNED | MASTER_SIGNED) or reserved or flags == MASTER_SIGNED \
+            or flags & MASTER_SIGNED and kind not in MASTER_KINDS:
         raise ProtocolError("bad-flags", f"flags {flags:#x} and reserved byte {reserved:#x}; "
-                                         f"only flag {SIGNED:#x} is defined, reserved must be 0")
-    expected = HEADER.size + length + (SIGNATURE_BYTES if signed else 0)
-    if len(data) != expected:
-        raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces {expected}")
-    if key is not None:
-        if not signed:
+                                         f"allowed: 0, {SIGNED:#x}, {SIGNED | MASTER_SIGNED:#x}"
+                                         f" (the second for the master's kinds), reserved 0")
+    trailer = (SIGNATURE_BYTES if flags & SIGNED else 0) \
+        + (MASTER_SIGNATURE_BYTES if flags & MASTER_SIGNED else 0)
+    if len(data) != HEADER.size + length + trailer:
+        raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces "
+                                          f"{HEADER.size + length + trailer}")
+    body = data[:HEADER.size + length]
+    from_master = False
+    if credentials is not None:
+        if not flags & SIGNED:
             raise ProtocolError("unsigned", "the session requires an HMAC and none is attached")
-        body, signature = data[:-SIGNATURE_BYTES], data[-SIGNATURE_BYTES:]
-        if not hmac.compare_digest(signature, _signature(key, body)):
+        signed, signature = data[:-SIGNATURE_BYTES], data[-SIGNATURE_BYTES:]
+        if not hmac.compare_digest(signature, _signature(credentials.secret, signed)):
             raise ProtocolError("bad-signature", "the HMAC does not match the session's key")
-    elif signed:
+        if flags & MASTER_SIGNED:
+            if not credentials.is_masters(body, signed[len(body):]):
+                raise ProtocolError("bad-master-signature", "the master's signature does not "
+                                                            "match the session's master key")
+            from_master = True
+        if kind in MASTER_KINDS and not from_master:
+            raise ProtocolError("not-from-master", f"a {Kind(kind).name.lower()} message "
+                                                   f"without the master's signature")
+    elif flags:
         raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
     payload = data[HEADER.size:HEADER.size + length]
-    return _PAYLOAD_READERS[Kind(kind)](frame, payload)
+    return Envelope(_PAYLOAD_READERS[Kind(kind)](frame, payload), run_id, from_master)
 
 
-def _signature(key: bytes, data: bytes) -> bytes:
-    return hmac.new(key, data, hashlib.sha256).digest()
+def _signature(secret: bytes, data: bytes) -> bytes:
+    return hmac.new(secret, data, hashlib.sha256).digest()
 
 
 # -- payloads ----------------------------------------------------------------------------
@@ -315,8 +394,13 @@ def _read_report(frame: int, payload: bytes) -> ReportMessage:
 
 
 def _write_control(m: ControlMessage) -> tuple[Kind, bytes]:
+    digest = _digest_bytes(m.digest) if m.digest else bytes(16)
+    if m.digest and not any(digest):
+        raise ValueError("a control message cannot name the all-zero digest (it means none)")
+    if not 0 <= m.nonce < 2**64:
+        raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
     return Kind.CONTROL, bytes([m.command]) + _name_bytes(m.target, True) + _name_bytes(
-        m.source, True)
+        m.source, True) + _CONTROL_TAIL.pack(digest, m.nonce)
 
 
 def _read_control(frame: int, payload: bytes) -> ControlMessage:
@@ -324,9 +408,37 @@ def _read_control(frame: int, payload: bytes) -> ControlMessage:
         raise ProtocolError("bad-payload", "control message without a known command")
     target, rest = _read_name(payload[1:], optional=True)
     source, rest = _read_name(rest, optional=True)
+    if len(rest) != _CONTROL_TAIL.size:
+        raise ProtocolError("bad-payload", f"control message ends in {len(rest)} bytes, "
+                                           f"expected {_CONTROL_TAIL.size}")
+    digest, nonce = _CONTROL_TAIL.unpack(rest)
+    return ControlMessage(frame, Command(payload[0]), target, source,
+                          digest.hex() if any(digest) else "", nonce)
+
+
+def _write_info_request(m: InfoRequest) -> tuple[Kind, bytes]:
+    return Kind.INFO_REQUEST, _name_bytes(m.node)
+
+
+def _read_info_request(frame: int, payload: bytes) -> InfoRequest:
+    node, rest = _read_name(payload)
     if rest:
-        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after a control message")
-    return ControlMessage(frame, Command(payload[0]), target, source)
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info request")
+    return InfoRequest(frame, node)
+
+
+def _write_state_request(m: StateRequest) -> tuple[Kind, bytes]:
+    return Kind.STATE_REQUEST, _name_bytes(m.node) + _STATE_REQUEST.pack(
+        _digest_bytes(m.digest))
+
+
+def _read_state_request(frame: int, payload: bytes) -> StateRequest:
+    node, rest = _read_name(payload)
+    if len(rest) != _STATE_REQUEST.size:
+        raise ProtocolError("bad-payload", f"state request body of {len(rest)} bytes, "
+                                           f"expected {_STATE_REQUEST.size}")
+    (digest,) = _STATE_REQUEST.unpack(rest)
+    return StateRequest(frame, node, digest.hex())
 
 
 def _write_snapshot(m: SnapshotHeader) -> tuple[Kind, bytes]:
@@ -404,14 +516,16 @@ def _write_info(m: InfoMessage) -> tuple[Kind, bytes]:
     texts = b"".join(_text_bytes(what, getattr(m, what))
                      for what in ("renderer", "vendor", "version"))
     flags = (INFO_SOFTWARE if m.software else 0) | (INFO_SWAP_LOCKED if m.swap_locked else 0)
-    return Kind.INFO, _name_bytes(m.node) + _INFO.pack(m.device, flags) + texts
+    if not 0 <= m.nonce < 2**64:
+        raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
+    return Kind.INFO, _name_bytes(m.node) + _INFO.pack(m.device, flags, m.nonce) + texts
 
 
 def _read_info(frame: int, payload: bytes) -> InfoMessage:
     node, rest = _read_name(payload)
     if len(rest) < _INFO.size:
         raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
-    device, flags = _INFO.unpack_from(rest)
+    device, flags, nonce = _INFO.unpack_from(rest)
     if flags & ~(INFO_SOFTWARE | INFO_SWAP_LOCKED):
         raise ProtocolError("bad-value", f"info flags {flags:#x}: only "
                                          f"{INFO_SOFTWARE | INFO_SWAP_LOCKED:#x} are defined")
@@ -423,7 +537,7 @@ def _read_info(frame: int, payload: bytes) -> InfoMessage:
     if rest:
         raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info message")
     return InfoMessage(frame, node, device, bool(flags & INFO_SOFTWARE), *texts,
-                       swap_locked=bool(flags & INFO_SWAP_LOCKED))
+                       swap_locked=bool(flags & INFO_SWAP_LOCKED), nonce=nonce)
 
 
 def _write_display(m: DisplayMessage) -> tuple[Kind, bytes]:
@@ -481,8 +595,11 @@ def _read_name(data: bytes, optional: bool = False) -> tuple[str, bytes]:
 _PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
                     ControlMessage: _write_control, SnapshotHeader: _write_snapshot,
                     SnapshotChunk: _write_chunk, TrackingMessage: _write_tracking,
-                    InfoMessage: _write_info, DisplayMessage: _write_display}
+                    InfoMessage: _write_info, DisplayMessage: _write_display,
+                    InfoRequest: _write_info_request, StateRequest: _write_state_request}
 _PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
                     Kind.CONTROL: _read_control, Kind.SNAPSHOT: _read_snapshot,
                     Kind.CHUNK: _read_chunk, Kind.TRACKING: _read_tracking,
-                    Kind.INFO: _read_info, Kind.DISPLAY: _read_display}
+                    Kind.INFO: _read_info, Kind.DISPLAY: _read_display,
+                    Kind.INFO_REQUEST: _read_info_request,
+                    Kind.STATE_REQUEST: _read_state_request}

@@ -17,6 +17,7 @@ from pathlib import Path
 import zenoh
 
 from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.core.wire.credentials import Credentials, read_credentials
 from cavesim.core.wire.keys import check_name
 
 # Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
@@ -88,7 +89,8 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--session", default="default", type=session_name,
                        help="session name: the key prefix")
     group.add_argument("--key-file", type=Path, metavar="FILE",
-                       help="shared secret: every message carries an HMAC-SHA256 with it")
+                       help="the session's keys from `cavesim keys`: master.key for the "
+                            "master, session.key for nodes and trackers")
 
 
 def network_from_arguments(args: argparse.Namespace) -> NetworkConfig:
@@ -98,14 +100,7 @@ def network_from_arguments(args: argparse.Namespace) -> NetworkConfig:
     return NetworkConfig(tuple(args.listen), tuple(args.connect), args.zenoh_config)
 
 
-def read_key(path: Path | None) -> bytes | None:
-    """The session's shared key from a file (at least 16 bytes), or None."""
-    if path is None:
-        return None
-    try:
-        key = path.read_bytes().strip()
-    except OSError as e:
-        raise ValueError(f"--key-file {path}: cannot read it: {e}") from e
-    if len(key) < 16:
-        raise ValueError(f"--key-file {path}: the key has {len(key)} bytes, at least 16 needed")
-    return key
+def read_key(path: Path | None) -> Credentials | None:
+    """The session's credentials from a --key-file (None without one); ValueError names the
+    file and what is wrong."""
+    return None if path is None else read_credentials(path)

@@ -2,8 +2,10 @@
 
 The compute shader reduces each buffer's live words to one pair of sums per invocation
 (313 KB for a million particles);
-the host hashes those sums with the live counts into one digest (BLAKE2b-128). Only the
-live range is hashed (determinism rule 4): bytes past the count were never written.
+the host hashes those sums with the live counts and the scene's seed into one digest
+(BLAKE2b-128): a node with the wrong seed differs from frame 1, and a snapshot's seed is
+covered by the checksum the master names for it. Only the live range is hashed
+(determinism rule 4): bytes past the count were never written.
 """
 
 from __future__ import annotations
@@ -58,10 +60,10 @@ class GpuChecksum:
 
     def state(self, particles: moderngl.Buffer, particle_words: int, particle_count: int,
               emitters: moderngl.Buffer | None, emitter_words: int,
-              emitter_count: int) -> StateChecksum:
-        """The digest of a node's state: both streams' live words and both counts."""
+              emitter_count: int, seed: int) -> StateChecksum:
+        """The digest of a node's state: both streams' live words, both counts, the seed."""
         digest = hashlib.blake2b(digest_size=16)
-        digest.update(np.array([particle_count, emitter_count], dtype="<u8").tobytes())
+        digest.update(np.array([seed, particle_count, emitter_count], dtype="<u8").tobytes())
         digest.update(self.buffer_sums(particles, particle_words))
         if emitters is not None:
             digest.update(self.buffer_sums(emitters, emitter_words))

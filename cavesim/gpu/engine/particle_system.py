@@ -83,6 +83,7 @@ class ParticleSystem:
         if len(self.emitters):
             self._build_emission()
         self._checksum = GpuChecksum(ctx, max(scene.capacity * PARTICLE_WORDS, 1))
+        self.restart(scene.seed)  # GL leaves a new buffer's content undefined: zero it
 
     # -- construction -----------------------------------------------------------------
 
@@ -241,13 +242,13 @@ class ParticleSystem:
 
     def checksum(self) -> StateChecksum:
         """Digest of the live particle and emitter streams, computed on the GPU."""
-        return self._state_checksum(self._current, self._live)
+        return self._state_checksum(self._current, self._live, self.scene.seed)
 
-    def _state_checksum(self, index: int, particles: int) -> StateChecksum:
+    def _state_checksum(self, index: int, particles: int, seed: int) -> StateChecksum:
         emitters = self._emitter_buffers[index] if len(self.emitters) else None
         return self._checksum.state(
             self._particle_buffers[index], particles * PARTICLE_WORDS, particles,
-            emitters, len(self.emitters) * EMITTER_BYTES // 4, len(self.emitters))
+            emitters, len(self.emitters) * EMITTER_BYTES // 4, len(self.emitters), seed)
 
     def read_particle_chunk(self, first: int, count: int) -> bytes:
         """Records [first, first + count) of the live particle stream, as bytes."""
@@ -305,11 +306,13 @@ class ParticleSystem:
         if count is None:
             raise StateError("commit_load needs a begin_load first")
         self._stage_emitters(back, emitters)
-        if digest is not None and (staged := self._state_checksum(back, count).digest) != digest:
+        seed = self.scene.seed if seed is None else seed
+        if digest is not None \
+                and (staged := self._state_checksum(back, count, seed).digest) != digest:
             self._loading = None
             raise StateError(f"the staged state's checksum {staged} is not the announced "
                              f"{digest}; the current state is kept")
-        if seed is not None and seed != self.scene.seed:
+        if seed != self.scene.seed:
             self.reseed(seed)
         self._current, self._live, self._loading = back, count, None
 
@@ -322,6 +325,12 @@ class ParticleSystem:
             raise StateError(f"emitters: expected {count} records, got {len(emitters)}")
         if count:
             self._emitter_buffers[back].write(emitters.tobytes())
+
+    def restart(self, seed: int) -> None:
+        """Back to the start state of a scene whose seed is `seed`: no particles, every
+        emitter at rest (all zero, as a new system's are)."""
+        self.begin_load(0)
+        self.commit_load(np.zeros(len(self.emitters), EMITTER_DTYPE), seed)
 
     def write_particles(self, particles: np.ndarray) -> None:
         """Replace the live particle stream at once (a test's, a benchmark's or a fault's)."""

@@ -45,7 +45,7 @@ def add(commands) -> None:
 
 
 def check(args: argparse.Namespace, console) -> int:
-    from cavesim.nodes.check import CheckPlan, run_check
+    from cavesim.nodes.check import CheckPlan, master_kill_frame, run_check
     from cavesim.tools.reports.check import check_table
 
     walls = wall_names(args.walls)
@@ -56,6 +56,13 @@ def check(args: argparse.Namespace, console) -> int:
         if f.frame > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
                              f"last frame {args.frames}")
+    try:
+        master_kill_frame(tuple(args.inject))
+    except ValueError as e:
+        raise UsageError(f"cavesim check: error: argument --inject: {e}") from e
+    if any(f.kind == "master-kill" and f.frame < 2 for f in args.inject):
+        raise UsageError("cavesim check: error: argument --inject: master-kill needs FRAME "
+                         ">= 2 (a master that ran at least one frame)")
     output_directory(args.out, "check")
     configure_logging(False)
     plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 from pathlib import Path
 
 from cavesim.core.limits import GPU_RANGE
@@ -12,12 +13,15 @@ from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from cavesim.nodes.faults import parse_fault
+from cavesim.nodes.lockstep import MASTER_LOSS_POLICIES
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
     cave_file,
     configure_logging,
     frame_count,
+    lost_walls_code,
+    master_credentials,
     network_and_key,
     number_in,
     scene_file,
@@ -26,6 +30,7 @@ from cavesim.tools.arguments import (
 )
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
+log = logging.getLogger("cavesim")
 
 
 def fault(text: str):
@@ -42,7 +47,17 @@ def add_master(commands) -> None:
     parser.add_argument("--frames", type=frame_count, default=600)
     parser.add_argument("--barrier-timeout", type=seconds, default=2.0)
     parser.add_argument("--join-timeout", type=seconds, default=60.0)
-    parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
+    parser.add_argument("--on-loss", choices=("continue", "pause"),
+                        help="a wall lost (gone, or silent past --evict-after): continue "
+                             "without it, or pause the barrier until it is back (at most "
+                             "--max-pause). Default: continue, but the run then exits 1 when a "
+                             "wall is lost for good; give --on-loss continue to accept that")
+    parser.add_argument("--evict-after", type=seconds, default=10.0,
+                        help="seconds a member may stay silent in the barrier before it is "
+                             "evicted (--on-loss continue; default 10)")
+    parser.add_argument("--max-pause", type=seconds, default=300.0,
+                        help="seconds the barrier holds for a silent member under --on-loss "
+                             "pause before the run ends (default 300)")
     parser.add_argument("--check-every", type=frame_count, default=1,
                         help="compare checksums every K frames (default: every frame)")
     parser.add_argument("--clock-seed", type=int, default=0)
@@ -67,10 +82,13 @@ def master(args: argparse.Namespace, console) -> int:
     from cavesim.nodes.master import main as run_master
 
     configure_logging(args.verbose)
-    network, key = network_and_key(args, "master")
-    config = MasterConfig(args.walls, args.scene, args.frames, args.session, network, key,
-                          barrier_timeout=args.barrier_timeout, join_timeout=args.join_timeout,
-                          on_loss=args.on_loss, check_every=args.check_every,
+    network, _ = network_and_key(args, "master")
+    credentials = master_credentials(args.key_file, "master")
+    config = MasterConfig(args.walls, args.scene, args.frames, args.session, network,
+                          credentials, barrier_timeout=args.barrier_timeout,
+                          join_timeout=args.join_timeout, on_loss=args.on_loss or "continue",
+                          evict_after=args.evict_after, max_pause=args.max_pause,
+                          check_every=args.check_every,
                           clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
                           realtime=args.realtime, max_frame_time=args.max_frame_time,
                           max_substeps=args.max_substeps)
@@ -83,7 +101,9 @@ def master(args: argparse.Namespace, console) -> int:
     if args.report:
         args.report.parent.mkdir(parents=True, exist_ok=True)
         args.report.write_text(json.dumps(record.summary(), indent=2) + "\n")
-    return INTERRUPTED if record.interrupted else 0
+    if record.interrupted:
+        return INTERRUPTED
+    return lost_walls_code(record.final.lost if record.final else (), args.on_loss, "master")
 
 
 def add_node(commands) -> None:
@@ -114,6 +134,12 @@ def add_node(commands) -> None:
                              "keys, mouse and gamepad move the head and fly the wand")
     parser.add_argument("--preview-scale", type=number_in(float, 0.05, 2.0, "a scale"),
                         default=0.5, help="walls' size in the preview (default 0.5)")
+    parser.add_argument("--on-master-loss", choices=MASTER_LOSS_POLICIES, default="wait",
+                        help="when the master's liveliness goes away: wait --master-wait "
+                             "seconds for a new master (default), or exit 1")
+    parser.add_argument("--master-wait", type=seconds, default=60.0,
+                        help="seconds to wait for a master's welcome, or for a new master "
+                             "(default 60); then the node exits 1")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
@@ -124,7 +150,11 @@ def node(args: argparse.Namespace, console) -> int:
     from cavesim.nodes.node import main as run_node
 
     configure_logging(args.verbose)
-    network, key = network_and_key(args, "node")
+    network, credentials = network_and_key(args, "node")
+    if credentials is not None and credentials.can_sign_as_master:
+        log.warning("node %s: --key-file %s is the master's own key; give nodes the "
+                    "session.key, so that no node can sign as the master", args.wall,
+                    args.key_file)
     if args.render_every and (args.cave is None or args.images is None):
         raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
                          "and --images too")
@@ -138,10 +168,11 @@ def node(args: argparse.Namespace, console) -> int:
         raise UsageError("cavesim node: error: argument --gpu: a window computes on its X "
                          "display's GPU; choose the display ([wall.display] x_display)")
     config = NodeConfig(wall=args.wall, scene=args.scene, session=args.session,
-                        network=network, key=key, faults=tuple(args.inject),
+                        network=network, credentials=credentials, faults=tuple(args.inject),
                         slow_delay=args.slow_delay, cave=args.cave,
                         render_every=args.render_every, images=args.images,
                         stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu,
                         display=args.display, preview=args.preview,
-                        preview_scale=args.preview_scale)
+                        preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
+                        master_wait=args.master_wait)
     return run_node(config)

@@ -17,7 +17,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
-from cavesim.core.wire.network import read_key, session_name
+from cavesim.core.wire.credentials import Credentials
+from cavesim.core.wire.network import session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
 from cavesim.nodes.master import MasterConfig
 from cavesim.tools.arguments import (
@@ -25,6 +26,7 @@ from cavesim.tools.arguments import (
     UsageError,
     cave_file,
     frame_count,
+    master_credentials,
     number_in,
     output_directory,
     scene_file,
@@ -44,7 +46,7 @@ class RunPlan:
     frames: int
     out: Path
     session: str = "run"
-    key_file: Path | None = None
+    credentials: Credentials | None = None  # the master's (master.key); nodes get session.key
     cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
     render_every: int = 0
     stereo: bool = False
@@ -77,10 +79,10 @@ class RunPlan:
 
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
-                              key=read_key(self.key_file), frame_log=self.out / "frames.log")
+                              credentials=self.credentials, frame_log=self.out / "frames.log")
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
-        return ClusterPlan(master, self.out, self.key_file,
+        return ClusterPlan(master, self.out,
                            {wall: self.node_args(wall) for wall in self.members}, drawing)
 
 
@@ -156,15 +158,14 @@ def add(commands) -> None:
                         help="default: the scene's wand timeline to its end, else 600")
     parser.add_argument("--out", type=Path, default=Path("out"))
     parser.add_argument("--session", default="run", type=session_name)
-    parser.add_argument("--key-file", type=Path)
+    parser.add_argument("--key-file", type=Path,
+                        help="the session's master.key (`cavesim keys`): every message signed; "
+                             "the nodes get OUT/session.key")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace, console) -> int:
-    try:
-        read_key(args.key_file)
-    except ValueError as e:
-        raise UsageError(f"cavesim run: error: {e}") from e
+    credentials = master_credentials(args.key_file, "run")
     scene, cave = _checked_files(args)  # before anything is started
     walls = wall_names(args.walls) if args.walls else cave.names
     if (args.display or args.preview) and args.walls:
@@ -176,7 +177,7 @@ def run(args: argparse.Namespace, console) -> int:
     gpus = {} if args.display else _gpus(args, walls, cave)
     output_directory(args.out, "run")
     frames = args.frames or default_frames(scene)
-    plan = RunPlan(walls, args.scene, frames, args.out, args.session, args.key_file,
+    plan = RunPlan(walls, args.scene, frames, args.out, args.session, credentials,
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus, display=args.display,
                    preview=args.preview)

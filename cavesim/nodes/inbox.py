@@ -1,0 +1,238 @@
+"""What reaches a wall node's main thread, checked first on Zenoh's threads.
+
+Nothing unchecked is queued: a frame or a command must carry the master's signature (in a
+session with credentials) and this run's id, a WELCOME this node's own fresh nonce, a frame
+must not be older than the node's, a command not older than the newest frame the master
+sent (a RESYNC replayed from earlier in the same run is refused); a state query must be
+signed, of this run and for this wall; an info query must be the master's. Refusals are
+counted (and logged at a bounded rate), and a sender whose every message fails its
+signature is named with a hint about --key-file. Queries are answered at a bounded rate,
+and dropped and counted when the main thread is behind; the master's frames and commands
+are never dropped: when the queue is full, Zenoh's thread waits for the main thread.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from collections import Counter
+from dataclasses import dataclass
+
+import zenoh
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.wire import (
+    Command,
+    ControlMessage,
+    Credentials,
+    FrameMessage,
+    InfoRequest,
+    SessionKeys,
+    StateRequest,
+    decode_envelope,
+)
+from cavesim.core.wire.guards import KeyMismatch, RateLimit
+from cavesim.core.wire.rejects import RejectCounter
+
+log = logging.getLogger("cavesim.node")
+QUEUE = 256  # events the main thread may fall behind by
+STATE_RATE, STATE_BURST = 1.0, 2  # snapshots served per second: each may be megabytes
+INFO_RATE, INFO_BURST = 5.0, 5
+MASTER = "the master"  # the sender named in a --key-file hint
+
+
+@dataclass
+class NodeView:
+    """What the checks need of the node's state; the main thread writes it."""
+
+    wall: str
+    nonce: int  # the nonce of the node's last info answer: a WELCOME must name it
+    run_id: int | None = None  # the run it joined
+    done: int = 0  # the last frame whose state it holds
+    heard: int = 0  # the newest frame of the run the master sent: no command is older
+
+
+@dataclass(frozen=True)
+class FromMaster:
+    """A frame or command of the current run (or a WELCOME naming our nonce)."""
+
+    message: FrameMessage | ControlMessage
+    run_id: int
+
+
+@dataclass(frozen=True)
+class StateQuery:
+    query: zenoh.Query
+    request: StateRequest
+
+
+@dataclass(frozen=True)
+class InfoQuery:
+    query: zenoh.Query
+    run_id: int  # of the master asking: the answer carries it back
+
+
+@dataclass(frozen=True)
+class MasterPresence:
+    """The master's liveliness token appeared (True) or went away (False)."""
+
+    up: bool
+
+
+NodeEvent = FromMaster | StateQuery | InfoQuery | MasterPresence
+
+
+class NodeInbox:
+    def __init__(self, session_name: str, credentials: Credentials | None,
+                 view: NodeView) -> None:
+        self.session_name, self.credentials, self.view = session_name, credentials, view
+        self.rejects = RejectCounter(f"node {view.wall}")
+        self.mismatch = KeyMismatch(f"node {view.wall}")
+        self.dropped: Counter[str] = Counter()  # queries the full queue could not take
+        self._limits = {StateRequest: RateLimit(STATE_RATE, STATE_BURST),
+                        InfoRequest: RateLimit(INFO_RATE, INFO_BURST)}
+        self._queue: queue.Queue[NodeEvent] = queue.Queue(maxsize=QUEUE)
+        self._lock = threading.Lock()
+
+    def declare(self, session: zenoh.Session, keys: SessionKeys) -> list:
+        wall = self.view.wall
+        return [
+            session.declare_subscriber(keys.frame, self._on_frame),
+            session.declare_subscriber(keys.control, self._on_control),
+            session.declare_queryable(keys.state(wall), self._on_state_query),
+            session.declare_queryable(keys.info(wall), self._on_info_query),
+            session.liveliness().declare_subscriber(keys.master_alive, self._on_master,
+                                                    history=True),
+        ]
+
+    def get(self, timeout: float | None) -> NodeEvent | None:
+        try:
+            return self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+
+    def master_hint(self) -> str | None:
+        return self.mismatch.hint(MASTER)
+
+    # -- zenoh callbacks ---------------------------------------------------------------
+
+    def _on_frame(self, sample: zenoh.Sample) -> None:
+        envelope = self._open(sample.payload.to_bytes(), str(sample.key_expr))
+        if envelope is None:
+            return
+        message, view = envelope.message, self.view
+        if not isinstance(message, FrameMessage):
+            self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
+                                                     f"frame key"), str(sample.key_expr))
+        elif self._of_this_run(envelope.run_id, str(sample.key_expr)):
+            if message.frame < view.done:
+                self._reject(ProtocolError("stale-frame", f"frame {message.frame}, this node "
+                                                          f"holds {view.done}"),
+                             str(sample.key_expr))
+            else:
+                view.heard = max(view.heard, message.frame)
+                self._queue.put(FromMaster(message, envelope.run_id))  # waits, never drops
+
+    def _on_control(self, sample: zenoh.Sample) -> None:
+        envelope = self._open(sample.payload.to_bytes(), str(sample.key_expr))
+        if envelope is None:
+            return
+        message, view = envelope.message, self.view
+        if not isinstance(message, ControlMessage):
+            self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
+                                                     f"control key"), str(sample.key_expr))
+        elif message.command is Command.WELCOME:
+            if message.target != view.wall:
+                return  # another wall's
+            if message.nonce != view.nonce:
+                self._reject(ProtocolError("stale-welcome", "a WELCOME naming a nonce this "
+                                                            "node does not hold (a replay)"),
+                             str(sample.key_expr))
+            else:
+                self._queue.put(FromMaster(message, envelope.run_id))
+        elif message.command is Command.RESYNC and message.target != view.wall:
+            return  # another wall's
+        elif self._of_this_run(envelope.run_id, str(sample.key_expr)):
+            if message.frame < view.heard:  # the master's commands name the frame in flight
+                self._reject(ProtocolError("stale-command", f"a {message.command.name} of "
+                                                            f"frame {message.frame}; the "
+                                                            f"run is at {view.heard}"),
+                             str(sample.key_expr))
+            else:
+                self._queue.put(FromMaster(message, envelope.run_id))
+
+    def _on_state_query(self, query: zenoh.Query) -> None:
+        request = self._request(query, StateRequest)
+        if request is None:
+            return
+        if request.run_id != self.view.run_id or request.message.node != self.view.wall:
+            query.drop()
+            self._reject(ProtocolError("wrong-run", "a state query of another run or wall"),
+                         str(query.key_expr))
+            return
+        self._offer(StateQuery(query, request.message), query)
+
+    def _on_info_query(self, query: zenoh.Query) -> None:
+        request = self._request(query, InfoRequest)
+        if request is not None:
+            self._offer(InfoQuery(query, request.run_id), query)
+
+    def _on_master(self, sample: zenoh.Sample) -> None:
+        self._queue.put(MasterPresence(sample.kind == zenoh.SampleKind.PUT))
+
+    # -- checks ------------------------------------------------------------------------
+
+    def _open(self, data: bytes, where: str, sender: str = MASTER):
+        try:
+            envelope = decode_envelope(data, self.session_name, self.credentials)
+        except ProtocolError as e:
+            self._reject(e, where, sender)
+            return None
+        self.mismatch.note(sender, None)
+        return envelope
+
+    def _of_this_run(self, run_id: int, where: str) -> bool:
+        joined = self.view.run_id
+        if joined is None:
+            self._reject(ProtocolError("not-joined", "a message of a run this node has not "
+                                                     "joined"), where)
+            return False
+        if run_id != joined:
+            self._reject(ProtocolError("wrong-run", f"run {run_id:#018x}, this node's is "
+                                                    f"{joined:#018x}"), where)
+            return False
+        return True
+
+    def _request(self, query: zenoh.Query, expected: type):
+        """The query's checked request envelope, or None (the query is then dropped)."""
+        where = str(query.key_expr)
+        payload = query.payload
+        sender = MASTER if expected is InfoRequest else "a peer"
+        envelope = self._open(payload.to_bytes(), where, sender) if payload is not None \
+            else self._reject(ProtocolError("unsigned", "a query without a request"), where)
+        if envelope is not None and not isinstance(envelope.message, expected):
+            self._reject(ProtocolError("unexpected", f"a {type(envelope.message).__name__} "
+                                                     f"as a {expected.__name__}"), where)
+            envelope = None
+        if envelope is not None and not self._limits[expected].allow():
+            self._reject(ProtocolError("rate-limited", f"more than the {expected.__name__}s "
+                                                       f"this node answers per second"),
+                         where)
+            envelope = None
+        if envelope is None:
+            query.drop()
+        return envelope
+
+    def _offer(self, event: NodeEvent, query: zenoh.Query) -> None:
+        try:
+            self._queue.put_nowait(event)
+        except queue.Full:
+            query.drop()
+            with self._lock:
+                self.dropped[type(event).__name__] += 1
+
+    def _reject(self, error: ProtocolError, where: str, sender: str | None = None) -> None:
+        self.rejects.reject(error, where)
+        if sender is not None and (hint := self.mismatch.note(sender, error.reason)):
+            log.error("%s: %s", self.view.wall, hint)

@@ -1,0 +1,226 @@
+"""A hostile peer on a cluster's session, for the consistency harness and the tests: what an
+attacker on the CAVE's network would try, so that every defence is exercised for real.
+
+It captures the cluster's signed traffic (as anyone on the network can read it) and plays
+it back; it sends messages of an earlier run of the same keys (the harness made the keys,
+so it signs them as that run's master would have); it forges what a member that holds
+session.key can (HMAC-signed frames and commands without the master's signature, reports
+of frames never sent); it answers state queries with forged snapshots (an old frame, one
+that does not fit the scene, one whose chunks are not the named state), and floods the
+nodes with junk and with state queries.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import logging
+import threading
+import time
+from collections import Counter, defaultdict
+
+import numpy as np
+import zenoh
+
+from cavesim.core.errors import ClusterError, ProtocolError
+from cavesim.core.frame import FrameInput
+from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
+from cavesim.core.wire import (
+    Command,
+    ControlMessage,
+    Credentials,
+    FrameMessage,
+    ReportMessage,
+    SessionKeys,
+    StateRequest,
+    decode_envelope,
+    encode,
+)
+from cavesim.core.wire.messages import (
+    HEADER,
+    SIGNED,
+    Message,
+    SnapshotChunk,
+    SnapshotHeader,
+    new_run_id,
+)
+from cavesim.core.wire.network import NetworkConfig, open_session
+
+log = logging.getLogger("cavesim.rogue")
+FORGERIES = ("old", "misfit", "corrupt")  # the snapshots a forger serves
+FORGED_PARTICLES = 64  # particles of a corrupt snapshot: a whole chunk of junk
+FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
+
+
+def member_signed(message: Message, session: str, secret: bytes, run_id: int) -> bytes:
+    """`message` with the session's HMAC but not the master's signature: what a node that
+    holds session.key can make of a frame or a command (every receiver must refuse it)."""
+    data = bytearray(encode(message, session, run_id=run_id))
+    data[FLAGS_AT] = SIGNED
+    return bytes(data) + hmac.new(secret, bytes(data), hashlib.sha256).digest()
+
+
+def run_id_of(data: bytes) -> int:
+    """The run id in a message's header (in clear: anyone on the network reads it)."""
+    return HEADER.unpack_from(data)[6]
+
+
+class RoguePeer:
+    """A zenoh peer connected to the cluster at `endpoint`, on session `session`."""
+
+    def __init__(self, endpoint: str, session: str, walls: tuple[str, ...]) -> None:
+        self.name, self.walls = session, walls
+        self.keys = SessionKeys(session)
+        self.zenoh = open_session(NetworkConfig(connect=(endpoint,)))
+        self.captured: dict[str, list[bytes]] = defaultdict(list)  # key kind -> bytes
+        self.sent: Counter[str] = Counter()  # what it sent, by what it was
+        self._lock = threading.Lock()
+        self._declarations: list = []
+        self._forgers: list[zenoh.Session] = []
+
+    # -- listening -------------------------------------------------------------------------
+
+    def capture(self) -> None:
+        """Keep every frame, command and report the cluster sends from now on."""
+        for kind, key in (("frame", self.keys.frame), ("control", self.keys.control),
+                          ("report", self.keys.report())):
+            self._declarations.append(self.zenoh.declare_subscriber(
+                key, lambda sample, kind=kind: self._keep(kind, sample.payload.to_bytes()),
+                allowed_origin=zenoh.Locality.REMOTE))  # not what it sends itself
+
+    def _keep(self, kind: str, data: bytes) -> None:
+        with self._lock:
+            self.captured[kind].append(data)
+
+    def latest(self, kind: str) -> bytes | None:
+        with self._lock:
+            return self.captured[kind][-1] if self.captured[kind] else None
+
+    def await_cluster(self, timeout: float = 10.0) -> None:
+        """Until this peer sees the master's and every wall's liveliness token (it reaches
+        them all; after a master was killed, the new one)."""
+        deadline = time.monotonic() + timeout
+        wanted = {*self.walls, self.keys.node_of(self.keys.master_alive)}
+        while time.monotonic() < deadline:
+            seen = {self.keys.node_of(reply.ok.key_expr) for key in (self.keys.alive(),
+                                                                      self.keys.master_alive)
+                    for reply in self.zenoh.liveliness().get(key, timeout=1.0) if reply.ok}
+            if seen >= wanted:
+                return
+        raise ClusterError(f"the rogue peer did not reach the master and the walls within "
+                           f"{timeout} s")
+
+    # -- sending ---------------------------------------------------------------------------
+
+    def put(self, what: str, key: str, data: bytes) -> None:
+        self.zenoh.put(key, data, congestion_control=zenoh.CongestionControl.BLOCK)
+        self.sent[what] += 1
+
+    def replay_captured(self, kind: str, count: int) -> int:
+        """Publish the first and the last `count` captured messages of `kind` again,
+        verbatim (the first are an earlier run's when a master was replaced since)."""
+        with self._lock:
+            captured = self.captured[kind]
+            old = captured[:count] + captured[max(count, len(captured) - count):]
+        key = {"frame": self.keys.frame, "control": self.keys.control}.get(kind)
+        for data in old:
+            wall = None if key else self._wall_of_report(data)
+            self.put(f"replayed-{kind}", key or self.keys.report(wall), data)
+        return len(old)
+
+    def _wall_of_report(self, data: bytes) -> str:
+        return next((w for w in self.walls if w.encode() in data), self.walls[0])
+
+    def as_an_earlier_run(self, master: Credentials, frame: int) -> None:
+        """A frame, a RESYNC and a STOP as the master of an earlier run with the same keys
+        signed them, and a report of that run: each must be refused for its run id."""
+        earlier = new_run_id()
+        inputs = FrameInput(1 / 60, np.eye(3))
+        for what, key, message in (
+                ("earlier-run-frame", self.keys.frame, FrameMessage(frame, inputs)),
+                ("earlier-run-resync", self.keys.control,
+                 ControlMessage(frame, Command.RESYNC, self.walls[-1], self.walls[0],
+                                "1" * 32)),
+                ("earlier-run-stop", self.keys.control, ControlMessage(frame, Command.STOP))):
+            self.put(what, key, encode(message, self.name, master, earlier))
+        report = ReportMessage(frame, self.walls[0], "2" * 32, 1, 0, 0, 0)
+        self.put("earlier-run-report", self.keys.report(self.walls[0]),
+                 encode(report, self.name, master.for_members(), earlier))
+
+    def as_a_member(self, member: Credentials, run_id: int, frame: int) -> None:
+        """What a node holding session.key could try: a frame and a STOP with only the HMAC
+        (no master signature), and a report of a frame the master has not sent."""
+        inputs = FrameInput(1 / 60, np.eye(3))
+        self.put("member-frame", self.keys.frame,
+                 member_signed(FrameMessage(frame, inputs), self.name, member.secret, run_id))
+        self.put("member-stop", self.keys.control,
+                 member_signed(ControlMessage(frame, Command.STOP), self.name, member.secret,
+                               run_id))
+        report = ReportMessage(frame + 1000, self.walls[0], "3" * 32, 1, 0, 0, 0)
+        self.put("unsent-frame-report", self.keys.report(self.walls[0]),
+                 encode(report, self.name, member, run_id))
+
+    def flood(self, count: int, size: int = 200) -> None:
+        """`count` junk messages on the frame and control keys, and `count` state queries
+        without the key, as fast as zenoh takes them."""
+        junk = bytes(range(256)) * (size // 256 + 1)
+        for i in range(count):
+            self.zenoh.put(self.keys.frame if i % 2 else self.keys.control, junk[:size])
+            self.zenoh.get(self.keys.state(self.walls[i % len(self.walls)]), lambda r: None,
+                           payload=junk[:size], timeout=0.5)
+        self.sent["junk"] += count
+        self.sent["unsigned-state-query"] += count
+
+    # -- forged snapshots ------------------------------------------------------------------
+
+    def serve_forged_snapshots(self, endpoint: str, member: Credentials,
+                               emitters: int) -> None:
+        """One forger per kind of FORGERIES, each a peer of its own (a resyncing node
+        follows one replier at a time), answering every wall's state queries."""
+        for forgery in FORGERIES:
+            forger = open_session(NetworkConfig(connect=(endpoint,)))
+            self._forgers.append(forger)
+            self._declarations.append(forger.declare_queryable(
+                self.keys.state(), lambda query, forgery=forgery: self._forge(
+                    query, forgery, member, emitters)))
+
+    def _forge(self, query: zenoh.Query, forgery: str, member: Credentials,
+               emitters: int) -> None:
+        try:
+            envelope = decode_envelope(query.payload.to_bytes(), self.name, member)
+        except (ProtocolError, AttributeError):
+            query.drop()
+            return
+        request, run_id = envelope.message, envelope.run_id
+        if not isinstance(request, StateRequest):
+            query.drop()
+            return
+        empty = np.zeros(emitters, EMITTER_DTYPE)
+        if forgery == "old":
+            header = SnapshotHeader(max(request.frame - 10, 0), 1, 0, 1, "4" * 32, empty)
+            chunks = []
+        elif forgery == "misfit":
+            header = SnapshotHeader(request.frame, 1, MAX_PARTICLES, MAX_PARTICLES // 64,
+                                    request.digest, empty)  # more than any scene holds
+            chunks = []
+        else:
+            header = SnapshotHeader(request.frame, 1, FORGED_PARTICLES, FORGED_PARTICLES,
+                                    request.digest, empty)
+            chunks = [SnapshotChunk(request.frame, 0, bytes(FORGED_PARTICLES * PARTICLE_BYTES))]
+        try:
+            for message in (header, *chunks):
+                query.reply(str(query.key_expr), encode(message, self.name, member, run_id))
+            with self._lock:
+                self.sent[f"{forgery}-snapshot"] += 1
+        except zenoh.ZError as e:
+            log.info("a forged reply failed: %s", e)
+        finally:
+            query.drop()
+
+    def close(self) -> None:
+        for declaration in reversed(self._declarations):
+            declaration.undeclare()
+        for forger in self._forgers:
+            forger.close()
+        self.zenoh.close()
