@@ -83,5 +83,5 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
             "frames_per_second": report["frames_per_second"],
             "barrier_ms": report["barrier_ms"], "cpu_ms_per_frame": meter.per_frame_ms(),
             "live_particles_max": report["live_particles"]["max"],
-            "divergences": len(record.divergences), "stalls": len(record.stalls),
+            "divergences": record.divergences.total, "stalls": record.stalls.total,
             "swap": report["swap"], "final_checksum": last.digest, "report": str(report_path)}
