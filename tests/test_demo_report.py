@@ -24,6 +24,7 @@ def flight_report(frames: int = 120, dt: float = 0.1) -> dict:
                "induced_velocity": 10.0, "emission_rate": round(float(e), 1)}
               for ti, a, e in zip(t, altitude, emission, strict=True)]
     return {"frames": frames, "frames_per_second": 24.5, "divergences": [],
+            "event_totals": {"divergences": 0},
             "live_particles": {"last": int(live[-1]), "max": int(live.max())},
             "live_per_frame": [int(n) for n in live], "flight": flight}
 
@@ -58,6 +59,22 @@ def test_an_interrupted_run_with_one_flight_entry_more_still_plots(tmp_path):
     report["flight"] = report["flight"][:31]
     report["live_per_frame"] = report["live_per_frame"][:30]
     assert len(write_demo_plots(report, tmp_path)) == 2
+
+
+@pytest.mark.parametrize("flight_stride, live_stride", [(2, 1), (1, 4), (4, 2)])
+def test_a_long_run_pairs_live_counts_and_flight_entries_of_the_same_frames(
+        flight_stride, live_stride):
+    """Past 4,096 frames the record keeps every n-th frame of each (n: the stride)."""
+    report = flight_report()
+    live = report["live_per_frame"]
+    report["flight"] = report["flight"][flight_stride - 1::flight_stride]
+    report["live_per_frame"] = live[live_stride - 1::live_stride]
+    report["flight_frames_stride"], report["live_frames_stride"] = flight_stride, live_stride
+    stride = max(flight_stride, live_stride)
+    kept = range(stride, 121, stride)  # frames both kept
+    peak = max(kept, key=lambda frame: live[frame - 1])
+    rows = dict(demo_summary(report))
+    assert rows["peak live particles"] == f"{live[peak - 1]:,} at t = {peak * 0.1:.2f} s"
 
 
 def test_summary_names_the_peaks_and_where_they_came():

@@ -212,7 +212,7 @@ def _report(plan: CheckPlan, faults: tuple[Fault, ...], record: RunRecord,
         "faults": outcomes,
         "all_detected": all(o["detected_frame"] is not None for o in outcomes),
         "all_healed": all(o["healed"] for o in outcomes),
-        "divergences": len(record.divergences),
+        "divergences": record.divergences.total,
         "rogue_messages_sent": dict(harness.rogue.sent) if harness.rogue else {},
         "final": summary["final"],
         "run": summary,
@@ -270,7 +270,7 @@ def _outcome(fault: Fault, record: RunRecord, harness: _Harness,
         if node_rejected:
             detected, healed_at = fault.frame, fault.frame
         outcome = (f"{record.frames} frames ran to the end with "
-                   f"{len(record.divergences)} divergence(s): no replayed or forged message "
+                   f"{record.divergences.total} divergence(s): no replayed or forged message "
                    f"was stepped or obeyed")
     elif fault.kind == "snapshot-forgery":
         forged = {k: n for k, n in harness.rogue.sent.items() if k.endswith("-snapshot")}

@@ -230,14 +230,13 @@ class Master:
                 self.clock.wait_for_frame()
                 self.before_frame(k)
                 message = self._make_frame(k)
-                self.record.barrier_seconds.append(self._barrier(k, message))
+                barrier = self._barrier(k, message)
                 vote = self._agree(k)
                 self._admit_joiners(k, vote)
                 self._release_swap(k)
                 if log_writer is not None:
                     log_writer.append(message, vote.agreed, vote.particles)
-                self.record.frames = k
-                self.record.live_particles.append(vote.particles)
+                self.record.frame_done(k, barrier, vote.particles)
                 progress(k, vote.particles)
         finally:
             self.record.seconds = time.monotonic() - started
@@ -255,7 +254,7 @@ class Master:
         step = self.driver.advance(t, self.config.dt, tracked.wand if tracked else None)
         self.record.clamped_inputs += step.clamped
         if step.flight is not None:
-            self.record.flight.append(step.flight)
+            self.record.add_flight(step.flight)
         inputs = FrameInput(self.config.dt, draw_transform(self.matrix_rng, self.texture_size))
         return FrameMessage(k, inputs, step.wand, self.driver.encode(step.frame),
                             tracked.head if tracked else self.head.at(t))

@@ -113,6 +113,7 @@ class WallNode:
             raise ValueError(f"on_master_loss must be one of {MASTER_LOSS_POLICIES}")
         self.config = config
         self.keys = SessionKeys(config.session)
+        self.fired: set[Fault] = set()  # injected faults done
         scene = load_scene(config.scene)
         if self._fault("seed"):
             scene = dataclasses.replace(scene, seed=scene.seed + 1)
@@ -134,7 +135,6 @@ class WallNode:
         self.rejects = self.inbox.rejects
         self.last_report: ReportMessage | None = None
         self.previous_inputs: FrameInput | None = None
-        self.fired: set[Fault] = set()  # injected faults done
         self.started = self.heard = time.monotonic()  # from the master of our run
         self.master_gone_at: float | None = None
         self.behind_said = 0.0

@@ -1,14 +1,22 @@
 """What a cluster run records, typed: the master fills a `RunRecord` as it goes; the reports
-read its events as dataclasses and `summary()` is report.json's content."""
+read its events as dataclasses and `summary()` is report.json's content.
+
+Its memory does not grow with the run's length (`cavesim.core.bounded`): the barrier's
+round trips go into a histogram (percentiles within 0.058 %, the maximum exact), the live
+counts and the flight log into series of at most 4,096 points (every frame of a run up to
+4,096 frames, then every 2nd, 4th, ...: report.json names the stride), and each event list
+keeps its first 1,000 entries and counts the rest.
+"""
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
-
+from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
 from cavesim.nodes.swaps import SwapBook
+
+EVENT_LISTS = ("divergences", "resyncs", "stalls", "losses", "joins")
 
 
 @dataclass(frozen=True)
@@ -78,6 +86,19 @@ class FinalAgreement:
         return {**asdict(self), "members": list(self.members), "lost": list(self.lost)}
 
 
+class LiveCounts(DecimatedSeries[int]):
+    """Live particles after each frame: a decimated series, with the exact maximum (and,
+    as every series, the exact last count)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.max = 0
+
+    def append(self, live: int) -> None:
+        super().append(live)
+        self.max = max(self.max, live)
+
+
 @dataclass
 class RunRecord:
     walls: tuple[str, ...]
@@ -87,14 +108,15 @@ class RunRecord:
     clamped_inputs: int = 0  # tracked wand positions pulled back into reach
     clock_dropped_seconds: float = 0.0  # real-time mode: wall time given up to hitches
     seconds: float = 0.0
-    barrier_seconds: list[float] = field(default_factory=list)
-    live_particles: list[int] = field(default_factory=list)
-    divergences: list[Divergence] = field(default_factory=list)
-    resyncs: list[Resync] = field(default_factory=list)
-    stalls: list[Stall] = field(default_factory=list)
-    losses: list[Loss] = field(default_factory=list)
-    joins: list[Join] = field(default_factory=list)
-    flight: list[FlightSample] = field(default_factory=list)  # helicopter scenes: per frame
+    barrier_seconds: LogHistogram = field(default_factory=LogHistogram)  # one per frame
+    live_particles: LiveCounts = field(default_factory=LiveCounts)  # after each frame
+    divergences: FirstEntries[Divergence] = field(default_factory=FirstEntries)
+    resyncs: FirstEntries[Resync] = field(default_factory=FirstEntries)
+    stalls: FirstEntries[Stall] = field(default_factory=FirstEntries)
+    losses: FirstEntries[Loss] = field(default_factory=FirstEntries)
+    joins: FirstEntries[Join] = field(default_factory=FirstEntries)
+    # helicopter scenes: one per frame made (an interrupted run makes one more than it does)
+    flight: DecimatedSeries[FlightSample] = field(default_factory=DecimatedSeries)
     final: FinalAgreement | None = None  # the last frame: members and whether they agree
     node_rejected: dict[str, int] = field(default_factory=dict)
     master_rejected: dict[str, int] = field(default_factory=dict)
@@ -102,14 +124,25 @@ class RunRecord:
     gpus: dict[str, dict] = field(default_factory=dict)  # wall -> what it computes on
     swaps: SwapBook = field(default_factory=SwapBook)  # the swap barrier of displaying walls
 
+    def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
+        """Frame k (the next one) went through the barrier in `barrier_seconds` and the
+        vote, leaving `live` particles."""
+        if k != self.live_particles.count + 1:
+            raise ValueError(f"frames are done in order: expected frame "
+                             f"{self.live_particles.count + 1}, got {k=}")
+        self.barrier_seconds.append(barrier_seconds)
+        self.live_particles.append(live)
+        self.frames = k
+
+    def add_flight(self, sample: FlightSample) -> None:
+        """The helicopter's state of the frame just made."""
+        self.flight.append(sample)
+
     def agreed_at_the_end(self) -> bool:
         return self.final is not None and self.final.agree
 
     def summary(self) -> dict:
         """report.json's content."""
-        barrier_ms = np.array(self.barrier_seconds) * 1e3
-        percentile = (lambda q: round(float(np.percentile(barrier_ms, q)), 3)) \
-            if len(barrier_ms) else (lambda q: None)
         return {
             "run_id": f"{self.run_id:016x}",
             "frames": self.frames,
@@ -117,20 +150,20 @@ class RunRecord:
             "nodes": list(self.walls),
             "seconds": round(self.seconds, 3),
             "frames_per_second": round(self.frames / self.seconds, 2) if self.seconds else None,
-            "barrier_ms": {"p50": percentile(50), "p99": percentile(99),
-                           "max": percentile(100)},
-            "live_particles": {"last": self.live_particles[-1] if self.live_particles else 0,
-                               "max": max(self.live_particles, default=0)},
-            "live_per_frame": list(self.live_particles),  # after frame 1, 2, ...
-            "divergences": [d.to_json() for d in self.divergences],
-            "resyncs": [r.to_json() for r in self.resyncs],
-            "stalls": [s.to_json() for s in self.stalls],
-            "losses": [loss.to_json() for loss in self.losses],
-            "joins": [j.to_json() for j in self.joins],
+            "barrier_ms": self.barrier_seconds.percentiles_ms(),
+            "live_particles": {"last": self.live_particles.last or 0,
+                               "max": self.live_particles.max},
+            # after frames s, 2 s, 3 s, ... for the stride s (1 up to 4,096 frames)
+            "live_per_frame": list(self.live_particles),
+            "live_frames_stride": self.live_particles.stride,
+            **{name: [event.to_json() for event in getattr(self, name)]
+               for name in EVENT_LISTS},  # the first 1,000 of each
+            "event_totals": {name: getattr(self, name).total for name in EVENT_LISTS},
             "final": self.final.to_json() if self.final is not None else {},
             "clamped_inputs": self.clamped_inputs,
             "clock_dropped_seconds": round(self.clock_dropped_seconds, 4),
-            "flight": [_flight_json(f) for f in self.flight],
+            "flight": [_flight_json(f) for f in self.flight],  # frames s, 2 s, ... as above
+            "flight_frames_stride": self.flight.stride,
             "rejected_messages": {"master": self.master_rejected, "nodes": self.node_rejected},
             "master_events_dropped": self.master_dropped,
             "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},

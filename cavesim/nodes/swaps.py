@@ -5,15 +5,15 @@ timeout passed, a swap stall), and sends frame k + 1 once they have all swapped 
 gave up waiting: an incomplete frame). Each wall sends its monotonic clock with DRAWN and
 SWAPPED; on one machine the clocks are one, so a released frame whose expected walls have
 all swapped gives a skew (latest swap - earliest swap) and tells whether any wall swapped
-before the last one had drawn (a broken barrier).
+before the last one had drawn (a broken barrier). Its memory does not grow with the run: the
+skews go into a histogram, the stalled frames keep their first 1,000 and a count.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
-
+from cavesim.core.bounded import FirstEntries, LogHistogram
 from cavesim.core.wire import DisplayMessage
 from cavesim.core.wire.messages import Phase
 
@@ -23,9 +23,10 @@ WINDOW = 120  # frames a late DRAWN or SWAPPED of a finished frame is kept
 @dataclass
 class SwapBook:
     walls: set[str] = field(default_factory=set)  # every wall ever swap-locked
-    skews_ms: list[float] = field(default_factory=list)  # one per finished frame
+    skews: LogHistogram = field(default_factory=LogHistogram)  # s, one per finished frame
     order_violations: int = 0  # finished frames where a swap came before the last drawing
-    stalls: list[int] = field(default_factory=list)  # frames released without every DRAWN
+    # frames released without every DRAWN
+    stalls: FirstEntries[int] = field(default_factory=FirstEntries)
     incomplete: int = 0  # released frames the master stopped waiting for every SWAPPED of
     _expected: dict[int, frozenset[str]] = field(default_factory=dict)
     _drawn: dict[int, dict[str, int]] = field(default_factory=dict)
@@ -67,7 +68,7 @@ class SwapBook:
             return
         swaps = [swapped[w] for w in walls]
         drawn = [self._drawn.get(k, {}).get(w) for w in walls]
-        self.skews_ms.append((max(swaps) - min(swaps)) / 1e6)
+        self.skews.append((max(swaps) - min(swaps)) / 1e9)
         if None in drawn or min(swaps) < max(drawn):
             self.order_violations += 1
         self._forget(k)
@@ -77,14 +78,8 @@ class SwapBook:
             book.pop(k, None)
 
     def summary(self) -> dict:
-        """report.json's "swap" section."""
-        skews = np.array(self.skews_ms)
-
-        def percentile(q: float) -> float | None:
-            return round(float(np.percentile(skews, q)), 3) if len(skews) else None
-
-        return {"walls": sorted(self.walls), "frames": len(skews),
-                "skew_ms": {"p50": percentile(50), "p99": percentile(99),
-                            "max": percentile(100)},
-                "order_violations": self.order_violations, "stalls": self.stalls,
-                "incomplete": self.incomplete}
+        """report.json's "swap" section ("stalls": the first 1,000 stalled frames)."""
+        return {"walls": sorted(self.walls), "frames": self.skews.count,
+                "skew_ms": self.skews.percentiles_ms(),
+                "order_violations": self.order_violations, "stalls": list(self.stalls),
+                "stalls_total": self.stalls.total, "incomplete": self.incomplete}

@@ -1,5 +1,6 @@
-"""One cluster run of `cavesim bench --cluster` and what it cost: the master's report
-figures, and the CPU the master and every node process spent per frame.
+"""One cluster run of `cavesim bench --cluster` (or `--soak`) and what it cost: the
+master's report figures, the CPU the master and every node process spent per frame, and
+whatever else a `FrameMeter` watches between frames (the soak's memory samples).
 
 The CPU figure answers where a barrier's time goes when the nodes share the machine: all
 processes together need `total` CPU milliseconds per frame, so on `cores` cores no round
@@ -14,12 +15,22 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Protocol
 
 from cavesim.tools.bench.measure import BenchError
 
 Tick = Callable[[int], None]  # called with the number of frames done so far in one run
 WARM_FRAMES = 2  # frames before the CPU meter starts: the first ones compile and allocate
 PROC = Path("/proc")
+
+
+class FrameMeter(Protocol):
+    """Watches a cluster run: before each frame k is made (nodes in `cluster.nodes`, a
+    `LocalCluster`), and once every member has reported k and the vote is done."""
+
+    def before_frame(self, cluster, k: int) -> None: ...
+
+    def after_frame(self, k: int) -> None: ...
 
 
 def process_cpu_seconds(pid: int) -> float | None:
@@ -45,6 +56,9 @@ class CpuMeter:
             mark = {wall: process_cpu_seconds(node.pid) for wall, node in cluster.nodes.items()}
             self.marks.append({"master": time.process_time(), **mark})
 
+    def after_frame(self, k: int) -> None:
+        pass
+
     def per_frame_ms(self) -> dict[str, object] | None:
         """{"master": ms, "nodes": {wall: ms}, "total": ms} per frame, or None when not
         measured (a short run, or no /proc)."""
@@ -58,9 +72,11 @@ class CpuMeter:
 
 
 def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, tick: Tick,
-                node_args: tuple[str, ...] = (), draws: bool = False) -> dict[str, object]:
+                node_args: tuple[str, ...] = (), draws: bool = False,
+                meters: Sequence[FrameMeter] = ()) -> dict[str, object]:
     """One cluster run to the end (every node started with `node_args`; `draws`: they draw
-    pictures), its report.json kept in `run_dir`; its figures."""
+    pictures; `meters` watch it beside the CPU meter), its report.json kept in `run_dir`;
+    its figures."""
     from cavesim.core.framelog import read_frame_log
     from cavesim.nodes.cluster import ClusterPlan, run_cluster
     from cavesim.nodes.master import MasterConfig
@@ -69,9 +85,20 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
     config = MasterConfig(tuple(walls), scene, frames,
                           f"bench-{os.getpid()}-{run_dir.name}", frame_log=run_dir / "frames.log")
     meter = CpuMeter(frames)
+    watching = (meter, *meters)
+
+    def before_frame(cluster, k: int) -> None:
+        for watcher in watching:
+            watcher.before_frame(cluster, k)
+
+    def after_frame(k: int, live: int) -> None:
+        for watcher in watching:
+            watcher.after_frame(k)
+        tick(k)
+
     plan = ClusterPlan(config, run_dir, node_args=dict.fromkeys(walls, node_args),
                        drawing=frozenset(walls) if draws else frozenset())
-    record = run_cluster(plan, lambda k, live: tick(k), meter.before_frame)
+    record = run_cluster(plan, after_frame, before_frame)
     if record.interrupted or record.frames != frames:
         raise BenchError(f"the {len(walls)}-node cluster run ended after {record.frames} of "
                          f"{frames} frames; see {run_dir / 'logs'}")
@@ -80,8 +107,9 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
     report_path.write_text(json.dumps(report, indent=2) + "\n")
     *_, last = read_frame_log(run_dir / "frames.log")[1]
     return {"nodes": len(walls), "scene": str(scene), "frames": report["frames"],
-            "frames_per_second": report["frames_per_second"],
+            "seconds": report["seconds"], "frames_per_second": report["frames_per_second"],
             "barrier_ms": report["barrier_ms"], "cpu_ms_per_frame": meter.per_frame_ms(),
             "live_particles_max": report["live_particles"]["max"],
-            "divergences": len(record.divergences), "stalls": len(record.stalls),
-            "swap": report["swap"], "final_checksum": last.digest, "report": str(report_path)}
+            "divergences": record.divergences.total, "stalls": record.stalls.total,
+            "swap": report["swap"], "final_checksum": last.digest, "gpus": report["gpus"],
+            "report": str(report_path)}

@@ -1,4 +1,5 @@
-"""`cavesim bench`: engine throughput, or with --cluster the cost of the lock-step."""
+"""`cavesim bench`: engine throughput, with --cluster the cost of the lock-step, or with
+--soak the memory of a long cluster run."""
 
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from cavesim.tools.arguments import (
     frame_count,
     output_directory,
     scene_file,
+    wall_count,
 )
 
 BENCH_SCENE = "config/scenes/bench.toml"
@@ -25,6 +27,7 @@ BENCH_SIZES = "100000,300000,1000000"
 BENCH_FRAMES = 10
 CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
 CLUSTER_FRAMES = 300
+SOAK_ONLY = ("walls", "sample_every")  # flags of --soak alone
 # Parsing stops at the engine's addressing bound; the GL context's own limits are checked
 # before measuring (a CapacityError, exit 1: the same flags may fit another driver).
 particle_counts = count_list(MAX_PARTICLES, "particle counts")
@@ -36,22 +39,32 @@ def add(commands) -> None:
         "bench", help="throughput of the GS/TF step against numpy and a compute-shader bound")
     parser.add_argument("--scene", type=scene_file,
                         help=f"scene file (default: {BENCH_SCENE}; with --cluster: the "
-                             f"lock-step run's scene, default config/scenes/dust_devil.toml)")
+                             f"lock-step run's scene, default config/scenes/dust_devil.toml; "
+                             f"with --soak: default config/scenes/minimal.toml)")
     parser.add_argument("--sizes", type=particle_counts,
                         help=f"comma-separated particle counts (default: {BENCH_SIZES})")
     parser.add_argument("--frames", type=frame_count,
                         help=f"timed frames per path after 2 warm-up frames (default: "
                              f"{BENCH_FRAMES}); with --cluster: frames per run "
-                             f"(default: {CLUSTER_FRAMES})")
+                             f"(default: {CLUSTER_FRAMES}); with --soak: frames of the run "
+                             f"(default: 100000)")
     parser.add_argument("--out", type=Path, default=Path("out/bench"),
-                        help="directory for bench.json and bench.md, or cluster.json and "
-                             "cluster.md (default: out/bench)")
+                        help="directory for bench.json and bench.md, cluster.json and "
+                             "cluster.md, or soak.json (default: out/bench)")
     parser.add_argument("--cluster", action="store_true",
                         help="lock-step figures instead: barrier round trip with 2, 4 and 8 "
                              "nodes, and a 4-wall run against four systems back to back")
     parser.add_argument("--nodes", type=node_counts,
                         help=f"with --cluster: node counts of the barrier runs "
                              f"(default: {CLUSTER_NODES})")
+    parser.add_argument("--soak", action="store_true",
+                        help="a long cluster run as fast as it goes instead, sampling the "
+                             "resident memory of the master and every node")
+    parser.add_argument("--walls", type=wall_count,
+                        help="with --soak: wall nodes of the run (default: 4)")
+    parser.add_argument("--sample-every", type=frame_count,
+                        help="with --soak: frames between memory samples (default: 10000, "
+                             "or --frames if fewer)")
     parser.set_defaults(handler=bench)
 
 
@@ -66,7 +79,10 @@ def _bench_scene(path: Path):
 
 def bench(args: argparse.Namespace, console: Console) -> int:
     """`cavesim bench`: check the scene and the output directory, then `run_bench`
-    (or, with --cluster, `bench_cluster`)."""
+    (or, with --cluster, `bench_cluster`; with --soak, `bench_soak`)."""
+    if args.soak:
+        return bench_soak(args, console)
+    _only_with_soak(args)
     if args.cluster:
         return bench_cluster(args, console)
     if args.nodes is not None:
@@ -93,4 +109,37 @@ def bench_cluster(args: argparse.Namespace, console: Console) -> int:
     run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene, cave_file(DEFAULT_CAVE),
                       args.nodes or node_counts(CLUSTER_NODES), args.frames or CLUSTER_FRAMES,
                       args.out, console)
+    return 0
+
+
+def _only_with_soak(args: argparse.Namespace) -> None:
+    for name in SOAK_ONLY:
+        if getattr(args, name) is not None:
+            flag = "--" + name.replace("_", "-")
+            raise UsageError(f"cavesim bench: error: argument {flag}: only with --soak")
+
+
+def bench_soak(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench --soak`: check the flags, then `run_soak`."""
+    from cavesim.tools.bench.soak import (
+        SOAK_EVERY,
+        SOAK_FRAMES,
+        SOAK_SCENE,
+        SOAK_WALLS,
+        run_soak,
+    )
+
+    for name, value in (("--cluster", args.cluster), ("--nodes", args.nodes is not None),
+                        ("--sizes", args.sizes is not None)):
+        if value:
+            raise UsageError(f"cavesim bench: error: argument {name}: not with --soak")
+    frames = args.frames or SOAK_FRAMES
+    every = args.sample_every or min(SOAK_EVERY, frames)
+    if every > frames:
+        raise UsageError(f"cavesim bench: error: argument --sample-every: expected at most "
+                         f"the run's {frames} frames, got {every}")
+    scene = args.scene or scene_file(SOAK_SCENE)
+    _bench_scene(scene)
+    output_directory(args.out, "bench")
+    run_soak(scene, args.walls or SOAK_WALLS, frames, every, args.out, console)
     return 0

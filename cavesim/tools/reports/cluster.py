@@ -30,7 +30,7 @@ def barrier_rows(report: dict) -> list[tuple[str, ...]]:
 def swap_rows(report: dict) -> list[tuple[str, ...]]:
     return [(str(run["nodes"]), *(_ms(run["swap"]["skew_ms"][q]) for q in ("p50", "p99", "max")),
              str(run["swap"]["frames"]), str(run["swap"]["order_violations"]),
-             str(len(run["swap"]["stalls"])), str(run["swap"]["incomplete"]),
+             str(run["swap"]["stalls_total"]), str(run["swap"]["incomplete"]),
              _ms(run["barrier_ms"]["p99"]), f"{run['frames_per_second']:.1f}")
             for run in report["swap"].get("runs", ())]
 

@@ -4,7 +4,9 @@
 been assembled): the report's "flight" list (one entry per frame of a helicopter scene:
 t, altitude, rotor_speed, induced_velocity, emission_rate) and "live_per_frame" (the
 live count after each frame) become two PNGs under out/plots and a few summary rows.
-A scene without a helicopter has an empty flight list and gets neither.
+A run longer than 4,096 frames keeps every n-th frame of each ("flight_frames_stride",
+"live_frames_stride"). A scene without a helicopter has an empty flight list and gets
+neither.
 """
 
 from __future__ import annotations
@@ -24,9 +26,14 @@ ALTITUDE_COLOUR, LIVE_COLOUR, EMISSION_COLOUR = "tab:green", "tab:blue", "tab:re
 
 
 def _series(report: dict) -> dict[str, np.ndarray]:
-    """The flight log as arrays; `live` pairs frame i's count with flight entry i."""
-    flight = report.get("flight") or []
+    """The flight log as arrays, at the frames both it and the live counts kept; `live`
+    pairs a frame's count with the flight entry of the same frame."""
+    flight_stride = report.get("flight_frames_stride", 1)
+    live_stride = report.get("live_frames_stride", 1)
+    stride = max(flight_stride, live_stride)  # powers of 2: a multiple of both
+    flight = (report.get("flight") or [])[stride // flight_stride - 1::stride // flight_stride]
     live = np.asarray(report.get("live_per_frame") or [], dtype=float)
+    live = live[stride // live_stride - 1::stride // live_stride]
     n_live = min(len(live), len(flight))  # an interrupted run logs one flight entry more
     return {"t": np.array([f["t"] for f in flight], dtype=float),
             "altitude": np.array([f["altitude"] for f in flight], dtype=float),
@@ -131,5 +138,5 @@ def demo_summary(report: dict) -> list[tuple[str, str]]:
     fps = report.get("frames_per_second")
     rows += [("frames", f"{report['frames']:,}"),
              ("frames per second", "-" if fps is None else f"{fps}"),
-             ("divergences", str(len(report["divergences"])))]
+             ("divergences", str(report["event_totals"]["divergences"]))]
     return rows

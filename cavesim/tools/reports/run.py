@@ -13,9 +13,9 @@ def summary_table(report: dict) -> Table:
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
         ("live particles (last / max)",
          f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
-        ("divergences", len(report["divergences"])),
-        ("resyncs", len(report["resyncs"])),
-        ("stalls", len(report["stalls"])),
+        ("divergences", report["event_totals"]["divergences"]),
+        ("resyncs", report["event_totals"]["resyncs"]),
+        ("stalls", report["event_totals"]["stalls"]),
         ("rejected messages", sum(report["rejected_messages"]["master"].values())
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
