@@ -34,8 +34,10 @@ class ClusterPlan:
 
 def run_cluster(plan: ClusterPlan,
                 progress: Callable[[int, int], None] = lambda k, live: None,
-                before_frame: Callable[[LocalCluster, int], None] | None = None) -> RunRecord:
-    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node."""
+                before_frame: Callable[[LocalCluster, int], None] | None = None,
+                checkpoint: Callable[[RunRecord], None] | None = None) -> RunRecord:
+    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node;
+    `checkpoint` gets the record after every frame."""
     config = plan.master
     with LocalCluster(config.scene, plan.out, config.session, key_file=plan.key_file,
                       expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
@@ -46,7 +48,7 @@ def run_cluster(plan: ClusterPlan,
         hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
         with _master_log(cluster.log_path("master")), open_master_link(config) as link, \
                 cluster.watch(link.events):
-            return run_master(config, link, progress, hook)
+            return run_master(config, link, progress, hook, checkpoint)
 
 
 @contextmanager

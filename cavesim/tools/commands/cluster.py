@@ -65,6 +65,7 @@ def add_master(commands) -> None:
 def master(args: argparse.Namespace, console) -> int:
     from cavesim.nodes.master import MasterConfig
     from cavesim.nodes.master import main as run_master
+    from cavesim.nodes.report_file import ReportFile
 
     configure_logging(args.verbose)
     network, key = network_and_key(args, "master")
@@ -79,10 +80,12 @@ def master(args: argparse.Namespace, console) -> int:
         if args.progress:
             print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
 
-    record = run_master(config, progress)
-    if args.report:
-        args.report.parent.mkdir(parents=True, exist_ok=True)
-        args.report.write_text(json.dumps(record.summary(), indent=2) + "\n")
+    if args.report is None:
+        record = run_master(config, progress)
+    else:
+        with ReportFile(args.report) as report:
+            record = run_master(config, progress, report.checkpoint)
+            report.finish(record.summary(), record.interrupted)
     return INTERRUPTED if record.interrupted else 0
 
 

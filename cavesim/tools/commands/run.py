@@ -1,13 +1,13 @@
 """`cavesim run`: the master and one node per wall on this machine, with a progress bar.
 
 Each wall computes on the EGL device its plan gives it (`cavesim.nodes.gpus`); the summary names
-the GPU every wall reported. report.json is written once, after the pictures and plots.
+the GPU every wall reported. report.json is kept current while the master runs (a crash
+leaves the last checkpoint) and written whole at the end, with the pictures and plots.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +20,7 @@ from cavesim.core.errors import CaveError, ContextError, SceneError
 from cavesim.core.wire.network import read_key, session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
 from cavesim.nodes.master import MasterConfig
+from cavesim.nodes.report_file import ReportFile
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
@@ -85,27 +86,29 @@ class RunPlan:
 
 
 def run_walls(plan: RunPlan, console: Console) -> dict:
-    """Run the cluster to the end (or Ctrl-C); write and return report.json's content."""
+    """Run the cluster to the end (or Ctrl-C), keeping report.json current; write and
+    return its final content."""
     plan.out.mkdir(parents=True, exist_ok=True)
     columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
-    with Progress(*columns, console=console, transient=False) as progress:
-        task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
-        record = run_cluster(plan.cluster(), lambda k, live: progress.update(
-            task, completed=k, live=live))
-    if record.interrupted:
-        console.print("[yellow]interrupted: the cluster was stopped")
-    report = record.summary()
-    if plan.draws:
-        report["images"] = assemble_images(plan, console)
-    report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
-    report_path = plan.out / "report.json"
-    report_path.write_text(json.dumps(report, indent=2) + "\n")
+    with ReportFile(plan.out / "report.json") as report_file:
+        with Progress(*columns, console=console, transient=False) as progress:
+            task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
+            record = run_cluster(plan.cluster(), lambda k, live: progress.update(
+                task, completed=k, live=live), checkpoint=report_file.checkpoint)
+        if record.interrupted:
+            console.print("[yellow]interrupted: the cluster was stopped")
+        report = record.summary()
+        if plan.draws:
+            report["images"] = assemble_images(plan, console)
+        report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+        report_file.finish(report, record.interrupted)
+    frame_log, logs = plan.out / "frames.log", plan.out / "logs"
     console.print(summary_table(report))
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))
-    console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
+    console.print(f"wrote {report_file.path}, {frame_log}, logs in {logs}")
     return report
 
 
