@@ -1,5 +1,6 @@
 """Crash-safe records: report.json checkpointed while the master runs and left whole by a
-SIGKILL; the frame log's whole records kept through a crash."""
+SIGKILL; the frame log's whole records kept through a crash; an output path of the wrong
+kind refused in one line before anything starts."""
 
 from __future__ import annotations
 
@@ -20,6 +21,8 @@ from cavesim.nodes import report_file
 from cavesim.nodes.master import MasterConfig, run_master
 from cavesim.nodes.record import RunRecord
 from cavesim.nodes.report_file import FAILED, FINISHED, INTERRUPTED, RUNNING, ReportFile
+from cavesim.tools import cli
+from cavesim.tools.arguments import USAGE_ERROR, UsageError, output_directory
 from cavesim.tools.replay import replay
 
 ROOT = Path(__file__).parents[1]
@@ -184,3 +187,66 @@ def test_a_sigkilled_run_leaves_its_report_and_a_log_that_replays(tmp_path, ctx)
     result = replay(tmp_path / "frames.log", MINIMAL, ctx=ctx)
     assert result.equal and result.frames >= written["frames"], result.mismatches[:3]
     assert result.damage is None or result.damage.kind == TORN
+
+
+# -- an output path of the wrong kind ----------------------------------------------------------
+
+FOLDER_FLAGS = [  # (argv before the flag, the flag): each takes a folder
+    (["run", "--walls", "1"], "--out"),
+    (["check"], "--out"),
+    (["bench"], "--out"),
+    (["bench", "--cluster"], "--out"),
+    (["accuracy"], "--out"),
+    (["stability"], "--out"),
+    (["replay", str(MINIMAL)], "--out"),
+    (["node", "--wall", "front"], "--images"),
+]
+FILE_FLAGS = [  # each takes a file
+    (["doctor"], "--out"),
+    (["master", "--walls", "front", "--frames", "1"], "--report"),
+    (["master", "--walls", "front", "--frames", "1"], "--frame-log"),
+    (["tracker", "--dtrack", "5000"], "--report"),
+]
+
+
+def one_error_line(capsys) -> str:
+    captured = capsys.readouterr()
+    assert captured.out == "" and "Traceback" not in captured.err
+    (line,) = captured.err.splitlines()
+    return line
+
+
+@pytest.mark.parametrize(("argv", "flag"), FOLDER_FLAGS, ids=lambda v: " ".join(v)
+                         if isinstance(v, list) else v)
+def test_a_folder_flag_given_a_file_is_one_line_before_anything_starts(capsys, tmp_path, argv,
+                                                                       flag):
+    taken = tmp_path / "taken"
+    taken.write_text("mine")
+    assert cli.main([*argv, flag, str(taken)]) == USAGE_ERROR
+    assert one_error_line(capsys) == (f"cavesim {argv[0]}: error: argument {flag}: "
+                                      f"{str(taken)!r} is a file; give a folder (a new one "
+                                      f"is made)")
+    assert taken.read_text() == "mine" and list(tmp_path.iterdir()) == [taken]
+
+
+@pytest.mark.parametrize(("argv", "flag"), FILE_FLAGS, ids=lambda v: " ".join(v)
+                         if isinstance(v, list) else v)
+def test_a_file_flag_given_a_folder_or_a_path_under_a_file_is_one_line(capsys, tmp_path, argv,
+                                                                       flag):
+    assert cli.main([*argv, flag, str(tmp_path)]) == USAGE_ERROR
+    assert one_error_line(capsys) == (f"cavesim {argv[0]}: error: argument {flag}: "
+                                      f"{str(tmp_path)!r} is a folder; give the path of a file")
+    (tmp_path / "taken").write_text("mine")
+    under = tmp_path / "taken" / "x.json"
+    assert cli.main([*argv, flag, str(under)]) == USAGE_ERROR
+    assert one_error_line(capsys) == (f"cavesim {argv[0]}: error: argument {flag}: "
+                                      f"{str(under)!r}: {str(tmp_path / 'taken')!r} is a "
+                                      f"file, not a folder; give a path in a folder")
+
+
+def test_a_default_output_folder_that_is_a_file_is_refused_as_well(tmp_path):
+    taken = tmp_path / "out"  # a default (a Path) skips argparse's type: the command checks
+    taken.write_text("")
+    with pytest.raises(UsageError, match=r"^cavesim run: error: argument --out: .* is a file; "
+                                         r"give a folder \(a new one is made\)$"):
+        output_directory(taken, "run")

@@ -17,6 +17,7 @@ from cavesim.tools.arguments import (
     count_list,
     frame_count,
     output_directory,
+    output_folder,
     scene_file,
 )
 
@@ -43,7 +44,7 @@ def add(commands) -> None:
                         help=f"timed frames per path after 2 warm-up frames (default: "
                              f"{BENCH_FRAMES}); with --cluster: frames per run "
                              f"(default: {CLUSTER_FRAMES})")
-    parser.add_argument("--out", type=Path, default=Path("out/bench"),
+    parser.add_argument("--out", type=output_folder, default=Path("out/bench"),
                         help="directory for bench.json and bench.md, or cluster.json and "
                              "cluster.md (default: out/bench)")
     parser.add_argument("--cluster", action="store_true",

@@ -17,6 +17,7 @@ from cavesim.tools.arguments import (
     configure_logging,
     frame_count,
     output_directory,
+    output_folder,
     scene_file,
     seconds,
     wall_count,
@@ -39,7 +40,7 @@ def add(commands) -> None:
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
     parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
     parser.add_argument("--check-every", type=frame_count, default=1)
-    parser.add_argument("--out", type=Path, default=Path("out/check"))
+    parser.add_argument("--out", type=output_folder, default=Path("out/check"))
     parser.add_argument("--session", default="check", type=session_name)
     parser.set_defaults(handler=check)
 

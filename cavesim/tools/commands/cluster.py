@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from cavesim.core.limits import GPU_RANGE
 from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
@@ -20,6 +19,9 @@ from cavesim.tools.arguments import (
     frame_count,
     network_and_key,
     number_in,
+    output_file,
+    output_folder,
+    output_path,
     scene_file,
     seconds,
     wall_list,
@@ -54,8 +56,8 @@ def add_master(commands) -> None:
                         default=0.1, help="real time: most wall time one tick may count")
     parser.add_argument("--max-substeps", type=number_in(int, 1, 100, "frames"), default=4,
                         help="real time: most frames sent back to back to catch up")
-    parser.add_argument("--report", type=Path, help="write the run's JSON report here")
-    parser.add_argument("--frame-log", type=Path, help="record every frame's inputs here")
+    parser.add_argument("--report", type=output_path, help="write the run's JSON report here")
+    parser.add_argument("--frame-log", type=output_path, help="record every frame's inputs here")
     parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
@@ -69,6 +71,9 @@ def master(args: argparse.Namespace, console) -> int:
 
     configure_logging(args.verbose)
     network, key = network_and_key(args, "master")
+    for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
+        if path is not None:
+            output_file(path, "master", flag)
     config = MasterConfig(args.walls, args.scene, args.frames, args.session, network, key,
                           barrier_timeout=args.barrier_timeout, join_timeout=args.join_timeout,
                           on_loss=args.on_loss, check_every=args.check_every,
@@ -99,7 +104,7 @@ def add_node(commands) -> None:
     parser.add_argument("--cave", type=cave_file, help="CAVE geometry (.toml) to draw the wall of")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
                         help="draw the wall every K frames (0: never)")
-    parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")
+    parser.add_argument("--images", type=output_folder, help="folder for <wall>/frame_<k>.png")
     parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
     parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
                         help="EGL device to compute on (default: device 0; `cavesim doctor` "

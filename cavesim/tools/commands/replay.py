@@ -15,14 +15,20 @@ from rich.progress import Progress
 
 from cavesim.core.framelog import TORN
 from cavesim.core.output import writing
-from cavesim.tools.arguments import RUN_ERROR, UsageError, output_directory, scene_file
+from cavesim.tools.arguments import (
+    RUN_ERROR,
+    UsageError,
+    output_directory,
+    output_folder,
+    scene_file,
+)
 
 
 def add(commands) -> None:
     parser = commands.add_parser("replay", help="re-run a frame log; every checksum must match")
     parser.add_argument("log", type=Path, help="frames.log written by the master")
     parser.add_argument("--scene", type=scene_file, help="override the scene named in the log")
-    parser.add_argument("--out", type=Path, help="write replay.json here (a directory)")
+    parser.add_argument("--out", type=output_folder, help="write replay.json here (a directory)")
     parser.set_defaults(handler=replay)
 
 

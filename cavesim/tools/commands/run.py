@@ -28,6 +28,7 @@ from cavesim.tools.arguments import (
     frame_count,
     number_in,
     output_directory,
+    output_folder,
     scene_file,
     wall_count,
     wall_names,
@@ -157,7 +158,7 @@ def add(commands) -> None:
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
-    parser.add_argument("--out", type=Path, default=Path("out"))
+    parser.add_argument("--out", type=output_folder, default=Path("out"))
     parser.add_argument("--session", default="run", type=session_name)
     parser.add_argument("--key-file", type=Path)
     parser.set_defaults(handler=run)
