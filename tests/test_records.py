@@ -1,11 +1,14 @@
 """Crash-safe records: report.json checkpointed while the master runs and left whole by a
 SIGKILL; the frame log's whole records kept through a crash; an output path of the wrong
-kind refused in one line before anything starts."""
+kind refused in one line before anything starts; a deleted output folder is one line."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -14,9 +17,11 @@ from pathlib import Path
 
 import pytest
 from memory_walls import MemoryLink
+from rich.console import Console
 
-from cavesim.core.errors import ClusterError
+from cavesim.core.errors import ClusterError, OutputError
 from cavesim.core.framelog import TORN, read_frame_log
+from cavesim.core.output import writing
 from cavesim.nodes import report_file
 from cavesim.nodes.master import MasterConfig, run_master
 from cavesim.nodes.record import RunRecord
@@ -65,6 +70,14 @@ def frames_checkpointed(path: Path) -> int:
         return read_report(path)["frames"]
     except (OSError, ValueError):  # not there yet
         return 0
+
+
+def kill_nodes_of(session: str) -> None:
+    found = subprocess.run(["pgrep", "-f", f"cavesim node .*--session {session} "],
+                           capture_output=True, text=True).stdout.split()
+    for pid in map(int, found):
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
 
 
 def record(frames: int) -> RunRecord:
@@ -168,19 +181,21 @@ def test_a_sigkilled_master_leaves_a_whole_report_and_its_whole_frames(tmp_path)
 
 @pytest.mark.slow
 def test_a_sigkilled_run_leaves_its_report_and_a_log_that_replays(tmp_path, ctx):
+    session = f"k{os.getpid()}"
     command = [sys.executable, "-m", "cavesim", "run", "--walls", "2", "--frames", "100000",
-               "--scene", str(MINIMAL), "--out", str(tmp_path), "--session", f"k{os.getpid()}"]
+               "--scene", str(MINIMAL), "--out", str(tmp_path), "--session", session]
     run = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL,
                            stderr=subprocess.PIPE, start_new_session=True)
     try:
         path = tmp_path / "report.json"
         wait_for(lambda: frames_checkpointed(path) > 1, "second checkpoint", run)
-        os.killpg(run.pid, signal.SIGKILL)  # the run and its nodes, as a crash of the host
+        os.kill(run.pid, signal.SIGKILL)
         run.wait(timeout=30)
     finally:
         if run.poll() is None:
             os.killpg(run.pid, signal.SIGKILL)
             run.wait()
+        kill_nodes_of(session)  # in sessions of their own, they outlive a SIGKILLed master
     written = read_report(tmp_path / "report.json")
     assert written["ended"] == RUNNING and written["frames"] > 1
     assert written["divergences"] == []
@@ -192,20 +207,22 @@ def test_a_sigkilled_run_leaves_its_report_and_a_log_that_replays(tmp_path, ctx)
 # -- an output path of the wrong kind ----------------------------------------------------------
 
 FOLDER_FLAGS = [  # (argv before the flag, the flag): each takes a folder
-    (["run", "--walls", "1"], "--out"),
-    (["check"], "--out"),
-    (["bench"], "--out"),
-    (["bench", "--cluster"], "--out"),
-    (["accuracy"], "--out"),
-    (["stability"], "--out"),
-    (["replay", str(MINIMAL)], "--out"),
-    (["node", "--wall", "front"], "--images"),
+    pytest.param(["run", "--walls", "1"], "--out", id="run"),
+    pytest.param(["check"], "--out", id="check"),
+    pytest.param(["bench"], "--out", id="bench"),
+    pytest.param(["bench", "--cluster"], "--out", id="bench-cluster"),
+    pytest.param(["accuracy"], "--out", id="accuracy"),
+    pytest.param(["stability"], "--out", id="stability"),
+    pytest.param(["replay", str(MINIMAL)], "--out", id="replay"),
+    pytest.param(["node", "--wall", "front"], "--images", id="node-images"),
 ]
 FILE_FLAGS = [  # each takes a file
-    (["doctor"], "--out"),
-    (["master", "--walls", "front", "--frames", "1"], "--report"),
-    (["master", "--walls", "front", "--frames", "1"], "--frame-log"),
-    (["tracker", "--dtrack", "5000"], "--report"),
+    pytest.param(["doctor"], "--out", id="doctor"),
+    pytest.param(["master", "--walls", "front", "--frames", "1"], "--report",
+                 id="master-report"),
+    pytest.param(["master", "--walls", "front", "--frames", "1"], "--frame-log",
+                 id="master-frame-log"),
+    pytest.param(["tracker", "--dtrack", "5000"], "--report", id="tracker-report"),
 ]
 
 
@@ -216,8 +233,7 @@ def one_error_line(capsys) -> str:
     return line
 
 
-@pytest.mark.parametrize(("argv", "flag"), FOLDER_FLAGS, ids=lambda v: " ".join(v)
-                         if isinstance(v, list) else v)
+@pytest.mark.parametrize(("argv", "flag"), FOLDER_FLAGS)
 def test_a_folder_flag_given_a_file_is_one_line_before_anything_starts(capsys, tmp_path, argv,
                                                                        flag):
     taken = tmp_path / "taken"
@@ -229,8 +245,7 @@ def test_a_folder_flag_given_a_file_is_one_line_before_anything_starts(capsys, t
     assert taken.read_text() == "mine" and list(tmp_path.iterdir()) == [taken]
 
 
-@pytest.mark.parametrize(("argv", "flag"), FILE_FLAGS, ids=lambda v: " ".join(v)
-                         if isinstance(v, list) else v)
+@pytest.mark.parametrize(("argv", "flag"), FILE_FLAGS)
 def test_a_file_flag_given_a_folder_or_a_path_under_a_file_is_one_line(capsys, tmp_path, argv,
                                                                        flag):
     assert cli.main([*argv, flag, str(tmp_path)]) == USAGE_ERROR
@@ -250,3 +265,55 @@ def test_a_default_output_folder_that_is_a_file_is_refused_as_well(tmp_path):
     with pytest.raises(UsageError, match=r"^cavesim run: error: argument --out: .* is a file; "
                                          r"give a folder \(a new one is made\)$"):
         output_directory(taken, "run")
+
+
+# -- a deleted folder, files said to be written ------------------------------------------------
+
+def cavesim_run(out: Path, *extra: str) -> subprocess.Popen:
+    command = [sys.executable, "-m", "cavesim", "run", "--frames", "100000", "--scene",
+               str(MINIMAL), "--out", str(out), "--session", f"d{os.getpid()}", *extra]
+    return subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+
+
+def finished(run: subprocess.Popen, timeout: float = 120) -> tuple[int, str, str]:
+    try:
+        out, err = run.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        os.killpg(run.pid, signal.SIGKILL)
+        run.communicate()
+        raise
+    return run.returncode, out, err
+
+
+@pytest.mark.slow
+def test_an_output_folder_deleted_mid_run_is_one_line_naming_it(tmp_path):
+    out = tmp_path / "run"
+    run = cavesim_run(out, "--walls", "1")
+    wait_for(lambda: frames_checkpointed(out / "report.json") > 1, "second checkpoint", run)
+    shutil.rmtree(out)
+    code, stdout, stderr = finished(run)
+    assert code == 1 and "Traceback" not in stderr and "wrote" not in stdout
+    (line,) = stderr.splitlines()
+    assert line.startswith(f"cavesim: error: cannot write {out}/"), line
+    assert line.endswith(f": its folder {out} is gone"), line
+
+
+def test_wrote_is_said_only_of_files_that_are_there(tmp_path, monkeypatch):
+    from cavesim.tools.commands import run as run_command
+    from cavesim.tools.reports import demo
+
+    gone = tmp_path / "plots" / "live.png"
+    monkeypatch.setattr(demo, "write_demo_plots", lambda report, out: [gone])
+    console = Console(file=io.StringIO())
+    with pytest.raises(OutputError, match=f"^{gone} is missing: its folder "
+                                          f"{gone.parent} is gone$"):
+        run_command.write_plots({"flight": [{}]}, tmp_path, console)
+    assert "wrote" not in console.file.getvalue()
+
+
+def test_an_output_error_names_the_file_the_system_named(tmp_path):
+    with pytest.raises(OutputError, match=f"^cannot write {tmp_path / 'no' / 'x.png'}: its "
+                                          f"folder {tmp_path / 'no'} is gone$"), \
+            writing(tmp_path):
+        open(tmp_path / "no" / "x.png", "wb")

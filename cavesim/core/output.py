@@ -16,11 +16,12 @@ from cavesim.core.errors import OutputError
 @contextmanager
 def writing(path: Path) -> Iterator[None]:
     """An OSError inside (ENOSPC, EDQUOT, EROFS, EACCES, a deleted folder) becomes an
-    OutputError naming `path`."""
+    OutputError naming the file it names, else `path`."""
     try:
         yield
     except OSError as e:
-        raise OutputError(f"cannot write {path}: {_reason(Path(path), e.strerror or str(e))}") \
+        where = Path(e.filename if isinstance(e.filename, str | Path) else path)
+        raise OutputError(f"cannot write {where}: {_reason(where, e.strerror or str(e))}") \
             from e
 
 

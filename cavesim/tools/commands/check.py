@@ -9,6 +9,7 @@ from pathlib import Path
 
 from rich.progress import Progress
 
+from cavesim.core.output import check_written, writing
 from cavesim.core.wire.network import session_name
 from cavesim.nodes.faults import KINDS
 from cavesim.tools.arguments import (
@@ -65,8 +66,11 @@ def check(args: argparse.Namespace, console) -> int:
     with Progress(console=console) as progress:
         task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
         report = run_check(plan, lambda k, live: progress.update(task, completed=k))
-    (args.out / "check.json").write_text(json.dumps(report, indent=2) + "\n")
+    path = args.out / "check.json"
+    with writing(path):
+        path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(check_table(report))
-    console.print(f"wrote {args.out / 'check.json'}")
+    check_written(path)
+    console.print(f"wrote {path}")
     healthy = report["final"].get("agree") and report["all_detected"] and report["all_healed"]
     return 0 if healthy and (args.inject or report["divergences"] == 0) else RUN_ERROR

@@ -17,6 +17,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
+from cavesim.core.output import check_written, writing
 from cavesim.core.wire.network import read_key, session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
 from cavesim.nodes.master import MasterConfig
@@ -100,11 +101,13 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
         if record.interrupted:
             console.print("[yellow]interrupted: the cluster was stopped")
         report = record.summary()
-        if plan.draws:
-            report["images"] = assemble_images(plan, console)
-        report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+        with writing(plan.out):
+            if plan.draws:
+                report["images"] = assemble_images(plan, console)
+            report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
         report_file.finish(report, record.interrupted)
     frame_log, logs = plan.out / "frames.log", plan.out / "logs"
+    check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))
     console.print(gpu_table(report))
     if report.get("flight"):
@@ -125,6 +128,7 @@ def assemble_images(plan: RunPlan, console: Console) -> dict:
     if composites:
         images["animation"] = str(write_animation(composites, plan.out / "run.gif"))
         images["last_composite"] = str(composites[-1])
+        check_written(images["animation"], *composites)
         console.print(f"wrote {len(composites)} composites and {images['animation']}")
     return images
 
@@ -136,6 +140,7 @@ def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
     from cavesim.tools.reports.demo import write_demo_plots  # matplotlib: only when there is a plot
 
     paths = write_demo_plots(report, out)
+    check_written(*paths)
     console.print(f"wrote {len(paths)} plots in {out / 'plots'}")
     return paths
 

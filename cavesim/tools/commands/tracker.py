@@ -7,6 +7,7 @@ import argparse
 import json
 
 from cavesim.core.errors import TrackerError
+from cavesim.core.output import writing
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.tools.arguments import (
     UsageError,
@@ -62,7 +63,8 @@ def tracker(args: argparse.Namespace, console) -> int:
                   f"rejected: {_by_name(counts.rejected)}; missing (last pose kept): "
                   f"{_by_name(counts.missing)}", markup=False, soft_wrap=True)
     if args.report:
-        args.report.write_text(json.dumps(counts.summary(), indent=2) + "\n")
+        with writing(args.report):
+            args.report.write_text(json.dumps(counts.summary(), indent=2) + "\n")
     return 0
 
 
