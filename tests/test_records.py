@@ -1,6 +1,7 @@
 """Crash-safe records: report.json checkpointed while the master runs and left whole by a
 SIGKILL; the frame log's whole records kept through a crash; an output path of the wrong
-kind refused in one line before anything starts; a deleted output folder is one line."""
+kind refused in one line before anything starts; a deleted output folder or a full disk
+is one line naming the file, and the frames logged before it stay replayable."""
 
 from __future__ import annotations
 
@@ -267,7 +268,37 @@ def test_a_default_output_folder_that_is_a_file_is_refused_as_well(tmp_path):
         output_directory(taken, "run")
 
 
-# -- a deleted folder, files said to be written ------------------------------------------------
+# -- a deleted folder, a full disk, files said to be written -----------------------------------
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A folder on a tmpfs of its own: 256 KiB fill up within seconds of a run."""
+    yield from mounted_tmpfs(tmp_path / "disk", "256k")
+
+
+@pytest.fixture
+def disk_for_pictures(tmp_path):
+    """A tmpfs of 2 MiB: room for the frame log and a few frames of every wall's pictures."""
+    yield from mounted_tmpfs(tmp_path / "disk", "2m")
+
+
+def mounted_tmpfs(folder: Path, size: str):
+    folder.mkdir()
+    try:
+        mount = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs",
+                                str(folder)], capture_output=True, text=True)
+        refused = mount.stderr.strip() if mount.returncode else None
+    except OSError as e:  # no mount command at all
+        refused = str(e)
+    if refused is not None:
+        pytest.skip(f"a full disk needs a tmpfs of its own, and mount is not permitted here "
+                    f"(it needs root with CAP_SYS_ADMIN): {refused}")
+    try:
+        yield folder
+    finally:
+        if subprocess.run(["umount", str(folder)], capture_output=True).returncode != 0:
+            subprocess.run(["umount", "-l", str(folder)], check=True)  # busy: detach it
+
 
 def cavesim_run(out: Path, *extra: str) -> subprocess.Popen:
     command = [sys.executable, "-m", "cavesim", "run", "--frames", "100000", "--scene",
@@ -284,6 +315,47 @@ def finished(run: subprocess.Popen, timeout: float = 120) -> tuple[int, str, str
         run.communicate()
         raise
     return run.returncode, out, err
+
+
+def test_a_full_disk_ends_the_master_with_an_output_error_and_keeps_the_whole_frames(
+        small_disk):
+    config = MasterConfig(WALLS, MINIMAL, 10**6, frame_log=small_disk / "frames.log")
+    with pytest.raises(OutputError) as caught, ReportFile(small_disk / "report.json") as report:
+        run_master(config, MemoryLink(WALLS), checkpoint=report.checkpoint)
+    message = str(caught.value)
+    assert message.startswith(f"cannot write {small_disk}/") and \
+        message.endswith(": No space left on device"), message
+    _, frames = read_frame_log(small_disk / "frames.log")
+    assert len(frames) > 100 and (frames.damage is None or frames.damage.kind == TORN)
+    written = read_report(small_disk / "report.json")  # a checkpoint, or the failure
+    assert written["ended"] in (RUNNING, FAILED) and 0 < written["frames"] <= len(frames)
+
+
+@pytest.mark.slow
+def test_a_full_disk_is_one_line_naming_the_file_and_the_logged_frames_replay(small_disk,
+                                                                              ctx):
+    out = small_disk / "run"
+    code, stdout, stderr = finished(cavesim_run(out, "--walls", "1"))
+    assert code == 1 and "Traceback" not in stderr and "wrote" not in stdout
+    (line,) = stderr.splitlines()
+    assert line.startswith(f"cavesim: error: cannot write {out}/") and \
+        line.endswith(": No space left on device"), line
+    result = replay(out / "frames.log", MINIMAL, ctx=ctx)
+    assert result.equal and result.frames > 100, result.mismatches[:3]
+    assert result.damage is None or result.damage.kind == TORN
+    assert read_report(out / "report.json")["frames"] <= result.frames
+
+
+@pytest.mark.slow
+def test_a_full_disk_under_the_pictures_is_one_line_naming_the_file(disk_for_pictures):
+    out = disk_for_pictures / "run"
+    code, stdout, stderr = finished(cavesim_run(out, "--render-every", "1"))
+    assert code == 1 and "Traceback" not in stderr and "wrote" not in stdout
+    (line,) = stderr.splitlines()
+    assert line.startswith("cavesim: error: "), line
+    assert f"cannot write {out}/" in line and ": No space left on device" in line, line
+    written = read_report(out / "report.json")
+    assert written["ended"] in (RUNNING, FAILED) and written["frames"] > 0
 
 
 @pytest.mark.slow
@@ -317,3 +389,25 @@ def test_an_output_error_names_the_file_the_system_named(tmp_path):
                                           f"folder {tmp_path / 'no'} is gone$"), \
             writing(tmp_path):
         open(tmp_path / "no" / "x.png", "wb")
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full (Linux)")
+def test_a_picture_on_a_full_disk_is_an_output_error_naming_it(tmp_path):
+    """The animation and the demo's plots, written through a link to /dev/full."""
+    from PIL import Image
+
+    from cavesim.gpu.render.animation import write_animation
+    from cavesim.tools.reports.demo import write_demo_plots
+
+    frame = tmp_path / "frame.png"
+    Image.new("RGB", (8, 8)).save(frame)
+    animation = tmp_path / "run.gif"
+    animation.symlink_to("/dev/full")
+    with pytest.raises(OutputError, match=f"^cannot write {animation}: No space left on device$"):
+        write_animation([frame], animation)
+    plot = tmp_path / "plots" / "live_and_emission_vs_time.png"
+    plot.parent.mkdir()
+    plot.symlink_to("/dev/full")
+    flight = [{"t": t / 60, "altitude": 10.0 - t, "emission_rate": 100.0 * t} for t in range(5)]
+    with pytest.raises(OutputError, match=f"^cannot write {plot}: No space left on device$"):
+        write_demo_plots({"flight": flight, "live_per_frame": [1, 2, 3, 4, 5]}, tmp_path)
