@@ -99,6 +99,8 @@ done
     || die "argument --walls: expected a number >= 1, got '$walls'"
 [[ "$frames" =~ ^[1-9][0-9]*$ ]] || die "argument --frames: expected a number >= 1, got '$frames'"
 ((!display)) || [ -n "$cave" ] || die "argument --display: needs --cave FILE (the walls' windows)"
+[ ! -e "$out" ] || [ -d "$out" ] \
+    || die "argument --out: '$out' is a file; give a folder (a new one is made)"
 
 show() {  # print a command as one line that a shell would read back the same way
     local line="" word

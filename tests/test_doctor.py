@@ -211,4 +211,6 @@ def test_doctor_refuses_an_output_it_cannot_write(tmp_path):
     result = subprocess.run([sys.executable, "-m", "cavesim", "doctor", "--out",
                              str(tmp_path / "file" / "doctor.json")], capture_output=True,
                             text=True, timeout=60)
-    assert result.returncode == 2 and "argument --out: cannot make directory" in result.stderr
+    assert result.returncode == 2 and result.stderr.count("\n") == 1
+    assert f"argument --out: {str(tmp_path / 'file' / 'doctor.json')!r}: " \
+           f"{str(tmp_path / 'file')!r} is a file, not a folder" in result.stderr

@@ -66,7 +66,8 @@ def test_an_output_path_that_is_a_file_is_a_usage_error(tmp_path):
     done, _ = cavesim("run", "--walls", "1", "--scene", str(MINIMAL), "--out", str(out))
     assert done.returncode == 2
     line = assert_one_clear_line(done.stderr)
-    assert line.startswith("cavesim run: error: argument --out: cannot make directory")
+    assert line == f"cavesim run: error: argument --out: {str(out)!r} is a file; give a folder " \
+                   f"(a new one is made)"
 
 
 def test_no_egl_driver_stops_run_before_anything_starts(tmp_path):

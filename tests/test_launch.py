@@ -178,6 +178,7 @@ def test_a_bad_hosts_file_exits_2_naming_the_line(tmp_path, text, line, message)
     (["--walls", "2"], "argument --walls: 2 walls, but"),
     (["--frames", "0"], "argument --frames: expected a number >= 1"),
     (["--out", "a b"], "--out 'a b': only letters"),
+    (["--out", "README.md"], "argument --out: 'README.md' is a file; give a folder"),
     (["--session", "a.b"], "argument --session"),
     (["--bogus"], "unknown argument --bogus"),
 ])

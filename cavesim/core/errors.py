@@ -58,3 +58,8 @@ class TrackerError(CavesimError, ValueError):
 class ClusterError(CavesimError, RuntimeError):
     """A cluster process failed, or the cluster cannot go on: names the process, its own
     error line and its log."""
+
+
+class OutputError(CavesimError):
+    """A result file could not be written (a full disk, a read-only or deleted folder):
+    names the file and the reason."""

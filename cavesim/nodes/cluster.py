@@ -36,12 +36,14 @@ class ClusterPlan:
 
 def run_cluster(plan: ClusterPlan,
                 progress: Callable[[int, int], None] = lambda k, live: None,
-                before_frame: Callable[[LocalCluster, int], None] | None = None) -> RunRecord:
-    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node."""
+                before_frame: Callable[[LocalCluster, int], None] | None = None,
+                checkpoint: Callable[[RunRecord], None] | None = None) -> RunRecord:
+    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node;
+    `checkpoint` gets the record after every frame."""
     with started_cluster(plan) as (cluster, config), open_master_link(config) as link, \
             cluster.watch(link.events):
         hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
-        return run_master(config, link, progress, hook)
+        return run_master(config, link, progress, hook, checkpoint)
 
 
 @contextmanager

@@ -218,7 +218,8 @@ class Master:
             self._pump(min(deadline, time.monotonic() + INFO_RETRY))
         self.membership = self.membership.started()
 
-    def run(self, progress: Callable[[int, int], None] = lambda k, live: None) -> RunRecord:
+    def run(self, progress: Callable[[int, int], None] = lambda k, live: None,
+            checkpoint: Callable[[RunRecord], None] = lambda record: None) -> RunRecord:
         log_writer = None
         if self.config.frame_log is not None:
             log_writer = FrameLogWriter(self.config.frame_log, {
@@ -238,6 +239,8 @@ class Master:
                     log_writer.append(message, vote.agreed, vote.particles)
                 self.record.frame_done(k, barrier, vote.particles)
                 progress(k, vote.particles)
+                self.record.seconds = time.monotonic() - started
+                checkpoint(self.record)
         finally:
             self.record.seconds = time.monotonic() - started
             self.record.clock_dropped_seconds = self.clock.dropped_seconds
@@ -407,17 +410,19 @@ class Master:
 def run_master(config: MasterConfig, link: Link,
                progress: Callable[[int, int], None] = lambda k, live: None,
                before_frame: Callable[[int], None] | None = None,
+               checkpoint: Callable[[RunRecord], None] | None = None,
                abandon: bool = False) -> RunRecord:
     """Run the cluster for `config.frames` frames over `link` and tell the nodes to stop
     (`abandon`: leave without a word, as a master that dies would; the harness's
     master-kill).
 
     Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
+    `checkpoint` gets the record after every frame (it keeps report.json current).
     """
     master = Master(config, link, before_frame)
     try:
         master.wait_for_walls()
-        master.run(progress)
+        master.run(progress, checkpoint or (lambda record: None))
     except KeyboardInterrupt:
         master.record.interrupted = True
         log.warning("interrupted at frame %d", master.record.frames)
@@ -430,9 +435,10 @@ def run_master(config: MasterConfig, link: Link,
 
 
 def main(config: MasterConfig,
-         progress: Callable[[int, int], None] = lambda k, live: None) -> RunRecord:
+         progress: Callable[[int, int], None] = lambda k, live: None,
+         checkpoint: Callable[[RunRecord], None] | None = None) -> RunRecord:
     """`cavesim master`: the master as a process of its own, over Zenoh."""
     from cavesim.nodes.master_link import open_master_link
 
     with open_master_link(config) as link:
-        return run_master(config, link, progress)
+        return run_master(config, link, progress, checkpoint=checkpoint)

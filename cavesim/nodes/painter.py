@@ -13,6 +13,7 @@ from PIL import Image
 
 from cavesim.core.cave.geometry import load_cave
 from cavesim.core.cave.projection import eye_positions
+from cavesim.core.output import writing
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import FrameMessage
 from cavesim.gpu.engine import ParticleSystem
@@ -43,7 +44,8 @@ class WallPainter:
         for eye, position in eyes.items():
             suffix = "_right" if eye == "right" else ""
             path = self.folder / f"frame_{k:06d}{suffix}.png"
-            Image.fromarray(self.renderer.render(position, helicopter)).save(
-                path, compress_level=1)
+            picture = Image.fromarray(self.renderer.render(position, helicopter))
+            with writing(path):
+                picture.save(path, compress_level=1)
             written.append(path)
         return written

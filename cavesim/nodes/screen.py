@@ -17,6 +17,7 @@ from PIL import Image
 
 from cavesim.core.cave.geometry import Cave, StereoMode, Wall
 from cavesim.core.cave.projection import eye_positions
+from cavesim.core.output import writing
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import FrameMessage
 from cavesim.core.wire.messages import Phase
@@ -51,8 +52,9 @@ class WallScreen:
             self.renderer.draw(position, scene.helicopter)
             self.window.present(self.renderer.picture, eye)
         if self.folder is not None and self.render_every and k % self.render_every == 0:
-            Image.fromarray(self.window.read()).save(self.folder / f"frame_{k:06d}.png",
-                                                     compress_level=1)
+            path = self.folder / f"frame_{k:06d}.png"
+            with writing(path):
+                Image.fromarray(self.window.read()).save(path, compress_level=1)
 
 
 class PreviewScreen:

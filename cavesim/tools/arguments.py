@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+import tempfile
 from pathlib import Path
 
 from cavesim.core.wire.keys import check_name
@@ -92,14 +93,55 @@ def wall_names(count: int) -> tuple[str, ...]:
                  for i in range(count))
 
 
+def output_folder(text: str) -> Path:
+    """An argparse type: an output folder (--out), refused at once if it is a file; the
+    command makes it (`output_directory`) once its other flags are checked."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(_is_a_file(path))
+    return path
+
+
+def output_path(text: str) -> Path:
+    """An argparse type: an output file (--report), refused at once if it is a folder or
+    its folder is a file."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{str(path)!r} is a folder; give the path of a file")
+    folder = next((p for p in path.parents if p.exists()), None)
+    if folder is not None and not folder.is_dir():
+        raise argparse.ArgumentTypeError(f"{str(path)!r}: {str(folder)!r} is a file, not a "
+                                         f"folder; give a path in a folder")
+    return path
+
+
 def output_directory(path: Path, command: str, flag: str = "--out") -> Path:
-    """Make the output directory before any work, so a bad one costs no run."""
+    """Make the output directory and try a file in it before any work, so a bad one costs
+    no run."""
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"cavesim {command}: error: argument {flag}: {_is_a_file(path)}")
     try:
         path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
     except OSError as e:
-        raise UsageError(f"cavesim {command}: error: argument {flag}: cannot make directory "
+        raise UsageError(f"cavesim {command}: error: argument {flag}: cannot write in directory "
                          f"{str(path)!r}: {e.strerror or e}; give a writable directory") from e
     return path
+
+
+def output_file(path: Path, command: str, flag: str) -> Path:
+    """`output_directory` for a file's folder; a path that is a directory is refused."""
+    try:
+        output_path(str(path))
+    except argparse.ArgumentTypeError as e:
+        raise UsageError(f"cavesim {command}: error: argument {flag}: {e}") from e
+    output_directory(path.parent, command, flag)
+    return path
+
+
+def _is_a_file(path: Path) -> str:
+    return f"{str(path)!r} is a file; give a folder (a new one is made)"
 
 
 def network_and_key(args: argparse.Namespace, command: str):

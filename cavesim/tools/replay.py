@@ -1,4 +1,8 @@
-"""Replaying a frame log on one engine: every recorded checksum must come back bit for bit."""
+"""Replaying a frame log on one engine: every recorded checksum must come back bit for bit.
+
+The replay takes the log's whole records and stops where it is torn or corrupt (every
+frame depends on the ones before); `damage` says where.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cavesim.core.drivers import driver_for
-from cavesim.core.framelog import read_frame_log
+from cavesim.core.framelog import Damage, read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.gl.context import create_context
@@ -19,6 +23,7 @@ class ReplayResult:
     scene: str
     frames: int = 0
     mismatches: list[dict] = field(default_factory=list)
+    damage: Damage | None = None  # where the log stops being readable
 
     @property
     def equal(self) -> bool:
@@ -27,7 +32,8 @@ class ReplayResult:
     def summary(self) -> dict:
         return {"log": self.log, "scene": self.scene, "frames": self.frames,
                 "equal": self.equal, "mismatches": self.mismatches[:100],
-                "mismatch_count": len(self.mismatches)}
+                "mismatch_count": len(self.mismatches),
+                "damage": self.damage.to_json() if self.damage else None}
 
 
 def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
@@ -37,7 +43,7 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
     scene_path = Path(scene_path or header["scene"])
     scene = load_scene(scene_path)
     system, driver = ParticleSystem(ctx or create_context(), scene), driver_for(scene)
-    result = ReplayResult(str(log_path), str(scene_path))
+    result = ReplayResult(str(log_path), str(scene_path), damage=frames.damage)
     for logged in frames:
         system.step(logged.message.inputs, driver.decode(logged.message.params))
         state = system.checksum()

@@ -9,6 +9,8 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from cavesim.core.output import writing
+
 MAX_WIDTH_PX = 1280  # wider frames are scaled down: a full-resolution CAVE GIF is huge
 FORMATS = (".gif", ".mp4")
 
@@ -43,8 +45,9 @@ def write_animation(frames: list[Path], path: Path, fps: float = 15) -> Path:
         first, *rest = (_frame(f) for f in frames)
         # GIF keeps delays in centiseconds; Pillow merges identical consecutive frames
         # into one longer frame, so n_frames may be below len(frames) for a still scene.
-        first.save(path, save_all=True, append_images=rest, duration=round(1000 / fps),
-                   loop=0, optimize=False)
+        with writing(path):
+            first.save(path, save_all=True, append_images=rest, duration=round(1000 / fps),
+                       loop=0, optimize=False)
     else:
         import imageio.v2 as imageio
 

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from PIL import Image
 
+from cavesim.core.output import writing
 from cavesim.gpu.render.unfold import Slot, slots_of
 
 if TYPE_CHECKING:
@@ -110,6 +111,7 @@ def compose_run(cave: Cave, walls_dir: Path, out_dir: Path) -> list[Path]:
             with Image.open(f[n]) as im:
                 images[name] = im.convert("RGB")
         path = out_dir / f"composite_{n:06d}.png"
-        _compose(slots, size, images, DEFAULT_BACKGROUND).save(path)
+        with writing(path):
+            _compose(slots, size, images, DEFAULT_BACKGROUND).save(path)
         written.append(path)
     return written

@@ -18,6 +18,7 @@ from cavesim.tools.arguments import (
     count_list,
     frame_count,
     output_directory,
+    output_folder,
     scene_file,
     wall_count,
 )
@@ -48,7 +49,7 @@ def add(commands) -> None:
                              f"{BENCH_FRAMES}); with --cluster: frames per run "
                              f"(default: {CLUSTER_FRAMES}); with --soak: frames of the run "
                              f"(default: 100000)")
-    parser.add_argument("--out", type=Path, default=Path("out/bench"),
+    parser.add_argument("--out", type=output_folder, default=Path("out/bench"),
                         help="directory for bench.json and bench.md, cluster.json and "
                              "cluster.md, or soak.json (default: out/bench)")
     parser.add_argument("--cluster", action="store_true",

@@ -9,14 +9,17 @@ from pathlib import Path
 
 from rich.progress import Progress
 
+from cavesim.core.output import check_written, writing
 from cavesim.core.wire.network import session_name
 from cavesim.nodes.faults import KINDS
+from cavesim.nodes.lockstep import LOSS_POLICIES
 from cavesim.tools.arguments import (
     RUN_ERROR,
     UsageError,
     configure_logging,
     frame_count,
     output_directory,
+    output_folder,
     scene_file,
     seconds,
     wall_count,
@@ -37,9 +40,9 @@ def add(commands) -> None:
                         metavar="KIND@FRAME[:NODE]",
                         help=f"{', '.join(KINDS)} (repeatable)")
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
-    parser.add_argument("--on-loss", choices=("continue", "pause"), default="continue")
+    parser.add_argument("--on-loss", choices=LOSS_POLICIES, default="continue")
     parser.add_argument("--check-every", type=frame_count, default=1)
-    parser.add_argument("--out", type=Path, default=Path("out/check"))
+    parser.add_argument("--out", type=output_folder, default=Path("out/check"))
     parser.add_argument("--session", default="check", type=session_name)
     parser.set_defaults(handler=check)
 
@@ -71,8 +74,11 @@ def check(args: argparse.Namespace, console) -> int:
     with Progress(console=console) as progress:
         task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
         report = run_check(plan, lambda k, live: progress.update(task, completed=k))
-    (args.out / "check.json").write_text(json.dumps(report, indent=2) + "\n")
+    path = args.out / "check.json"
+    with writing(path):
+        path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(check_table(report))
-    console.print(f"wrote {args.out / 'check.json'}")
+    check_written(path)
+    console.print(f"wrote {path}")
     healthy = report["final"].get("agree") and report["all_detected"] and report["all_healed"]
     return 0 if healthy and (args.inject or report["divergences"] == 0) else RUN_ERROR

@@ -6,14 +6,13 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-from pathlib import Path
 
 from cavesim.core.limits import GPU_RANGE
 from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from cavesim.nodes.faults import parse_fault
-from cavesim.nodes.lockstep import MASTER_LOSS_POLICIES
+from cavesim.nodes.lockstep import LOSS_POLICIES, MASTER_LOSS_POLICIES
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
@@ -24,6 +23,9 @@ from cavesim.tools.arguments import (
     master_credentials,
     network_and_key,
     number_in,
+    output_file,
+    output_folder,
+    output_path,
     scene_file,
     seconds,
     wall_list,
@@ -47,7 +49,7 @@ def add_master(commands) -> None:
     parser.add_argument("--frames", type=frame_count, default=600)
     parser.add_argument("--barrier-timeout", type=seconds, default=2.0)
     parser.add_argument("--join-timeout", type=seconds, default=60.0)
-    parser.add_argument("--on-loss", choices=("continue", "pause"),
+    parser.add_argument("--on-loss", choices=LOSS_POLICIES,
                         help="a wall lost (gone, or silent past --evict-after): continue "
                              "without it, or pause the barrier until it is back (at most "
                              "--max-pause). Default: continue, but the run then exits 1 when a "
@@ -69,8 +71,8 @@ def add_master(commands) -> None:
                         default=0.1, help="real time: most wall time one tick may count")
     parser.add_argument("--max-substeps", type=number_in(int, 1, 100, "frames"), default=4,
                         help="real time: most frames sent back to back to catch up")
-    parser.add_argument("--report", type=Path, help="write the run's JSON report here")
-    parser.add_argument("--frame-log", type=Path, help="record every frame's inputs here")
+    parser.add_argument("--report", type=output_path, help="write the run's JSON report here")
+    parser.add_argument("--frame-log", type=output_path, help="record every frame's inputs here")
     parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
@@ -80,10 +82,14 @@ def add_master(commands) -> None:
 def master(args: argparse.Namespace, console) -> int:
     from cavesim.nodes.master import MasterConfig
     from cavesim.nodes.master import main as run_master
+    from cavesim.nodes.report_file import ReportFile
 
     configure_logging(args.verbose)
     network, _ = network_and_key(args, "master")
     credentials = master_credentials(args.key_file, "master")
+    for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
+        if path is not None:
+            output_file(path, "master", flag)
     config = MasterConfig(args.walls, args.scene, args.frames, args.session, network,
                           credentials, barrier_timeout=args.barrier_timeout,
                           join_timeout=args.join_timeout, on_loss=args.on_loss or "continue",
@@ -97,10 +103,12 @@ def master(args: argparse.Namespace, console) -> int:
         if args.progress:
             print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
 
-    record = run_master(config, progress)
-    if args.report:
-        args.report.parent.mkdir(parents=True, exist_ok=True)
-        args.report.write_text(json.dumps(record.summary(), indent=2) + "\n")
+    if args.report is None:
+        record = run_master(config, progress)
+    else:
+        with ReportFile(args.report) as report:
+            record = run_master(config, progress, report.checkpoint)
+            report.finish(record.summary(), record.interrupted)
     if record.interrupted:
         return INTERRUPTED
     return lost_walls_code(record.final.lost if record.final else (), args.on_loss, "master")
@@ -116,7 +124,7 @@ def add_node(commands) -> None:
     parser.add_argument("--cave", type=cave_file, help="CAVE geometry (.toml) to draw the wall of")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
                         help="draw the wall every K frames (0: never)")
-    parser.add_argument("--images", type=Path, help="folder for <wall>/frame_<k>.png")
+    parser.add_argument("--images", type=output_folder, help="folder for <wall>/frame_<k>.png")
     parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
     parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
                         help="EGL device to compute on (default: device 0; `cavesim doctor` "

@@ -9,14 +9,20 @@ from pathlib import Path
 from rich.console import Console
 
 from cavesim.core.wire.network import add_network_arguments
-from cavesim.tools.arguments import RUN_ERROR, UsageError, network_and_key, output_directory
+from cavesim.tools.arguments import (
+    RUN_ERROR,
+    UsageError,
+    network_and_key,
+    output_file,
+    output_path,
+)
 
 
 def add(commands) -> None:
     parser = commands.add_parser(
         "doctor", help="what this node offers: EGL devices, GL limits, zenoh, windows; "
                        "exit 1 with the reason and the fix if it cannot run cavesim")
-    parser.add_argument("--out", type=Path, default=Path("out/doctor.json"),
+    parser.add_argument("--out", type=output_path, default=Path("out/doctor.json"),
                         help="where to write the findings as JSON (default: out/doctor.json)")
     add_network_arguments(parser)
     parser.set_defaults(handler=doctor)
@@ -31,7 +37,7 @@ def doctor(args: argparse.Namespace, console: Console) -> int:
         network.zenoh_config()
     except ValueError as e:
         raise UsageError(f"cavesim doctor: error: {e}") from e
-    output_directory(args.out.parent, "doctor")
+    output_file(args.out, "doctor", "--out")
     verdict = run_doctor(network, args.out, console)
     if verdict.ok:
         return 0

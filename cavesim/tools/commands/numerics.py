@@ -16,6 +16,7 @@ from cavesim.tools.arguments import (
     frame_count,
     number_in,
     output_directory,
+    output_folder,
     scene_file,
 )
 
@@ -29,7 +30,7 @@ def add_accuracy(commands) -> None:
     parser.add_argument("--scene", type=scene_file,
                         help=f"helicopter scene whose rotor downwash is the third case "
                              f"(default: {HELICOPTER_SCENE})")
-    parser.add_argument("--out", type=Path, default=Path("out/accuracy"),
+    parser.add_argument("--out", type=output_folder, default=Path("out/accuracy"),
                         help="directory for accuracy.csv, accuracy.md, accuracy.json and "
                              "work_precision.png (default: out/accuracy)")
     parser.add_argument("--particles", type=number_in(int, 1, MAX_PARTICLES,
@@ -61,7 +62,7 @@ def add_stability(commands) -> None:
         "stability", help="stiff sweep of every integrator and the extreme inputs")
     parser.add_argument("--frames", type=frame_count, default=120,
                         help="frames per stiff run (default 120)")
-    parser.add_argument("--out", type=Path, default=Path("out/stability"),
+    parser.add_argument("--out", type=output_folder, default=Path("out/stability"),
                         help="directory for stability.json, .md and .png")
     parser.set_defaults(handler=stability)
 

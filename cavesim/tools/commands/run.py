@@ -1,13 +1,13 @@
 """`cavesim run`: the master and one node per wall on this machine, with a progress bar.
 
 Each wall computes on the EGL device its plan gives it (`cavesim.nodes.gpus`); the summary names
-the GPU every wall reported. report.json is written once, after the pictures and plots.
+the GPU every wall reported. report.json is kept current while the master runs (a crash
+leaves the last checkpoint) and written whole at the end, with the pictures and plots.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,18 +17,23 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
+from cavesim.core.output import check_written, writing
 from cavesim.core.wire.credentials import Credentials
 from cavesim.core.wire.network import session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
+from cavesim.nodes.lockstep import LOSS_POLICIES
 from cavesim.nodes.master import MasterConfig
+from cavesim.nodes.report_file import ReportFile
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
     cave_file,
     frame_count,
+    lost_walls_code,
     master_credentials,
     number_in,
     output_directory,
+    output_folder,
     scene_file,
     wall_count,
     wall_names,
@@ -47,6 +52,7 @@ class RunPlan:
     out: Path
     session: str = "run"
     credentials: Credentials | None = None  # the master's (master.key); nodes get session.key
+    on_loss: str = "continue"  # a wall lost: go on without it, or "pause" the barrier
     cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
     render_every: int = 0
     stereo: bool = False
@@ -79,7 +85,8 @@ class RunPlan:
 
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
-                              credentials=self.credentials, frame_log=self.out / "frames.log")
+                              credentials=self.credentials, on_loss=self.on_loss,
+                              frame_log=self.out / "frames.log")
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
         return ClusterPlan(master, self.out,
@@ -87,27 +94,31 @@ class RunPlan:
 
 
 def run_walls(plan: RunPlan, console: Console) -> dict:
-    """Run the cluster to the end (or Ctrl-C); write and return report.json's content."""
+    """Run the cluster to the end (or Ctrl-C), keeping report.json current; write and
+    return its final content."""
     plan.out.mkdir(parents=True, exist_ok=True)
     columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
-    with Progress(*columns, console=console, transient=False) as progress:
-        task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
-        record = run_cluster(plan.cluster(), lambda k, live: progress.update(
-            task, completed=k, live=live))
-    if record.interrupted:
-        console.print("[yellow]interrupted: the cluster was stopped")
-    report = record.summary()
-    if plan.draws:
-        report["images"] = assemble_images(plan, console)
-    report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
-    report_path = plan.out / "report.json"
-    report_path.write_text(json.dumps(report, indent=2) + "\n")
+    with ReportFile(plan.out / "report.json") as report_file:
+        with Progress(*columns, console=console, transient=False) as progress:
+            task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
+            record = run_cluster(plan.cluster(), lambda k, live: progress.update(
+                task, completed=k, live=live), checkpoint=report_file.checkpoint)
+        if record.interrupted:
+            console.print("[yellow]interrupted: the cluster was stopped")
+        report = record.summary()
+        with writing(plan.out):
+            if plan.draws:
+                report["images"] = assemble_images(plan, console)
+            report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+        report_file.finish(report, record.interrupted)
+    frame_log, logs = plan.out / "frames.log", plan.out / "logs"
+    check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))
-    console.print(f"wrote {report_path}, {plan.out / 'frames.log'}, logs in {plan.out / 'logs'}")
+    console.print(f"wrote {report_file.path}, {frame_log}, logs in {logs}")
     return report
 
 
@@ -123,6 +134,7 @@ def assemble_images(plan: RunPlan, console: Console) -> dict:
     if composites:
         images["animation"] = str(write_animation(composites, plan.out / "run.gif"))
         images["last_composite"] = str(composites[-1])
+        check_written(images["animation"], *composites)
         console.print(f"wrote {len(composites)} composites and {images['animation']}")
     return images
 
@@ -134,6 +146,7 @@ def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
     from cavesim.tools.reports.demo import write_demo_plots  # matplotlib: only when there is a plot
 
     paths = write_demo_plots(report, out)
+    check_written(*paths)
     console.print(f"wrote {len(paths)} plots in {out / 'plots'}")
     return paths
 
@@ -156,8 +169,13 @@ def add(commands) -> None:
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
-    parser.add_argument("--out", type=Path, default=Path("out"))
+    parser.add_argument("--out", type=output_folder, default=Path("out"))
     parser.add_argument("--session", default="run", type=session_name)
+    parser.add_argument("--on-loss", choices=LOSS_POLICIES,
+                        help="a wall lost (its node gone, or silent 10 s in the barrier): "
+                             "continue without it, or pause until it is back (at most 300 s). "
+                             "Default: continue, but the run then exits 1 when a wall is lost "
+                             "for good; give --on-loss continue to accept that")
     parser.add_argument("--key-file", type=Path,
                         help="the session's master.key (`cavesim keys`): every message signed; "
                              "the nodes get OUT/session.key")
@@ -178,11 +196,14 @@ def run(args: argparse.Namespace, console) -> int:
     output_directory(args.out, "run")
     frames = args.frames or default_frames(scene)
     plan = RunPlan(walls, args.scene, frames, args.out, args.session, credentials,
+                   on_loss=args.on_loss or "continue",
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus, display=args.display,
                    preview=args.preview)
     report = run_walls(plan, console)
-    return INTERRUPTED if report["interrupted"] else 0
+    if report["interrupted"]:
+        return INTERRUPTED
+    return lost_walls_code(report["final"].get("lost", ()), args.on_loss, "run")
 
 
 def default_frames(scene, dt: float = 1 / 60) -> int:

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from cavesim.core.errors import TrackerError
+from cavesim.core.output import writing
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.tools.arguments import (
     UsageError,
@@ -15,6 +15,8 @@ from cavesim.tools.arguments import (
     existing_file,
     network_and_key,
     number_in,
+    output_file,
+    output_path,
 )
 
 DEFAULT_MAP = "config/tracking/dtrack.toml"
@@ -35,7 +37,8 @@ def add(commands) -> None:
                         default=0.0, metavar="HZ",
                         help="publish at most HZ messages per second (default 0: one per "
                              "datagram)")
-    parser.add_argument("--report", type=Path, help="write the counts as JSON here at the end")
+    parser.add_argument("--report", type=output_path,
+                        help="write the counts as JSON here at the end")
     parser.add_argument("--verbose", action="store_true")
     add_network_arguments(parser)
     parser.set_defaults(handler=tracker)
@@ -52,14 +55,16 @@ def tracker(args: argparse.Namespace, console) -> int:
         mapping = load_mapping(args.map)
     except TrackerError as e:
         raise UsageError(f"cavesim tracker: error: argument --map: {e}") from e
+    if args.report:
+        output_file(args.report, "tracker", "--report")
     counts = run_tracker(TrackerConfig(args.dtrack, mapping, args.bind, args.session, network,
                                        key, args.max_rate))
     console.print(f"tracker: {counts.datagrams} datagrams, {counts.published} published; "
                   f"rejected: {_by_name(counts.rejected)}; missing (last pose kept): "
                   f"{_by_name(counts.missing)}", markup=False, soft_wrap=True)
     if args.report:
-        args.report.parent.mkdir(parents=True, exist_ok=True)
-        args.report.write_text(json.dumps(counts.summary(), indent=2) + "\n")
+        with writing(args.report):
+            args.report.write_text(json.dumps(counts.summary(), indent=2) + "\n")
     return 0
 
 

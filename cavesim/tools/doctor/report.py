@@ -13,6 +13,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from cavesim.core.errors import ContextError
+from cavesim.core.output import check_written, writing
 from cavesim.core.wire.network import NetworkConfig
 from cavesim.gpu.gl.devices import VENDOR_VARIABLE, library_name, list_devices
 from cavesim.tools.doctor.checks import check_windows, check_zenoh
@@ -39,7 +40,8 @@ def run_doctor(network: NetworkConfig, out: Path, console: Console) -> Verdict:
     findings = gather(network)
     verdict = judge(findings)
     findings["verdict"] = verdict.summary()
-    out.write_text(json.dumps(findings, indent=2) + "\n")
+    with writing(out):
+        out.write_text(json.dumps(findings, indent=2) + "\n")
     if findings["devices"]:
         console.print(device_table(findings["devices"]))
     if any(d["opened"] for d in findings["devices"]):
@@ -52,6 +54,7 @@ def run_doctor(network: NetworkConfig, out: Path, console: Console) -> Verdict:
     else:
         console.print(f"[red]cannot run cavesim:[/] {escape(verdict.reason)}\n"
                       f"[red]fix:[/] {escape(verdict.fix)}")
+    check_written(out)
     console.print(f"wrote {escape(str(out))}")
     return verdict
 

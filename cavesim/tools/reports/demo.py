@@ -16,6 +16,8 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
+from cavesim.core.output import writing
+
 matplotlib.use("Agg")  # headless: no display on the master's host, and no GUI event loop
 import matplotlib.pyplot as plt  # noqa: E402  (must follow the backend choice)
 from matplotlib.ticker import StrMethodFormatter  # noqa: E402
@@ -52,7 +54,8 @@ def write_demo_plots(report: dict, out_dir: Path) -> list[Path]:
     for path, draw in zip(paths, (_plot_against_time, _plot_against_altitude), strict=True):
         fig = draw(s)
         try:
-            fig.savefig(path, dpi=DPI)
+            with writing(path):
+                fig.savefig(path, dpi=DPI)
         finally:
             plt.close(fig)
     return paths

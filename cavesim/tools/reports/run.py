@@ -13,6 +13,7 @@ def summary_table(report: dict) -> Table:
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
         ("live particles (last / max)",
          f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
+        ("lost for good", ", ".join(report["final"].get("lost", ())) or "none"),
         ("divergences", report["event_totals"]["divergences"]),
         ("resyncs", report["event_totals"]["resyncs"]),
         ("stalls", report["event_totals"]["stalls"]),
