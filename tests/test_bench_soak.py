@@ -16,7 +16,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from cavesim.tools.bench.soak import MASTER, MemorySampler, growth_mb, resident_mb
+from cavesim.nodes.launcher import resident_mb
+from cavesim.tools.bench.soak import MASTER, MemorySampler, growth_mb
 from cavesim.tools.cli import main
 
 ROOT = Path(__file__).parents[1]

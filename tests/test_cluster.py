@@ -105,6 +105,19 @@ def test_attacks_and_a_killed_master_are_refused_and_survived(tmp_path):
     assert report["divergences"] == 0 and report["final"]["agree"]  # in the new run
 
 
+def test_a_flood_of_junk_and_queries_is_counted_and_costs_no_memory_and_little_log(tmp_path):
+    report = check(tmp_path, ["flood@20"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["flood@20"])
+    (flood,) = report["faults"]
+    figures = flood["detection"]
+    assert figures["refused_by_nodes"] >= 200_000 * len(WALLS)  # each one counted
+    for wall in WALLS:
+        before, after = (figures[when] for when in ("before", "after"))
+        assert after["rss_mb"][wall] - before["rss_mb"][wall] < 20  # the queues are bounded
+        assert after["log_bytes"][wall] - before["log_bytes"][wall] < 20_000  # rate-limited
+    assert report["run"]["losses"] == [] and report["final"]["agree"]
+
+
 def test_two_nodes_name_both_on_a_divergence(tmp_path):
     report = check(tmp_path, ["bitflip@10:left"], walls=("front", "left"), frames=40)
     (divergence,) = report["run"]["divergences"]

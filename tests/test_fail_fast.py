@@ -189,3 +189,34 @@ def test_bad_names_and_files_are_usage_errors(args, message):
     done, _ = cavesim(*args)
     assert done.returncode == 2
     assert message in assert_one_clear_line(done.stderr)
+
+
+@pytest.mark.parametrize("command", [["master", "--walls", "front"], ["node", "--wall", "front"],
+                                     ["tracker", "--dtrack", "5000"]])
+@pytest.mark.parametrize(("text", "says"), [("{ this is not json5", "expected array"),
+                                            ('{"mode": "bogus"}', "unknown variant `bogus`")])
+def test_a_zenoh_config_that_does_not_parse_is_one_line_before_anything_starts(
+        tmp_path, command, text, says):
+    config = tmp_path / "zenoh.json5"
+    config.write_text(text)
+    done, _ = cavesim(*command, "--config", str(config))
+    assert done.returncode == 2
+    line = assert_one_clear_line(done.stderr)
+    assert f"--config {config}: not a usable zenoh config" in line and says in line
+    assert ".rs:" not in line  # zenoh's Rust source location is not for a user
+
+
+def test_an_endpoint_zenoh_cannot_listen_on_is_one_line(tmp_path):
+    done, _ = cavesim("master", "--walls", "front", "--listen", "tcp/192.0.2.1:7447",
+                      "--scene", str(MINIMAL))
+    assert done.returncode == 1
+    line = assert_one_clear_line(done.stderr)
+    assert "cannot open a zenoh session (--listen ['tcp/192.0.2.1:7447']" in line
+
+
+def test_a_join_timeout_is_one_line_naming_the_flag(tmp_path):
+    done, _ = cavesim("master", "--walls", "front", "--scene", str(MINIMAL),
+                      "--join-timeout", "0.5", "--listen", "tcp/127.0.0.1:0")
+    assert done.returncode == 1
+    line = assert_one_clear_line(done.stderr)
+    assert "walls ['front'] did not join within 0.5 s (--join-timeout)" in line

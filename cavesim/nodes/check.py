@@ -25,17 +25,19 @@ from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import generate
 from cavesim.nodes.cluster import ClusterPlan, run_cluster, started_cluster
 from cavesim.nodes.faults import NODE_FAULTS, Fault
-from cavesim.nodes.launcher import LocalCluster
+from cavesim.nodes.launcher import LocalCluster, resident_mb
 from cavesim.nodes.lockstep import MASTER_GONE
 from cavesim.nodes.master import MasterConfig, run_master
 from cavesim.nodes.master_link import open_master_link
 from cavesim.nodes.record import RunRecord
 from cavesim.nodes.rogue import RoguePeer, run_id_of
 
-WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill")  # faults of no one node
-ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery")  # done by a RoguePeer
+WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood")  # of no one node
+ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood")  # a RoguePeer's
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
-FLOOD_QUERIES = 50  # unsigned state queries sent with the forged snapshots
+FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
+FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
+FLOOD_SETTLE = 30  # frames after a flood before the nodes are measured again
 
 
 @dataclass(frozen=True)
@@ -73,7 +75,7 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     cluster = ClusterPlan(master, plan.out, {wall: (*node_args, *(
         arg for node, own in injected if node == wall for arg in ("--inject", str(own))))
         for wall in plan.walls})
-    harness = _Harness(faults, node_args, credentials, plan.scene)
+    harness = _Harness(faults, node_args, credentials, plan.scene, plan.frames)
     try:
         if kill is None:
             record, killed = run_cluster(cluster, progress, harness.before_frame), None
@@ -131,13 +133,15 @@ class _Harness:
     """Does the faults that come from outside the nodes, just before their frame."""
 
     def __init__(self, faults: tuple[Fault, ...], node_args, credentials: Credentials,
-                 scene: Path) -> None:
+                 scene: Path, frames: int) -> None:
         self.faults = faults
         self.node_args = node_args
         self.credentials = credentials
         self.emitters = len(load_scene(scene).emitters)
+        self.frames = frames
         self.rogue: RoguePeer | None = None
         self.noticed: list[str] = []  # walls whose log says they saw the master go
+        self.flood: dict = {}  # the nodes' memory and log sizes before and after a flood
 
     def before_frame(self, cluster: LocalCluster, k: int) -> None:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
@@ -159,7 +163,12 @@ class _Harness:
                 self.rogue.serve_forged_snapshots(cluster.master_endpoint,
                                                   self.credentials.for_members(),
                                                   self.emitters)
-                self.rogue.flood(FLOOD_QUERIES)
+                self.rogue.flood(0, FORGERY_QUERIES)
+            elif fault.kind == "flood":
+                self.flood = {"frame": k, "before": self._measure(cluster)}
+                self.flood["seconds"] = round(self.rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
+        if self.flood and k == min(self.flood["frame"] + FLOOD_SETTLE, self.frames):
+            self.flood["after"] = self._measure(cluster)
 
     def _forge(self, session: str, k: int) -> None:
         """Frames from a foreign publisher: unsigned, wrongly signed, or of another session."""
@@ -184,6 +193,13 @@ class _Harness:
         latest = rogue.latest("frame")
         run_id = run_id_of(latest) if latest is not None else 0
         rogue.as_a_member(self.credentials.for_members(), run_id, k)
+
+    @staticmethod
+    def _measure(cluster: LocalCluster) -> dict:
+        """Each node's resident memory (MB) and log size (bytes)."""
+        return {"rss_mb": {w: round(resident_mb(p.pid) or 0.0, 1)
+                           for w, p in cluster.nodes.items()},
+                "log_bytes": {w: cluster.log_path(w).stat().st_size for w in cluster.nodes}}
 
     def master_killed(self, cluster: LocalCluster, timeout: float = 10.0) -> None:
         """Wait until every node has logged the master's loss (they notice it on liveliness)."""
@@ -283,6 +299,15 @@ def _outcome(fault: Fault, record: RunRecord, harness: _Harness,
             healed_at = _resynced(record, fault.node, hit.frame)
         outcome = (f"{fault.node} loaded only the state the master named"
                    if healed_at is not None else f"{fault.node} was not healed")
+    elif fault.kind == "flood":
+        detection = {**harness.flood, "refused_by_nodes": node_rejected}
+        if node_rejected >= FLOOD_MESSAGES:
+            detected = fault.frame
+        if not record.losses and record.frames:
+            healed_at = fault.frame
+        outcome = (f"{FLOOD_MESSAGES:,} junk messages and {FLOOD_QUERIES:,} unsigned state "
+                   f"queries in {harness.flood.get('seconds')} s: counted, logged at a bounded "
+                   f"rate, no node lost")
     elif fault.kind == "master-kill":
         rejoined = list(record.final.members) if record.final else []
         detection = {"killed_run": f"{killed.run_id:016x}", "frames_before": killed.frames,

@@ -6,10 +6,11 @@ import re
 from dataclasses import dataclass
 
 NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow")  # the node does them to itself
-HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery")
+HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
+                  "flood")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
-# snapshots to a node it makes diverge
+# snapshots to a node it makes diverge, flood the nodes with junk and state queries
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 

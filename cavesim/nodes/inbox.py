@@ -32,7 +32,7 @@ from cavesim.core.wire import (
     StateRequest,
     decode_envelope,
 )
-from cavesim.core.wire.guards import KeyMismatch, RateLimit
+from cavesim.core.wire.guards import SIGNATURE_REASONS, KeyMismatch, RateLimit
 from cavesim.core.wire.rejects import RejectCounter
 
 log = logging.getLogger("cavesim.node")
@@ -174,7 +174,7 @@ class NodeInbox:
         self._offer(StateQuery(query, request.message), query)
 
     def _on_info_query(self, query: zenoh.Query) -> None:
-        request = self._request(query, InfoRequest)
+        request = self._request(query, InfoRequest, tell_signature_failures=True)
         if request is not None:
             self._offer(InfoQuery(query, request.run_id), query)
 
@@ -183,11 +183,14 @@ class NodeInbox:
 
     # -- checks ------------------------------------------------------------------------
 
-    def _open(self, data: bytes, where: str, sender: str = MASTER):
+    def _open(self, data: bytes, where: str, sender: str = MASTER,
+              query: zenoh.Query | None = None):
         try:
             envelope = decode_envelope(data, self.session_name, self.credentials)
         except ProtocolError as e:
             self._reject(e, where, sender)
+            if query is not None and e.reason in SIGNATURE_REASONS:
+                query.reply_err(e.reason)
             return None
         self.mismatch.note(sender, None)
         return envelope
@@ -204,13 +207,20 @@ class NodeInbox:
             return False
         return True
 
-    def _request(self, query: zenoh.Query, expected: type):
-        """The query's checked request envelope, or None (the query is then dropped)."""
+    def _request(self, query: zenoh.Query, expected: type,
+                 tell_signature_failures: bool = False):
+        """The query's checked request envelope, or None (the query is then dropped; with
+        `tell_signature_failures`, a signature failure is first answered with its reason, so
+        that the master can tell that the keys do not match)."""
         where = str(query.key_expr)
         payload = query.payload
         sender = MASTER if expected is InfoRequest else "a peer"
-        envelope = self._open(payload.to_bytes(), where, sender) if payload is not None \
-            else self._reject(ProtocolError("unsigned", "a query without a request"), where)
+        if payload is None:
+            envelope = self._reject(ProtocolError("unsigned", "a query without a request"),
+                                    where)
+        else:
+            envelope = self._open(payload.to_bytes(), where, sender,
+                                  query if tell_signature_failures else None)
         if envelope is not None and not isinstance(envelope.message, expected):
             self._reject(ProtocolError("unexpected", f"a {type(envelope.message).__name__} "
                                                      f"as a {expected.__name__}"), where)

@@ -24,6 +24,8 @@ from pathlib import Path
 from cavesim.nodes.events import Event, ProcessEnded
 from cavesim.nodes.faults import Fault
 
+PROC = Path("/proc")  # what the kernel says of each process
+
 GRACE_SECONDS = 10.0
 WATCH_SECONDS = 0.1  # how often the watcher looks at the children
 _LOG_TAIL_BYTES = 8192
@@ -179,3 +181,15 @@ def _wait_or_kill(process: subprocess.Popen, patience: float, interrupt: bool = 
             pass
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
+
+
+def resident_mb(pid: int) -> float | None:
+    """Process `pid`'s resident memory (VmRSS) in MB of 10^6 bytes (None: not readable)."""
+    try:
+        status = (PROC / str(pid) / "status").read_text()
+    except OSError:
+        return None
+    for line in status.splitlines():
+        if line.startswith("VmRSS:"):  # "VmRSS:     123456 kB", the kernel's kB being KiB
+            return int(line.split()[1]) * 1024 / 1e6
+    return None

@@ -1,13 +1,14 @@
 """The master's side of the wire over Zenoh: typed events in, messages out.
 
-Zenoh callbacks decode and check on Zenoh's threads, so nothing unchecked is ever queued:
-a message must carry this run's id (`run_id`, drawn by the master), come from the wall its
+Zenoh callbacks decode and check on Zenoh's threads, so nothing unchecked is ever queued: a
+message must carry this run's id (`run_id`, drawn by the master), come from the wall its
 key names, and a report may only be of a frame already sent. Refusals are counted (and
-logged at a bounded rate), never queued; a sender whose every message fails its signature
-is named with a hint about --key-file. The event queue is bounded: when the master falls
-that far behind, further events are dropped and counted (the barrier asks again). Only
-the latest tracking message is kept. The master's liveliness token tells the nodes it is
-there; liveliness of the session's walls becomes WallUp/WallDown.
+logged at a bounded rate), never queued; a wall whose every message fails its signature, or
+that refuses the master's signed queries, is named with a hint about --key-file. The event
+queue is bounded: when the master falls that far behind, further events are dropped and
+counted (the barrier asks again). Only the latest tracking message is kept. The master's
+liveliness token tells the nodes it is there; liveliness of the session's walls becomes
+WallUp/WallDown.
 """
 
 from __future__ import annotations
@@ -79,8 +80,8 @@ class ZenohMasterLink:
 
     def ask_info(self, wall: str) -> None:
         """Ask `wall` which GPU it computes on and for its nonce; the answer is an event."""
-        self.session.get(self.keys.info(wall), self._on_info, timeout=INFO_TIMEOUT,
-                         payload=self._seal(InfoRequest(0, wall)))
+        self.session.get(self.keys.info(wall), lambda reply: self._on_info(wall, reply),
+                         timeout=INFO_TIMEOUT, payload=self._seal(InfoRequest(0, wall)))
 
     def sender_hint(self, wall: str) -> str | None:
         """Why `wall` may not be heard: its messages fail their signature (else None)."""
@@ -123,9 +124,12 @@ class ZenohMasterLink:
         if (message := self._from_wall(sample, DisplayMessage, "display")) is not None:
             self._post(Displayed(message))
 
-    def _on_info(self, reply: zenoh.Reply) -> None:
-        if reply.ok is None:
-            log.info("an info query got no answer: %s", reply.err.payload.to_string())
+    def _on_info(self, wall: str, reply: zenoh.Reply) -> None:
+        if reply.ok is None:  # the wall's refusal (our signature failed there), or a timeout
+            reason = reply.err.payload.to_string()
+            log.info("the info query to %s got no answer: %s", wall, reason)
+            if hint := self.mismatch.note(f"wall {wall}", reason):
+                log.error("master: %s", hint)
             return
         if (info := self._from_wall(reply.ok, InfoMessage, "info")) is not None:
             self._post(Described(info))

@@ -161,16 +161,25 @@ class RoguePeer:
         self.put("unsent-frame-report", self.keys.report(self.walls[0]),
                  encode(report, self.name, member, run_id))
 
-    def flood(self, count: int, size: int = 200) -> None:
-        """`count` junk messages on the frame and control keys, and `count` state queries
-        without the key, as fast as zenoh takes them."""
-        junk = bytes(range(256)) * (size // 256 + 1)
-        for i in range(count):
-            self.zenoh.put(self.keys.frame if i % 2 else self.keys.control, junk[:size])
-            self.zenoh.get(self.keys.state(self.walls[i % len(self.walls)]), lambda r: None,
-                           payload=junk[:size], timeout=0.5)
-        self.sent["junk"] += count
-        self.sent["unsigned-state-query"] += count
+    def flood(self, messages: int, queries: int, size: int = 200) -> float:
+        """`messages` junk messages on the frame and control keys and `queries` state
+        queries without the key, as fast as zenoh takes them; the seconds it took."""
+        started = time.monotonic()
+        junk = (bytes(range(256)) * (size // 256 + 1))[:size]
+        frame = self.zenoh.declare_publisher(self.keys.frame,
+                                             congestion_control=zenoh.CongestionControl.BLOCK)
+        control = self.zenoh.declare_publisher(self.keys.control,
+                                               congestion_control=zenoh.CongestionControl.BLOCK)
+        for i in range(messages):
+            (frame if i % 2 else control).put(junk)
+        for i in range(queries):
+            self.zenoh.get(self.keys.state(self.walls[i % len(self.walls)]), lambda reply: None,
+                           payload=junk, timeout=0.5)
+        frame.undeclare()
+        control.undeclare()
+        self.sent["junk"] += messages
+        self.sent["unsigned-state-query"] += queries
+        return time.monotonic() - started
 
     # -- forged snapshots ------------------------------------------------------------------
 

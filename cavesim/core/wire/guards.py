@@ -69,7 +69,7 @@ class KeyMismatch:
         return sender not in self._passed and self._failed.get(sender, 0) >= MISMATCH_AFTER
 
     def _hint(self, sender: str) -> str:
-        return (f"every message from {sender} fails its signature "
+        return (f"every message between {self.receiver} and {sender} fails its signature "
                 f"({self._failed[sender]} so far): check --key-file on both sides; the master "
                 f"needs master.key and every node and tracker the session.key made with it "
                 f"(`cavesim keys`)")

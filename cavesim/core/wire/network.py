@@ -11,11 +11,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import zenoh
 
+from cavesim.core.errors import ClusterError
 from cavesim.core.limits import DEFAULT_MASTER_PORT
 from cavesim.core.wire.credentials import Credentials, read_credentials
 from cavesim.core.wire.keys import check_name
@@ -38,8 +40,8 @@ class NetworkConfig:
             try:
                 config = zenoh.Config.from_file(str(self.config_file))
             except Exception as e:  # zenoh raises ZError, a plain Exception subclass
-                raise ValueError(f"--config {self.config_file}: not a usable zenoh config: {e}"
-                                 ) from e
+                raise ValueError(f"--config {self.config_file}: not a usable zenoh config: "
+                                 f"{zenoh_message(e)}") from e
         else:
             config = zenoh.Config()
             config.insert_json5("mode", '"peer"')
@@ -55,7 +57,18 @@ def open_session(network: NetworkConfig) -> zenoh.Session:
     """This process's zenoh session (use it with `with`). Zenoh reads ZENOH_RUNTIME when
     its first session opens; a user's own setting wins over RUNTIME_THREADS."""
     os.environ.setdefault("ZENOH_RUNTIME", RUNTIME_THREADS)
-    return zenoh.open(network.zenoh_config())
+    config = network.zenoh_config()
+    try:
+        return zenoh.open(config)
+    except zenoh.ZError as e:  # e.g. an endpoint it cannot listen on
+        raise ClusterError(f"cannot open a zenoh session (--listen {list(network.listen)}, "
+                           f"--connect {list(network.connect)}): {zenoh_message(e)}") from e
+
+
+def zenoh_message(error: Exception) -> str:
+    """Zenoh's error text on one line, without the Rust source location it appends."""
+    text = " ".join(str(error).split())
+    return re.sub(r"\s*at /\S+?\.rs:\d+\.?", "", text) or type(error).__name__
 
 
 def lockstep_publisher(session: zenoh.Session, key: str) -> zenoh.Publisher:
@@ -94,10 +107,14 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def network_from_arguments(args: argparse.Namespace) -> NetworkConfig:
+    """The flags' settings, checked: a config file that zenoh cannot read is refused here,
+    before anything starts (ValueError, one line)."""
     for endpoint in (*args.listen, *args.connect):
         if "/" not in endpoint:
             raise ValueError(f"endpoint {endpoint!r} must look like tcp/HOST:PORT")
-    return NetworkConfig(tuple(args.listen), tuple(args.connect), args.zenoh_config)
+    network = NetworkConfig(tuple(args.listen), tuple(args.connect), args.zenoh_config)
+    network.zenoh_config()
+    return network
 
 
 def read_key(path: Path | None) -> Credentials | None:

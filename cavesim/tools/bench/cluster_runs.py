@@ -17,11 +17,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Protocol
 
+from cavesim.nodes.launcher import PROC
 from cavesim.tools.bench.measure import BenchError
 
 Tick = Callable[[int], None]  # called with the number of frames done so far in one run
 WARM_FRAMES = 2  # frames before the CPU meter starts: the first ones compile and allocate
-PROC = Path("/proc")
 
 
 class FrameMeter(Protocol):

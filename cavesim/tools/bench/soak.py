@@ -20,8 +20,9 @@ from pathlib import Path
 
 from rich.console import Console
 
+from cavesim.nodes.launcher import resident_mb
 from cavesim.tools.arguments import wall_names
-from cavesim.tools.bench.cluster_runs import PROC, cluster_run
+from cavesim.tools.bench.cluster_runs import cluster_run
 from cavesim.tools.bench.display import progress_bar
 from cavesim.tools.reports.soak import sample_line, show, write_report
 
@@ -30,19 +31,6 @@ SOAK_FRAMES = 100_000
 SOAK_WALLS = 4
 SOAK_EVERY = 10_000
 MASTER = "master"  # the process name of the master (this process) in the samples
-BYTES_PER_MB = 1e6
-
-
-def resident_mb(pid: int) -> float | None:
-    """Process `pid`'s resident memory (VmRSS) in MB of 10^6 bytes (None: not readable)."""
-    try:
-        status = (PROC / str(pid) / "status").read_text()
-    except OSError:
-        return None
-    for line in status.splitlines():
-        if line.startswith("VmRSS:"):  # "VmRSS:     123456 kB", the kernel's kB being KiB
-            return int(line.split()[1]) * 1024 / BYTES_PER_MB
-    return None
 
 
 class MemorySampler:
