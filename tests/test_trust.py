@@ -17,6 +17,7 @@ from master_process import spawn_master
 from cavesim.core.wire.credentials import write_key_files
 from cavesim.nodes.launcher import LocalCluster
 from cavesim.nodes.lockstep import MASTER_GONE
+from cavesim.tools.arguments import lost_walls_code
 
 ROOT = Path(__file__).parents[1]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
@@ -90,3 +91,25 @@ def test_keys_are_never_overwritten_and_the_master_needs_master_key(tmp_path):
                           capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert master.returncode == 2
     assert "holds no master signing key (it is a session.key)" in master.stderr
+
+
+def test_a_wall_lost_for_good_makes_the_master_exit_1_unless_continue_was_asked(tmp_path):
+    session = f"lost{os.getpid()}"
+    with LocalCluster(MINIMAL, tmp_path, session) as cluster:
+        for wall in WALLS:
+            cluster.start_node(wall)
+        master = spawn_master(cluster, WALLS, 150)
+        progress_until(master, 20)
+        cluster.kill_node("left")  # and never started again
+        assert master.wait(timeout=120) == 1
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["frames"] == 150 and report["final"]["lost"] == ["left"]
+    line = (tmp_path / "logs" / "master.log").read_text().strip().splitlines()[-1]
+    assert line == ("cavesim master: error: wall(s) left lost for good: the run ended without "
+                    "them (see the report's losses); give --on-loss continue to accept that")
+
+
+@pytest.mark.parametrize(("lost", "on_loss", "code"), [
+    ((), None, 0), (("left",), None, 1), (("left",), "pause", 1), (("left",), "continue", 0)])
+def test_the_exit_code_of_a_run_that_lost_walls(lost, on_loss, code):
+    assert lost_walls_code(lost, on_loss, "run") == code
