@@ -12,6 +12,7 @@ HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-for
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
 # snapshots to a node it makes diverge, flood the nodes with junk and state queries
 KINDS = NODE_FAULTS + HARNESS_FAULTS
+FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 
 

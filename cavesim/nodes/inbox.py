@@ -90,8 +90,8 @@ class NodeInbox:
         self.rejects = RejectCounter(f"node {view.wall}")
         self.mismatch = KeyMismatch(f"node {view.wall}")
         self.dropped: Counter[str] = Counter()  # queries the full queue could not take
-        self._limits = {StateRequest: RateLimit(STATE_RATE, STATE_BURST),
-                        InfoRequest: RateLimit(INFO_RATE, INFO_BURST)}
+        self._limits = {StateQuery: RateLimit(STATE_RATE, STATE_BURST),
+                        InfoQuery: RateLimit(INFO_RATE, INFO_BURST)}
         self._queue: queue.Queue[NodeEvent] = queue.Queue(maxsize=QUEUE)
         self._lock = threading.Lock()
 
@@ -118,47 +118,38 @@ class NodeInbox:
     # -- zenoh callbacks ---------------------------------------------------------------
 
     def _on_frame(self, sample: zenoh.Sample) -> None:
-        envelope = self._open(sample.payload.to_bytes(), str(sample.key_expr))
-        if envelope is None:
+        where, view = str(sample.key_expr), self.view
+        envelope = self._from_master(sample, FrameMessage, "frame")
+        if envelope is None or not self._of_this_run(envelope.run_id, where):
             return
-        message, view = envelope.message, self.view
-        if not isinstance(message, FrameMessage):
-            self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
-                                                     f"frame key"), str(sample.key_expr))
-        elif self._of_this_run(envelope.run_id, str(sample.key_expr)):
-            if message.frame < view.done:
-                self._reject(ProtocolError("stale-frame", f"frame {message.frame}, this node "
-                                                          f"holds {view.done}"),
-                             str(sample.key_expr))
-            else:
-                view.heard = max(view.heard, message.frame)
-                self._queue.put(FromMaster(message, envelope.run_id))  # waits, never drops
+        message = envelope.message
+        if message.frame < view.done:
+            self._reject(ProtocolError("stale-frame", f"frame {message.frame}, this node "
+                                                      f"holds {view.done}"), where)
+        else:
+            view.heard = max(view.heard, message.frame)
+            self._queue.put(FromMaster(message, envelope.run_id))  # waits, never drops
 
     def _on_control(self, sample: zenoh.Sample) -> None:
-        envelope = self._open(sample.payload.to_bytes(), str(sample.key_expr))
+        where, view = str(sample.key_expr), self.view
+        envelope = self._from_master(sample, ControlMessage, "control")
         if envelope is None:
             return
-        message, view = envelope.message, self.view
-        if not isinstance(message, ControlMessage):
-            self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
-                                                     f"control key"), str(sample.key_expr))
-        elif message.command is Command.WELCOME:
-            if message.target != view.wall:
-                return  # another wall's
+        message = envelope.message
+        if message.command in (Command.WELCOME, Command.RESYNC) and message.target != view.wall:
+            return  # another wall's
+        if message.command is Command.WELCOME:
             if message.nonce != view.nonce:
                 self._reject(ProtocolError("stale-welcome", "a WELCOME naming a nonce this "
                                                             "node does not hold (a replay)"),
-                             str(sample.key_expr))
+                             where)
             else:
                 self._queue.put(FromMaster(message, envelope.run_id))
-        elif message.command is Command.RESYNC and message.target != view.wall:
-            return  # another wall's
-        elif self._of_this_run(envelope.run_id, str(sample.key_expr)):
+        elif self._of_this_run(envelope.run_id, where):
             if message.frame < view.heard:  # the master's commands name the frame in flight
                 self._reject(ProtocolError("stale-command", f"a {message.command.name} of "
                                                             f"frame {message.frame}; the "
-                                                            f"run is at {view.heard}"),
-                             str(sample.key_expr))
+                                                            f"run is at {view.heard}"), where)
             else:
                 self._queue.put(FromMaster(message, envelope.run_id))
 
@@ -195,6 +186,15 @@ class NodeInbox:
         self.mismatch.note(sender, None)
         return envelope
 
+    def _from_master(self, sample: zenoh.Sample, expected: type, key: str):
+        """The checked envelope of a message of type `expected` on the `key` key, or None."""
+        envelope = self._open(sample.payload.to_bytes(), str(sample.key_expr))
+        if envelope is not None and not isinstance(envelope.message, expected):
+            self._reject(ProtocolError("unexpected", f"a {type(envelope.message).__name__} "
+                                                     f"on the {key} key"), str(sample.key_expr))
+            return None
+        return envelope
+
     def _of_this_run(self, run_id: int, where: str) -> bool:
         joined = self.view.run_id
         if joined is None:
@@ -225,16 +225,19 @@ class NodeInbox:
             self._reject(ProtocolError("unexpected", f"a {type(envelope.message).__name__} "
                                                      f"as a {expected.__name__}"), where)
             envelope = None
-        if envelope is not None and not self._limits[expected].allow():
-            self._reject(ProtocolError("rate-limited", f"more than the {expected.__name__}s "
-                                                       f"this node answers per second"),
-                         where)
-            envelope = None
         if envelope is None:
             query.drop()
         return envelope
 
-    def _offer(self, event: NodeEvent, query: zenoh.Query) -> None:
+    def _offer(self, event: StateQuery | InfoQuery, query: zenoh.Query) -> None:
+        """Queue a checked query for the main thread, within its kind's rate (refused and
+        counted above it) and while the queue has room (dropped and counted when full)."""
+        if not self._limits[type(event)].allow():
+            query.drop()
+            self._reject(ProtocolError("rate-limited", f"more {type(event).__name__}s than "
+                                                       f"this node answers per second"),
+                         str(query.key_expr))
+            return
         try:
             self._queue.put_nowait(event)
         except queue.Full:

@@ -5,16 +5,13 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import threading
 from importlib import metadata
 
-import zenoh
-
-from cavesim.core.wire.network import NetworkConfig, open_session
+from cavesim.core.errors import ClusterError
+from cavesim.core.wire.network import NetworkConfig, open_session, zenoh_message
 
 ZENOH_DEADLINE = 5.0  # s to open the session and, with endpoints to connect to, reach one
-_RUST_PLACE = re.compile(r" at \S+\.rs:\d+\.?")  # zenoh errors name their source lines
 
 
 def check_zenoh(network: NetworkConfig, deadline: float = ZENOH_DEADLINE) -> dict:
@@ -41,8 +38,8 @@ def check_zenoh(network: NetworkConfig, deadline: float = ZENOH_DEADLINE) -> dic
                     listener.undeclare()
                 found["peers"] = [str(z) for z in session.info.peers_zid()]
                 found["routers"] = [str(z) for z in session.info.routers_zid()]
-        except zenoh.ZError as e:
-            found["error"] = _RUST_PLACE.sub("", " ".join(str(e).split()))
+        except ClusterError as e:  # zenoh's own error, on one line
+            found["error"] = zenoh_message(e.__cause__ or e)
         finally:
             done.set()
 
