@@ -73,7 +73,8 @@ class RoguePeer:
         self.name, self.walls = session, walls
         self.keys = SessionKeys(session)
         self.zenoh = open_session(NetworkConfig(connect=(endpoint,)))
-        self.captured: dict[str, list[bytes]] = defaultdict(list)  # key kind -> bytes
+        # key kind ("frame", "control", "report") -> (key, bytes) as they were sent
+        self.captured: dict[str, list[tuple[str, bytes]]] = defaultdict(list)
         self.sent: Counter[str] = Counter()  # what it sent, by what it was
         self._lock = threading.Lock()
         self._declarations: list = []
@@ -86,16 +87,17 @@ class RoguePeer:
         for kind, key in (("frame", self.keys.frame), ("control", self.keys.control),
                           ("report", self.keys.report())):
             self._declarations.append(self.zenoh.declare_subscriber(
-                key, lambda sample, kind=kind: self._keep(kind, sample.payload.to_bytes()),
+                key, lambda sample, kind=kind: self._keep(kind, str(sample.key_expr),
+                                                          sample.payload.to_bytes()),
                 allowed_origin=zenoh.Locality.REMOTE))  # not what it sends itself
 
-    def _keep(self, kind: str, data: bytes) -> None:
+    def _keep(self, kind: str, key: str, data: bytes) -> None:
         with self._lock:
-            self.captured[kind].append(data)
+            self.captured[kind].append((key, data))
 
     def latest(self, kind: str) -> bytes | None:
         with self._lock:
-            return self.captured[kind][-1] if self.captured[kind] else None
+            return self.captured[kind][-1][1] if self.captured[kind] else None
 
     def await_cluster(self, timeout: float = 10.0) -> None:
         """Until this peer sees the master's and every wall's liveliness token (it reaches
@@ -123,14 +125,9 @@ class RoguePeer:
         with self._lock:
             captured = self.captured[kind]
             old = captured[:count] + captured[max(count, len(captured) - count):]
-        key = {"frame": self.keys.frame, "control": self.keys.control}.get(kind)
-        for data in old:
-            wall = None if key else self._wall_of_report(data)
-            self.put(f"replayed-{kind}", key or self.keys.report(wall), data)
+        for key, data in old:
+            self.put(f"replayed-{kind}", key, data)
         return len(old)
-
-    def _wall_of_report(self, data: bytes) -> str:
-        return next((w for w in self.walls if w.encode() in data), self.walls[0])
 
     def as_an_earlier_run(self, master: Credentials, frame: int) -> None:
         """A frame, a RESYNC and a STOP as the master of an earlier run with the same keys
