@@ -67,7 +67,7 @@ def test_a_small_work_group_count_binds_the_checksum_dispatch():
 
 
 def test_the_checksum_addresses_the_largest_capacity_in_32_bits():
-    """checksum.glsl indexes words with a uint and dispatches one group per 16384 words:
+    """checksum/sums.glsl indexes words with a uint and dispatches one group per 16384 words:
     at the engine's bound both fit, and GL's guaranteed group count never binds first."""
     words = MAX_PARTICLES * PARTICLE_WORDS
     assert words <= 2**32 - 1

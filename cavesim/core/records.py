@@ -25,6 +25,7 @@ EMITTER_DTYPE = np.dtype([
     ("serial", "<u4"),  # emission serial of this frame's first particle
 ])
 EMITTER_BYTES = EMITTER_DTYPE.itemsize  # 16
+EMITTER_WORDS = EMITTER_BYTES // 4
 EMITTER_VERTEX_FORMAT = "4u"
 
 assert PARTICLE_BYTES == 40 and EMITTER_BYTES == 16

@@ -1,94 +1,189 @@
-"""Checksum of a node's live state, computed on the GPU (no full read-back per frame).
+"""Checksum of a node's live state, reduced on the GPU to a 128-bit digest read in 24 bytes.
 
-The compute shader reduces each buffer's live words to one pair of sums per invocation
-(313 KB for a million particles);
-the host hashes those sums with the live counts and the scene's seed into one digest
-(BLAKE2b-128): a node with the wrong seed differs from frame 1, and a snapshot's seed is
-covered by the checksum the master names for it. Only the live range is hashed
-(determinism rule 4): bytes past the count were never written.
+Runs after a frame's passes. The digest covers the scene's 64-bit seed, both live counts
+and every live word of both streams with its index; bytes past the counts are never read
+(determinism rule 4). The passes (shaders/checksum/), integer arithmetic only, so every
+GPU gives the same bits, and none with a shared-memory barrier (llvmpipe runs `barrier()`
+as per-invocation coroutines):
+  sums    one dispatch, the particle stream's groups, then the emitter stream's: each
+          invocation sums over its 256 words two bijective mixes (fmix32) of
+          `word XOR index·0x9E3779B9`;
+  fold 1  invocation j absorbs sums [64j, 64j + 64) in order into a 128-bit state;
+  fold 2  the same over fold 1's states;
+  digest  one invocation absorbs (seed, counts), then fold 2's states, in order.
+The shaders read the live counts from the `counts` buffer: the host writes them there
+(`run(..., counts=...)`, no sync), or a GPU pass does and `run` sizes its dispatches on the
+GPU (the `plan` pass writes glDispatchComputeIndirect's arguments). Either way the passes
+and the digest are the same; `read` returns digest and counts at once.
+
+Why any single changed word changes the digest (for fixed counts, hence fixed sizes):
+fmix32 is a bijection of 32-bit words, and so is XOR with a constant, so the changed
+word's mix changes, and so does its invocation's sum (its other terms fixed, addition mod
+2^32 is a bijection). `permute` is a bijection of 128-bit states (each of its steps
+replaces one lane by a bijection of it for the other lanes fixed), so
+`absorb(s, x) = permute(s + x)` is injective in x for s fixed and in s for x fixed. A fold
+is a chain of absorbs: the absorb of the changed item gives another state, and every
+later absorb and the final `permute∘permute` carry the difference to the output. That
+output is one item of the next level, and so on to the digest. The seed is one item of the
+digest's chain likewise. Order counts through the index in the first mix and the chain's
+order; a change of a count changes the header item and the sizes, and is caught with
+probability 1 - 2^-128 like any change of several words.
 """
 
 from __future__ import annotations
 
-import hashlib
 from dataclasses import dataclass
 
 import moderngl
 import numpy as np
 
+from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 from cavesim.gpu.engine.programs import (
+    CHECKSUM_FOLD,
     CHECKSUM_WORDS_PER_THREAD,
     CHECKSUM_WORKGROUP_SIZE,
-    checksum_program,
+    checksum_programs,
 )
 
 WORDS_PER_GROUP = CHECKSUM_WORKGROUP_SIZE * CHECKSUM_WORDS_PER_THREAD
-PARTIAL_BYTES = 8  # two uint32 sums per invocation
-GROUP_BYTES = CHECKSUM_WORKGROUP_SIZE * PARTIAL_BYTES
+COUNTS_BYTES = 8  # std430 { uint particles; uint emitters; }
+RESULT_BYTES = 24  # std430 { uvec4 digest; uint particles; uint emitters; }
+DISPATCH_BYTES = 12  # glDispatchComputeIndirect's x, y, z; `plan` writes three: sums,
+# fold 1, fold 2
+_SHADER_WRITES = moderngl.SHADER_STORAGE_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT
 
 
 def group_count(words: int) -> int:
-    """Work groups of the one dispatch that sums `words` words."""
+    """Work groups of the sums pass over `words` words of one stream."""
     return -(-words // WORDS_PER_GROUP)
 
 
 @dataclass(frozen=True)
+class Plan:
+    """How many work groups and items each pass has for given live counts."""
+
+    particle_groups: int
+    emitter_groups: int  # 0 or 1 for up to MAX_EMITTERS records
+
+    @property
+    def sums_groups(self) -> int:
+        """Work groups of the sums pass: the particle stream's, then the emitter stream's."""
+        return self.particle_groups + self.emitter_groups
+
+    @property
+    def items(self) -> tuple[int, int, int]:
+        """Items entering fold 1 (the sums), fold 2 and the digest."""
+        sums = self.sums_groups * CHECKSUM_WORKGROUP_SIZE
+        level_1 = -(-sums // CHECKSUM_FOLD)
+        return sums, level_1, -(-level_1 // CHECKSUM_FOLD)
+
+    def fold_groups(self, level: int) -> int:
+        """Work groups of fold `level` (1 or 2): one invocation per item it writes."""
+        return -(-self.items[level] // CHECKSUM_WORKGROUP_SIZE)
+
+
+def plan(particles: int, emitters: int) -> Plan:
+    return Plan(group_count(particles * PARTICLE_WORDS), group_count(emitters * EMITTER_WORDS))
+
+
+@dataclass(frozen=True)
 class StateChecksum:
-    digest: str  # 32 hex digits over both streams, their order and the live counts
+    digest: str  # 32 hex digits over the seed, both streams, their order and the live counts
     particles: int  # live particles
     emitters: int
 
+    @classmethod
+    def from_result(cls, result: bytes) -> StateChecksum:
+        """The checksum from the digest pass's 24 bytes."""
+        particles, emitters = np.frombuffer(result, "<u4", 2, 16)
+        return cls(result[:16].hex(), int(particles), int(emitters))
+
 
 class GpuChecksum:
-    """Hashes the live words of GPU buffers; one instance per context."""
+    """Reduces the live words of a state's buffers to one digest; one instance per context.
 
-    def __init__(self, ctx: moderngl.Context, max_words: int) -> None:
-        self._program = checksum_program(ctx)
-        groups = max(1, group_count(max_words))
-        self._partials = ctx.buffer(reserve=groups * GROUP_BYTES)
+    `counts` is the GPU's copy of the live counts that the passes read (COUNTS_BYTES: uint
+    particles, uint emitters); a compute pass may write it as a storage buffer, or
+    `ctx.copy_buffer` into it, before `run()` without counts.
+    """
 
-    def buffer_sums(self, buffer: moderngl.Buffer, word_count: int) -> bytes:
-        """Per-invocation sums of the first `word_count` words of `buffer` (empty when 0)."""
-        if word_count == 0:
-            return b""
-        groups = group_count(word_count)
-        buffer.bind_to_storage_buffer(0)
-        self._partials.bind_to_storage_buffer(1)
-        self._program["word_count"].value = word_count
-        self._program.run(groups)
-        return self._partials.read(groups * GROUP_BYTES)
+    def __init__(self, ctx: moderngl.Context, max_particles: int, max_emitters: int) -> None:
+        self.ctx = ctx
+        self.max_particles, self.max_emitters = max_particles, max_emitters
+        self._programs = checksum_programs(ctx)
+        sums, level_1, level_2 = plan(max_particles, max_emitters).items
+        self.counts = ctx.buffer(reserve=COUNTS_BYTES)
+        self.result = ctx.buffer(reserve=RESULT_BYTES)
+        self._dispatches = ctx.buffer(reserve=3 * DISPATCH_BYTES)
+        self._sums = ctx.buffer(reserve=max(sums * 8, 4))
+        self._folds = [ctx.buffer(reserve=max(n * 16, 4)) for n in (level_1, level_2)]
+        self._seed: int | None = None
 
-    def state(self, particles: moderngl.Buffer, particle_words: int, particle_count: int,
-              emitters: moderngl.Buffer | None, emitter_words: int,
-              emitter_count: int, seed: int) -> StateChecksum:
-        """The digest of a node's state: both streams' live words, both counts, the seed."""
-        digest = hashlib.blake2b(digest_size=16)
-        digest.update(np.array([seed, particle_count, emitter_count], dtype="<u8").tobytes())
-        digest.update(self.buffer_sums(particles, particle_words))
-        if emitters is not None:
-            digest.update(self.buffer_sums(emitters, emitter_words))
-        return StateChecksum(digest.hexdigest(), particle_count, emitter_count)
+    def run(self, particles: moderngl.Buffer, emitters: moderngl.Buffer | None, seed: int,
+            counts: tuple[int, int] | None = None) -> None:
+        """Queue the passes over `particles` and `emitters` (None: a scene without emitters).
 
+        With `counts` (particles, emitters) the host writes them into `counts` and sizes the
+        dispatches; without, the counts already in `counts` decide, on the GPU. Nothing waits.
+        """
+        self._write_seed(seed)
+        self.ctx.memory_barrier(_SHADER_WRITES)  # a compute pass's writes: streams, counts
+        self.counts.bind_to_storage_buffer(2)
+        if counts is None:
+            groups: tuple[int | None, ...] = (None,) * 3  # the plan's, on the GPU
+            self._dispatches.bind_to_storage_buffer(1)
+            self._programs["plan"].run(1)
+            self.ctx.memory_barrier(_SHADER_WRITES)
+        else:
+            self._write_counts(*counts)
+            sizes = plan(*counts)
+            groups = (sizes.sums_groups, sizes.fold_groups(1), sizes.fold_groups(2))
+        particles.bind_to_storage_buffer(0)
+        (emitters or particles).bind_to_storage_buffer(3)
+        self._sums.bind_to_storage_buffer(1)
+        self._dispatch(self._programs["sums"], groups, 0)
+        for level, source in ((1, self._sums), (2, self._folds[0])):
+            self.ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT)
+            source.bind_to_storage_buffer(0)
+            self._folds[level - 1].bind_to_storage_buffer(1)
+            self._dispatch(self._programs[f"fold_{level}"], groups, level)
+        self.ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT)
+        self._folds[1].bind_to_storage_buffer(0)
+        self.result.bind_to_storage_buffer(1)
+        self._programs["digest"].run(1)
 
-def reference_sums(words: np.ndarray) -> bytes:
-    """The shader's per-invocation sums computed with numpy, for tests of the GPU checksum."""
-    words = np.asarray(words, dtype=np.uint32)
-    index = np.arange(words.size, dtype=np.uint32)
-    h = words ^ (index * np.uint32(0x9E3779B9))
-    lanes = np.stack([_fmix32(h), _fmix32(h + np.uint32(0x7F4A7C15))], axis=1)
-    groups = group_count(words.size)
-    padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)
-    padded[: words.size] = lanes
-    # invocation t of group g reads words g·WORDS_PER_GROUP + k·WORKGROUP_SIZE + t
-    by_invocation = padded.reshape(groups, CHECKSUM_WORDS_PER_THREAD, CHECKSUM_WORKGROUP_SIZE, 2)
-    sums = by_invocation.sum(axis=1, dtype=np.uint64)
-    return (sums & 0xFFFFFFFF).astype("<u4").tobytes()
+    def read(self) -> StateChecksum:
+        """The last `run`'s digest and the counts it covered: one 24-byte read (waits)."""
+        self.ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)
+        return StateChecksum.from_result(self.result.read(RESULT_BYTES))
 
+    def state(self, particles: moderngl.Buffer, particle_count: int,
+              emitters: moderngl.Buffer | None, emitter_count: int, seed: int) -> StateChecksum:
+        """The checksum of a state whose live counts the host knows."""
+        self.run(particles, emitters, seed, (particle_count, emitter_count))
+        return self.read()
 
-def _fmix32(h: np.ndarray) -> np.ndarray:
-    with np.errstate(over="ignore"):
-        h = h ^ (h >> np.uint32(16))
-        h = h * np.uint32(0x85EBCA6B)
-        h = h ^ (h >> np.uint32(13))
-        h = h * np.uint32(0xC2B2AE35)
-        return h ^ (h >> np.uint32(16))
+    def _write_counts(self, particles: int, emitters: int) -> None:
+        if not (0 <= particles <= self.max_particles and 0 <= emitters <= self.max_emitters):
+            raise ValueError(f"counts must be within (0..{self.max_particles}, "
+                             f"0..{self.max_emitters}), got {particles=}, {emitters=}")
+        self.counts.write(np.array([particles, emitters], "<u4").tobytes())
+
+    def _write_seed(self, seed: int) -> None:
+        if seed != self._seed:
+            if not 0 <= seed < 2**64:
+                raise ValueError(f"seed must be within 0..2**64 - 1, got {seed=}")
+            self._programs["digest"]["seed"].value = (seed & 0xFFFFFFFF, seed >> 32)
+            self._seed = seed
+
+    def _dispatch(self, program: moderngl.ComputeShader, groups: tuple[int | None, ...],
+                  k: int) -> None:
+        """Run `program` as dispatch `k`: on groups[k] groups, or as the plan says if None."""
+        if groups[k] is None:
+            program.run_indirect(self._dispatches, k * DISPATCH_BYTES)
+        elif groups[k]:
+            program.run(groups[k])
+
+    def release(self) -> None:
+        for buffer in (self.counts, self.result, self._dispatches, self._sums, *self._folds):
+            buffer.release()

@@ -35,7 +35,6 @@ from cavesim.core.records import (
     PARTICLE_BYTES,
     PARTICLE_DTYPE,
     PARTICLE_VERTEX_FORMAT,
-    PARTICLE_WORDS,
 )
 from cavesim.core.scene.model import CollisionKind, FieldKind, FieldSampling, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
@@ -82,7 +81,7 @@ class ParticleSystem:
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         if len(self.emitters):
             self._build_emission()
-        self._checksum = GpuChecksum(ctx, max(scene.capacity * PARTICLE_WORDS, 1))
+        self._checksum = GpuChecksum(ctx, scene.capacity, len(self.emitters))
         self.restart(scene.seed)  # GL leaves a new buffer's content undefined: zero it
 
     # -- construction -----------------------------------------------------------------
@@ -246,9 +245,8 @@ class ParticleSystem:
 
     def _state_checksum(self, index: int, particles: int, seed: int) -> StateChecksum:
         emitters = self._emitter_buffers[index] if len(self.emitters) else None
-        return self._checksum.state(
-            self._particle_buffers[index], particles * PARTICLE_WORDS, particles,
-            emitters, len(self.emitters) * EMITTER_BYTES // 4, len(self.emitters), seed)
+        return self._checksum.state(self._particle_buffers[index], particles, emitters,
+                                    len(self.emitters), seed)
 
     def read_particle_chunk(self, first: int, count: int) -> bytes:
         """Records [first, first + count) of the live particle stream, as bytes."""

@@ -15,7 +15,7 @@ import moderngl
 
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
-from cavesim.core.records import PARTICLE_VARYINGS
+from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORDS
 from cavesim.core.scene.model import (
     CollisionKind,
     FieldKind,
@@ -37,7 +37,8 @@ OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
 
 CHECKSUM_WORKGROUP_SIZE = 64
-CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 313 KB of sums to read
+CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 39,168 sums to fold
+CHECKSUM_FOLD = 64  # items each fold invocation absorbs in order
 
 # The values each define can take (numbers: the extremes a scene may ask for).
 PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
@@ -57,7 +58,8 @@ EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
     "FOLLOWING": (0, 1),
 }
 CHECKSUM_DEFINES = {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
-                    "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE}
+                    "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE, "FOLD": CHECKSUM_FOLD,
+                    "PARTICLE_WORDS": PARTICLE_WORDS, "EMITTER_WORDS": EMITTER_WORDS}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
                               tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
@@ -67,7 +69,19 @@ EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
                              tuple(EMISSION_FEATURES), ("out_state",))
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
                    PARTICLE_VARYINGS)
-CHECKSUM = ProgramSpec("checksum/checksum.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
+CHECKSUM_SUMS = ProgramSpec("checksum/sums.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
+CHECKSUM_FOLD_PASS = ProgramSpec("checksum/fold.glsl", ("compute",),
+                                 (*CHECKSUM_DEFINES, "LEVEL"))
+CHECKSUM_DIGEST = ProgramSpec("checksum/digest.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
+CHECKSUM_PLAN = ProgramSpec("checksum/plan.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
+# the checksum's programs in the order of a frame (plan only when the GPU holds the counts)
+CHECKSUM_PROGRAMS = (
+    ("plan", CHECKSUM_PLAN, CHECKSUM_DEFINES),
+    ("sums", CHECKSUM_SUMS, CHECKSUM_DEFINES),
+    ("fold_1", CHECKSUM_FOLD_PASS, {**CHECKSUM_DEFINES, "LEVEL": 1}),
+    ("fold_2", CHECKSUM_FOLD_PASS, {**CHECKSUM_DEFINES, "LEVEL": 2}),
+    ("digest", CHECKSUM_DIGEST, CHECKSUM_DEFINES),
+)
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
@@ -99,7 +113,7 @@ def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program a scene builds, with its defines."""
     physics = physics_defines(scene)
     programs = [(PARTICLE_UPDATE, physics), (IN_PLACE_UPDATE, physics),
-                (CHECKSUM, CHECKSUM_DEFINES)]
+                *((spec, defines) for _, spec, defines in CHECKSUM_PROGRAMS)]
     if scene.emitters:
         emission = emission_defines(scene)
         programs += [(EMITTER_UPDATE, emission), (EMIT, emission)]
@@ -113,7 +127,8 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
                            (EMITTER_UPDATE, EMISSION_FEATURES), (EMIT, EMISSION_FEATURES)):
         for values in itertools.product(*features.values()):
             yield spec, dict(zip(features, values, strict=True))
-    yield CHECKSUM, dict(CHECKSUM_DEFINES)
+    for _, spec, defines in CHECKSUM_PROGRAMS:
+        yield spec, dict(defines)
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
@@ -132,6 +147,7 @@ def emit_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
     return EMIT.build(ctx, emission_defines(scene))
 
 
-def checksum_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
-    return CHECKSUM.build(ctx, CHECKSUM_DEFINES)
+def checksum_programs(ctx: moderngl.Context) -> dict[str, moderngl.ComputeShader]:
+    """The checksum's passes by name: plan, sums, fold_1, fold_2, digest."""
+    return {name: spec.build(ctx, defines) for name, spec, defines in CHECKSUM_PROGRAMS}
 

@@ -4,7 +4,7 @@ A child per device, because a process holds one GL context (a second one takes o
 first one's calls), and because a broken driver may crash or hang while opening one: the
 doctor must still reach its verdict, so the child has a deadline. The child opens any
 core context, so a driver too old for cavesim is still described, then checks what the
-engine needs and runs the engine's checksum program once against numpy.
+engine needs and runs the engine's checksum programs once against numpy.
 """
 
 from __future__ import annotations
@@ -18,14 +18,16 @@ import numpy as np
 
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.errors import ContextError, ShaderError
+from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 from cavesim.gpu.engine.capacity import capacity_limits
-from cavesim.gpu.engine.checksum import GpuChecksum, reference_sums
+from cavesim.gpu.engine.checksum import GpuChecksum
+from cavesim.gpu.engine.checksum_reference import reference_checksum
 from cavesim.gpu.engine.programs import CHECKSUM_WORKGROUP_SIZE
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context, describe
 
 PROBE_TIMEOUT = 60.0  # s for one device: open a context, compile, run the checksum once
 OPEN_VERSION = 330  # any core context: describe even a driver cavesim cannot use
-SMOKE_WORDS = 40_000  # three checksum workgroups and a partial one
+SMOKE_PARTICLES, SMOKE_EMITTERS = 4_000, 3  # three sums work groups, a partial one, emitters
 DRIVER_FIX = ("install Mesa 20 or newer (`apt-get install libegl-mesa0 libgl1-mesa-dri`: "
               "llvmpipe gives OpenGL 4.5) or the GPU vendor's current driver")
 LIMITS = (  # what sizes a wall can have: particles, dispatches, emitted batches, textures
@@ -95,18 +97,27 @@ def _missing(ctx: moderngl.Context) -> list[tuple[str, str]]:
 
 
 def _smoke(ctx: moderngl.Context) -> tuple[dict, list[tuple[str, str]]]:
-    """Compile the engine's checksum program and run it once against numpy."""
-    words = np.random.default_rng(0).integers(0, 2**32, SMOKE_WORDS, dtype=np.uint32)
+    """Compile the engine's checksum programs and run them once against numpy, with the
+    counts from the host and from the GPU (the indirect dispatches)."""
+    rng = np.random.default_rng(0)
+    particles = rng.integers(0, 2**32, SMOKE_PARTICLES * PARTICLE_WORDS, dtype=np.uint32)
+    emitters = rng.integers(0, 2**32, SMOKE_EMITTERS * EMITTER_WORDS, dtype=np.uint32)
+    buffers = [ctx.buffer(particles.tobytes()), ctx.buffer(emitters.tobytes())]
     try:
-        sums = GpuChecksum(ctx, words.size).buffer_sums(ctx.buffer(words.tobytes()), words.size)
+        checksum = GpuChecksum(ctx, SMOKE_PARTICLES, SMOKE_EMITTERS)
+        from_host = checksum.state(buffers[0], SMOKE_PARTICLES, buffers[1], SMOKE_EMITTERS, 1)
+        checksum.run(buffers[0], buffers[1], 1)  # the counts from_host left on the GPU
+        from_gpu = checksum.read()
     except (ShaderError, moderngl.Error) as e:
         detail = " ".join(str(e).split())
         return ({"ok": False, "detail": detail},
-                [(f"the engine's checksum program does not compile: {detail}", DRIVER_FIX)])
-    if sums != reference_sums(words) or ctx.error != "GL_NO_ERROR":
-        detail = f"the checksum program ran but disagrees with numpy ({ctx.error})"
+                [(f"the engine's checksum programs do not compile: {detail}", DRIVER_FIX)])
+    if not from_host == from_gpu == reference_checksum(particles, emitters, 1) \
+            or ctx.error != "GL_NO_ERROR":
+        detail = f"the checksum programs ran but disagree with numpy ({ctx.error})"
         return {"ok": False, "detail": detail}, [(detail, DRIVER_FIX)]
-    return {"ok": True, "detail": f"checksum program compiled; {SMOKE_WORDS:,} words hashed "
+    words = particles.size + emitters.size
+    return {"ok": True, "detail": f"checksum programs compiled; {words:,} words hashed "
                                   f"as numpy does"}, []
 
 

@@ -1,0 +1,100 @@
+"""The GPU checksum's float-free numpy twin: the same integer passes, for tests and `doctor`.
+
+Mirrors shaders/checksum/ and include/digest.glsl step by step (see checksum.py for the
+passes and why any changed word changes the digest).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
+from cavesim.gpu.engine.checksum import WORDS_PER_GROUP, StateChecksum, group_count
+from cavesim.gpu.engine.programs import (
+    CHECKSUM_FOLD,
+    CHECKSUM_WORDS_PER_THREAD,
+    CHECKSUM_WORKGROUP_SIZE,
+)
+
+_PERMUTE_CONSTANTS = (0x6A09E667, 0xBB67AE85, 0x3C6EF372, 0xA54FF53A)
+_FOLD_IV = (0x510E527F, 0x9B05688C)
+_DIGEST_IV = (0x1F83D9AB, 0x5BE0CD19, 0xCBBB9D5D, 0x629A292A)
+
+
+def reference_checksum(particle_words: np.ndarray, emitter_words: np.ndarray,
+                       seed: int) -> StateChecksum:
+    """The checksum of a state given as the uint32 words of its two live streams."""
+    particle_words = np.asarray(particle_words, dtype=np.uint32).reshape(-1)
+    emitter_words = np.asarray(emitter_words, dtype=np.uint32).reshape(-1)
+    if particle_words.size % PARTICLE_WORDS or emitter_words.size % EMITTER_WORDS:
+        raise ValueError(f"streams must be whole records of {PARTICLE_WORDS} and "
+                         f"{EMITTER_WORDS} words, got {particle_words.size} and "
+                         f"{emitter_words.size} words")
+    particles = particle_words.size // PARTICLE_WORDS
+    emitters = emitter_words.size // EMITTER_WORDS
+    sums = np.concatenate([reference_sums(particle_words), reference_sums(emitter_words)])
+    items = np.zeros((len(sums), 4), dtype=np.uint32)
+    items[:, :2] = sums
+    for level in (1, 2):
+        items = _fold(items, level)
+    header = np.array([[seed & 0xFFFFFFFF, seed >> 32, particles, emitters]], dtype=np.uint32)
+    state = _absorb(np.array([_DIGEST_IV], dtype=np.uint32), header)
+    for item in items:
+        state = _absorb(state, item[None])
+    digest = _permute(_permute(state))
+    return StateChecksum(digest.astype("<u4").tobytes().hex(), particles, emitters)
+
+
+def reference_sums(words: np.ndarray) -> np.ndarray:
+    """The sums pass over one stream: (invocations, 2) uint32, invocation by invocation."""
+    words = np.asarray(words, dtype=np.uint32)
+    index = np.arange(words.size, dtype=np.uint32)
+    with np.errstate(over="ignore"):
+        h = words ^ (index * np.uint32(0x9E3779B9))
+        lanes = np.stack([_fmix32(h), _fmix32(h + np.uint32(0x7F4A7C15))], axis=1)
+    groups = group_count(words.size)
+    padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)
+    padded[: words.size] = lanes
+    # invocation t of group g reads words g·WORDS_PER_GROUP + k·WORKGROUP_SIZE + t
+    by_invocation = padded.reshape(groups, CHECKSUM_WORDS_PER_THREAD, CHECKSUM_WORKGROUP_SIZE, 2)
+    sums = by_invocation.sum(axis=1, dtype=np.uint64)
+    return (sums & 0xFFFFFFFF).astype(np.uint32).reshape(-1, 2)
+
+
+def _fold(items: np.ndarray, level: int) -> np.ndarray:
+    """Fold pass `level`: chunk j of CHECKSUM_FOLD items absorbed in order (all j at once)."""
+    count = len(items)
+    chunks = -(-count // CHECKSUM_FOLD)
+    state = np.empty((chunks, 4), dtype=np.uint32)
+    state[:, 0], state[:, 1] = level, np.arange(chunks)
+    state[:, 2:] = _FOLD_IV
+    padded = np.zeros((chunks * CHECKSUM_FOLD, 4), dtype=np.uint32)
+    padded[:count] = items
+    padded = padded.reshape(chunks, CHECKSUM_FOLD, 4)
+    live = (np.arange(chunks * CHECKSUM_FOLD) < count).reshape(chunks, CHECKSUM_FOLD, 1)
+    for k in range(CHECKSUM_FOLD):
+        state = np.where(live[:, k], _absorb(state, padded[:, k]), state)
+    return state
+
+
+def _absorb(state: np.ndarray, item: np.ndarray) -> np.ndarray:
+    with np.errstate(over="ignore"):
+        return _permute(state + item)
+
+
+def _permute(state: np.ndarray) -> np.ndarray:
+    """include/digest.glsl's permute on rows of 4 lanes."""
+    s = [state[:, lane].copy() for lane in range(4)]
+    with np.errstate(over="ignore"):
+        for lane, constant in enumerate(_PERMUTE_CONSTANTS):
+            s[lane] = _fmix32(s[lane] + s[lane - 1] + np.uint32(constant))
+    return np.stack(s, axis=1)
+
+
+def _fmix32(h: np.ndarray) -> np.ndarray:
+    with np.errstate(over="ignore"):
+        h = h ^ (h >> np.uint32(16))
+        h = h * np.uint32(0x85EBCA6B)
+        h = h ^ (h >> np.uint32(13))
+        h = h * np.uint32(0xC2B2AE35)
+        return h ^ (h >> np.uint32(16))
