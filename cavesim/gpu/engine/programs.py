@@ -58,6 +58,12 @@ EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
 }
 CHECKSUM_DEFINES = {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
                     "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE}
+# The compute path's work group sizes: blocks of 32 particles per invocation (its particle
+# and compaction passes), and the one work group of its scan.
+BLOCK_WORKGROUP_SIZE = 64
+SCAN_SIZE = 256
+BLOCK_DEFINES = {"WORKGROUP_SIZE": BLOCK_WORKGROUP_SIZE}
+SCAN_DEFINES = {"SCAN_SIZE": SCAN_SIZE, "EMIT_BATCH": EMIT_BATCH}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
                               tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
@@ -68,10 +74,16 @@ EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
                    PARTICLE_VARYINGS)
 CHECKSUM = ProgramSpec("checksum/checksum.glsl", ("compute",), tuple(CHECKSUM_DEFINES))
+# the compute path's four passes (cavesim/gpu/engine/compute.py)
+BLOCK_UPDATE = ProgramSpec("particles/update_blocks.glsl", ("compute",),
+                           (*PHYSICS_FEATURES, *BLOCK_DEFINES))
+SCAN = ProgramSpec("particles/scan.glsl", ("compute",), tuple(SCAN_DEFINES))
+COMPACT = ProgramSpec("particles/compact.glsl", ("compute",), tuple(BLOCK_DEFINES))
+APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATURES))
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
-    """Feature switches of the particle pass (and of its compute-shader twin)."""
+    """Feature switches of the particle pass (GS/TF or compute, and the bench's bound)."""
     field = scene.field
     return {
         "HAS_GRAVITY": int(scene.forces.gravity is not None),
@@ -99,21 +111,27 @@ def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program a scene builds, with its defines."""
     physics = physics_defines(scene)
     programs = [(PARTICLE_UPDATE, physics), (IN_PLACE_UPDATE, physics),
-                (CHECKSUM, CHECKSUM_DEFINES)]
+                (BLOCK_UPDATE, {**physics, **BLOCK_DEFINES}), (SCAN, SCAN_DEFINES),
+                (COMPACT, BLOCK_DEFINES), (CHECKSUM, CHECKSUM_DEFINES)]
     if scene.emitters:
         emission = emission_defines(scene)
-        programs += [(EMITTER_UPDATE, emission), (EMIT, emission)]
+        programs += [(EMITTER_UPDATE, emission), (EMIT, emission), (APPEND, emission)]
     return programs
 
 
 def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program with every combination of the values its defines can take."""
-    for spec, features in ((PARTICLE_UPDATE, PHYSICS_FEATURES),
-                           (IN_PLACE_UPDATE, PHYSICS_FEATURES),
-                           (EMITTER_UPDATE, EMISSION_FEATURES), (EMIT, EMISSION_FEATURES)):
+    for spec, features, fixed in ((PARTICLE_UPDATE, PHYSICS_FEATURES, {}),
+                                  (IN_PLACE_UPDATE, PHYSICS_FEATURES, {}),
+                                  (BLOCK_UPDATE, PHYSICS_FEATURES, BLOCK_DEFINES),
+                                  (EMITTER_UPDATE, EMISSION_FEATURES, {}),
+                                  (EMIT, EMISSION_FEATURES, {}),
+                                  (APPEND, EMISSION_FEATURES, {})):
         for values in itertools.product(*features.values()):
-            yield spec, dict(zip(features, values, strict=True))
-    yield CHECKSUM, dict(CHECKSUM_DEFINES)
+            yield spec, {**dict(zip(features, values, strict=True)), **fixed}
+    for spec, defines in ((CHECKSUM, CHECKSUM_DEFINES), (SCAN, SCAN_DEFINES),
+                          (COMPACT, BLOCK_DEFINES)):
+        yield spec, dict(defines)
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
@@ -134,4 +152,20 @@ def emit_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
 
 def checksum_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
     return CHECKSUM.build(ctx, CHECKSUM_DEFINES)
+
+
+def block_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
+    return BLOCK_UPDATE.build(ctx, {**physics_defines(scene), **BLOCK_DEFINES})
+
+
+def scan_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
+    return SCAN.build(ctx, SCAN_DEFINES)
+
+
+def compact_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
+    return COMPACT.build(ctx, BLOCK_DEFINES)
+
+
+def append_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
+    return APPEND.build(ctx, emission_defines(scene))
 

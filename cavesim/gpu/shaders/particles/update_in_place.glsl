@@ -19,8 +19,7 @@ void main() {
     Particle q = unpack_particle(uvec4(words[o], words[o + 1u], words[o + 2u], words[o + 3u]),
                                  uvec4(words[o + 4u], words[o + 5u], words[o + 6u], words[o + 7u]),
                                  uvec2(words[o + 8u], words[o + 9u]));
-    q.age += double(dt);
-    advance(q, dt);
+    step_particle(q, dt);
     uvec4 a;
     uvec4 b;
     uvec2 c;
