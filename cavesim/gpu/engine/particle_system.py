@@ -184,6 +184,17 @@ class ParticleSystem:
         self._live = self._passes.advance(front, back, live, emission)
         self._current = back
 
+    def bench_particle_pass(self, dt: np.float32) -> None:
+        """The engine path's particle pass alone on the live stream, waited for (what
+        `cavesim bench` times as "update"). Nothing is swapped; the compute path steps the
+        front buffer in place, so afterwards the state is only good for more timing."""
+        write_uniforms(self._passes.program, {"dt": dt})
+        if self.scene.engine is Engine.COMPUTE:
+            self._passes.particle_pass(self._current, self.live_count)
+        else:
+            self._passes.particle_pass(self._current, 1 - self._current, self.live_count)
+        self.ctx.finish()
+
     def reseed(self, seed: int) -> None:
         """Rebuild what the scene's seed decides: the random texture and emitter bases.
 

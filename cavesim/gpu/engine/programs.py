@@ -67,8 +67,6 @@ SCAN_DEFINES = {"SCAN_SIZE": SCAN_SIZE, "EMIT_BATCH": EMIT_BATCH}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
                               tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
-IN_PLACE_UPDATE = ProgramSpec("particles/update_in_place.glsl", ("compute",),
-                              tuple(PHYSICS_FEATURES))  # the bench's compute-shader bound
 EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
                              tuple(EMISSION_FEATURES), ("out_state",))
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
@@ -83,7 +81,7 @@ APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATU
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
-    """Feature switches of the particle pass (GS/TF or compute, and the bench's bound)."""
+    """Feature switches of the particle pass (on either engine path)."""
     field = scene.field
     return {
         "HAS_GRAVITY": int(scene.forces.gravity is not None),
@@ -110,9 +108,8 @@ def emission_defines(scene: Scene) -> dict[str, int]:
 def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program a scene builds, with its defines."""
     physics = physics_defines(scene)
-    programs = [(PARTICLE_UPDATE, physics), (IN_PLACE_UPDATE, physics),
-                (BLOCK_UPDATE, {**physics, **BLOCK_DEFINES}), (SCAN, SCAN_DEFINES),
-                (COMPACT, BLOCK_DEFINES), (CHECKSUM, CHECKSUM_DEFINES)]
+    programs = [(PARTICLE_UPDATE, physics), (BLOCK_UPDATE, {**physics, **BLOCK_DEFINES}),
+                (SCAN, SCAN_DEFINES), (COMPACT, BLOCK_DEFINES), (CHECKSUM, CHECKSUM_DEFINES)]
     if scene.emitters:
         emission = emission_defines(scene)
         programs += [(EMITTER_UPDATE, emission), (EMIT, emission), (APPEND, emission)]
@@ -122,7 +119,6 @@ def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
 def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program with every combination of the values its defines can take."""
     for spec, features, fixed in ((PARTICLE_UPDATE, PHYSICS_FEATURES, {}),
-                                  (IN_PLACE_UPDATE, PHYSICS_FEATURES, {}),
                                   (BLOCK_UPDATE, PHYSICS_FEATURES, BLOCK_DEFINES),
                                   (EMITTER_UPDATE, EMISSION_FEATURES, {}),
                                   (EMIT, EMISSION_FEATURES, {}),
@@ -136,10 +132,6 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
     return PARTICLE_UPDATE.build(ctx, physics_defines(scene))
-
-
-def in_place_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
-    return IN_PLACE_UPDATE.build(ctx, physics_defines(scene))
 
 
 def emitter_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:

@@ -205,8 +205,8 @@ bool advance(inout Particle q, float h) {
     return finite(q.pos) && finite(q.vel);
 }
 
-// One frame of one particle, the arithmetic every particle pass shares (GS/TF update.glsl,
-// compute update_blocks.glsl, the bench's update_in_place.glsl): it ages by h and moves.
+// One frame of one particle, the arithmetic both engine paths' particle passes share
+// (GS/TF update.glsl, compute update_blocks.glsl): it ages by h and moves.
 // Returns whether it lives on: not expired and not run away.
 bool step_particle(inout Particle q, float h) {
     q.age += double(h);
