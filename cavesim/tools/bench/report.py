@@ -25,9 +25,9 @@ NOTES = (
     "seconds are medians of the timed frames after the warm-up frames",
     "a frame is ParticleSystem.step and checksum(), waited for; the pool is preloaded full "
     "and nothing dies, so the emission finds no room and adds no particle",
-    "gs_tf: geometry shader + transform feedback (two query waits and the checksum's read "
-    "a frame); compute: in-place update, ordered compaction, append (one wait, the live "
-    "count with the checksum's read)",
+    "gs_tf: geometry shader + transform feedback (two query waits a frame, then the "
+    "checksum's reads); compute: in-place update, ordered compaction, append (the live "
+    "count in one 4-byte read, then the checksum's reads)",
     "update is the particle pass alone: the transform-feedback pass (GS/TF), the in-place "
     "compute pass with its survivor masks (compute)",
     "copy is ctx.copy_buffer of the particle state (count x 40 bytes, read and written): the "
