@@ -117,10 +117,10 @@ class ComputePasses:
         if segments:
             self._append_new(blocks, segments, emission)
 
-    def particle_pass(self, front: int, live: int) -> None:
+    def particle_pass(self, front: int, back: int, live: int) -> None:
         """Pass 1 alone (the benchmark times it): step the front buffer's `live` particles
         in place and write their survivor masks."""
-        self._bind(front, 1 - front)
+        self._bind(front, back)
         with flushing_denormals():
             self._update(live)
         self._ctx.memory_barrier()

@@ -189,10 +189,7 @@ class ParticleSystem:
         `cavesim bench` times as "update"). Nothing is swapped; the compute path steps the
         front buffer in place, so afterwards the state is only good for more timing."""
         write_uniforms(self._passes.program, {"dt": dt})
-        if self.scene.engine is Engine.COMPUTE:
-            self._passes.particle_pass(self._current, self.live_count)
-        else:
-            self._passes.particle_pass(self._current, 1 - self._current, self.live_count)
+        self._passes.particle_pass(self._current, 1 - self._current, self.live_count)
         self.ctx.finish()
 
     def reseed(self, seed: int) -> None:
