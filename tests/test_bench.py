@@ -16,7 +16,8 @@ import pytest
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.tools.bench import TARGETS, SizeFigures
-from cavesim.tools.bench.figures import evaluate_targets
+from cavesim.tools.bench.figures import PATHS, RATIOS, evaluate_targets
+from cavesim.tools.bench.runner import DEFAULT_SIZES, default_sizes
 from cavesim.tools.cli import main
 
 SIZES = (2000, 5000)
@@ -37,8 +38,8 @@ def bench_run(tmp_path_factory):
 
 def test_prints_the_table_targets_and_paths(bench_run):
     done, out, _ = bench_run
-    assert "vs numpy" in done.stdout and "5,000" in done.stdout
-    assert done.stdout.count(" particles: measured ") == len(TARGETS)
+    assert "speedup" in done.stdout and "5,000" in done.stdout
+    assert done.stdout.count(" particles (") == len(TARGETS)
     assert f"wrote {out / 'bench.json'}" in done.stdout
     assert f"wrote {out / 'bench.md'}" in done.stdout
 
@@ -48,26 +49,29 @@ def test_json_has_every_size_with_positive_finite_figures(bench_run):
     assert report["command"] == "bench" and report["scene"]["name"] == "bench"
     assert report["frames"] == 2 and report["gl"]["renderer"]
     assert [size["particles"] for size in report["sizes"]] == list(SIZES)
+    assert report["skipped_sizes"] == []
     for size in report["sizes"]:
+        assert set(size["seconds"]) == set(PATHS) and set(size["ratios"]) == set(RATIOS)
         figures = [*size["seconds"].values(), *size["particles_per_s"].values(),
                    *size["ratios"].values()]
-        assert len(figures) == 11
         assert all(math.isfinite(x) and x > 0 for x in figures), size
-        assert size["live_after_gs_tf"] == size["particles"]
+        assert size["live_after"] == size["particles"]
 
 
 def test_ratios_and_rates_follow_from_the_times(bench_run):
     _, _, report = bench_run
     for size in report["sizes"]:
         s, ratios = size["seconds"], size["ratios"]
-        assert ratios["gs_tf_vs_numpy"] == pytest.approx(s["numpy"] / s["gs_tf"])
-        assert ratios["gs_tf_vs_compute"] == pytest.approx(s["gs_tf"] / s["compute"])
-        assert ratios["checksum_share"] == pytest.approx(s["checksum"] / s["gs_tf"])
+        assert ratios["compute_speedup"] == pytest.approx(s["gs_tf_frame"] / s["compute_frame"])
+        for path in ("gs_tf_frame", "compute_frame", "gs_tf_update", "compute_update"):
+            assert ratios[f"{path}_vs_copy"] == pytest.approx(s[path] / s["copy"])
+        assert ratios["gs_tf_vs_numpy"] == pytest.approx(s["numpy"] / s["gs_tf_frame"])
+        assert ratios["checksum_share"] == pytest.approx(s["checksum"] / s["compute_frame"])
         for path, seconds in s.items():
             assert size["particles_per_s"][path] == pytest.approx(size["particles"] / seconds)
 
 
-def test_every_target_is_judged_at_the_largest_size(bench_run):
+def test_every_target_is_judged_at_the_largest_size_when_its_own_is_missing(bench_run):
     _, _, report = bench_run
     assert [t["name"] for t in report["targets"]] == [t.ratio for t in TARGETS]
     largest = report["sizes"][-1]
@@ -82,18 +86,35 @@ def test_every_target_is_judged_at_the_largest_size(bench_run):
 def test_markdown_has_the_table_and_targets(bench_run):
     _, out, _ = bench_run
     text = (out / "bench.md").read_text()
-    assert "| particles | GS/TF ms |" in text
+    assert "| particles | GS/TF frame ms | compute frame ms | compute speedup |" in text
     assert "| 2,000 |" in text and "| 5,000 |" in text
     assert all(t.ratio in text for t in TARGETS)
 
 
-def test_targets_use_one_million_particles_when_measured():
-    def figures(particles):
-        return SizeFigures(particles, gs_tf_s=1.0, compute_s=0.5, numpy_s=20.0,
-                           checksum_s=0.05, gpu_frames=2, numpy_frames=2, live_after=particles)
-    judged = evaluate_targets([figures(1_000_000), figures(2_000_000)])
-    assert {t["particles"] for t in judged} == {1_000_000}
-    assert [t["met"] for t in judged] == [True, False, True]  # 20x, 2x slower, 5 %
+def figures(particles: int, compute_frame_s: float = 0.5) -> SizeFigures:
+    return SizeFigures(particles, gs_tf_frame_s=2.0, compute_frame_s=compute_frame_s,
+                       gs_tf_update_s=1.5, compute_update_s=0.3, checksum_s=0.05, copy_s=0.1,
+                       numpy_s=30.0, gpu_frames=2, numpy_frames=2, live_after=particles)
+
+
+def test_each_target_is_judged_at_its_own_size_when_measured():
+    judged = evaluate_targets([figures(1_000_000), figures(3_000_000),
+                               figures(10_000_000, compute_frame_s=0.25)])
+    assert [(t["name"], t["particles"]) for t in judged] == [
+        ("compute_speedup", 1_000_000), ("compute_frame_vs_copy", 10_000_000),
+        ("gs_tf_vs_numpy", 1_000_000), ("checksum_share", 1_000_000)]
+    assert [t["met"] for t in judged] == [True, True, True, True]  # 4x, 2.5x, 15x, 10 %
+    assert {t["renderer"] for t in judged} == {"llvmpipe", "GPU"}
+
+
+def test_default_sizes_are_1m_10m_and_the_largest_naming_what_does_not_fit(ctx):
+    limits = capacity_limits(ctx.info)
+    sizes, skipped = default_sizes(limits)
+    largest = limits.max_capacity
+    assert sizes == sorted({n for n in DEFAULT_SIZES if n <= largest} | {largest})
+    assert [s["particles"] for s in skipped] == [n for n in DEFAULT_SIZES if n > largest]
+    for skip in skipped:
+        assert f"{largest:,}" in skip["why"] and limits.binding.name in skip["why"]
 
 
 @pytest.mark.parametrize("argv, flag", [

@@ -8,7 +8,12 @@ import pytest
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
-from cavesim.gpu.engine.programs import IN_PLACE_UPDATE, PARTICLE_UPDATE, PHYSICS_FEATURES
+from cavesim.gpu.engine.programs import (
+    BLOCK_DEFINES,
+    BLOCK_UPDATE,
+    PARTICLE_UPDATE,
+    PHYSICS_FEATURES,
+)
 from cavesim.gpu.render.programs import DUST
 from cavesim.gpu.shader_gate import (
     Build,
@@ -105,7 +110,7 @@ def test_a_missing_validator_is_named_with_its_package():
 def test_uniform_components_count_each_array_element_as_a_vec4(ctx):
     # inv_tau[CLASS_COUNT] and dt: 64 elements + 1 float, each a vec4 slot
     defines = dict.fromkeys(PHYSICS_FEATURES, 0) | {"HAS_DRAG": 1, "CLASS_COUNT": 64}
-    program = IN_PLACE_UPDATE.build(ctx, defines)
+    program = BLOCK_UPDATE.build(ctx, defines | BLOCK_DEFINES)
     try:
         assert uniform_components(program) >= 4 * 64 + 4
     finally:

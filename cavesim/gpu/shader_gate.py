@@ -26,6 +26,7 @@ import moderngl
 from cavesim.core.errors import ShaderError
 from cavesim.core.scene import load_scene
 from cavesim.gpu.engine.programs import feature_combinations, scene_programs
+from cavesim.gpu.gl.denormal_probe import DENORMAL_PROBE_DISPATCH, DENORMAL_PROBE_DRAW
 from cavesim.gpu.gl.filtering import FILTER_PROBE
 from cavesim.gpu.render.programs import render_combinations, render_programs
 from cavesim.gpu.shader_source import ProgramSpec, ShaderSource
@@ -76,7 +77,8 @@ def all_builds(scene_dir: Path) -> list[Build]:
         scene = load_scene(path)
         add([*scene_programs(scene), *render_programs(scene)], f"scene {path.stem}")
     add([*feature_combinations(), *render_combinations()], "feature combination")
-    add([(FILTER_PROBE, {})], "probe")
+    add([(FILTER_PROBE, {}), (DENORMAL_PROBE_DRAW, {}), (DENORMAL_PROBE_DISPATCH, {})],
+        "probe")
     return list(builds.values())
 
 

@@ -222,7 +222,9 @@ class _Paster:
             elif include := _INCLUDE.fullmatch(line):
                 target = _resolve(include[1], name, where)
                 if target in self.once:
-                    out.append(f"// {line.strip()}: pasted already (#pragma once)")
+                    # no '#' left: moderngl pastes every `#include "..."` it finds in the
+                    # text, comments too, and would fail on this one
+                    out.append(f"// include {include[1]!r}: pasted already (#pragma once)")
                     continue
                 out += self.paste(target, (*chain, name), where)
                 out.append(f"#line {line_number + 1} {number}")

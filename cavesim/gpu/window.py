@@ -24,6 +24,7 @@ import numpy as np
 from cavesim.core.cave.geometry import Display, StereoMode
 from cavesim.core.errors import ContextError
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, attach_context
+from cavesim.gpu.gl.denormals import flushing_denormals
 from cavesim.gpu.render.programs import PRESENT
 
 log = logging.getLogger("cavesim.window")
@@ -98,7 +99,9 @@ def open_window(display: Display, size: tuple[int, int], title: str) -> WallWind
     monitor, vsync, stereo) with a GL 4.3 core context; ContextError says what failed."""
     if display.x_display is not None:
         os.environ["DISPLAY"] = display.x_display  # GLFW reads it when it starts
-    if not glfw.init():
+    with flushing_denormals():  # the driver's threads keep it (cavesim.gpu.gl.denormals)
+        started = glfw.init()
+    if not started:
         where = os.environ.get("DISPLAY") or "no DISPLAY set"
         raise ContextError(f"cannot open a window: GLFW found no display ({where})",
                            "run the node on a machine with an X server, set DISPLAY or "
@@ -149,4 +152,5 @@ def _create(width: int, height: int, title: str, monitor, stereo: bool):
     glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
     glfw.window_hint(glfw.STEREO, stereo)
     glfw.window_hint(glfw.RESIZABLE, False)
-    return glfw.create_window(width, height, title, monitor, None) or None
+    with flushing_denormals():  # the driver's threads keep it (cavesim.gpu.gl.denormals)
+        return glfw.create_window(width, height, title, monitor, None) or None

@@ -36,7 +36,7 @@ import zenoh
 from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import ClusterError, ContextError, ProtocolError
-from cavesim.core.scene import load_scene
+from cavesim.core.scene import Engine, load_scene
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import (
     Command,
@@ -98,6 +98,7 @@ class NodeConfig:
     stereo: bool = False
     chunk_particles: int = CHUNK_PARTICLES  # particles per reply of a snapshot we send
     gpu: int | None = None  # EGL device index (None: the default device, 0)
+    engine: Engine | None = None  # the particle engine path (None: the scene's)
     display: bool = False  # show the wall live in a window, as the CAVE's [wall.display] says
     preview: bool = False  # show every wall of the CAVE unfolded in one desktop window
     preview_scale: float = 0.5  # of each wall's resolution, in the preview
@@ -115,6 +116,8 @@ class WallNode:
         self.keys = SessionKeys(config.session)
         self.fired: set[Fault] = set()  # injected faults done
         scene = load_scene(config.scene)
+        if config.engine is not None:
+            scene = dataclasses.replace(scene, engine=config.engine)
         if self._fault("seed"):
             scene = dataclasses.replace(scene, seed=scene.seed + 1)
         self.seed = scene.seed  # the start state's: a new run starts from it
@@ -414,8 +417,9 @@ def main(config: NodeConfig) -> int:
         node = WallNode(config, session)
         declarations = node.declare()
         gpu = node.gpu
-        log.info("%s: up on EGL device %d (%s): %s, %s, OpenGL %s", config.wall, gpu["device"],
-                 gpu["kind"], gpu["renderer"], gpu["vendor"], gpu["version"])
+        log.info("%s: up on EGL device %d (%s): %s, %s, OpenGL %s; engine path %s",
+                 config.wall, gpu["device"], gpu["kind"], gpu["renderer"], gpu["vendor"],
+                 gpu["version"], node.system.engine)
         try:
             node.run()
         except KeyboardInterrupt:

@@ -15,6 +15,7 @@ from cavesim.core.limits import MAX_PARTICLES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.scene.model import (
     Collision,
     Emitter,
+    Engine,
     Field,
     FieldKind,
     Forces,
@@ -39,6 +40,7 @@ class Simulation:
     # edge of the square random texture
     random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
                                    Rule("a power of two", _power_of_two)] = 256
+    engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
 
 
 @dataclass(frozen=True, kw_only=True)

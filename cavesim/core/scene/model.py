@@ -38,6 +38,13 @@ class Integrator(StrEnum):
     EXPONENTIAL = "exponential"
 
 
+class Engine(StrEnum):
+    """How a node steps the particle stream; both give the same bytes on one driver."""
+
+    GS_TF = "gs_tf"  # geometry shader + transform feedback: the paper's method, the reference
+    COMPUTE = "compute"  # compute shaders: in-place update, ordered compaction, append
+
+
 class OutOfDomain(StrEnum):
     CLAMP = "clamp"  # the flow at the nearest boundary node
     ZERO = "zero"  # still air outside the box
@@ -200,6 +207,7 @@ class Scene:
     field: Field | None  # required exactly when forces.drag is set
     collision: Collision | None
     helicopter: Helicopter | None = None
+    engine: Engine = Engine.GS_TF  # a run may choose another (`cavesim run --engine`)
 
     def relaxation_times(self) -> tuple[float, ...]:
         """τ of each particle class (inf when the scene has no drag)."""

@@ -1,10 +1,11 @@
 """The particle system of one wall node on one GL context.
 
-A frame (`step`) is two transform-feedback passes into the back buffers, then a swap:
-  1. particle pass: survivors of the particle stream, moved, packed in input order;
-  2. emitter pass: the emitter stream updates its accumulators, then appends this frame's
-     new particles after the survivors, drawing them from the shared random texture
-     through the frame's matrix.
+A frame (`step`) updates the emitter stream (`emission.py`), then steps the particle stream
+into the back buffers by the scene's engine path, then swaps:
+  - gs_tf (`gs_tf.py`, the paper's method): a transform-feedback particle pass streams out
+    the survivors in input order, and the emitters append their new particles after them;
+  - compute (`compute.py`): an in-place compute update, an ordered stream compaction and an
+    append, giving the same bytes with one wait per frame.
 Only the scene's features are compiled in and allocated (see `programs.py`). The capacity
 is checked against the context's limits (`capacity.py`) before anything is allocated.
 
@@ -16,12 +17,11 @@ the current state untouched.
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import moderngl
 import numpy as np
 
-from cavesim.core.emitters import EMIT_BATCH, FIXED_ROWS, FRAME_ROWS, TABLE_ROWS, EmitterTable
+from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.core.errors import StateError
 from cavesim.core.fields import FieldGrid, build_field
 from cavesim.core.frame import FrameInput
@@ -31,20 +31,16 @@ from cavesim.core.random_texture import random_words
 from cavesim.core.records import (
     EMITTER_BYTES,
     EMITTER_DTYPE,
-    EMITTER_VERTEX_FORMAT,
     PARTICLE_BYTES,
     PARTICLE_DTYPE,
-    PARTICLE_VERTEX_FORMAT,
 )
-from cavesim.core.scene.model import CollisionKind, FieldKind, FieldSampling, Scene
+from cavesim.core.scene.model import CollisionKind, Engine, FieldKind, FieldSampling, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.gpu.engine.checksum import GpuChecksum, StateChecksum
-from cavesim.gpu.engine.programs import (
-    emit_program,
-    emitter_update_program,
-    particle_update_program,
-)
+from cavesim.gpu.engine.compute import ComputePasses
+from cavesim.gpu.engine.emission import EmitterUpdate
+from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.uniforms import physics_uniforms, rotor_uniforms, write_uniforms
 
 FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
@@ -60,10 +56,9 @@ class ParticleSystem:
         self.scene = scene
         self.emitters = EmitterTable.from_scene(scene)
         self.resources: dict[str, moderngl.Buffer | moderngl.Texture | moderngl.Texture3D] = {}
-        self._live = 0
+        self._live: int | None = 0  # None: the last frame's count is still on the GPU
         self._current = 0  # index of the front buffers
         self._loading: int | None = None  # particles of the load staged in the back buffer
-        self._query = ctx.query(primitives=True)
         self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
                                   for i in range(PARTICLE_BUFFERS)]
         if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
@@ -72,15 +67,18 @@ class ParticleSystem:
         self.field_grid: FieldGrid | None = None
         self.ground_grid: HeightGrid | None = None
         self._textures_for_physics()
-        self._update = particle_update_program(ctx, scene)
-        write_uniforms(self._update, physics_uniforms(scene, self.field_grid, self.ground_grid))
-        self._bind_samplers(self._update)
-        self._update_vaos = [self._vao(self._update, b, PARTICLE_VERTEX_FORMAT,
-                                       "in_a", "in_b", "in_c")
-                             for b in self._particle_buffers]
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
-        if len(self.emitters):
-            self._build_emission()
+        self._emitter_buffers: list[moderngl.Buffer] = []
+        self._emitter_update = self._build_emission() if len(self.emitters) else None
+        if scene.engine is Engine.COMPUTE:
+            self._passes = ComputePasses(ctx, scene, self._particle_buffers,
+                                         self._emitter_buffers, self._bind_samplers,
+                                         self._buffer)
+        else:
+            self._passes = GsTfPasses(ctx, scene, self._particle_buffers,
+                                      self._emitter_buffers, self._bind_samplers)
+        write_uniforms(self._passes.program,
+                       physics_uniforms(scene, self.field_grid, self.ground_grid))
         self._checksum = GpuChecksum(ctx, scene.capacity, len(self.emitters))
         self.restart(scene.seed)  # GL leaves a new buffer's content undefined: zero it
 
@@ -90,9 +88,6 @@ class ParticleSystem:
         buffer = self.ctx.buffer(reserve=max(size, 4))  # GL has no empty buffers
         self.resources[name] = buffer
         return buffer
-
-    def _vao(self, program, buffer, layout: str, *names: str) -> moderngl.VertexArray:
-        return self.ctx.vertex_array(program, [(buffer, layout, *names)])
 
     def _textures_for_physics(self) -> None:
         scene = self.scene
@@ -122,7 +117,7 @@ class ParticleSystem:
                 if (sampler := program.get(name, None)) is not None:
                     sampler.value = unit
 
-    def _build_emission(self) -> None:
+    def _build_emission(self) -> EmitterUpdate:
         scene, count = self.scene, len(self.emitters)
         size = scene.random_texture_size
         random = self.ctx.texture((size, size), 4, random_words(scene.seed, size).tobytes(),
@@ -133,14 +128,10 @@ class ParticleSystem:
         table.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.resources["emitter_table"] = table
         self._write_fixed_rows()
-        self._emitter_buffers = [self._buffer(f"emitters_{i}", count * EMITTER_BYTES)
-                                 for i in range(2)]
-        self._emitter_update = emitter_update_program(self.ctx, scene)
-        self._emit = emit_program(self.ctx, scene)
-        self._emitter_update_vaos = [self._vao(self._emitter_update, b, EMITTER_VERTEX_FORMAT,
-                                               "in_state") for b in self._emitter_buffers]
-        self._emit_vaos = [self._vao(self._emit, b, EMITTER_VERTEX_FORMAT, "in_state")
-                           for b in self._emitter_buffers]
+        self._emitter_buffers += [self._buffer(f"emitters_{i}", count * EMITTER_BYTES)
+                                  for i in range(2)]
+        return EmitterUpdate(self.ctx, scene, self.emitters, table, self._emitter_buffers,
+                             self._bind_samplers)
 
     def _write_fixed_rows(self) -> None:
         self.resources["emitter_table"].write(
@@ -149,9 +140,14 @@ class ParticleSystem:
     # -- the frame ----------------------------------------------------------------------
 
     @property
-    def particle_program(self) -> moderngl.Program:
+    def particle_program(self) -> moderngl.Program | moderngl.ComputeShader:
         """The particle pass's program (its uniforms show what the scene compiled in)."""
-        return self._update
+        return self._passes.program
+
+    @property
+    def engine(self) -> Engine:
+        """The engine path that steps the particles (the scene's `[simulation] engine`)."""
+        return self.scene.engine
 
     @property
     def front_particle_buffer_name(self) -> str:
@@ -160,6 +156,9 @@ class ParticleSystem:
 
     @property
     def live_count(self) -> int:
+        """Live particles; after a compute-path frame, the first call reads them back."""
+        if self._live is None:
+            self._live = self._passes.read_live()
         return self._live
 
     @property
@@ -172,51 +171,25 @@ class ParticleSystem:
         `scene` is the frame's scene state (its driver's); a helicopter scene's rotor is there.
         """
         rotor = self.rotor_inputs.read(scene) if self.rotor_inputs is not None else None
+        live = self.live_count
         front, back = self._current, 1 - self._current
         self._loading = None  # the passes overwrite the back buffers
-        self._bind_samplers(self._update)
+        emission = None if self._emitter_update is None else \
+            self._emitter_update.run(front, back, frame, rotor)
+        program = self._passes.program
+        write_uniforms(program, {"dt": frame.dt})
         if rotor is not None:
-            write_uniforms(self._update, rotor_uniforms(rotor))
-        survivors = self._particle_pass(front, back, frame.dt)
-        emitted = self._emitter_pass(front, back, survivors, frame, rotor) \
-            if len(self.emitters) else 0
-        self._live = survivors + emitted
+            write_uniforms(program, rotor_uniforms(rotor))
+        self._live = self._passes.advance(front, back, live, emission)
         self._current = back
 
-    def _particle_pass(self, front: int, back: int, dt: np.float32) -> int:
-        if self._live == 0:
-            return 0
-        write_uniforms(self._update, {"dt": dt})
-        with self._query:
-            self._update_vaos[front].transform(self._particle_buffers[back], moderngl.POINTS,
-                                               vertices=self._live)
-        return self._query.primitives
-
-    def _emitter_pass(self, front: int, back: int, survivors: int, frame: FrameInput,
-                      rotor) -> int:
-        factors = None if rotor is None else rotor.rate_factors
-        max_emit = self.emitters.max_emit(frame.dt, self.capacity, factors)
-        rows = self.emitters.frame_rows(max_emit, factors,
-                                        None if rotor is None else rotor.origins)
-        self.resources["emitter_table"].write(
-            rows.tobytes(), viewport=(0, FIXED_ROWS, len(self.emitters), FRAME_ROWS))
-        write_uniforms(self._emitter_update, {"dt": frame.dt})
-        self._bind_samplers(self._emitter_update)
-        self._emitter_update_vaos[front].transform(self._emitter_buffers[back], moderngl.POINTS,
-                                                   vertices=len(self.emitters))
-        room = self.capacity - survivors
-        batches = math.ceil(int(max_emit.max()) / EMIT_BATCH)
-        if room <= 0 or batches == 0:
-            return 0
-        write_uniforms(self._emit, {"random_transform": frame.random_transform.T})
-        self._bind_samplers(self._emit)
-        # Transform feedback records only what fits after `buffer_offset`; the query counts
-        # every generated particle, including the ones dropped (DESIGN: live = min(...)).
-        with self._query:
-            self._emit_vaos[back].transform(self._particle_buffers[back], moderngl.POINTS,
-                                            vertices=len(self.emitters), instances=batches,
-                                            buffer_offset=survivors * PARTICLE_BYTES)
-        return min(self._query.primitives, room)
+    def bench_particle_pass(self, dt: np.float32) -> None:
+        """The engine path's particle pass alone on the live stream, waited for (what
+        `cavesim bench` times as "update"). Nothing is swapped; the compute path steps the
+        front buffer in place, so afterwards the state is only good for more timing."""
+        write_uniforms(self._passes.program, {"dt": dt})
+        self._passes.particle_pass(self._current, 1 - self._current, self.live_count)
+        self.ctx.finish()
 
     def reseed(self, seed: int) -> None:
         """Rebuild what the scene's seed decides: the random texture and emitter bases.
@@ -227,6 +200,7 @@ class ParticleSystem:
         self.emitters = EmitterTable.from_scene(self.scene)
         if not len(self.emitters):
             return
+        self._emitter_update.table = self.emitters
         size = self.scene.random_texture_size
         self.resources["random_texture"].write(random_words(seed, size).tobytes())
         self._write_fixed_rows()
@@ -240,8 +214,21 @@ class ParticleSystem:
     # -- state ----------------------------------------------------------------------------
 
     def checksum(self) -> StateChecksum:
-        """Digest of the live particle and emitter streams, computed on the GPU."""
-        return self._state_checksum(self._current, self._live, self.scene.seed)
+        """Digest of the live particle and emitter streams, computed on the GPU. After a
+        compute-path frame the live count is still on the GPU: the checksum takes it from
+        there, and its one 24-byte read brings back the digest and the count together (the
+        frame's only wait)."""
+        if self._live is not None:
+            return self._state_checksum(self._current, self._live, self.scene.seed)
+        counts = self._checksum.counts
+        self.ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)  # the frame's count
+        self.ctx.copy_buffer(counts, self._passes.counts_buffer, size=4)
+        counts.write(np.array([len(self.emitters)], "<u4").tobytes(), offset=4)
+        emitters = self._emitter_buffers[self._current] if len(self.emitters) else None
+        self._checksum.run(self._particle_buffers[self._current], emitters, self.scene.seed)
+        state = self._checksum.read()
+        self._live = state.particles
+        return state
 
     def _state_checksum(self, index: int, particles: int, seed: int) -> StateChecksum:
         emitters = self._emitter_buffers[index] if len(self.emitters) else None
@@ -250,9 +237,9 @@ class ParticleSystem:
 
     def read_particle_chunk(self, first: int, count: int) -> bytes:
         """Records [first, first + count) of the live particle stream, as bytes."""
-        if not (0 <= first and 0 <= count and first + count <= self._live):
+        if not (0 <= first and 0 <= count and first + count <= self.live_count):
             raise StateError(f"particle records [{first}, {first + count}) are not within the "
-                             f"{self._live} live ones")
+                             f"{self.live_count} live ones")
         if count == 0:  # GL cannot map an empty range
             return b""
         return self._particle_buffers[self._current].read(count * PARTICLE_BYTES,
@@ -260,7 +247,7 @@ class ParticleSystem:
 
     def read_particles(self) -> np.ndarray:
         """A copy of the live particle stream (PARTICLE_DTYPE), in stream order."""
-        data = self.read_particle_chunk(0, self._live)
+        data = self.read_particle_chunk(0, self.live_count)
         return np.frombuffer(data, dtype=PARTICLE_DTYPE).copy()
 
     def read_emitters(self) -> np.ndarray:

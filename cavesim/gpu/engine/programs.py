@@ -60,11 +60,15 @@ EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
 CHECKSUM_DEFINES = {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
                     "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE, "FOLD": CHECKSUM_FOLD,
                     "PARTICLE_WORDS": PARTICLE_WORDS, "EMITTER_WORDS": EMITTER_WORDS}
+# The compute path's work group sizes: blocks of 32 particles per invocation (its particle
+# and compaction passes), and the one work group of its scan.
+BLOCK_WORKGROUP_SIZE = 64
+SCAN_SIZE = 256
+BLOCK_DEFINES = {"WORKGROUP_SIZE": BLOCK_WORKGROUP_SIZE}
+SCAN_DEFINES = {"SCAN_SIZE": SCAN_SIZE, "EMIT_BATCH": EMIT_BATCH}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
                               tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
-IN_PLACE_UPDATE = ProgramSpec("particles/update_in_place.glsl", ("compute",),
-                              tuple(PHYSICS_FEATURES))  # the bench's compute-shader bound
 EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
                              tuple(EMISSION_FEATURES), ("out_state",))
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
@@ -82,10 +86,16 @@ CHECKSUM_PROGRAMS = (
     ("fold_2", CHECKSUM_FOLD_PASS, {**CHECKSUM_DEFINES, "LEVEL": 2}),
     ("digest", CHECKSUM_DIGEST, CHECKSUM_DEFINES),
 )
+# the compute path's four passes (cavesim/gpu/engine/compute.py)
+BLOCK_UPDATE = ProgramSpec("particles/update_blocks.glsl", ("compute",),
+                           (*PHYSICS_FEATURES, *BLOCK_DEFINES))
+SCAN = ProgramSpec("particles/scan.glsl", ("compute",), tuple(SCAN_DEFINES))
+COMPACT = ProgramSpec("particles/compact.glsl", ("compute",), tuple(BLOCK_DEFINES))
+APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATURES))
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
-    """Feature switches of the particle pass (and of its compute-shader twin)."""
+    """Feature switches of the particle pass (on either engine path)."""
     field = scene.field
     return {
         "HAS_GRAVITY": int(scene.forces.gravity is not None),
@@ -112,31 +122,31 @@ def emission_defines(scene: Scene) -> dict[str, int]:
 def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program a scene builds, with its defines."""
     physics = physics_defines(scene)
-    programs = [(PARTICLE_UPDATE, physics), (IN_PLACE_UPDATE, physics),
+    programs = [(PARTICLE_UPDATE, physics), (BLOCK_UPDATE, {**physics, **BLOCK_DEFINES}),
+                (SCAN, SCAN_DEFINES), (COMPACT, BLOCK_DEFINES),
                 *((spec, defines) for _, spec, defines in CHECKSUM_PROGRAMS)]
     if scene.emitters:
         emission = emission_defines(scene)
-        programs += [(EMITTER_UPDATE, emission), (EMIT, emission)]
+        programs += [(EMITTER_UPDATE, emission), (EMIT, emission), (APPEND, emission)]
     return programs
 
 
 def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
     """Every engine program with every combination of the values its defines can take."""
-    for spec, features in ((PARTICLE_UPDATE, PHYSICS_FEATURES),
-                           (IN_PLACE_UPDATE, PHYSICS_FEATURES),
-                           (EMITTER_UPDATE, EMISSION_FEATURES), (EMIT, EMISSION_FEATURES)):
+    for spec, features, fixed in ((PARTICLE_UPDATE, PHYSICS_FEATURES, {}),
+                                  (BLOCK_UPDATE, PHYSICS_FEATURES, BLOCK_DEFINES),
+                                  (EMITTER_UPDATE, EMISSION_FEATURES, {}),
+                                  (EMIT, EMISSION_FEATURES, {}),
+                                  (APPEND, EMISSION_FEATURES, {})):
         for values in itertools.product(*features.values()):
-            yield spec, dict(zip(features, values, strict=True))
-    for _, spec, defines in CHECKSUM_PROGRAMS:
+            yield spec, {**dict(zip(features, values, strict=True)), **fixed}
+    for spec, defines in ((SCAN, SCAN_DEFINES), (COMPACT, BLOCK_DEFINES),
+                          *((spec, defines) for _, spec, defines in CHECKSUM_PROGRAMS)):
         yield spec, dict(defines)
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
     return PARTICLE_UPDATE.build(ctx, physics_defines(scene))
-
-
-def in_place_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
-    return IN_PLACE_UPDATE.build(ctx, physics_defines(scene))
 
 
 def emitter_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
@@ -150,4 +160,20 @@ def emit_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
 def checksum_programs(ctx: moderngl.Context) -> dict[str, moderngl.ComputeShader]:
     """The checksum's passes by name: plan, sums, fold_1, fold_2, digest."""
     return {name: spec.build(ctx, defines) for name, spec, defines in CHECKSUM_PROGRAMS}
+
+
+def block_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
+    return BLOCK_UPDATE.build(ctx, {**physics_defines(scene), **BLOCK_DEFINES})
+
+
+def scan_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
+    return SCAN.build(ctx, SCAN_DEFINES)
+
+
+def compact_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
+    return COMPACT.build(ctx, BLOCK_DEFINES)
+
+
+def append_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
+    return APPEND.build(ctx, emission_defines(scene))
 

@@ -17,6 +17,7 @@ import os
 import moderngl
 
 from cavesim.core.errors import ContextError
+from cavesim.gpu.gl.denormals import flushing_denormals
 from cavesim.gpu.gl.devices import LIST_HINT, PACKAGE_HINT, find_device
 
 REQUIRED_GL_VERSION = 430  # compute shaders, SSBOs (GS + TF need 3.3); every program's #version
@@ -34,8 +35,11 @@ def create_context(require: int = REQUIRED_GL_VERSION,
     except ContextError as e:
         raise ContextError(f"cannot open a headless OpenGL context: {e.problem}", e.fix) from e
     try:
-        ctx = moderngl.create_standalone_context(backend="egl", require=require,
-                                                 device_index=index)
+        # the driver's threads start now and keep this thread's denormal mode: see
+        # cavesim.gpu.gl.denormals (compute dispatches must round as draws do)
+        with flushing_denormals():
+            ctx = moderngl.create_standalone_context(backend="egl", require=require,
+                                                     device_index=index)
     except Exception as e:  # moderngl/glcontext raise plain Exception for a missing library
         message = " ".join(str(e).split())
         raise ContextError(f"cannot open a headless OpenGL context through EGL on device "

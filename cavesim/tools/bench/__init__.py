@@ -1,4 +1,4 @@
-"""`cavesim bench`: throughput of the GS/TF step against its numpy twin and compute bound.
+"""`cavesim bench`: throughput of both engine paths against the copy bound and numpy.
 
 `run_bench` measures every size on one GL context and writes `bench.json` (machine-readable
 first, see DESIGN "Reports") and `bench.md` next to the table it prints.

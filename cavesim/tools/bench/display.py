@@ -22,6 +22,9 @@ def show(report: dict, sizes: list[SizeFigures], console: Console) -> None:
     for row in table_rows(sizes):
         table.add_row(*row)
     console.print(table)
+    for skip in report["skipped_sizes"]:
+        console.print(f"not measured: {skip['particles']:,} particles ({skip['why']})",
+                      markup=False, highlight=False)
     console.print("targets:")
     for target in report["targets"]:
         style = "green" if target["met"] else "bold red"

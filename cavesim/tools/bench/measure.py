@@ -1,8 +1,9 @@
-"""Timing of the four benchmarked paths at one size, all on the caller's GL context.
+"""Timing of every benchmarked path at one size, all on the caller's GL context.
 
-GL calls are asynchronous, so every timed GL action ends in `ctx.finish()` (the checksum
-reads its sums back, which waits by itself). Each path gets warm-up frames, which absorb
-shader compilation and first-touch costs, then the median of the timed frames is kept.
+GL calls are asynchronous, so every timed GL action ends waiting for the GPU (a checksum
+reads its sums back; the rest end in `ctx.finish()`). Each path gets warm-up frames, which
+absorb shader compilation and first-touch costs, then the median of the timed frames is
+kept. Both engine paths step the same particles with the same frames.
 """
 
 from __future__ import annotations
@@ -16,17 +17,17 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import CavesimError
-from cavesim.core.scene.model import Scene
+from cavesim.core.heightfield import HeightGrid, load_heightfield
+from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.scene.model import CollisionKind, Engine, Scene
 from cavesim.core.twin import TwinSystem
-from cavesim.gpu.engine.particle_system import FIELD_UNIT, GROUND_UNIT, ParticleSystem
-from cavesim.gpu.engine.programs import in_place_update_program
-from cavesim.gpu.engine.uniforms import physics_uniforms, write_uniforms
+from cavesim.gpu.engine.particle_system import ParticleSystem
 from cavesim.tools.bench.figures import SizeFigures
 from cavesim.tools.bench.workload import FRAME_DT, frame_inputs, preload
 
 WARMUP_FRAMES = 2
 NUMPY_WARMUP_FRAMES = 1
-COMPUTE_LOCAL_SIZE = 64  # layout(local_size_x = 64) in shaders/particles/update_in_place.glsl
+GL_PATHS = 6  # timed per size on the GL context: 2 frames, 2 updates, checksum, copy
 
 Tick = Callable[[str], None]  # called after every warm-up or timed frame, with the path name
 
@@ -42,7 +43,7 @@ def numpy_frames(frames: int) -> int:
 
 def ticks_per_size(frames: int) -> int:
     """How often `measure_size` calls its tick, for a progress bar."""
-    return 3 * (WARMUP_FRAMES + frames) + NUMPY_WARMUP_FRAMES + numpy_frames(frames)
+    return GL_PATHS * (WARMUP_FRAMES + frames) + NUMPY_WARMUP_FRAMES + numpy_frames(frames)
 
 
 def median_seconds(action: Callable[[], object], warmup: int, frames: int,
@@ -60,60 +61,76 @@ def median_seconds(action: Callable[[], object], warmup: int, frames: int,
     return statistics.median(times)
 
 
+@dataclasses.dataclass(frozen=True)
+class _PathTimes:
+    frame: float
+    update: float
+    checksum: float
+    live_after: int
+
+
 def measure_size(ctx: moderngl.Context, scene: Scene, count: int, frames: int,
                  tick: Tick) -> SizeFigures:
     """Time every path on a full pool of `count` particles of `scene`."""
     scene = dataclasses.replace(scene, capacity=count)
-    system = ParticleSystem(ctx, scene)
-    records = preload(scene, count, system.ground_grid)
-    system.write_particles(records)
-    inputs = iter(frame_inputs(scene, WARMUP_FRAMES + frames))
-
-    def gs_tf_step() -> None:
-        system.step(next(inputs))
-        ctx.finish()
-
-    try:
-        gs_tf = median_seconds(gs_tf_step, WARMUP_FRAMES, frames, lambda: tick("GS/TF step"))
-        checksum = median_seconds(system.checksum, WARMUP_FRAMES, frames,
-                                  lambda: tick("checksum"))
-        compute = _compute_bound_seconds(ctx, scene, system, records, frames, tick)
-        live_after = system.live_count
-    finally:
-        system.release()
+    records = preload(scene, count, _ground_grid(scene))
+    gs_tf = _engine_seconds(ctx, scene, Engine.GS_TF, records, frames, tick)
+    compute = _engine_seconds(ctx, scene, Engine.COMPUTE, records, frames, tick)
+    copy = _copy_seconds(ctx, records, frames, tick)
     numpy_s = _numpy_twin_seconds(scene, records, frames, tick)
     if (error := ctx.error) != "GL_NO_ERROR":
         raise BenchError(f"GL reported {error} while benchmarking {count} particles")
-    return SizeFigures(count, gs_tf, compute, numpy_s, checksum, frames, numpy_frames(frames),
-                       live_after)
+    return SizeFigures(count, gs_tf.frame, compute.frame, gs_tf.update, compute.update,
+                       gs_tf.checksum, copy, numpy_s, frames, numpy_frames(frames),
+                       min(gs_tf.live_after, compute.live_after))
 
 
-def _compute_bound_seconds(ctx: moderngl.Context, scene: Scene, system: ParticleSystem,
-                           records: np.ndarray, frames: int, tick: Tick) -> float:
-    """The particle pass's arithmetic in place in a storage buffer: no emission, no kill."""
-    program = in_place_update_program(ctx, scene)
-    write_uniforms(program, physics_uniforms(scene, system.field_grid, system.ground_grid))
-    write_uniforms(program, {"dt": np.float32(FRAME_DT),
-                             "particle_count": np.uint32(len(records))})
-    for name, unit in (("flow_field", FIELD_UNIT), ("ground_height", GROUND_UNIT)):
-        if name in system.resources:
-            system.resources[name].use(unit)
-            if name in program:
-                program[name].value = unit
-    words = ctx.buffer(records.tobytes())  # its own copy: the GS/TF buffers stay untouched
-    groups = -(-len(records) // COMPUTE_LOCAL_SIZE)
+def _ground_grid(scene: Scene) -> HeightGrid | None:
+    """The scene's height field, if it has one: where the preloaded pool starts."""
+    collision = scene.collision
+    if collision is None or collision.kind is not CollisionKind.HEIGHTFIELD:
+        return None
+    return load_heightfield(collision.file)
 
-    def update_in_place() -> None:
-        words.bind_to_storage_buffer(0)  # the checksum binds binding 0 too
-        program.run(groups)
+
+def _engine_seconds(ctx: moderngl.Context, scene: Scene, engine: Engine,
+                    records: np.ndarray, frames: int, tick: Tick) -> _PathTimes:
+    """One engine path: whole frames (step + checksum), then its particle pass alone."""
+    system = ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
+    try:
+        system.write_particles(records)
+        inputs = iter(frame_inputs(scene, WARMUP_FRAMES + frames))
+
+        def frame() -> None:
+            system.step(next(inputs))
+            system.checksum()  # reads back: the frame is done
+
+        frame_s = median_seconds(frame, WARMUP_FRAMES, frames, lambda: tick(f"{engine} frame"))
+        live_after = system.live_count
+        checksum_s = median_seconds(system.checksum, WARMUP_FRAMES, frames,
+                                    lambda: tick("checksum")) if engine is Engine.GS_TF else 0.0
+        update_s = median_seconds(lambda: system.bench_particle_pass(np.float32(FRAME_DT)),
+                                  WARMUP_FRAMES, frames, lambda: tick(f"{engine} update"))
+    finally:
+        system.release()
+    return _PathTimes(frame_s, update_s, checksum_s, live_after)
+
+
+def _copy_seconds(ctx: moderngl.Context, records: np.ndarray, frames: int,
+                  tick: Tick) -> float:
+    """The memory-bandwidth bound: one GPU-side copy of the particle state (read + write)."""
+    size = max(len(records) * PARTICLE_BYTES, 4)
+    source, target = ctx.buffer(records.tobytes() or b"\0" * 4), ctx.buffer(reserve=size)
+
+    def copy() -> None:
+        ctx.copy_buffer(target, source, size)
         ctx.finish()
 
     try:
-        return median_seconds(update_in_place, WARMUP_FRAMES, frames,
-                              lambda: tick("compute bound"))
+        return median_seconds(copy, WARMUP_FRAMES, frames, lambda: tick("copy bound"))
     finally:
-        words.release()
-        program.release()
+        source.release()
+        target.release()
 
 
 def _numpy_twin_seconds(scene: Scene, records: np.ndarray, frames: int, tick: Tick) -> float:

@@ -24,7 +24,6 @@ from cavesim.tools.arguments import (
 )
 
 BENCH_SCENE = "config/scenes/bench.toml"
-BENCH_SIZES = "100000,300000,1000000"
 BENCH_FRAMES = 10
 CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
 CLUSTER_FRAMES = 300
@@ -37,13 +36,16 @@ node_counts = count_list(MAX_WALLS, "node counts")
 
 def add(commands) -> None:
     parser = commands.add_parser(
-        "bench", help="throughput of the GS/TF step against numpy and a compute-shader bound")
+        "bench", help="throughput of both engine paths (GS/TF, compute) against the copy "
+                      "bound and numpy")
     parser.add_argument("--scene", type=scene_file,
                         help=f"scene file (default: {BENCH_SCENE}; with --cluster: the "
                              f"lock-step run's scene, default config/scenes/dust_devil.toml; "
                              f"with --soak: default config/scenes/minimal.toml)")
     parser.add_argument("--sizes", type=particle_counts,
-                        help=f"comma-separated particle counts (default: {BENCH_SIZES})")
+                        help="comma-separated particle counts (default: 1000000, 10000000 and "
+                             "the largest the GL context allows, leaving out what it cannot "
+                             "hold)")
     parser.add_argument("--frames", type=frame_count,
                         help=f"timed frames per path after 2 warm-up frames (default: "
                              f"{BENCH_FRAMES}); with --cluster: frames per run "
@@ -92,8 +94,7 @@ def bench(args: argparse.Namespace, console: Console) -> int:
 
     scene = _bench_scene(args.scene or scene_file(BENCH_SCENE))
     output_directory(args.out, "bench")
-    run_bench(scene, args.sizes or particle_counts(BENCH_SIZES), args.frames or BENCH_FRAMES,
-              args.out, console)
+    run_bench(scene, args.sizes, args.frames or BENCH_FRAMES, args.out, console)
     return 0
 
 

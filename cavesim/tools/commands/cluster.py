@@ -8,6 +8,7 @@ import json
 import logging
 
 from cavesim.core.limits import GPU_RANGE
+from cavesim.core.scene.model import Engine
 from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
@@ -129,6 +130,9 @@ def add_node(commands) -> None:
     parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
                         help="EGL device to compute on (default: device 0; `cavesim doctor` "
                              "lists them)")
+    parser.add_argument("--engine", type=Engine, choices=list(Engine),
+                        help="particle engine path, instead of the scene's [simulation] "
+                             "engine: gs_tf (geometry shader + transform feedback) or compute")
     parser.add_argument("--snapshot-chunk", type=number_in(int, 1, MAX_CHUNK_PARTICLES,
                                                            "particles"),
                         default=CHUNK_PARTICLES,
@@ -180,6 +184,7 @@ def node(args: argparse.Namespace, console) -> int:
                         slow_delay=args.slow_delay, cave=args.cave,
                         render_every=args.render_every, images=args.images,
                         stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu,
+                        engine=args.engine,
                         display=args.display, preview=args.preview,
                         preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
                         master_wait=args.master_wait)

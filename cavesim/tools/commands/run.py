@@ -18,6 +18,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
 from cavesim.core.output import check_written, writing
+from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
 from cavesim.core.wire.network import session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
@@ -59,6 +60,7 @@ class RunPlan:
     gpus: Mapping[str, int] = field(default_factory=dict)  # wall -> EGL device (else default)
     display: bool = False  # every wall live in its window ([wall.display] of the CAVE)
     preview: bool = False  # a member "preview" shows the CAVE unfolded in a desktop window
+    engine: Engine | None = None  # every wall's particle engine path (None: the scene's)
 
     @property
     def members(self) -> tuple[str, ...]:
@@ -70,18 +72,20 @@ class RunPlan:
         return self.cave is not None and self.render_every > 0
 
     def node_args(self, wall: str) -> tuple[str, ...]:
-        """The flags of `wall`'s node beyond the cluster's own: drawing, its GPU, its window."""
+        """The flags of `wall`'s node beyond the cluster's own: its engine path, drawing, its
+        GPU, its window."""
+        engine = () if self.engine is None else ("--engine", str(self.engine))
         if wall == PREVIEW:
-            return ("--preview", "--cave", str(self.cave))
+            return ("--preview", "--cave", str(self.cave), *engine)
         if self.display:
             return ("--display", "--cave", str(self.cave), "--render-every",
-                    str(self.render_every), "--images", str(self.out / "walls"))
+                    str(self.render_every), "--images", str(self.out / "walls"), *engine)
         gpu = ("--gpu", str(self.gpus[wall])) if wall in self.gpus else ()
         if not self.draws:
-            return gpu
+            return (*gpu, *engine)
         return ("--cave", str(self.cave), "--render-every", str(self.render_every),
                 "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()),
-                *gpu)
+                *gpu, *engine)
 
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
@@ -167,6 +171,10 @@ def add(commands) -> None:
                         help="one desktop window with every wall unfolded, live; its keys, "
                              "mouse and gamepad move the head and fly the wand")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--engine", type=Engine, choices=list(Engine),
+                        help="every wall's particle engine path, instead of the scene's "
+                             "[simulation] engine: gs_tf (geometry shader + transform "
+                             "feedback, the default) or compute (compute shaders, same bytes)")
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
     parser.add_argument("--out", type=output_folder, default=Path("out"))
@@ -199,7 +207,7 @@ def run(args: argparse.Namespace, console) -> int:
                    on_loss=args.on_loss or "continue",
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus, display=args.display,
-                   preview=args.preview)
+                   preview=args.preview, engine=args.engine)
     report = run_walls(plan, console)
     if report["interrupted"]:
         return INTERRUPTED

@@ -194,13 +194,22 @@ bool finite(vec3 x) {
     return all(lessThan(magnitude, uvec3(floatBitsToUint(RUNAWAY))));
 }
 
-// One step of one particle: the arithmetic shared by the GS/TF update and the compute bound.
-// Returns false when the step ran away (an unstable integrator, an absurd field): the
-// particle pass drops it, so NaN or Inf never reach the GPU state (a status, not a crash).
+// One step of one particle's motion. Returns false when the step ran away (an unstable
+// integrator, an absurd field): the particle pass drops it, so NaN or Inf never reach the
+// GPU state (a status, not a crash).
 bool advance(inout Particle q, float h) {
     integrate(q.pos, q.vel, inverse_relaxation_time(q.class_id), h);
 #if COLLISION != COLLISION_NONE
     collide(q.pos, q.vel);
 #endif
     return finite(q.pos) && finite(q.vel);
+}
+
+// One frame of one particle, the arithmetic both engine paths' particle passes share
+// (GS/TF update.glsl, compute update_blocks.glsl): it ages by h and moves.
+// Returns whether it lives on: not expired and not run away.
+bool step_particle(inout Particle q, float h) {
+    q.age += double(h);
+    bool sane = advance(q, h);
+    return q.age < double(q.lifetime) && sane;
 }
