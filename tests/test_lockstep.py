@@ -8,7 +8,13 @@ import pytest
 from memory_walls import MemoryLink
 
 from cavesim.core.errors import ClusterError
-from cavesim.core.wire import Command, ControlMessage, DisplayMessage, ReportMessage
+from cavesim.core.wire import (
+    Command,
+    ControlMessage,
+    DisplayMessage,
+    FrameMessage,
+    ReportMessage,
+)
 from cavesim.core.wire.messages import Phase, Status
 from cavesim.nodes import lockstep
 from cavesim.nodes.lockstep import Membership
@@ -188,6 +194,20 @@ def test_the_master_keeps_only_the_reports_of_the_frame_in_flight():
     master.run()
     assert master.frame == 50 and set(master.reports) <= set(WALLS)
     assert all(r.frame == 50 for r in master.reports.values())
+
+
+def test_ctrl_c_in_a_barrier_stops_the_walls_with_the_newest_frame_sent():
+    class InterruptedLink(MemoryLink):
+        def send(self, message):
+            super().send(message)
+            if isinstance(message, FrameMessage) and message.frame == 10:
+                raise KeyboardInterrupt  # Ctrl-C just after frame 10 went out
+
+    link = InterruptedLink(WALLS)
+    record = run(link)
+    assert record.interrupted and record.frames == 9
+    stop = link.sent[-1]
+    assert stop.command is Command.STOP and stop.frame == 10  # not older than frame 10
 
 
 def test_a_late_wall_times_the_join_out_with_a_clear_error():

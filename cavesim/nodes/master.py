@@ -274,9 +274,11 @@ class Master:
                                                  if w not in members))
 
     def stop(self, wait: float = STOP_WAIT) -> None:
-        """Tell every node to STOP, and wait (on liveliness) until they have left."""
+        """Tell every node to STOP, and wait (on liveliness) until they have left. The STOP
+        names the newest frame sent (a node refuses a command older than that as a replay),
+        which is one past the last done when the run was interrupted in a barrier."""
         self.stopping = True
-        self.link.send(ControlMessage(self.record.frames, Command.STOP))
+        self.link.send(ControlMessage(self.frame, Command.STOP))
         deadline = time.monotonic() + wait
         while self.membership.alive and time.monotonic() < deadline:
             self._pump(deadline)
