@@ -169,8 +169,11 @@ def test_healthy_soak_of_1000_frames_has_no_divergence_and_replays(tmp_path, ctx
 def test_ctrl_c_stops_every_process_and_still_writes_the_report(tmp_path):
     command = [sys.executable, "-m", "cavesim", "run", "--walls", "2", "--frames", "100000",
                "--scene", str(MINIMAL), "--out", str(tmp_path), "--session", f"c{os.getpid()}"]
+    # SIGINT at its default, as a terminal's Ctrl-C finds it (a test runner started in the
+    # background passes SIGINT on ignored, and Python then never raises KeyboardInterrupt)
     run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                           start_new_session=True)
+                           start_new_session=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 60
     while not (tmp_path / "frames.log").exists() or (tmp_path / "frames.log").stat().st_size < 2000:
         assert time.monotonic() < deadline and run.poll() is None, run.stdout.read()

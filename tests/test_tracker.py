@@ -172,7 +172,9 @@ def test_recorded_datagrams_reach_a_subscriber_as_signed_tracking_messages(tmp_p
     tracker = cavesim("tracker", "--dtrack", str(port), "--bind", "127.0.0.1", "--map",
                       "config/tracking/dtrack.toml", "--listen", endpoint, "--session", session,
                       "--key-file", str(session_key), "--report", str(tmp_path / "r.json"),
-                      "--verbose", start_new_session=True)
+                      "--verbose", start_new_session=True,  # SIGINT at its default, as
+                      # a terminal's Ctrl-C finds it, however this test runner was started
+                      preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     received: queue.Queue[TrackingMessage] = queue.Queue()
     with zenoh.open(NetworkConfig(connect=(endpoint,)).zenoh_config()) as listener, \
             socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as dtrack:
