@@ -1,6 +1,7 @@
 """The master's rules as pure functions, and the master's whole loop in this process over
 walls simulated in memory (tests/memory_walls.py): no Zenoh, no GL, no child process."""
 
+import threading
 import time
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from cavesim.core.wire import (
 )
 from cavesim.core.wire.messages import Phase, Status
 from cavesim.nodes import lockstep
+from cavesim.nodes.events import ProcessEnded
 from cavesim.nodes.lockstep import Membership
 from cavesim.nodes.master import MAX_RESYNC_FAILURES, Master, MasterConfig, run_master
 from cavesim.nodes.swaps import WINDOW, SwapBook
@@ -208,6 +210,21 @@ def test_ctrl_c_in_a_barrier_stops_the_walls_with_the_newest_frame_sent():
     assert record.interrupted and record.frames == 9
     stop = link.sent[-1]
     assert stop.command is Command.STOP and stop.frame == 10  # not older than frame 10
+
+
+def test_when_every_wall_goes_at_once_a_failed_process_says_why():
+    link = MemoryLink(WALLS)
+
+    def all_fail(k):
+        if k == 5:
+            for wall in WALLS:
+                link.go_down(wall)  # liveliness goes first; the process watcher is slower
+            threading.Timer(0.2, link.events.put, (ProcessEnded(
+                "left", 1, "wall left exited with code 1: cannot write out/x.png: No space "
+                "left on device"),)).start()
+
+    with pytest.raises(ClusterError, match="wall left exited with code 1: cannot write"):
+        run(link, before_frame=all_fail)
 
 
 def test_a_late_wall_times_the_join_out_with_a_clear_error():

@@ -66,6 +66,7 @@ RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the n
 STOP_WAIT = 5.0  # s for the nodes to leave after STOP
 INFO_RETRY = 2.0  # s before a wall that is up but has not joined is asked again
 MAX_RESYNC_FAILURES = 3  # in a row: then the wall is given up until its node joins anew
+GONE_GRACE = 1.0  # s to hear why, when every member is gone at once
 
 
 @dataclass(frozen=True)
@@ -308,8 +309,16 @@ class Master:
             self._send_frame(k, message)
             deadline = time.monotonic() + self.config.barrier_timeout
         if not self.membership.members:
-            raise ClusterError(f"frame {k}: every wall node is gone")
+            self._say_why_all_are_gone(k)
         return time.monotonic() - sent
+
+    def _say_why_all_are_gone(self, k: int) -> None:
+        """Every member left: give a node process that failed the moment it takes its
+        watcher to say so (its own error line is the one to tell), then end the run."""
+        deadline = time.monotonic() + GONE_GRACE
+        while time.monotonic() < deadline:
+            self._pump(deadline)  # a failed process's ProcessEnded raises its line
+        raise ClusterError(f"frame {k}: every wall node is gone")
 
     def _hold_or_evict(self, k: int, silent: float) -> None:
         """The members still missing have been silent `silent` seconds in frame k."""
