@@ -153,12 +153,17 @@ def network_and_key(args: argparse.Namespace, command: str):
 
 
 def master_credentials(path: Path | None, command: str):
-    """The master's credentials from its --key-file (None without one): a master.key, since
-    only the master signs frames and commands (UsageError otherwise)."""
+    """The master's credentials from its --key-file (None without one), checked by
+    `signing_key` (UsageError)."""
     try:
-        credentials = read_key(path)
+        return signing_key(read_key(path), path, command)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e
+
+
+def signing_key(credentials, path: Path | None, command: str):
+    """`credentials` if they are a master.key (or None), since only the master signs frames
+    and commands; else UsageError naming the file."""
     if credentials is not None and not credentials.can_sign_as_master:
         raise UsageError(f"cavesim {command}: error: argument --key-file: {path} holds no "
                          f"master signing key (it is a session.key); the master needs the "

@@ -21,7 +21,6 @@ from cavesim.tools.arguments import (
     configure_logging,
     frame_count,
     lost_walls_code,
-    master_credentials,
     network_and_key,
     number_in,
     output_file,
@@ -29,6 +28,7 @@ from cavesim.tools.arguments import (
     output_path,
     scene_file,
     seconds,
+    signing_key,
     wall_list,
 )
 
@@ -86,8 +86,8 @@ def master(args: argparse.Namespace, console) -> int:
     from cavesim.nodes.report_file import ReportFile
 
     configure_logging(args.verbose)
-    network, _ = network_and_key(args, "master")
-    credentials = master_credentials(args.key_file, "master")
+    network, credentials = network_and_key(args, "master")
+    signing_key(credentials, args.key_file, "master")
     for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
         if path is not None:
             output_file(path, "master", flag)
