@@ -53,7 +53,7 @@ _SQRT2_BITS = np.uint32(0x3FB504F3)
 _LOG_Q = [_bits(b) for b in (0x3D9021BB, 0xBDEBD1B8, 0x3DEF251A, 0xBDFE5D4F, 0x3E11E9BF,
                              0xBE2AAE50, 0x3E4CCEAC, 0xBE7FFFFC, 0x3EAAAAAA)]
 _TWO_OVER_PI = _bits(0x3F22F983)
-_PIO2 = [np.float32(1.5703125), _bits(0x39FDA000), _bits(0x33A22169)]
+_PIO2 = [np.float32(1.5703125), _bits(0x39FDA000), _bits(0x33A22000), _bits(0x2C34611A)]
 _SIN_S = [_bits(b) for b in (0xB94CA1F9, 0x3C08839E, 0xBE2AAAA3)]
 _COS_C = [_bits(b) for b in (0x37CCF5CE, 0xBAB6061A, 0x3D2AAAA5)]
 _QUARTER = np.float32(0.25)
@@ -181,7 +181,9 @@ def _log(x):
 def _sin_cos_reduced(x):
     """sin r, cos r of the reduced argument and the quadrant, as arith_sin_cos_reduced."""
     n = np.floor(_add(_mul(x, _TWO_OVER_PI), _HALF))
-    r = _sub(_sub(_sub(x, _mul(n, _PIO2[0])), _mul(n, _PIO2[1])), _mul(n, _PIO2[2]))
+    r = x
+    for part in _PIO2:
+        r = _sub(r, _mul(n, part))
     quadrant = _sub(n, _mul(np.floor(_mul(n, _QUARTER)), _FOUR)).astype(np.int32)
     r2 = _mul(r, r)
     sin_r = _add(_mul(_mul(_horner(_SIN_S, r2), r2), r), r)

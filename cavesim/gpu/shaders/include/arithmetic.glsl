@@ -389,12 +389,15 @@ float f_pow(float x, float y) {
     return arith_exp(arith_mul(f_ftz(y), arith_log(f_ftz(x))));
 }
 
-// x - n pi/2 with pi/2 = PIO2_1 + PIO2_2 + PIO2_3 (Cody-Waite, Cephes' split: 8, 11 and
-// 24 bits, so n PIO2_1 and n PIO2_2 are exact for |n| < 2^13, |x| < 12867)
+// x - n pi/2 with pi/2 = PIO2_1 + PIO2_2 + PIO2_3 + PIO2_4 (Cody-Waite; Cephes' first two
+// parts, 8 and 11 bits, the third 11 bits, so n PIO2_1..3 are exact for |n| < 2^13, that
+// is |x| < 12867; the four parts sum to pi/2 within 2^-64 of it, enough for arguments as
+// close to a multiple of pi/2 as float32 holds: README.md "Portable arithmetic")
 #define ARITH_TWO_OVER_PI uintBitsToFloat(0x3f22f983u)  // 0.636619747
 const float ARITH_PIO2_1 = 1.5703125;
 #define ARITH_PIO2_2 uintBitsToFloat(0x39fda000u)  // 4.83751297e-4
-#define ARITH_PIO2_3 uintBitsToFloat(0x33a22169u)  // 7.54979013e-8
+#define ARITH_PIO2_3 uintBitsToFloat(0x33a22000u)  // 7.54953362e-8
+#define ARITH_PIO2_4 uintBitsToFloat(0x2c34611au)  // 2.56334407e-12
 // Cephes sinf/cosf on |r| <= pi/4: sin r = r + r^3 S(r^2), cos r = 1 - r^2/2 + r^4 C(r^2)
 #define ARITH_SIN_S0 uintBitsToFloat(0xb94ca1f9u)  // -1.95152956e-4
 #define ARITH_SIN_S1 uintBitsToFloat(0x3c08839eu)  //  8.33216123e-3
@@ -407,9 +410,10 @@ const float ARITH_PIO2_1 = 1.5703125;
 // and not subnormal.
 void arith_sin_cos_reduced(float x, out float sin_r, out float cos_r, out int quadrant) {
     precise float n = floor(arith_add(arith_mul(x, ARITH_TWO_OVER_PI), 0.5));
-    precise float r = arith_sub(arith_sub(arith_sub(x, arith_mul(n, ARITH_PIO2_1)),
-                                          arith_mul(n, ARITH_PIO2_2)),
-                                arith_mul(n, ARITH_PIO2_3));
+    precise float r = arith_sub(x, arith_mul(n, ARITH_PIO2_1));
+    r = arith_sub(r, arith_mul(n, ARITH_PIO2_2));
+    r = arith_sub(r, arith_mul(n, ARITH_PIO2_3));
+    r = arith_sub(r, arith_mul(n, ARITH_PIO2_4));
     // n mod 4, exact for any n: n/4 and 4 floor(n/4) are exact, their difference too
     precise float n_mod_4 = arith_sub(n, arith_mul(floor(arith_mul(n, 0.25)), 4.0));
     quadrant = int(n_mod_4);
@@ -425,7 +429,7 @@ void arith_sin_cos_reduced(float x, out float sin_r, out float cos_r, out int qu
     cos_r = arith_add(arith_sub(c, arith_mul(0.5, r2)), 1.0);
 }
 
-// sin x; accurate for |x| < 8192 (README.md), NaN for inf and NaN.
+// sin x; accurate for |x| <= 8192 (README.md), NaN for inf and NaN.
 float f_sin(float x) {
     x = f_ftz(x);
     if ((floatBitsToUint(x) & ARITH_MAGNITUDE) >= ARITH_INF) {
@@ -438,7 +442,7 @@ float f_sin(float x) {
     return quadrant >= 2 ? -value : value;
 }
 
-// cos x; accurate for |x| < 8192 (README.md), NaN for inf and NaN.
+// cos x; accurate for |x| <= 8192 (README.md), NaN for inf and NaN.
 float f_cos(float x) {
     x = f_ftz(x);
     if ((floatBitsToUint(x) & ARITH_MAGNITUDE) >= ARITH_INF) {
