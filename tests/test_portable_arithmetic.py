@@ -172,6 +172,36 @@ def test_the_operations_division_and_root_are_correctly_rounded_and_flushed(ctx,
         (hex(bits(a[n])), hex(bits(b[n])), hex(got[n]), hex(expected[n])) for n in wrong[:8]]
 
 
+def every_significand(high_bits):
+    """The 2^23 floats whose bits are high_bits | significand, in chunks of 2^21."""
+    for start in range(0, 2**23, 2**21):
+        significands = np.arange(start, start + 2**21, dtype=np.uint32)
+        yield (np.uint32(high_bits) | significands).view(np.float32)
+
+
+def test_square_root_is_correctly_rounded_for_every_float(ctx):
+    # the root's estimate and its correction see only the significand and whether the
+    # exponent is odd: 1 and 2 times every significand cover all positive normal floats
+    for high_bits in (0x3F800000, 0x40000000):
+        for x in every_significand(high_bits):
+            cases = np.zeros((len(x), 3, 3), np.float32)
+            cases[:, 0, 0] = x
+            got = run_function(ctx, "f_sqrt", cases)[:, 0]
+            assert (bits(got) == bits(np.sqrt(x.astype(np.float64)).astype(np.float32))).all()
+
+
+def test_division_is_correctly_rounded_for_every_divisor_significand(ctx):
+    # the quotient's estimate rests on the divisor's reciprocal: every divisor
+    # significand, by the smallest and the largest dividend significand
+    for dividend in (np.float32(1.0), np.float32(2.0) - np.float32(2.0**-23)):
+        for b in every_significand(0x3F800000):
+            cases = np.zeros((len(b), 3, 3), np.float32)
+            cases[:, 0, 0], cases[:, 1, 0] = dividend, b
+            got = run_function(ctx, "f_div", cases)[:, 0]
+            expected = (np.float64(dividend) / b.astype(np.float64)).astype(np.float32)
+            assert (bits(got) == bits(expected)).all()
+
+
 SPECIAL_VALUES = [  # function, operands, expected bits
     ("f_div", (0.0, 0.0), QUIET_NAN), ("f_div", (1.0, -0.0), 0xFF800000),
     ("f_div", (-0.0, 5.0), 0x80000000), ("f_div", (np.inf, np.inf), QUIET_NAN),

@@ -87,11 +87,16 @@ def _quiet_floating_point(function):
 
 def _flush(x: np.ndarray) -> np.ndarray:
     bits = np.asarray(x).view(np.uint32)
-    return np.where((bits & _EXPONENT) == 0, bits & _SIGN, bits).view(np.float32)
+    # subnormal: the magnitude, shifted past the sign, is in [2, 2^24); a zero wraps around
+    subnormal = (bits << 1) - np.uint32(1) < np.uint32(0x00FFFFFF)
+    if not subnormal.any():  # the common case, without a copy
+        return np.asarray(x)
+    return np.where(subnormal, bits & _SIGN, bits).view(np.float32)
 
 
 def _quiet(x: np.ndarray) -> np.ndarray:
-    return np.where(np.isnan(x), _QUIET_NAN, x)
+    nan = np.isnan(x)
+    return np.where(nan, _QUIET_NAN, x) if nan.any() else np.asarray(x)
 
 
 def _round_flush(exact: np.ndarray) -> np.ndarray:

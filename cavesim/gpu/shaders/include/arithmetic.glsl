@@ -5,11 +5,12 @@
 //     and lets the compiler fuse a*b+c, so GPUs of different vendors part after a while.
 //   ARITHMETIC_PORTABLE: the same bits on every GPU. Only +, - and * of the hardware are
 //     used, each correctly rounded (GLSL 4.30, 4.7.1) and kept unfused by `precise`;
-//     division and square root are integer long division and the digit-by-digit square
-//     root on the 24-bit significands (exact uint arithmetic), correctly rounded; exp, log,
-//     sin and cos are Cody-Waite range reductions and Horner polynomials (Moshier's Cephes
-//     expf, logf, sinf, cosf) of those +, -, *. Subnormals are handled in code, never by
-//     the hardware (llvmpipe flushes them, NVIDIA flushes in GL, others keep them):
+//     division and square root are Newton-Raphson estimates made exact by integer
+//     remainders on the 24-bit significands (uint arithmetic is exact), so correctly
+//     rounded; exp, log, sin and cos are Cody-Waite range reductions and Horner
+//     polynomials (Moshier's Cephes expf, logf, sinf, cosf) of those +, -, *.
+//     Subnormals are handled in code, never by the hardware (llvmpipe flushes them,
+//     NVIDIA flushes in GL, others keep them):
 //     - an operand whose exponent field is 0 reads as a zero of its sign (DAZ);
 //     - a result is its exact value rounded to nearest even to 24 bits with an unbounded
 //       exponent, then a zero of its sign if below 2^-126 in magnitude, inf if 2^128 or
@@ -43,7 +44,9 @@ const uint ARITH_HIDDEN_BIT = 0x00800000u;
 const uint ARITH_INF = 0x7f800000u;
 const uint ARITH_QUIET_NAN = 0x7fc00000u;
 const float ARITH_TWO_24 = 16777216.0;          // 2^24
+#define ARITH_TWO_MINUS_23 uintBitsToFloat(0x34000000u)   // 2^-23
 #define ARITH_TWO_MINUS_24 uintBitsToFloat(0x33800000u)   // 2^-24
+#define ARITH_TWO_MINUS_25 uintBitsToFloat(0x33000000u)   // 2^-25
 #define ARITH_TWO_MINUS_102 uintBitsToFloat(0x0c800000u)  // 2^-102
 
 // --- flushing and the three correctly rounded operations -----------------------------
@@ -157,7 +160,13 @@ vec3 f_mul(vec3 a, float b) {
     return vec3(f_mul(a.x, b), f_mul(a.y, b), f_mul(a.z, b));
 }
 
-// --- division and square root: exact integer arithmetic on the significands -----------
+// --- division and square root: an estimate, made exact by integer remainders ----------
+//
+// Newton-Raphson gives the 25 leading bits of the quotient or root within a few units;
+// the remainder of that candidate is computed exactly in 32-bit uint arithmetic (modulo
+// 2^32, exact since it is far below 2^31 in magnitude), and the candidate is corrected
+// until 0 <= remainder < divisor (Markstein's idea, with integers where he has an FMA).
+// So the estimate's own rounding never shows, and the result is correctly rounded.
 
 // sign | (exponent, significand) after rounding: the 24-bit significand `kept` (hidden bit
 // included) with its round bit and sticky bit, rounded to nearest even; a carry out moves
@@ -177,8 +186,30 @@ float arith_pack(uint sign, int biased_exponent, uint kept, bool round_bit, bool
     return uintBitsToFloat(sign | (uint(biased_exponent) << 23) | (kept & ARITH_SIGNIFICAND));
 }
 
-// a / b correctly rounded: restoring long division of the significands (25 quotient bits:
-// 24 and the round bit; the remainder is the sticky bit).
+// 1/d for d in [1, 2) within 1.5e-7 relative: a bit-pattern guess (5% off) and three
+// Newton steps y (2 - d y).
+float arith_reciprocal_estimate(float d) {
+    precise float y = uintBitsToFloat(0x7ef311c3u - floatBitsToUint(d));
+    for (int step = 0; step < 3; ++step) {
+        precise float error = 2.0 - d * y;
+        y = y * error;
+    }
+    return y;
+}
+
+// 1/sqrt(u) for u in [1, 4) within 1.5e-7 relative: the bit-pattern guess 0x5f3759df and
+// three Newton steps y (3/2 - u/2 y^2).
+float arith_inverse_root_estimate(float u) {
+    precise float y = uintBitsToFloat(0x5f3759dfu - (floatBitsToUint(u) >> 1));
+    for (int step = 0; step < 3; ++step) {
+        precise float error = 1.5 - 0.5 * u * y * y;
+        y = y * error;
+    }
+    return y;
+}
+
+// a / b correctly rounded: Q = floor(A 2^24 / B) of the significands A >= B (25 bits: 24
+// and the round bit) with remainder R = A 2^24 - Q B (the sticky bit).
 float f_div(float a, float b) {
     uint a_bits = floatBitsToUint(a);
     uint b_bits = floatBitsToUint(b);
@@ -198,22 +229,34 @@ float f_div(float a, float b) {
     if (a_exponent == 0u || b_exponent == 255u) {
         return uintBitsToFloat(sign);  // 0 / nonzero, finite / inf
     }
-    uint remainder = a_significand | ARITH_HIDDEN_BIT;
+    uint dividend = a_significand | ARITH_HIDDEN_BIT;
     uint divisor = b_significand | ARITH_HIDDEN_BIT;
     int biased_exponent = int(a_exponent) - int(b_exponent) + 127;
-    if (remainder < divisor) {
-        remainder <<= 1;
+    if (dividend < divisor) {
+        dividend <<= 1;
         biased_exponent -= 1;
     }
-    uint quotient = 0u;
-    for (int bit = 0; bit < 25; ++bit) {
-        bool fits = remainder >= divisor;
-        remainder -= fits ? divisor : 0u;
-        quotient = (quotient << 1) | uint(fits);
-        remainder <<= 1;
+    // 2^23 / B, and Q within 8 units (float spacing 2 above 2^24, 1.5e-7 relative error)
+    precise float reciprocal = arith_reciprocal_estimate(
+        uintBitsToFloat(0x3f800000u | b_significand));
+    precise float quotient_estimate = float(dividend) * reciprocal * 2.0;
+    uint quotient = uint(quotient_estimate);
+    int remainder = int((dividend << 24) - quotient * divisor);
+    // remainder / B more quotient units (exact to within one), then the last unit
+    precise float units = floor(float(remainder) * reciprocal * ARITH_TWO_MINUS_23);
+    int steps = int(units);
+    quotient += uint(steps);
+    remainder -= steps * int(divisor);
+    if (remainder < 0) {
+        quotient -= 1u;
+        remainder += int(divisor);
+    }
+    if (remainder >= int(divisor)) {
+        quotient += 1u;
+        remainder -= int(divisor);
     }
     return arith_pack(sign, biased_exponent, quotient >> 1, (quotient & 1u) != 0u,
-                      remainder != 0u);
+                      remainder != 0);
 }
 
 vec2 f_div(vec2 a, vec2 b) {
@@ -232,9 +275,9 @@ vec3 f_div(vec3 a, float b) {
     return vec3(f_div(a.x, b), f_div(a.y, b), f_div(a.z, b));
 }
 
-// sqrt(x) correctly rounded: the digit-by-digit (restoring) square root of the significand
-// scaled to 50 bits, two bits a step, giving 25 root bits (24 and the round bit); the
-// remainder is the sticky bit. sqrt(-0) = -0; sqrt(x < 0) = NaN.
+// sqrt(x) correctly rounded: S = floor(sqrt(X)) of the significand scaled to X = m 2^25
+// (even exponent) or m 2^26 (odd), 25 bits (24 and the round bit), with remainder
+// R = X - S^2 (the sticky bit). sqrt(-0) = -0; sqrt(x < 0) = NaN.
 float f_sqrt(float x) {
     uint bits = floatBitsToUint(x);
     uint biased = (bits >> 23) & 0xffu;
@@ -251,24 +294,30 @@ float f_sqrt(float x) {
     if (biased == 255u) {
         return x;  // +inf
     }
-    // x = m 2^(e-23), m in [2^23, 2^24): the root's 25 bits are floor(sqrt(m 2^25)) for
-    // even e and floor(sqrt(m 2^26)) for odd e; `pending` holds the radicand's top 32 bits
-    // of 50 (the rest are zeros).
     int exponent = int(biased) - 127;
+    bool odd = (exponent & 1) != 0;
     uint m = significand | ARITH_HIDDEN_BIT;
-    uint pending = (exponent & 1) != 0 ? m << 8 : m << 7;
-    uint remainder = 0u;
-    uint root = 0u;
-    for (int step = 0; step < 25; ++step) {
-        remainder = (remainder << 2) | (pending >> 30);
-        pending <<= 2;
-        uint trial = (root << 2) | 1u;
-        bool fits = remainder >= trial;
-        remainder -= fits ? trial : 0u;
-        root = (root << 1) | uint(fits);
+    // X 2^-48 in [1, 4), its root estimated within 1.5e-7 relative: S within 8 units
+    precise float unit = uintBitsToFloat((odd ? 0x40000000u : 0x3f800000u) | significand);
+    precise float inverse_root = arith_inverse_root_estimate(unit);
+    precise float root_estimate = unit * inverse_root * ARITH_TWO_24;
+    uint root = uint(root_estimate);
+    int remainder = int((odd ? m << 26 : m << 25) - root * root);
+    // R / 2S more units (within one), R updated exactly, then the last unit
+    precise float units = floor(float(remainder) * inverse_root * ARITH_TWO_MINUS_25);
+    int steps = int(units);
+    remainder -= steps * (2 * int(root) + steps);
+    root += uint(steps);
+    if (remainder < 0) {
+        remainder += 2 * int(root) - 1;
+        root -= 1u;
+    }
+    if (remainder > 2 * int(root)) {
+        root += 1u;
+        remainder -= 2 * int(root) - 1;
     }
     return arith_pack(0u, (exponent >> 1) + 127, root >> 1, (root & 1u) != 0u,
-                      remainder != 0u);
+                      remainder != 0);
 }
 
 // --- exp, log, pow, sin, cos: range reduction and polynomials of +, -, * ---------------
