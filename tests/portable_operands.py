@@ -134,6 +134,12 @@ def _roots_near_midpoints(rng, n):
     return np.concatenate([near[:half], squares[half:]]), np.zeros(n, np.float32)
 
 
+def _tiny(rng, n):
+    """Normal floats of random sign from 2^-126 to 2^-20: their squares underflow."""
+    sign = rng.choice([-1.0, 1.0], n)
+    return (sign * np.exp2(rng.uniform(-126.0, -20.0, n))).astype(np.float32)
+
+
 def _unary(sampler):
     return lambda rng, n: (sampler(rng, n), np.zeros(n, np.float32))
 
@@ -148,11 +154,13 @@ _HARD_CASES = {
     "f_sqrt": [_roots_near_midpoints],
     "f_exp": [_unary(lambda rng, n: _around(math.log(MIN_NORMAL), 4096, rng, n)),
               _unary(lambda rng, n: _around(math.log(MAX_FLOAT), 4096, rng, n)),
-              _unary(lambda rng, n: _around(0.0, 2**30, rng, n))],
+              _unary(lambda rng, n: _around(0.0, 2**30, rng, n)), _unary(_tiny)],
     "f_log": [_unary(lambda rng, n: _around(1.0, 4096, rng, n)),
               _unary(lambda rng, n: _around(math.sqrt(2.0), 4096, rng, n))],
-    "f_sin": [_unary(lambda rng, n: _around(rng.integers(-16, 17, n) * math.pi / 2, 64, rng, n))],
-    "f_cos": [_unary(lambda rng, n: _around(rng.integers(-16, 17, n) * math.pi / 2, 64, rng, n))],
+    "f_sin": [_unary(lambda rng, n: _around(rng.integers(-16, 17, n) * math.pi / 2, 64, rng, n)),
+              _unary(_tiny)],
+    "f_cos": [_unary(lambda rng, n: _around(rng.integers(-16, 17, n) * math.pi / 2, 64, rng, n)),
+              _unary(_tiny)],
     "f_pow": [lambda rng, n: (_around(1.0, 4096, rng, n),
                               rng.uniform(-1000, 1000, n).astype(np.float32))],
 }

@@ -146,17 +146,20 @@ def _scale(p, n):
 def _horner(coefficients, x):
     result = coefficients[0]
     for coefficient in coefficients[1:]:
-        result = _add(_mul(result, x), coefficient)
+        result = result * x + coefficient
     return result
 
+
+# _exp, _log and _sin_cos_reduced use plain float32 operations, unflushed, as the shader
+# does: the tiny terms they may make are absorbed (arithmetic.glsl says why).
 
 def _exp(x):
     nan = np.isnan(x)
     clamped = np.where(nan, np.float32(0.0), np.clip(x, _EXP_LOW, _EXP_HIGH))
-    n = np.floor(_add(_mul(clamped, _LOG2_E), _HALF))
-    r = _sub(_sub(clamped, _mul(n, _LN2_HIGH)), _mul(n, _LN2_LOW))
-    r2 = _mul(r, r)
-    p = _add(_add(_mul(_horner(_EXP_P, r), r2), r), _ONE)
+    n = np.floor(clamped * _LOG2_E + _HALF)
+    r = (clamped - n * _LN2_HIGH) - n * _LN2_LOW
+    r2 = r * r
+    p = (_horner(_EXP_P, r) * r2 + r) + _ONE
     return np.where(nan, _QUIET_NAN, _scale(p, n.astype(np.int32)))
 
 
@@ -171,13 +174,13 @@ def _log(x):
     halve = one_plus_f >= _SQRT2_BITS
     one_plus_f = np.where(halve, one_plus_f - _HIDDEN_BIT, one_plus_f)
     e = e + halve
-    f = _sub(one_plus_f.view(np.float32), _ONE)
-    f2 = _mul(f, f)
-    q = _mul(_mul(_horner(_LOG_Q, f), f), f2)
+    f = one_plus_f.view(np.float32) - _ONE
+    f2 = f * f
+    q = (_horner(_LOG_Q, f) * f) * f2
     fe = e.astype(np.float32)
-    q = _add(q, _mul(fe, _LN2_LOW))
-    q = _sub(q, _mul(_HALF, f2))
-    result = _add(_add(f, q), _mul(fe, _LN2_HIGH))
+    q = q + fe * _LN2_LOW
+    q = q - _HALF * f2
+    result = (f + q) + fe * _LN2_HIGH
     result = np.where(inf, x, result)
     result = np.where(zero, -_INF.view(np.float32), result)
     return np.where(nan, _QUIET_NAN, result)
@@ -185,15 +188,15 @@ def _log(x):
 
 def _sin_cos_reduced(x):
     """sin r, cos r of the reduced argument and the quadrant, as arith_sin_cos_reduced."""
-    n = np.floor(_add(_mul(x, _TWO_OVER_PI), _HALF))
+    n = np.floor(x * _TWO_OVER_PI + _HALF)
     r = x
     for part in _PIO2:
-        r = _sub(r, _mul(n, part))
-    quadrant = _sub(n, _mul(np.floor(_mul(n, _QUARTER)), _FOUR)).astype(np.int32)
-    r2 = _mul(r, r)
-    sin_r = _add(_mul(_mul(_horner(_SIN_S, r2), r2), r), r)
-    c = _mul(_mul(_horner(_COS_C, r2), r2), r2)
-    cos_r = _add(_sub(c, _mul(_HALF, r2)), _ONE)
+        r = r - n * part
+    quadrant = (n - np.floor(n * _QUARTER) * _FOUR).astype(np.int32)
+    r2 = r * r
+    sin_r = (_horner(_SIN_S, r2) * r2) * r + r
+    c = (_horner(_COS_C, r2) * r2) * r2
+    cos_r = (c - _HALF * r2) + _ONE
     return sin_r, cos_r, quadrant
 
 

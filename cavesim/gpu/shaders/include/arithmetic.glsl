@@ -104,8 +104,12 @@ float arith_mul_tiny(float a, float b) {
 
 float arith_mul(float a, float b) {
     precise float product = a * b;
-    // exponent field 0 or 1: a zero, a subnormal, or below 2^-125
-    return (floatBitsToUint(product) & 0x7f000000u) == 0u ? arith_mul_tiny(a, b) : product;
+    // exponent field 0 or 1: a zero, a subnormal, or below 2^-125 (an `if`, not `?:`, so
+    // that a GPU can skip the rare case instead of computing it always)
+    if ((floatBitsToUint(product) & 0x7f000000u) == 0u) {
+        product = arith_mul_tiny(a, b);
+    }
+    return product;
 }
 
 float f_add(float a, float b) {
@@ -321,6 +325,13 @@ float f_sqrt(float x) {
 }
 
 // --- exp, log, pow, sin, cos: range reduction and polynomials of +, -, * ---------------
+//
+// Inside these functions the operations are plain `precise` ones, not flushed: none of
+// their values is subnormal or near 2^-126, except, for tiny arguments, terms that are
+// then added to a value at least 2^24 times larger (r^2 P(r) to r in exp, r^3 S(r^2) to r
+// and r^4 C(r^2) - r^2/2 to 1 in sin and cos, (x 2/pi) to 1/2). Such a sum rounds to the
+// larger value whatever the hardware made of the tiny term (a subnormal, a zero, 2^-126),
+// so the result has the same bits everywhere.
 
 #define ARITH_LOG2_E uintBitsToFloat(0x3fb8aa3bu)   // 1.44269502
 // ln 2 = LN2_HIGH + LN2_LOW (Cody-Waite; LN2_HIGH = 355/512 has 9 bits, so n LN2_HIGH is
@@ -359,17 +370,17 @@ float arith_exp(float x) {
     // e^89 overflows and e^-104 flushes whatever the polynomial gives; the clamp keeps n
     // an int for any x, inf included
     precise float clamped = clamp(x, -104.0, 89.0);
-    precise float n = floor(arith_add(arith_mul(clamped, ARITH_LOG2_E), 0.5));
-    precise float r = arith_sub(arith_sub(clamped, arith_mul(n, ARITH_LN2_HIGH)),
-                                arith_mul(n, ARITH_LN2_LOW));
-    precise float r2 = arith_mul(r, r);
+    precise float n = floor(clamped * ARITH_LOG2_E + 0.5);
+    // r = x for n = 0; otherwise 0 or at least 2^-36 (a multiple of n LN2_LOW's last place)
+    precise float r = (clamped - n * ARITH_LN2_HIGH) - n * ARITH_LN2_LOW;
+    precise float r2 = r * r;
     precise float p = ARITH_EXP_P0;
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P1);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P2);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P3);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P4);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P5);
-    p = arith_add(arith_add(arith_mul(p, r2), r), 1.0);
+    p = p * r + ARITH_EXP_P1;
+    p = p * r + ARITH_EXP_P2;
+    p = p * r + ARITH_EXP_P3;
+    p = p * r + ARITH_EXP_P4;
+    p = p * r + ARITH_EXP_P5;
+    p = (p * r2 + r) + 1.0;
     return arith_scale(p, int(n));
 }
 
@@ -409,23 +420,24 @@ float arith_log(float x) {
         one_plus_f -= ARITH_HIDDEN_BIT;  // halved, into [sqrt(1/2), 1)
         e += 1;
     }
-    precise float f = arith_sub(uintBitsToFloat(one_plus_f), 1.0);  // exact (Sterbenz)
-    precise float f2 = arith_mul(f, f);
+    // f is 0 or at least 2^-24 in magnitude, and each Horner value 0 or at least 2^-28
+    // (a sum of terms near 0.1), so no value here comes near the subnormals
+    precise float f = uintBitsToFloat(one_plus_f) - 1.0;  // exact (Sterbenz)
+    precise float f2 = f * f;
     precise float q = ARITH_LOG_Q0;
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q1);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q2);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q3);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q4);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q5);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q6);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q7);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q8);
-    q = arith_mul(arith_mul(q, f), f2);
+    q = q * f + ARITH_LOG_Q1;
+    q = q * f + ARITH_LOG_Q2;
+    q = q * f + ARITH_LOG_Q3;
+    q = q * f + ARITH_LOG_Q4;
+    q = q * f + ARITH_LOG_Q5;
+    q = q * f + ARITH_LOG_Q6;
+    q = q * f + ARITH_LOG_Q7;
+    q = q * f + ARITH_LOG_Q8;
+    q = (q * f) * f2;
     precise float fe = float(e);
-    q = arith_add(q, arith_mul(fe, ARITH_LN2_LOW));
-    q = arith_sub(q, arith_mul(0.5, f2));
-    precise float result = arith_add(f, q);
-    result = arith_add(result, arith_mul(fe, ARITH_LN2_HIGH));
+    q = q + fe * ARITH_LN2_LOW;
+    q = q - 0.5 * f2;
+    precise float result = (f + q) + fe * ARITH_LN2_HIGH;
     return result;
 }
 
@@ -458,24 +470,27 @@ const float ARITH_PIO2_1 = 1.5703125;
 // sin r and cos r of the reduced argument, and the quadrant n mod 4 of x, for x finite
 // and not subnormal.
 void arith_sin_cos_reduced(float x, out float sin_r, out float cos_r, out int quadrant) {
-    precise float n = floor(arith_add(arith_mul(x, ARITH_TWO_OVER_PI), 0.5));
-    precise float r = arith_sub(x, arith_mul(n, ARITH_PIO2_1));
-    r = arith_sub(r, arith_mul(n, ARITH_PIO2_2));
-    r = arith_sub(r, arith_mul(n, ARITH_PIO2_3));
-    r = arith_sub(r, arith_mul(n, ARITH_PIO2_4));
+    precise float n = floor(x * ARITH_TWO_OVER_PI + 0.5);
+    // r = x for n = 0; otherwise 0 or at least 2^-62 (a multiple of n PIO2_4's last place)
+    precise float r = x - n * ARITH_PIO2_1;
+    r = r - n * ARITH_PIO2_2;
+    r = r - n * ARITH_PIO2_3;
+    r = r - n * ARITH_PIO2_4;
     // n mod 4, exact for any n: n/4 and 4 floor(n/4) are exact, their difference too
-    precise float n_mod_4 = arith_sub(n, arith_mul(floor(arith_mul(n, 0.25)), 4.0));
+    precise float n_mod_4 = n - floor(n * 0.25) * 4.0;
     quadrant = int(n_mod_4);
-    precise float r2 = arith_mul(r, r);
+    precise float r2 = r * r;
     precise float s = ARITH_SIN_S0;
-    s = arith_add(arith_mul(s, r2), ARITH_SIN_S1);
-    s = arith_add(arith_mul(s, r2), ARITH_SIN_S2);
-    sin_r = arith_add(arith_mul(arith_mul(s, r2), r), r);
+    s = s * r2 + ARITH_SIN_S1;
+    s = s * r2 + ARITH_SIN_S2;
+    precise float sine = (s * r2) * r + r;
+    sin_r = sine;
     precise float c = ARITH_COS_C0;
-    c = arith_add(arith_mul(c, r2), ARITH_COS_C1);
-    c = arith_add(arith_mul(c, r2), ARITH_COS_C2);
-    c = arith_mul(arith_mul(c, r2), r2);
-    cos_r = arith_add(arith_sub(c, arith_mul(0.5, r2)), 1.0);
+    c = c * r2 + ARITH_COS_C1;
+    c = c * r2 + ARITH_COS_C2;
+    c = (c * r2) * r2;
+    precise float cosine = (c - 0.5 * r2) + 1.0;
+    cos_r = cosine;
 }
 
 // sin x; accurate for |x| <= 8192 (README.md), NaN for inf and NaN.
