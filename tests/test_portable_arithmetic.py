@@ -29,6 +29,7 @@ from cavesim.gpu.gl.arithmetic_probe import (
 )
 from cavesim.gpu.shader_gate import Build, all_builds, check_sources
 from cavesim.gpu.shader_source import SHADER_ROOT, ProgramSpec
+from cavesim.tools.bench.arithmetic import call_costs, table
 
 ROOT = Path(__file__).parents[1]
 ARITHMETIC_GLSL = SHADER_ROOT / "include" / "arithmetic.glsl"
@@ -377,3 +378,14 @@ def test_the_twin_keeps_float32_and_broadcasts():
                      portable.f_sqrt, portable.f_ftz):
         assert function(scalars).dtype == np.float32
     assert bits(portable.f_add(SPECIALS, SPECIALS)).dtype == np.uint32
+
+
+# --- the cost table ------------------------------------------------------------------------
+
+def test_the_cost_table_times_each_function_in_both_modes(ctx):
+    costs = call_costs(ctx, ("f_add", "f_div"), cases=256, repeat=2, twin_elements=1000)
+    assert [cost.function for cost in costs] == ["f_add", "f_div"]
+    assert all(math.isfinite(value) and value >= 0.0 for cost in costs
+               for value in (cost.native_ns, cost.portable_ns, cost.twin_ns))
+    assert costs[1].twin_ns > 0.0
+    assert table(costs).count("\n| `f_") == 2

@@ -31,7 +31,7 @@ class CallCost:
 
 
 def call_costs(ctx: moderngl.Context, functions: tuple[str, ...] = TIMED,
-               cases: int = 2**16, repeat: int = 64,
+               cases: int = 2**16, repeat: int = 128,
                twin_elements: int = TWIN_ELEMENTS) -> list[CallCost]:
     """The cost of each function in `functions` (arithmetic_probe.FUNCTIONS names)."""
     # in every function's domain, and still after `repeat` steps of one ULP
