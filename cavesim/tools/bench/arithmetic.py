@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from cavesim.gpu.gl.arithmetic_probe import time_calls, twin_results
+from cavesim.gpu.gl.arithmetic_probe import TWINS, time_calls
 from cavesim.gpu.gl.context import create_context, describe
 
 TIMED = ("f_add", "f_mul", "f_ftz", "f_div", "f_sqrt", "f_exp", "f_log", "f_pow", "f_sin",
@@ -52,9 +52,10 @@ def _twin_seconds(function: str, elements: int) -> float:
     # one contiguous array per operand component, as a vectorized caller holds them
     operands = np.random.default_rng(1).uniform(0.5, 2.0, (3, 3, elements)).astype(
         np.float32).transpose(2, 0, 1)
-    twin_results(function, operands)  # warm
+    call = TWINS[function]
+    call(*operands.transpose(1, 0, 2))  # warm
     start = time.perf_counter()
-    twin_results(function, operands)
+    call(*operands.transpose(1, 0, 2))
     return time.perf_counter() - start
 
 
