@@ -1,6 +1,7 @@
 """The mixed-hardware tolerance mode: drift samples and their distances, the rules of the
-mode as pure functions, and the master's whole loop over walls in memory
-(tests/memory_walls.py) whose drift samples a nudge moves."""
+mode as pure functions, the master's whole loop over walls in memory (tests/memory_walls.py)
+whose drift samples a nudge moves, a node's sample and drift faults on the GPU, and the
+command line's flags."""
 
 import json
 import math
@@ -9,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from memory_walls import MemoryLink
+from scenes import FOUNTAIN, make_scene
 
 from cavesim.core.drift import (
     MAX_SAMPLE,
@@ -19,6 +21,8 @@ from cavesim.core.drift import (
 )
 from cavesim.core.errors import ClusterError
 from cavesim.core.wire import ReportMessage
+from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.nodes import drift as node_drift
 from cavesim.nodes.master import MasterConfig, run_master
 from cavesim.nodes.tolerance import (
     BIT_EXACT,
@@ -27,6 +31,10 @@ from cavesim.nodes.tolerance import (
     ToleranceMode,
     judge,
 )
+from cavesim.tools import cli
+from cavesim.tools.commands.run import RunPlan
+from cavesim.tools.mixed_hardware import node_sample_from
+from cavesim.tools.reports.run import mode_rows
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")
@@ -216,3 +224,94 @@ def test_a_wall_lost_and_back_follows_the_acting_authority():
     assert [(h["from"], h["to"]) for h in handovers] == [("front", "left"), ("left", "front")]
     (join,) = record.joins
     assert join.node == "front" and record.final.agree and record.final.all_walls_in
+
+
+# -- a node's side, on the GPU ----------------------------------------------------------------
+
+@pytest.fixture
+def fountain(ctx):
+    system = ParticleSystem(ctx, make_scene(emitters=[FOUNTAIN], capacity=4000, seed=3))
+    rng = np.random.default_rng(3)
+    for _ in range(40):
+        system.step(FrameInput(1 / 60, np.array([[1, rng.integers(9), rng.integers(64)],
+                                                 [0, 1, rng.integers(64)], [0, 0, 1]])))
+    yield system
+    system.release()
+
+
+@pytest.mark.parametrize("size", [7, 1024], ids=["record-by-record", "whole-stream"])
+def test_a_nodes_sample_holds_the_records_sample_indices_names(fountain, size):
+    particles = fountain.read_particles()
+    assert len(particles) > node_drift.WHOLE_STREAM_READ * 7
+    expected = particles[sample_indices(len(particles), size)]
+    got = node_drift.read_drift_sample(fountain, size).array()
+    assert np.array_equal(got["pos"], expected["pos"])
+    assert np.array_equal(got["vel"], expected["vel"])
+
+
+def test_jitter_changes_the_bits_but_hardly_the_positions_and_shove_breaches(fountain):
+    before = fountain.checksum()
+    held = node_drift.read_drift_sample(fountain, 64)
+    node_drift.jitter(fountain)
+    after = fountain.checksum()
+    drift = measure_drift(node_drift.read_drift_sample(fountain, 64), after.particles, held,
+                          before.particles)
+    assert after.digest != before.digest and after.particles == before.particles
+    assert 0 < drift.position_max < 1e-5 and drift.velocity_max == 0.0
+    assert not drift.exceeds(TOLERANCE.position, TOLERANCE.velocity)
+    node_drift.shove(fountain)
+    drift = measure_drift(node_drift.read_drift_sample(fountain, 64), after.particles, held,
+                          before.particles)
+    assert drift.position_max == pytest.approx(node_drift.SHOVE_METRES, rel=1e-3)
+
+
+# -- the command line --------------------------------------------------------------------------
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "--walls", "2", "--mixed-hardware", "--authority", "ceiling"],
+     "cavesim run: error: argument --authority: 'ceiling' is not a wall of this run; choose "
+     "one of front, left"),
+    (["master", "--walls", "front,left", "--mixed-hardware", "--authority", "x"],
+     "cavesim master: error: argument --authority: 'x' is not a wall of this run"),
+    (["run", "--walls", "2", "--authority", "front"],
+     "cavesim run: error: argument --authority: only with --mixed-hardware"),
+    (["master", "--walls", "front", "--position-tolerance", "1"],
+     "cavesim master: error: argument --position-tolerance: only with --mixed-hardware"),
+    (["node", "--wall", "front", "--drift-sample", "8"],
+     "cavesim node: error: argument --drift-sample: only with --mixed-hardware"),
+    (["run", "--mixed-hardware", "--resync-every", "0"],
+     "argument --resync-every: expected frames in [1, 100000], got '0'"),
+    (["master", "--walls", "front", "--mixed-hardware", "--drift-sample", "2000"],
+     "argument --drift-sample: expected records in [1, 1024], got '2000'"),
+    (["run", "--mixed-hardware", "--velocity-tolerance", "nan"],
+     "argument --velocity-tolerance: expected m/s in"),
+])
+def test_bad_mixed_hardware_flags_are_one_line_usage_errors(args, message, capsys):
+    assert cli.main(args) == cli.USAGE_ERROR
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert message in line
+
+
+def test_run_gives_the_master_the_tolerance_and_every_node_the_matching_flags(tmp_path):
+    plan = RunPlan(("front", "left"), MINIMAL, 10, tmp_path, tolerance=Tolerance("left",
+                                                                                 sample=8))
+    cluster = plan.cluster()
+    assert cluster.master.tolerance == plan.tolerance
+    for args in cluster.node_args.values():
+        parsed = cli.build_parser().parse_args(["node", "--wall", "front", *args])
+        assert node_sample_from(parsed, "node") == 8
+    bit_exact = RunPlan(("front", "left"), MINIMAL, 10, tmp_path).cluster()
+    assert bit_exact.master.tolerance is None
+    assert bit_exact.node_args == {"front": (), "left": ()}
+
+
+def test_the_summary_names_the_mode_and_its_settings():
+    link = MemoryLink(WALLS, sample=4)
+    link.walls["left"].nudge_at[3] = SMALL
+    summary = run(link, frames=5, tolerance=Tolerance("front", sample=4)).summary()
+    rows = dict(mode_rows(summary))
+    assert rows["mode"] == ("mixed-hardware tolerance: authority front, resync every 120 "
+                            "frames, 4 records sampled, tolerance 0.002 m / 0.01 m/s")
+    assert rows["breaches / periodic resyncs"] == "0 / 0"
+    assert rows["worst drift (position / velocity)"] == "1e-06 m / 0 m/s"
+    assert mode_rows(run(MemoryLink(WALLS), frames=2).summary()) == [("mode", "bit-exact")]

@@ -17,6 +17,7 @@ carries out the resyncs the vote names, as for a bit-exact divergence.
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -151,24 +152,29 @@ class Breach:
 
 class NodeDrift:
     """One node's drift from the authority at each comparison of a run of any length: a
-    decimated series of (frame, drift), the exact worst values, and how many comparisons
-    found its bits equal to the authority's."""
+    decimated series of (frame, drift), the exact worst of the finite values, how many
+    comparisons found its bits equal to the authority's and how many could not measure a
+    distance (other live counts, or a NaN)."""
 
     def __init__(self) -> None:
         self.series: DecimatedSeries[tuple[int, Drift]] = DecimatedSeries(DRIFT_POINTS)
         self.position_max = self.velocity_max = 0.0
-        self.bit_equal = 0
+        self.bit_equal = self.incomparable = 0
 
     def add(self, k: int, drift: Drift) -> None:
         self.series.append((k, drift))
+        self.bit_equal += drift is NO_DRIFT
+        if not math.isfinite(drift.position_max + drift.velocity_max):
+            self.incomparable += 1
+            return
         self.position_max = max(self.position_max, drift.position_max)
         self.velocity_max = max(self.velocity_max, drift.velocity_max)
-        self.bit_equal += drift is NO_DRIFT
 
     def to_json(self) -> dict:
         points = [(k, d.to_json()) for k, d in self.series]
         columns = ("position_max_m", "position_rms_m", "velocity_max_m_s", "velocity_rms_m_s")
         return {"comparisons": self.series.count, "bit_equal": self.bit_equal,
+                "incomparable": self.incomparable,
                 "worst": {"position_max_m": rounded(self.position_max),
                           "velocity_max_m_s": rounded(self.velocity_max)},
                 "stride": self.series.stride,  # comparisons between two points
