@@ -310,8 +310,9 @@ def test_the_summary_names_the_mode_and_its_settings():
     link.walls["left"].nudge_at[3] = SMALL
     summary = run(link, frames=5, tolerance=Tolerance("front", sample=4)).summary()
     rows = dict(mode_rows(summary))
-    assert rows["mode"] == ("mixed-hardware tolerance: authority front, resync every 120 "
-                            "frames, 4 records sampled, tolerance 0.002 m / 0.01 m/s")
+    assert rows["mode"] == "mixed-hardware tolerance (authority front)"
+    assert rows["resync every / sample"] == "120 frames / 4 records"
+    assert rows["tolerance (position / velocity)"] == "0.002 m / 0.01 m/s"
     assert rows["breaches / periodic resyncs"] == "0 / 0"
     assert rows["worst drift (position / velocity)"] == "1e-06 m / 0 m/s"
     assert mode_rows(run(MemoryLink(WALLS), frames=2).summary()) == [("mode", "bit-exact")]

@@ -35,11 +35,11 @@ def mode_rows(report: dict) -> list[tuple[str, str]]:
                    default=0.0)
     velocity = max((w["velocity_max_m_s"] for w in worst if w["velocity_max_m_s"] is not None),
                    default=0.0)
-    return [("mode", f"{report['mode']}: authority {tolerance['authority']}, resync every "
-                     f"{tolerance['resync_every_frames']} frames, "
-                     f"{tolerance['sample_records']} records sampled, tolerance "
-                     f"{tolerance['position_tolerance_m']:g} m / "
-                     f"{tolerance['velocity_tolerance_m_s']:g} m/s"),
+    return [("mode", f"{report['mode']} (authority {tolerance['authority']})"),
+            ("resync every / sample", f"{tolerance['resync_every_frames']} frames / "
+                                      f"{tolerance['sample_records']} records"),
+            ("tolerance (position / velocity)", f"{tolerance['position_tolerance_m']:g} m / "
+                                                f"{tolerance['velocity_tolerance_m_s']:g} m/s"),
             ("breaches / periodic resyncs",
              f"{tolerance['breach_total']} / {tolerance['periodic_resyncs']}"),
             ("worst drift (position / velocity)", f"{position:g} m / {velocity:g} m/s")]
