@@ -33,7 +33,7 @@ from cavesim.nodes.tolerance import (
 )
 from cavesim.tools import cli
 from cavesim.tools.commands.run import RunPlan
-from cavesim.tools.mixed_hardware import node_sample_from
+from cavesim.tools.mixed_hardware import node_sample_from, tolerance_from
 from cavesim.tools.reports.run import mode_rows
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
@@ -290,6 +290,14 @@ def test_bad_mixed_hardware_flags_are_one_line_usage_errors(args, message, capsy
     assert cli.main(args) == cli.USAGE_ERROR
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert message in line
+
+
+def test_the_master_takes_the_first_wall_as_authority_and_the_defaults():
+    args = cli.build_parser().parse_args(["master", "--walls", "left,front", "--mixed-hardware",
+                                          "--velocity-tolerance", "0.5"])
+    assert tolerance_from(args, args.walls, "master") == Tolerance("left", velocity=0.5)
+    plain = cli.build_parser().parse_args(["master", "--walls", "left,front"])
+    assert tolerance_from(plain, plain.walls, "master") is None
 
 
 def test_run_gives_the_master_the_tolerance_and_every_node_the_matching_flags(tmp_path):
