@@ -4,6 +4,8 @@ the test's process, without Zenoh, GL or child processes.
 A wall's state is a digest chained over the frames it stepped (BLAKE2b of the previous
 digest and the frame's inputs), so walls that step the same frames agree and a fault shows
 as a different digest. Walls answer at once, by putting events in the master's queue.
+With `sample`, each report carries a drift sample (the mixed-hardware mode): every sampled
+particle sits at x = the wall's `offset`, which a nudge moves (and changes its bits).
 """
 
 from __future__ import annotations
@@ -14,6 +16,9 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from cavesim.core.drift import DriftSample, sample_size
 from cavesim.core.wire import (
     Command,
     ControlMessage,
@@ -43,11 +48,13 @@ class MemoryWall:
     swap_hangs: set[int] = field(default_factory=set)  # frames whose SWAPPED never comes
     swaps: list[tuple[int, int]] = field(default_factory=list)  # (frame, time_ns)
     silent_from: int | None = None  # from this frame on it is up but never reports
+    offset: float = 0.0  # m: x of every particle its drift samples hold
+    nudge_at: dict[int, float] = field(default_factory=dict)  # frame -> m added to offset
 
 
 class MemoryLink:
     def __init__(self, walls: tuple[str, ...], late: tuple[str, ...] = (),
-                 displaying: tuple[str, ...] = ()) -> None:
+                 displaying: tuple[str, ...] = (), sample: int = 0) -> None:
         self.events: queue.Queue = queue.Queue()
         self.walls = {name: MemoryWall(name, up=name not in late, displays=name in displaying)
                       for name in walls}
@@ -58,6 +65,7 @@ class MemoryLink:
         self.dropped = 0
         self.tracking = None
         self.resync_fails: set[str] = set()  # walls whose every resync fails
+        self.sample = sample  # records of each report's drift sample (0: none)
         for wall in self.walls.values():
             if wall.up:
                 self.events.put(WallUp(wall.name))
@@ -74,6 +82,7 @@ class MemoryLink:
             target, source = self.walls[message.target], self.walls[message.source]
             if source.digest == message.digest and target.name not in self.resync_fails:
                 target.digest, target.done = source.digest, source.done  # verified, loaded
+                target.offset = source.offset
             self._report(target, Status.RESYNCED)  # a failed one reports the state it kept
         elif message.command is Command.SWAP:
             for wall in self.walls.values():
@@ -99,6 +108,7 @@ class MemoryLink:
     def come_up(self, name: str) -> None:
         wall = self.walls[name]
         wall.up, wall.digest, wall.done = True, START, 0  # a new process: no state yet
+        wall.offset = 0.0
         self.events.put(WallUp(name))
 
     def _step(self, wall: MemoryWall, message: FrameMessage) -> None:
@@ -113,8 +123,9 @@ class MemoryLink:
         chained.update(message.inputs.random_transform.tobytes())
         chained.update(message.inputs.dt.tobytes())
         wall.digest, wall.done = chained.hexdigest(), k
-        if k in wall.flip_at:
+        if k in wall.flip_at or k in wall.nudge_at:
             wall.digest = f"{int(wall.digest, 16) ^ 1:032x}"
+            wall.offset += wall.nudge_at.get(k, 0.0)
         self._report(wall, Status.STEPPED)
         if wall.displays and k not in wall.draws_late:
             self._display(wall, Phase.DRAWN, time.monotonic_ns())
@@ -128,4 +139,12 @@ class MemoryLink:
 
     def _report(self, wall: MemoryWall, status: Status) -> None:
         self.events.put(Reported(ReportMessage(wall.done, wall.name, wall.digest, wall.done,
-                                               0, 0, 0, status=status)))
+                                               0, 0, 0, status=status,
+                                               sample=self._sample(wall))))
+
+    def _sample(self, wall: MemoryWall) -> DriftSample | None:
+        if not self.sample:
+            return None
+        positions = np.zeros((sample_size(self.sample, wall.done), 3))
+        positions[:, 0] = wall.offset
+        return DriftSample.of(positions, np.zeros_like(positions))

@@ -36,6 +36,7 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
+from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.wire import messages as wire
@@ -162,9 +163,20 @@ def snapshot_body(particles: int = 3, emitters: int = 0, chunk: int = 2) -> byte
     return struct.pack("<QIII16s", 9, particles, emitters, chunk, bytes.fromhex(DIGEST))
 
 
-def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"") -> bytes:
-    return name(node) + struct.pack("<16sIIIIIB", bytes.fromhex(DIGEST), 1, 2, 3, 4, 5,
-                                    status) + extra
+def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"",
+                particles: int = 1) -> bytes:
+    return name(node) + struct.pack("<16sIIIIIB", bytes.fromhex(DIGEST), particles, 2, 3, 4,
+                                    5, status) + extra
+
+
+def sample_tail(count: int, records: int | None = None) -> bytes:
+    """A report's drift sample: the count, then `records` (default: count) zero records."""
+    return struct.pack("<H", count) + bytes(SAMPLE_DTYPE.itemsize * (
+        count if records is None else records))
+
+
+SAMPLE = DriftSample.of(np.array([[1.5, -2.0, 0.25], [math.nan, math.inf, -0.0]]),
+                        np.array([[0.0, 1e-45, -3e38], [1.0, 2.0, 3.0]]))
 
 
 def info_body(node: bytes = b"front", device: int = 0, flags: int = 1, nonce: int = 0,
@@ -255,6 +267,12 @@ EDGE_MESSAGES = {
     "report-resynced": ReportMessage(2, "wall_7-b", "0" * 32, 0, 0, 0, 0, 0, Status.RESYNCED),
     "report-joined": ReportMessage(0, "left", DIGEST, 0, 0, 0, 0, 0, Status.JOINED),
     "report-behind": ReportMessage(U64, "front", "f" * 32, 1, 1, 1, 1, 1, Status.BEHIND),
+    "report-sample": ReportMessage(8, "left", DIGEST, 2, 1, 120, 35, 0, Status.STEPPED, SAMPLE),
+    "report-sample-empty": ReportMessage(1, "left", DIGEST, 0, 0, 0, 0, 0,
+                                         sample=DriftSample(b"")),
+    "report-sample-largest": ReportMessage(9, "left", DIGEST, 2**32 - 1, 0, 0, 0, 0,
+                                           Status.RESYNCED, DriftSample(
+                                               bytes(range(256)) * 96)),
     "stop": ControlMessage(400, Command.STOP),
     "swap": ControlMessage(0, Command.SWAP),
     "resync": ControlMessage(U64, Command.RESYNC, "left", "front", DIGEST),
@@ -446,6 +464,7 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
     (SnapshotHeader(1, 0, 1, 1, "XY" * 16, np.zeros(0, EMITTER_DTYPE)), "hex digits"),
     (SnapshotChunk(1, 0, bytes(41)), "whole 40-byte records"),
     (SnapshotChunk(1, 0, b""), "whole 40-byte records"),
+    (ReportMessage(1, "front", DIGEST, 1, 0, 0, 0, sample=SAMPLE), "at most the 1 live"),
 ])
 def test_encode_refuses_what_decode_would_reject(message, match):
     with pytest.raises(ValueError, match=match):
@@ -576,6 +595,14 @@ REJECTIONS = [
     ("report-stray-byte", craft(Kind.REPORT, report_body(extra=b"\x00")), None,
      "bad-payload"),
     ("report-short", craft(Kind.REPORT, report_body()[:-1]), None, "bad-payload"),
+    ("report-sample-beyond-live", craft(Kind.REPORT, report_body(extra=sample_tail(2))),
+     None, "bad-payload"),
+    ("report-sample-beyond-max", craft(Kind.REPORT, report_body(
+        extra=sample_tail(MAX_SAMPLE + 1), particles=10**6)), None, "bad-payload"),
+    ("report-sample-short", craft(Kind.REPORT, report_body(extra=sample_tail(1, 0))), None,
+     "bad-payload"),
+    ("report-sample-stray-byte", craft(Kind.REPORT, report_body(extra=sample_tail(1) + b"\0")),
+     None, "bad-payload"),
     ("control-empty", craft(Kind.CONTROL, b""), None, "bad-payload"),
     ("control-command-0", craft(Kind.CONTROL, control_body(0)), None, "bad-payload"),
     ("control-command-5", craft(Kind.CONTROL, control_body(5)), None, "bad-payload"),

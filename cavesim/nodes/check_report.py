@@ -57,7 +57,7 @@ def _outcome(fault: Fault, record: RunRecord, harness,
     for the attacks, what was refused (`detection`) and what became of the run (`outcome`)."""
     detected, named, healed_at, detection, outcome = None, [], None, {}, ""
     node_rejected = sum(record.node_rejected.values())
-    if fault.kind in ("bitflip", "seed", "stale"):
+    if fault.kind in ("bitflip", "seed", "stale", "jitter", "shove"):
         hit = next((d for d in record.divergences
                     if d.frame >= fault.frame and fault.node in d.nodes), None)
         if hit:

@@ -5,7 +5,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow")  # the node does them to itself
+NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove")
+# the node does them to itself; jitter and shove make it drift, as another GPU's rounding
+# would and far beyond any tolerance (cavesim/nodes/drift.py)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed

@@ -13,6 +13,9 @@ nodes from a healthy one (a node whose resyncs fail MAX_RESYNC_FAILURES times in
 given up), admit walls that joined or fell behind, log the frame. Only frame k's reports
 are kept. It takes typed events from a link (Zenoh in a real run, memory in the tests)
 and leaves the rules to `cavesim/nodes/lockstep.py`; it needs no GL.
+
+In the mixed-hardware mode the vote is each member's drift from an authority instead of its
+checksum (`cavesim/nodes/tolerance.py`).
 """
 
 from __future__ import annotations
@@ -60,6 +63,7 @@ from cavesim.nodes.events import (
 from cavesim.nodes.lockstep import LOSS_POLICIES, Membership, Vote
 from cavesim.nodes.record import Divergence, FinalAgreement, Join, Loss, Resync, RunRecord, Stall
 from cavesim.nodes.script import ScriptedHead
+from cavesim.nodes.tolerance import Tolerance, ToleranceMode
 
 log = logging.getLogger("cavesim.master")
 RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the node's report
@@ -85,6 +89,7 @@ class MasterConfig:
     evict_after: float = 10.0  # s a member may stay silent in the barrier (continue)
     max_pause: float = 300.0  # s the barrier holds for a silent member (pause)
     check_every: int = 1
+    tolerance: Tolerance | None = None  # mixed hardware: drift from an authority, not bits
     frame_log: Path | None = None
     realtime: bool = False  # pace frames by the wall clock (see cavesim/core/clock.py)
     max_frame_time: float = 0.1
@@ -137,6 +142,9 @@ class Master:
         self.up: set[str] = set()  # walls whose liveliness token is there
         self.asked: dict[str, float] = {}  # wall -> when its info was last asked for
         self.resync_failures: dict[str, int] = {}  # wall -> failed resyncs in a row
+        self.tolerance = None if config.tolerance is None else ToleranceMode(
+            config.tolerance, config.walls, config.check_every)
+        self.record.tolerance = self.tolerance
 
     # -- events ----------------------------------------------------------------------------
 
@@ -338,16 +346,19 @@ class Master:
                         silent)
 
     def _agree(self, k: int) -> Vote:
-        """Vote on the members' checksums of frame k and resync the odd ones."""
+        """Vote on the members' checksums of frame k (in the mixed-hardware mode: their
+        drift from the authority) and resync the odd ones."""
         members, reports = self.membership.members, self.reports
-        vote = lockstep.vote(members, reports, compare=k % self.config.check_every == 0)
-        if vote.diverged:
+        compare = k % self.config.check_every == 0
+        vote = lockstep.vote(members, reports, compare) if self.tolerance is None \
+            else self.tolerance.vote(k, members, reports, compare)
+        if vote.named:
             self.record.divergences.append(Divergence(
                 k, vote.named, vote.agreed, {n: reports[n].digest for n in members},
                 {n: reports[n].particles for n in members}))
             log.warning("frame %d: divergence, odd node(s): %s", k, ", ".join(vote.named))
-            for node in vote.odd:
-                self._resync(k, node, vote.source, vote.agreed)
+        for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
+            self._resync(k, node, vote.source, vote.agreed)
         return vote
 
     def _release_swap(self, k: int) -> None:

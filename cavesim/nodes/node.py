@@ -34,6 +34,7 @@ import numpy as np
 import zenoh
 
 from cavesim.core.cave.geometry import Cave, Display, load_cave
+from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import ClusterError, ContextError, ProtocolError
 from cavesim.core.scene import Engine, load_scene
@@ -58,6 +59,7 @@ from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
+from cavesim.nodes.drift import DRIFT_FAULTS, read_drift_sample
 from cavesim.nodes.faults import Fault
 from cavesim.nodes.inbox import (
     FromMaster,
@@ -104,6 +106,7 @@ class NodeConfig:
     preview_scale: float = 0.5  # of each wall's resolution, in the preview
     on_master_loss: str = "wait"  # or "exit" when the master's liveliness token goes away
     master_wait: float = 60.0  # s to wait for a master's WELCOME, or for a new master
+    drift_sample: int = 0  # mixed-hardware mode: records sampled into each report (0: none)
 
 
 class WallNode:
@@ -305,6 +308,10 @@ class WallNode:
         stepped = time.perf_counter()
         if self._fault("bitflip", k) and self.system.live_count:
             self._flip_one_bit()
+        for kind, perturb in DRIFT_FAULTS.items():
+            if self._fault(kind, k):
+                perturb(self.system)
+                log.warning("%s: fault: %s at frame %d", self.config.wall, kind, k)
         self.previous_inputs = inputs
         self.view.done = k
         state = self.system.checksum()
@@ -313,7 +320,8 @@ class WallNode:
             time.sleep(self.config.slow_delay)
         self._publish(ReportMessage(k, self.config.wall, state.digest, state.particles,
                                     state.emitters, int((stepped - started) * 1e6),
-                                    int((finished - stepped) * 1e6), self.rejects.total))
+                                    int((finished - stepped) * 1e6), self.rejects.total,
+                                    sample=self._sample()))
 
     def _flip_one_bit(self) -> None:
         particles = self.system.read_particles()
@@ -321,6 +329,12 @@ class WallNode:
         words[len(words) // 2] ^= np.uint32(1 << 20)
         self.system.write_particles(particles)
         log.warning("%s: fault: flipped one bit of the particle buffer", self.config.wall)
+
+    def _sample(self) -> DriftSample | None:
+        """The mixed-hardware mode's drift sample of the state we hold (else None)."""
+        if not self.config.drift_sample:
+            return None
+        return read_drift_sample(self.system, self.config.drift_sample)
 
     def _publish(self, report: ReportMessage, keep: bool = True) -> None:
         """Send `report`; `keep`: it describes the state we hold (repeat it, serve it)."""
@@ -381,8 +395,8 @@ class WallNode:
                   "state", wall, command.frame, source, deadline - started)
         state = self.system.checksum()  # the master sees at once that the resync failed
         self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED),
-                      keep=False)
+                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
+                                    self._sample()), keep=False)
 
     def _open_reply(self, data: bytes) -> Message:
         """A snapshot reply, checked: of our run."""
@@ -397,7 +411,8 @@ class WallNode:
         log.info("%s: resynced to frame %d from %s: %d particles in %d chunks, %.2f s",
                  self.config.wall, frame, source, state.particles, chunks, seconds)
         self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED))
+                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
+                                    self._sample()))
 
     def _serve_state(self, query: zenoh.Query, request: StateRequest) -> None:
         """Stream our state to a resyncing node, if it is the one it asks for."""

@@ -24,6 +24,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame import FrameInput
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
@@ -32,9 +33,10 @@ from cavesim.core.wire.credentials import MASTER_SIGNATURE_BYTES, Credentials
 from cavesim.core.wire.keys import check_name
 
 MAGIC = b"CVSM"
-VERSION = 4  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 5  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
-# take part in the swap barrier; 4: a run id in the header, the master's signature, requests
+# take part in the swap barrier; 4: a run id in the header, the master's signature, requests;
+# 5: a report may end in a drift sample (the mixed-hardware tolerance mode)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED = 0x01, 0x02
@@ -44,6 +46,7 @@ MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB
 
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
+_SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
 _CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
@@ -119,6 +122,7 @@ class ReportMessage:
     checksum_us: int
     rejected: int = 0  # messages this node has rejected so far
     status: Status = Status.STEPPED
+    sample: DriftSample | None = None  # mixed-hardware mode: its records sample_indices names
 
 
 @dataclass(frozen=True)
@@ -376,21 +380,45 @@ def _digest_bytes(digest: str) -> bytes:
 
 
 def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
-    return Kind.REPORT, _name_bytes(m.node) + _REPORT.pack(
+    body = _name_bytes(m.node) + _REPORT.pack(
         _digest_bytes(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
         m.status)
+    if m.sample is None:  # the bit-exact mode's report: no tail
+        return Kind.REPORT, body
+    if len(m.sample) > m.particles:
+        raise ValueError(f"a drift sample holds at most the {m.particles} live records, got "
+                         f"{len(m.sample)}")
+    return Kind.REPORT, body + _SAMPLE.pack(len(m.sample)) + m.sample.records
 
 
 def _read_report(frame: int, payload: bytes) -> ReportMessage:
     node, rest = _read_name(payload)
-    if len(rest) != _REPORT.size:
+    if len(rest) < _REPORT.size:
         raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
                                            f"expected {_REPORT.size}")
-    digest, particles, emitters, step_us, checksum_us, rejected, status = _REPORT.unpack(rest)
+    digest, particles, emitters, step_us, checksum_us, rejected, status = \
+        _REPORT.unpack_from(rest)
     if status not in Status.__members__.values():
         raise ProtocolError("bad-value", f"report status {status} is unknown")
+    sample = _read_sample(rest[_REPORT.size:], particles) if len(rest) > _REPORT.size else None
     return ReportMessage(frame, node, digest.hex(), particles, emitters, step_us, checksum_us,
-                         rejected, Status(status))
+                         rejected, Status(status), sample)
+
+
+def _read_sample(tail: bytes, particles: int) -> DriftSample:
+    """A report's drift sample: a count within MAX_SAMPLE and the live count, and exactly
+    that many records (their values may be anything a GPU writes: a NaN is a drift)."""
+    if len(tail) < _SAMPLE.size:
+        raise ProtocolError("bad-payload", f"a report's drift sample of {len(tail)} bytes has "
+                                           f"no count")
+    (count,) = _SAMPLE.unpack_from(tail)
+    if count > min(MAX_SAMPLE, particles) \
+            or len(tail) != _SAMPLE.size + count * SAMPLE_DTYPE.itemsize:
+        raise ProtocolError("bad-payload", f"a drift sample of {count} records in "
+                                           f"{len(tail)} bytes: expected at most "
+                                           f"min({MAX_SAMPLE}, {particles} live) records of "
+                                           f"{SAMPLE_DTYPE.itemsize} bytes after a 2-byte count")
+    return DriftSample(tail[_SAMPLE.size:])
 
 
 def _write_control(m: ControlMessage) -> tuple[Kind, bytes]:

@@ -31,6 +31,8 @@ from cavesim.tools.arguments import (
     signing_key,
     wall_list,
 )
+from cavesim.tools.mixed_hardware import add_arguments as add_mixed_hardware_arguments
+from cavesim.tools.mixed_hardware import node_sample_from, tolerance_from
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 log = logging.getLogger("cavesim")
@@ -76,6 +78,7 @@ def add_master(commands) -> None:
     parser.add_argument("--frame-log", type=output_path, help="record every frame's inputs here")
     parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
     parser.add_argument("--verbose", action="store_true")
+    add_mixed_hardware_arguments(parser, master=True)
     add_network_arguments(parser)
     parser.set_defaults(handler=master)
 
@@ -88,6 +91,7 @@ def master(args: argparse.Namespace, console) -> int:
     configure_logging(args.verbose)
     network, credentials = network_and_key(args, "master")
     signing_key(credentials, args.key_file, "master")
+    tolerance = tolerance_from(args, args.walls, "master")
     for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
         if path is not None:
             output_file(path, "master", flag)
@@ -95,7 +99,7 @@ def master(args: argparse.Namespace, console) -> int:
                           credentials, barrier_timeout=args.barrier_timeout,
                           join_timeout=args.join_timeout, on_loss=args.on_loss or "continue",
                           evict_after=args.evict_after, max_pause=args.max_pause,
-                          check_every=args.check_every,
+                          check_every=args.check_every, tolerance=tolerance,
                           clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
                           realtime=args.realtime, max_frame_time=args.max_frame_time,
                           max_substeps=args.max_substeps)
@@ -153,6 +157,7 @@ def add_node(commands) -> None:
                         help="seconds to wait for a master's welcome, or for a new master "
                              "(default 60); then the node exits 1")
     parser.add_argument("--verbose", action="store_true")
+    add_mixed_hardware_arguments(parser, master=False)
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
 
@@ -187,5 +192,6 @@ def node(args: argparse.Namespace, console) -> int:
                         engine=args.engine,
                         display=args.display, preview=args.preview,
                         preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
-                        master_wait=args.master_wait)
+                        master_wait=args.master_wait,
+                        drift_sample=node_sample_from(args, "node"))
     return run_node(config)
