@@ -127,6 +127,9 @@ class GpuChecksum:
 
     def read_history(self, slot: int, indices: np.ndarray) -> np.ndarray:
         """Fold-1 items `indices` (ascending) kept in history slot `slot` (waits)."""
+        if len(indices) and indices[-1] >= self._slot_rows:
+            raise ValueError(f"fold-1 items up to {indices[-1]} asked; the history holds "
+                             f"{self._slot_rows} per frame")
         return _read_rows(self._history, ITEM_WORDS[1], np.asarray(indices)
                           + slot * self._slot_rows)
 

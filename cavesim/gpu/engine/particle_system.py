@@ -67,7 +67,8 @@ class ParticleSystem:
         self._live: int | None = 0  # None: the last frame's count is still on the GPU
         self._current = 0  # index of the front buffers
         self._loading: int | None = None  # particles of the load staged in the back buffer
-        self._tree: int | None = None  # the buffers whose checksum tree the GPU holds
+        # the buffers whose checksum tree the GPU holds, and their checksum
+        self._tree: tuple[int, StateChecksum] | None = None
         self.history_ring = HistoryRing()
         self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
                                   for i in range(PARTICLE_BUFFERS)]
@@ -239,16 +240,23 @@ class ParticleSystem:
         emitters = self._emitter_buffers[self._current] if len(self.emitters) else None
         self._checksum.run(self._particle_buffers[self._current], emitters, self.scene.seed)
         state = self._checksum.read()
-        self._live, self._tree = state.particles, self._current
+        self._live, self._tree = state.particles, (self._current, state)
         return state
 
     def _state_checksum(self, index: int, particles: int, seed: int) -> StateChecksum:
         emitters = self._emitter_buffers[index] if len(self.emitters) else None
-        self._tree = index if seed == self.scene.seed else None
-        return self._checksum.state(self._particle_buffers[index], particles, emitters,
-                                    len(self.emitters), seed)
+        state = self._checksum.state(self._particle_buffers[index], particles, emitters,
+                                     len(self.emitters), seed)
+        self._tree = (index, state) if seed == self.scene.seed else None
+        return state
 
     # -- the checksum's tree ----------------------------------------------------------------
+
+    def tree_state(self) -> tuple[int, int, int]:
+        """(seed, live particles, emitters) of the current state, whose tree the GPU then
+        holds."""
+        state = self._current_tree()
+        return self.scene.seed, state.particles, state.emitters
 
     def tree_items(self, level: int, indices: np.ndarray) -> np.ndarray:
         """Items `indices` (ascending) of level `level` (0: the sums, 1, 2) of the current
@@ -269,10 +277,15 @@ class ParticleSystem:
         return [(entry, self._checksum.read_history(entry.slot, indices))
                 for entry in self.history_ring.up_to(up_to)]
 
+    def _drop_tree(self, index: int) -> None:
+        """The buffers `index` are being written: the GPU's tree is no longer theirs."""
+        if self._tree is not None and self._tree[0] == index:
+            self._tree = None
+
     def _current_tree(self) -> StateChecksum:
         """The current state's checksum, run again if the GPU's tree is another state's."""
-        if self._tree == self._current and self._live is not None:
-            return self._checksum.read()
+        if self._tree is not None and self._tree[0] == self._current:
+            return self._tree[1]
         return self.checksum()
 
     def read_particle_chunk(self, first: int, count: int) -> bytes:
@@ -322,8 +335,7 @@ class ParticleSystem:
             raise StateError(f"a load of {count} particles does not fit the capacity "
                              f"{self.capacity}; allowed: 0 to {self.capacity}")
         self._loading = count
-        if self._tree == 1 - self._current:
-            self._tree = None
+        self._drop_tree(1 - self._current)
 
     def begin_patch(self) -> None:
         """Start staging a copy of the current particle stream (copied on the GPU) in the
@@ -346,8 +358,7 @@ class ParticleSystem:
                              f"{PARTICLE_BYTES}-byte records within the {self._loading} loaded")
         if count:
             self._particle_buffers[1 - self._current].write(data, offset=first * PARTICLE_BYTES)
-            if self._tree == 1 - self._current:
-                self._tree = None
+            self._drop_tree(1 - self._current)
 
     def commit_load(self, emitters: np.ndarray | None = None, seed: int | None = None,
                     digest: str | None = None) -> None:
@@ -380,8 +391,7 @@ class ParticleSystem:
             raise StateError(f"emitters: expected {count} records, got {len(emitters)}")
         if count:
             self._emitter_buffers[back].write(emitters.tobytes())
-            if self._tree == back:
-                self._tree = None
+            self._drop_tree(back)
 
     def restart(self, seed: int) -> None:
         """Back to the start state of a scene whose seed is `seed`: no particles, every
