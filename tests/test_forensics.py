@@ -4,6 +4,7 @@ and bit, and since when; and the record differences themselves."""
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,7 +13,8 @@ from memory_walls import MemoryLink
 from cavesim.core.record_diff import differences, field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire import BlockQuery
-from cavesim.nodes.faults import BitFlip, bitflip_target
+from cavesim.nodes.check_report import check_passed, check_report
+from cavesim.nodes.faults import BitFlip, Fault, bitflip_target
 from cavesim.nodes.master import MasterConfig, run_master
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
@@ -119,3 +121,46 @@ def test_differences_give_values_bits_and_ulp_distances():
     assert found[(11, "age")]["xor"] == "0x8000000000000000"
     assert (found[(10, "class_id")]["distance"], found[(10, "class_id")]["distance_unit"]) == \
         (4, "integer difference")
+
+
+def checked(tmp_path, record, fault) -> dict:
+    return check_report(WALLS, (fault,), record, SimpleNamespace(rogue=None), None, tmp_path)
+
+
+@pytest.mark.parametrize(("path", "wrong"), [
+    (("streams", 0, "records", 0, "index"), 2501),  # another particle
+    (("streams", 0, "records", 0, "fields", 0, "field"), "pos.y"),  # another field
+    (("streams", 0, "records", 0, "fields", 0, "xor"), "0x00080000"),  # another bit
+    (("streams", 0, "stream"), "emitters"),  # another stream
+])
+def test_the_check_asserts_the_localisation_and_fails_on_a_wrong_one(tmp_path, path, wrong):
+    target = bitflip_target(PARTICLES)  # as a node flips: pos.x of particle 2500, bit 20
+    record, _ = run(tmp_path, {12: target})
+    fault = Fault("bitflip", 12, "left")
+    report = checked(tmp_path, record, fault)
+    (outcome,) = report["faults"]
+    assert outcome["localisation"] == {
+        "expected": {"stream": "particles", "record": 2500, "field": "pos.x", "bit": 20},
+        "reported": [{"stream": "particles", "record": 2500, "field": "pos.x", "bit": 20}],
+        "report": "divergences/frame_12.json", "exact": True}
+    assert report["all_localised"] and check_passed(report, injected=True)
+    file = tmp_path / "divergences" / "frame_12.json"
+    forensics = json.loads(file.read_text())
+    *inside, last = path
+    place = forensics
+    for key in inside:
+        place = place[key]
+    place[last] = wrong
+    file.write_text(json.dumps(forensics))
+    report = checked(tmp_path, record, fault)
+    assert not report["faults"][0]["localisation"]["exact"]
+    assert not report["all_localised"] and not check_passed(report, injected=True)
+
+
+def test_a_bitflip_the_forensics_could_not_explain_fails_the_check(tmp_path):
+    record, _ = run(tmp_path, {12: bitflip_target(PARTICLES)})
+    (tmp_path / "divergences" / "frame_12.json").write_text(json.dumps(
+        {"frame": 12, "odd_node": "left", "reference_node": "front", "error": "no answer"}))
+    report = checked(tmp_path, record, Fault("bitflip", 12, "left"))
+    assert report["faults"][0]["localisation"]["reported"] == []
+    assert not check_passed(report, injected=True)

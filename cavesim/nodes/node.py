@@ -77,7 +77,7 @@ from cavesim.nodes.inbox import (
     NodeView,
     StateQuery,
 )
-from cavesim.nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES
+from cavesim.nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES, RESYNC_MODES
 from cavesim.nodes.painter import WallPainter
 from cavesim.nodes.preview_controls import PreviewControls
 from cavesim.nodes.screen import LiveDisplay, PreviewScreen, WallScreen, scaled
@@ -91,7 +91,6 @@ IDLE = 1.0  # s between looks at the master's presence when nothing comes
 MASTER_SILENCE = 10  # x --master-wait: a master this long silent counts as gone
 BEHIND_EVERY = 1.0  # s between two BEHIND reports
 RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
-RESYNC_MODES = ("delta", "full")  # a delta first (the full snapshot if it fails), or the full
 
 
 @dataclass(frozen=True)

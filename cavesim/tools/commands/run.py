@@ -39,7 +39,7 @@ from cavesim.tools.arguments import (
     wall_count,
     wall_names,
 )
-from cavesim.tools.reports.run import demo_table, gpu_table, summary_table
+from cavesim.tools.reports.run import demo_table, forensic_lines, gpu_table, summary_table
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
@@ -90,7 +90,7 @@ class RunPlan:
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
-                              frame_log=self.out / "frames.log")
+                              frame_log=self.out / "frames.log", forensics=self.out)
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
         return ClusterPlan(master, self.out,
@@ -119,6 +119,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     frame_log, logs = plan.out / "frames.log", plan.out / "logs"
     check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))
+    for line in forensic_lines(report):
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))
