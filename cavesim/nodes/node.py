@@ -390,13 +390,16 @@ class WallNode:
             return
         deadline = started + transfer_seconds(self.system.capacity)
         request = StateRequest(command.frame, source, command.digest)
+        sealed = self._seal(request)
         while (remaining := deadline - time.monotonic()) > 0:
+            received = [len(sealed)]
             header = fetch_snapshot(self.session, self.keys.state(source), self.system,
-                                    self._seal(request), self._open_reply, request, deadline,
-                                    self.rejects, failed_repliers)
+                                    sealed, self._open_reply, request, deadline,
+                                    self.rejects, failed_repliers, received.append)
             if header is not None:
                 self._loaded(header.frame, source, f"{header.particles} particles in "
-                             f"{header.chunks} chunks", time.monotonic() - started)
+                             f"{header.chunks} chunks, {sum(received)} bytes",
+                             time.monotonic() - started)
                 return
             time.sleep(min(RESYNC_PAUSE, max(deadline - time.monotonic(), 0.0)))
             list(self.session.liveliness().get(self.keys.alive(source),
@@ -423,7 +426,7 @@ class WallNode:
                         self.config.wall, source, e)
             return False
         self._loaded(command.frame, source, f"by delta, {delta.records} records under "
-                     f"{delta.blocks} differing blocks, {ask.bytes} bytes",
+                     f"{delta.blocks} differing block(s), {ask.bytes} bytes",
                      time.monotonic() - started)
         return True
 
