@@ -16,8 +16,8 @@ have held a differing record differ. A particle record only moves toward the str
 its block or a later one of the particle stream; an emitter record never moves.
 
 Everything asked is bounded: at most MAX_EXAMINED differing blocks per stream are followed
-down to their records, MAX_REPORTED records are written (the rest counted), a history covers
-at most HISTORY_WIDTH blocks.
+down to their records, of which at most MAX_BLOCK_INDICES are fetched; MAX_REPORTED records
+are written (the rest counted); a history covers at most HISTORY_WIDTH blocks.
 """
 
 from __future__ import annotations
@@ -185,7 +185,7 @@ def _stream(questions: _Questions, stream: int, groups: list[int],
     invocations = np.flatnonzero((sums[0] != sums[1]).any(axis=1))
     records = np.unique(np.concatenate([np.zeros(0, np.int64), *(
         invocation_records(stream, examined[i // WORKGROUP_SIZE], i % WORKGROUP_SIZE, live)
-        for i in invocations)]))
+        for i in invocations)]))[:MAX_BLOCK_INDICES]  # one question's worth: 640 KiB
     diffs: list[FieldDifference] = []
     if len(records):
         fetched = questions.both(BlockQuery.RECORDS, stream, (records, records))

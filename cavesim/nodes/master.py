@@ -373,7 +373,7 @@ class Master:
         if self.config.forensics is None:
             return None
         reference = Side(vote.source, vote.agreed)
-        found = []
+        found, started = [], time.monotonic()
         for node in vote.odd:
             odd = Side(node, self.reports[node].digest)
             try:
@@ -384,7 +384,8 @@ class Master:
             found.append(report)
         path = write_report(self.config.forensics, found[0], found[1:])
         return {"file": str(path.relative_to(self.config.forensics)),
-                "summary": found[0]["summary"]}
+                "summary": found[0]["summary"],
+                "seconds": round(time.monotonic() - started, 4)}
 
     def _release_swap(self, k: int) -> None:
         """The swap barrier: SWAP k once every swap-locked member has drawn k, then the

@@ -118,10 +118,14 @@ def _one_way(scene: Path, mode: str, out: Path) -> dict:
         raise ResyncBenchError(f"the {mode} run did not heal the bitflip by {mode} resync: "
                                f"see {out / 'logs'}")
     (outcome,) = report["faults"]
+    (divergence,) = report["run"]["divergences"]
+    forensics = json.loads((out / divergence["forensics"]["file"]).read_text())
     return {"mode": mode, "how": line["how"], "bytes": int(line["bytes"]),
             "node_seconds": float(line["seconds"]),
             "master_seconds": round(resyncs[0]["seconds"], 3),
             "localised": outcome["localisation"]["exact"],
+            "forensics_seconds": divergence["forensics"]["seconds"],
+            "forensics_bytes": forensics["bytes_fetched"],
             "renderer": report["run"]["gpus"].get("left", {}).get("renderer")}
 
 
@@ -169,6 +173,10 @@ def show(report: dict, console: Console) -> None:
     ring = report["history_ring"]
     console.print(f"delta: {report['bytes_ratio']:g}x fewer bytes, "
                   f"{report['node_seconds_ratio']:g}x less node time", markup=False)
+    forensics = report["ways"][-1]
+    console.print(f"forensics before the resync: {forensics['forensics_bytes']:,} B fetched "
+                  f"from the two nodes in {forensics['forensics_seconds']:.3f} s", markup=False,
+                  highlight=False)
     console.print(f"history ring: {ring['bytes_per_frame']:,} B of fold-1 items per frame "
                   f"({ring['ring_bytes']:,} B for {ring['ring_frames']} frames), GPU copy "
                   f"{ring['ring_copy_ms']} ms per frame against {ring['checksum_ms']} ms for "
