@@ -5,6 +5,9 @@ node's answers to block questions: only about the state it holds, within that st
 
 from __future__ import annotations
 
+from dataclasses import replace
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scenes import FOUNTAIN, make_scene, particle_cloud
@@ -14,9 +17,10 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire import BlockQuery, BlockRequest
 from cavesim.core.wire.credentials import generate
-from cavesim.core.wire.messages import decode, encode
+from cavesim.core.wire.messages import decode, decode_envelope, encode
+from cavesim.core.wire.rejects import RejectCounter
 from cavesim.gpu.engine import FrameInput, ParticleSystem
-from cavesim.nodes.blocks import answer, check_reply, serve_blocks
+from cavesim.nodes.blocks import BlockAsker, answer, check_reply, serve_blocks
 from cavesim.nodes.delta import DeltaRefused, fetch_delta
 
 SESSION, KEY = "delta", generate().for_members()
@@ -152,3 +156,52 @@ def test_a_node_answers_only_about_the_state_it_holds_and_within_it(pair):
     assert refusal.startswith("bad-index")
     with pytest.raises(ProtocolError, match="bad-size"):
         check_reply(reply, BlockRequest(FRAME, "front", digest, BlockQuery.TREE, 2, (0, 1)))
+
+
+class Reply:
+    """A zenoh reply stand-in: `data` from `replier`, or a refusal."""
+
+    def __init__(self, replier: str, data: bytes | None = None, refusal: str = "") -> None:
+        self.replier_id = replier
+        payload = SimpleNamespace(to_bytes=lambda: data, to_string=lambda: refusal)
+        self.ok = None if data is None else SimpleNamespace(payload=payload)
+        self.err = SimpleNamespace(payload=payload)
+
+
+class Session:
+    def __init__(self, replies: list[Reply]) -> None:
+        self.replies = replies
+
+    def get(self, key, **options):
+        return iter(self.replies)
+
+
+def test_an_asker_counts_bad_replies_and_follows_the_first_good_replier(pair):
+    healthy, _ = pair
+    digest = healthy.checksum().digest
+    request = BlockRequest(FRAME, "front", digest, BlockQuery.TREE, 2)
+    good = answer(healthy, request, "front")
+
+    def sealed(message, run=1):
+        return encode(message, SESSION, KEY, run)
+
+    def opened(data):
+        envelope = decode_envelope(data, SESSION, KEY)
+        if envelope.run_id != 1:
+            raise ProtocolError("wrong-run", "another run's reply")
+        return envelope.message
+
+    replies = [Reply("a", refusal="not-held: asked about frame 30"),
+               Reply("b", sealed(good, run=2)),  # another run's
+               Reply("c", sealed(replace(good, node="left"))),  # another node's
+               Reply("d", sealed(replace(good, data=good.data * 2))),  # the wrong size
+               Reply("b", sealed(good)),  # a failed replier is not heard again
+               Reply("e", sealed(good)), Reply("f", sealed(good))]
+    rejects = RejectCounter("test")
+    ask = BlockAsker(Session(replies), "cavesim/delta/blocks/front", sealed, opened, rejects)
+    assert ask(request) == good and ask.replier == "e"
+    assert rejects.counts == {"wrong-run": 1, "wrong-reply": 1, "bad-size": 1}
+    assert ask.failed == {"b", "c", "d"} and ask.refusal.startswith("not-held")
+    ask.session = Session([Reply("f", sealed(good)), Reply("e", sealed(good))])
+    assert ask(request) == good and ask.replier == "e"  # the replier followed stays
+    assert ask.bytes > 2 * len(sealed(good))
