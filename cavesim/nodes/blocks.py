@@ -141,13 +141,15 @@ def serve_blocks(query: zenoh.Query, key: str, holder: TreeHolder, node: str,
 class BlockAsker:
     """Asks one node's `blocks/<node>` key, following one replier: the first whose reply
     checks out. A replier whose reply is refused (counted) is not heard again (`failed`,
-    which the caller may share with a snapshot fetch); `bytes` counts what went each way."""
+    which the caller may share with a snapshot fetch); `bytes` counts what went each way.
+    Each question waits at most BLOCK_SECONDS, and none goes out past `deadline` (a
+    monotonic time) if one is given."""
 
     def __init__(self, session: zenoh.Session, key: str, seal: Callable[[Message], bytes],
                  open_reply: Callable[[bytes], Message], rejects: RejectCounter,
-                 failed: set[str] | None = None, seconds: float = BLOCK_SECONDS) -> None:
+                 failed: set[str] | None = None, deadline: float | None = None) -> None:
         self.session, self.key, self.seal, self.open_reply = session, key, seal, open_reply
-        self.rejects, self.seconds = rejects, seconds
+        self.rejects, self.deadline = rejects, deadline
         self.failed = set() if failed is None else failed
         self.replier: str | None = None
         self.bytes = 0
@@ -156,12 +158,16 @@ class BlockAsker:
     def __call__(self, request: BlockRequest) -> BlockReply | None:
         """The checked reply to `request`, or None (refused, no answer, or past the
         deadline)."""
+        now = time.monotonic()
+        deadline = now + BLOCK_SECONDS if self.deadline is None \
+            else min(now + BLOCK_SECONDS, self.deadline)
+        if deadline <= now:
+            return None
         payload = self.seal(request)
         self.bytes += len(payload)
-        deadline = time.monotonic() + self.seconds
         replies = self.session.get(self.key, payload=payload,
                                    consolidation=zenoh.ConsolidationMode.NONE,
-                                   timeout=self.seconds)
+                                   timeout=deadline - now)
         for reply in replies:
             if time.monotonic() > deadline:
                 break

@@ -23,6 +23,7 @@ are written (the rest counted); a history covers at most HISTORY_WIDTH blocks.
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,6 +52,7 @@ from cavesim.core.wire.messages import MAX_BLOCK_INDICES, BlockQuery, BlockReply
 MAX_EXAMINED = 16  # differing blocks per stream followed down to their records
 MAX_REPORTED = 64  # differing records written per stream (the rest are counted)
 HISTORY_WIDTH = 4096  # fold-1 items of a history question: 64 frames x 4096 x 16 B = 4 MiB
+FORENSICS_SECONDS = 20.0  # for all the questions of one investigation
 DTYPES = (PARTICLE_DTYPE, EMITTER_DTYPE)
 RECORD_NAMES = ("particle", "emitter")
 
@@ -75,6 +77,7 @@ class _Questions:
     def __init__(self, frame: int, odd: Side, reference: Side, ask: Ask) -> None:
         self.frame, self.sides, self.ask = frame, (odd, reference), ask
         self.bytes = 0
+        self.deadline = time.monotonic() + FORENSICS_SECONDS
 
     def both(self, query: BlockQuery, part: int, indices: tuple[np.ndarray, np.ndarray]
              ) -> tuple[BlockReply, BlockReply]:
@@ -96,6 +99,8 @@ class _Questions:
                  for i in range(0, len(indices), MAX_BLOCK_INDICES)] or [indices]
         replies = []
         for page in pages:
+            if time.monotonic() > self.deadline:
+                raise ForensicsError(f"the questions took longer than {FORENSICS_SECONDS:g} s")
             reply = self.ask(side.node, BlockRequest(self.frame, side.node, side.digest, query,
                                                      part, tuple(int(i) for i in page)))
             if reply is None:

@@ -91,6 +91,7 @@ IDLE = 1.0  # s between looks at the master's presence when nothing comes
 MASTER_SILENCE = 10  # x --master-wait: a master this long silent counts as gone
 BEHIND_EVERY = 1.0  # s between two BEHIND reports
 RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
+DELTA_SECONDS = 5.0  # s for all of a delta's questions; then the full snapshot
 
 
 @dataclass(frozen=True)
@@ -416,7 +417,7 @@ class WallNode:
         source's; False (said in the log) when the full snapshot must do it."""
         source = command.source
         ask = BlockAsker(self.session, self.keys.blocks(source), self._seal, self._open_reply,
-                         self.rejects, failed)
+                         self.rejects, failed, deadline=started + DELTA_SECONDS)
         try:
             delta = fetch_delta(self.system, ask, command.frame, source, command.digest)
         except DeltaRefused as e:
@@ -431,10 +432,10 @@ class WallNode:
         return True
 
     def _open_reply(self, data: bytes) -> Message:
-        """A snapshot reply, checked: of our run."""
+        """A reply to our snapshot or block query, checked: of our run."""
         envelope = decode_envelope(data, self.config.session, self.config.credentials)
         if envelope.run_id != self.view.run_id:
-            raise ProtocolError("wrong-run", f"a snapshot reply of run {envelope.run_id:#018x}")
+            raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
         return envelope.message
 
     def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
