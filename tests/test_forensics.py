@@ -16,6 +16,7 @@ from cavesim.core.wire import BlockQuery
 from cavesim.nodes.check_report import check_passed, check_report
 from cavesim.nodes.faults import BitFlip, Fault, bitflip_target
 from cavesim.nodes.master import MasterConfig, run_master
+from cavesim.tools.reports.run import forensic_lines
 
 MINIMAL = Path(__file__).parents[1] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")
@@ -164,3 +165,11 @@ def test_a_bitflip_the_forensics_could_not_explain_fails_the_check(tmp_path):
     report = checked(tmp_path, record, Fault("bitflip", 12, "left"))
     assert report["faults"][0]["localisation"]["reported"] == []
     assert not check_passed(report, injected=True)
+
+
+def test_run_prints_what_differed_at_each_divergence(tmp_path):
+    record, _ = run(tmp_path, {5: BitFlip(10, 1, 2), 9: BitFlip(20, 2, 3)}, frames=10)
+    lines = forensic_lines(record.summary(), shown=1)
+    assert lines[0].startswith("frame 5: left differs from front in particle 10 pos.y: ")
+    assert lines[0].endswith("(divergences/frame_5.json)")
+    assert lines[1] == "... and 1 more in divergences/"
