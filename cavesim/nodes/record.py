@@ -27,10 +27,12 @@ class Divergence:
     agreed: str  # the checksum the cluster kept
     checksums: dict[str, str]  # every member's
     particles: dict[str, int]
+    forensics: dict | None = None  # its report's file (in the run's folder) and summary line
 
     def to_json(self) -> dict:
         return {"frame": self.frame, "nodes": list(self.nodes), "agreed_checksum": self.agreed,
-                "checksums": self.checksums, "particles": self.particles}
+                "checksums": self.checksums, "particles": self.particles,
+                **({"forensics": self.forensics} if self.forensics else {})}
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ from cavesim.tools.arguments import (
 )
 from cavesim.tools.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from cavesim.tools.mixed_hardware import node_arguments, tolerance_from
-from cavesim.tools.reports.run import demo_table, gpu_table, summary_table
+from cavesim.tools.reports.run import demo_table, forensic_lines, gpu_table, summary_table
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
@@ -94,7 +94,8 @@ class RunPlan:
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
-                              tolerance=self.tolerance, frame_log=self.out / "frames.log")
+                              tolerance=self.tolerance, frame_log=self.out / "frames.log",
+                              forensics=self.out)
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
         mixed = node_arguments(self.tolerance)
@@ -125,6 +126,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     frame_log, logs = plan.out / "frames.log", plan.out / "logs"
     check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))
+    for line in forensic_lines(report):
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))

@@ -45,6 +45,16 @@ def mode_rows(report: dict) -> list[tuple[str, str]]:
             ("worst drift (position / velocity)", f"{position:g} m / {velocity:g} m/s")]
 
 
+def forensic_lines(report: dict, shown: int = 10) -> list[str]:
+    """What differed at each divergence (the first `shown`), as the master's forensics found
+    it, and where the whole report is."""
+    explained = [d["forensics"] for d in report["divergences"] if d.get("forensics")]
+    lines = [f"{f['summary']} ({f['file']})" for f in explained[:shown]]
+    if len(explained) > shown:
+        lines.append(f"... and {len(explained) - shown} more in divergences/")
+    return lines
+
+
 def gpu_table(report: dict) -> Table:
     """What each wall computed on, as its node told the master."""
     table = Table(title="GPUs")
