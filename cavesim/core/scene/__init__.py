@@ -7,6 +7,7 @@ shader specializer and the numpy twin only ever see the frozen objects re-export
 from cavesim.core.scene.loader import load_scene, parse_scene
 from cavesim.core.scene.model import (
     AIR_VISCOSITY,
+    Arithmetic,
     Collision,
     CollisionKind,
     Drag,
@@ -27,6 +28,7 @@ from cavesim.core.scene.model import (
 
 __all__ = [
     "AIR_VISCOSITY",
+    "Arithmetic",
     "Collision",
     "CollisionKind",
     "Drag",

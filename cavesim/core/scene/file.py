@@ -13,6 +13,7 @@ from typing import Annotated
 from cavesim.core._schema import Range, Rule
 from cavesim.core.limits import MAX_PARTICLES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.scene.model import (
+    Arithmetic,
     Collision,
     Emitter,
     Engine,
@@ -41,6 +42,8 @@ class Simulation:
     random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
                                    Rule("a power of two", _power_of_two)] = 256
     engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
+    # "portable": every GPU computes the same bits, at a cost (README: portable arithmetic)
+    arithmetic: Arithmetic = Arithmetic.NATIVE
 
 
 @dataclass(frozen=True, kw_only=True)

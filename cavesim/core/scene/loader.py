@@ -30,11 +30,13 @@ from cavesim.core.limits import (
 )
 from cavesim.core.scene.file import FIELD_PARAMS, SceneFile
 from cavesim.core.scene.model import (
+    Arithmetic,
     Collision,
     CollisionKind,
     Emitter,
     Field,
     FieldKind,
+    FieldSampling,
     Helicopter,
     Scene,
 )
@@ -81,6 +83,11 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
                               "forces.drag, which is missing (without drag nothing samples "
                               "the field)")
     field = _field(top.table("field")) if top.has("field") else None
+    if (sim.arithmetic is Arithmetic.PORTABLE and field is not None
+            and field.sampling is FieldSampling.HARDWARE):
+        raise top.table("field").bad("sampling", 'must be "manual" with simulation.arithmetic '
+                                     '= "portable": the texture unit\'s filter weights differ '
+                                     'from vendor to vendor')
     collision = _collision(top.table("collision")) if top.has("collision") else None
 
     helicopter = _helicopter(top.table("helicopter")) if top.has("helicopter") else None

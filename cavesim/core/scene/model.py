@@ -45,6 +45,13 @@ class Engine(StrEnum):
     COMPUTE = "compute"  # compute shaders: in-place update, ordered compaction, append
 
 
+class Arithmetic(StrEnum):
+    """How the particle and emission arithmetic is compiled (README: portable arithmetic)."""
+
+    NATIVE = "native"  # the driver's operators and built-ins: fastest, bits vary by GPU
+    PORTABLE = "portable"  # correctly rounded +, -, * only: the same bits on every GPU
+
+
 class OutOfDomain(StrEnum):
     CLAMP = "clamp"  # the flow at the nearest boundary node
     ZERO = "zero"  # still air outside the box
@@ -208,6 +215,7 @@ class Scene:
     collision: Collision | None
     helicopter: Helicopter | None = None
     engine: Engine = Engine.GS_TF  # a run may choose another (`cavesim run --engine`)
+    arithmetic: Arithmetic = Arithmetic.NATIVE
 
     def relaxation_times(self) -> tuple[float, ...]:
         """τ of each particle class (inf when the scene has no drag)."""
