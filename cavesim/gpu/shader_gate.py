@@ -26,6 +26,7 @@ import moderngl
 from cavesim.core.errors import ShaderError
 from cavesim.core.scene import load_scene
 from cavesim.gpu.engine.programs import feature_combinations, scene_programs
+from cavesim.gpu.gl.arithmetic_probe import ARITHMETIC_MODES, ARITHMETIC_PROBE, probe_defines
 from cavesim.gpu.gl.denormal_probe import DENORMAL_PROBE_DISPATCH, DENORMAL_PROBE_DRAW
 from cavesim.gpu.gl.filtering import FILTER_PROBE
 from cavesim.gpu.render.programs import render_combinations, render_programs
@@ -78,6 +79,8 @@ def all_builds(scene_dir: Path) -> list[Build]:
         add([*scene_programs(scene), *render_programs(scene)], f"scene {path.stem}")
     add([*feature_combinations(), *render_combinations()], "feature combination")
     add([(FILTER_PROBE, {}), (DENORMAL_PROBE_DRAW, {}), (DENORMAL_PROBE_DISPATCH, {})],
+        "probe")
+    add([(ARITHMETIC_PROBE, probe_defines("f_normalize vec3", mode)) for mode in ARITHMETIC_MODES],
         "probe")
     return list(builds.values())
 
