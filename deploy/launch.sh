@@ -3,7 +3,7 @@
 #
 #   deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display] [--scene FILE]
 #                    [--frames F] [--out DIR] [--session NAME] [--keys DIR]
-#                    [--config FILE] [--realtime] [--dry-run]
+#                    [--config FILE] [--realtime] [--mixed-hardware] [--dry-run]
 #
 # Without --hosts everything runs here: this execs `.venv/bin/cavesim run --walls N ...`
 # (or `--cave FILE`; after deploy/setup.sh if .venv is missing), which writes
@@ -48,7 +48,9 @@
 # the remote command: the login directory for ssh; a scene also by the cavesim checkout).
 # Node output is collected here in OUT/logs/WALL.log; the master's goes to the terminal.
 # The launcher waits for the master, exits with its status, and on exit or Ctrl-C stops
-# every node process it started. --dry-run prints the commands instead of running them.
+# every node process it started. --mixed-hardware runs the master and every node in the
+# tolerance mode for walls whose GPUs round differently (README "Mixed hardware"; the first
+# wall is the authority). --dry-run prints the commands instead of running them.
 set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -58,7 +60,7 @@ DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/test_launc
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \
          "[--scene FILE] [--frames F] [--out DIR] [--session NAME] [--keys DIR]" \
-         "[--config FILE] [--realtime] [--dry-run]" >&2
+         "[--config FILE] [--realtime] [--mixed-hardware] [--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
 }
@@ -69,7 +71,7 @@ die() {  # a usage or input error: one line, exit 2
 }
 
 hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
-session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0
+session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0 mixed=0
 while (($#)); do
     case "$1" in
         --hosts | --walls | --scene | --frames | --out | --session | --keys | --config \
@@ -89,6 +91,7 @@ while (($#)); do
             shift 2 ;;
         --realtime) realtime=1; shift ;;
         --display) display=1; shift ;;
+        --mixed-hardware) mixed=1; shift ;;
         --dry-run) dry_run=1; shift ;;
         -h | --help) usage ;;
         *) die "unknown argument $1 (see deploy/launch.sh --help)" ;;
@@ -123,6 +126,7 @@ if [ -z "$hosts_file" ]; then
              --session "$session")
     if [ -n "$cave" ]; then command+=(--cave "$cave"); else command+=(--walls "${walls:-4}"); fi
     ((!display)) || command+=(--display)
+    ((!mixed)) || command+=(--mixed-hardware)
     [ -z "$keys" ] || command+=(--key-file "$keys/master.key")
     if ((dry_run)); then
         [ -x "$root/.venv/bin/cavesim" ] || show "$root/deploy/setup.sh"
@@ -213,6 +217,7 @@ done
 
 common=(--scene "$scene" --session "$session")
 [ -z "$zenoh_config" ] || common+=(--config "$zenoh_config")
+((!mixed)) || common+=(--mixed-hardware)
 wall_list="$(IFS=,; echo "${node_walls[*]}")"
 master_command=("${master_via[@]}" "$remote" master --walls "$wall_list" --frames "$frames"
                 "${common[@]}" --listen "tcp/0.0.0.0:$master_port"

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from hypothesis import strategies as st
 
+from cavesim.core.drift import SAMPLE_DTYPE, DriftSample
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import ED25519_BYTES, SECRET_BYTES, of_master
@@ -66,10 +67,21 @@ frame_messages = st.builds(
     st.lists(f32, max_size=MAX_PARAMS).map(tuple), heads)
 
 digests = st.binary(min_size=16, max_size=16).map(bytes.hex)
-report_messages = st.builds(
-    ReportMessage, frame_numbers, names, digests,
-    st.integers(0, U32), st.integers(0, U32), st.integers(0, U32), st.integers(0, U32),
-    st.integers(0, U32), st.sampled_from(Status))
+
+
+@st.composite
+def report_messages(draw) -> ReportMessage:
+    """A report, with a drift sample (arbitrary bytes: NaN and all) of at most its live
+    count or without one."""
+    particles = draw(st.integers(0, U32))
+    size = draw(st.none() | st.integers(0, min(particles, 8)))
+    sample = None if size is None else DriftSample(draw(st.binary(
+        min_size=size * SAMPLE_DTYPE.itemsize, max_size=size * SAMPLE_DTYPE.itemsize)))
+    return ReportMessage(draw(frame_numbers), draw(names), draw(digests), particles,
+                         draw(st.integers(0, U32)), draw(st.integers(0, U32)),
+                         draw(st.integers(0, U32)), draw(st.integers(0, U32)),
+                         draw(st.sampled_from(Status)), sample)
+
 
 optional_names = st.just("") | names
 control_messages = st.builds(ControlMessage, frame_numbers, st.sampled_from(Command),
@@ -105,7 +117,7 @@ display_messages = st.builds(DisplayMessage, frame_numbers, names, st.sampled_fr
 
 def messages() -> st.SearchStrategy:
     """Any valid message of any kind."""
-    return st.one_of(frame_messages, report_messages, control_messages, snapshot_messages,
+    return st.one_of(frame_messages, report_messages(), control_messages, snapshot_messages,
                      tracking_messages, info_messages, display_messages)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scenes import make_scene
 
+from cavesim.core.digest.shape import group_count
 from cavesim.core.errors import CapacityError
 from cavesim.core.framelog import FrameLogWriter, read_frame_log
 from cavesim.core.limits import MAX_PARTICLES
@@ -17,7 +18,6 @@ from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
 from cavesim.core.wire.messages import FrameMessage, ReportMessage, decode, encode
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.engine.capacity import capacity_limits
-from cavesim.gpu.engine.checksum import group_count
 
 GIB = 2**30
 GL_MIN_WORK_GROUP_COUNT = 65535  # what GL 4.3 guarantees for each dimension

@@ -5,10 +5,11 @@ import numpy as np
 import pytest
 from scenes import FOUNTAIN, make_scene, particle_cloud
 
+from cavesim.core.digest.reference import reference_checksum, reference_levels
+from cavesim.core.digest.shape import ITEM_WORDS, plan
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 from cavesim.gpu.engine import FrameInput, ParticleSystem
-from cavesim.gpu.engine.checksum import RESULT_BYTES, GpuChecksum, plan
-from cavesim.gpu.engine.checksum_reference import reference_checksum
+from cavesim.gpu.engine.checksum import RESULT_BYTES, GpuChecksum
 
 SEED = 2**63 + 0x1234_5678_9ABC  # both 32-bit halves matter
 
@@ -236,3 +237,19 @@ def test_counts_beyond_the_buffers_are_refused(state_of):
         state.gpu(counts=(11, 1))
     with pytest.raises(ValueError, match="seed must be within"):
         state.gpu(seed=-1)
+
+
+@pytest.mark.parametrize(("particles", "emitters", "seed"),
+                         [(1, 0, 1), (2001, 5, 2), (110_000, 7, 3), (0, 3, 4)])
+def test_gpu_block_sums_equal_the_numpy_twins_at_every_level(state_of, particles, emitters,
+                                                             seed):
+    state = state_of(particles, emitters, seed)
+    state.gpu()
+    expected = reference_levels(state.particle_words, state.emitter_words)
+    for level, items in enumerate(expected):
+        assert len(items) == plan(particles, emitters).items[level]
+        every = np.arange(len(items))
+        np.testing.assert_array_equal(state.checksum.read_items(level, every), items)
+        some = every[::7]  # scattered runs read piecewise
+        np.testing.assert_array_equal(state.checksum.read_items(level, some), items[some])
+        assert items.shape[1] == ITEM_WORDS[level]

@@ -129,7 +129,8 @@ def test_a_million_particle_snapshot_streams_in_chunks_and_heals(tmp_path):
     scene = tmp_path / "million.toml"
     scene.write_text(MILLION)
     report = check(tmp_path, ["bitflip@3:left"], walls=("front", "left"), frames=5,
-                   session="big", scene=scene, barrier_timeout=20.0, snapshot_chunk=25_000)
+                   session="big", scene=scene, barrier_timeout=20.0, snapshot_chunk=25_000,
+                   resync="full")
     (resync,) = report["run"]["resyncs"]
     assert (resync["node"], resync["source"], resync["frame"], resync["ok"]) == \
         ("left", "front", 3, True)
@@ -154,6 +155,24 @@ def test_checking_every_k_frames_finds_the_divergence_at_the_next_check(tmp_path
     (divergence,) = report["run"]["divergences"]
     assert divergence["frame"] == 15 and divergence["nodes"] == ["left"]
     assert report["final"]["agree"]
+    forensics = json.loads((tmp_path / divergence["forensics"]["file"]).read_text())
+    (stream,) = forensics["streams"]
+    since = {(r["first_differing_frame"], r["first_differing_frame_exact"])
+             for r in stream["records"]}
+    assert since == {(12, True)}, forensics  # the history rings tell when it began
+
+
+def test_a_bitflip_is_localised_to_its_particle_field_and_bit_and_healed_by_delta(tmp_path):
+    report = check(tmp_path, ["bitflip@20:left"], frames=25)
+    assert_each_fault_caught(report, ["bitflip@20:left"])
+    (outcome,) = report["faults"]
+    assert outcome["localisation"]["exact"] and report["all_localised"], outcome
+    expected = outcome["localisation"]["expected"]
+    line = (f"frame 20: left differs from front in particle {expected['record']} "
+            f"{expected['field']}: ")
+    assert line in (tmp_path / "logs" / "master.log").read_text()
+    assert "resynced to frame 20 from front: by delta, " in \
+        (tmp_path / "logs" / "left.log").read_text()
 
 
 def test_healthy_soak_of_1000_frames_has_no_divergence_and_replays(tmp_path, ctx):

@@ -8,6 +8,8 @@ import pytest
 
 from cavesim.core.frame import FrameInput
 from cavesim.core.wire import (
+    BlockQuery,
+    BlockRequest,
     Command,
     ControlMessage,
     FrameMessage,
@@ -17,7 +19,16 @@ from cavesim.core.wire import (
     encode,
 )
 from cavesim.core.wire.credentials import generate
-from cavesim.nodes.inbox import QUEUE, STATE_BURST, FromMaster, NodeInbox, NodeView, StateQuery
+from cavesim.nodes.inbox import (
+    BLOCK_BURST,
+    QUEUE,
+    STATE_BURST,
+    BlocksQuery,
+    FromMaster,
+    NodeInbox,
+    NodeView,
+    StateQuery,
+)
 
 SESSION, RUN, OTHER_RUN, NONCE = "inbox", 0xABC, 0xDEF, 77
 MASTER = generate()
@@ -125,6 +136,27 @@ def test_state_queries_need_the_key_the_run_and_this_wall_and_are_rate_limited(i
     assert len(served) == STATE_BURST and all(q.dropped for q in signed[STATE_BURST:])
     assert inbox.rejects.counts == {"unsigned": 2, "wrong-run": 1, "rate-limited": 3}
     assert not unsigned.errors  # only the master's info query is told why
+
+
+def test_block_queries_need_the_key_the_run_and_this_wall_and_are_rate_limited(inbox):
+    request = BlockRequest(10, "front", "b" * 32, BlockQuery.TREE, 2)
+    unsigned = Query(KEYS.blocks("front"), encode(request, SESSION))
+    foreign = Query(KEYS.blocks("front"), encode(request, SESSION, MEMBER, OTHER_RUN))
+    other_wall = Query(KEYS.blocks("front"), encode(BlockRequest(
+        10, "left", "b" * 32, BlockQuery.TREE, 2), SESSION, MEMBER, RUN))
+    state = Query(KEYS.blocks("front"), encode(StateRequest(10, "front", "b" * 32), SESSION,
+                                               MEMBER, RUN))
+    for query in (unsigned, foreign, other_wall, state):
+        inbox._on_blocks_query(query)
+        assert query.dropped
+    signed = [Query(KEYS.blocks("front"), encode(request, SESSION, MEMBER, RUN))
+              for _ in range(BLOCK_BURST + 2)]
+    for query in signed:
+        inbox._on_blocks_query(query)
+    served = [e for e in delivered(inbox) if isinstance(e, BlocksQuery)]
+    assert len(served) == BLOCK_BURST and served[0].request == request
+    assert inbox.rejects.counts == {"unsigned": 1, "wrong-run": 2, "unexpected": 1,
+                                    "rate-limited": 2}
 
 
 def test_an_info_query_whose_signature_fails_is_told_why(inbox):

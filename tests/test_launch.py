@@ -149,6 +149,16 @@ def test_display_runs_the_cave_live_here_and_on_every_host(tmp_path):
     assert "--display" not in found["master"]
 
 
+def test_mixed_hardware_reaches_the_master_and_every_node_or_cavesim_run(tmp_path):
+    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--mixed-hardware")
+    assert done.returncode == 0, done.stderr
+    found = commands(done.stdout)
+    assert all("--mixed-hardware" in found[p] for p in ("master", "front", "left", "floor"))
+    done = launch("--dry-run", "--walls", "2", "--mixed-hardware")
+    assert done.returncode == 0, done.stderr
+    assert "--mixed-hardware" in shlex.split(done.stdout.splitlines()[-1])
+
+
 def test_display_needs_a_cave():
     done = launch("--dry-run", "--display")
     assert done.returncode == 2

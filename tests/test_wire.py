@@ -36,20 +36,27 @@ from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
+from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.wire import messages as wire
 from cavesim.core.wire.credentials import Credentials, generate, of_master
 from cavesim.core.wire.messages import (
+    MAX_BLOCK_BYTES,
+    MAX_BLOCK_INDICES,
     MAX_CHUNK_PARTICLES,
     MAX_PARAMS,
     MAX_TEXT,
     VERSION,
+    BlockQuery,
+    BlockReply,
+    BlockRequest,
     Command,
     ControlMessage,
     DisplayMessage,
     FrameMessage,
     HeadState,
+    HistoryFrame,
     InfoMessage,
     InfoRequest,
     Kind,
@@ -162,9 +169,20 @@ def snapshot_body(particles: int = 3, emitters: int = 0, chunk: int = 2) -> byte
     return struct.pack("<QIII16s", 9, particles, emitters, chunk, bytes.fromhex(DIGEST))
 
 
-def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"") -> bytes:
-    return name(node) + struct.pack("<16sIIIIIB", bytes.fromhex(DIGEST), 1, 2, 3, 4, 5,
-                                    status) + extra
+def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"",
+                particles: int = 1) -> bytes:
+    return name(node) + struct.pack("<16sIIIIIB", bytes.fromhex(DIGEST), particles, 2, 3, 4,
+                                    5, status) + extra
+
+
+def sample_tail(count: int, records: int | None = None) -> bytes:
+    """A report's drift sample: the count, then `records` (default: count) zero records."""
+    return struct.pack("<H", count) + bytes(SAMPLE_DTYPE.itemsize * (
+        count if records is None else records))
+
+
+SAMPLE = DriftSample.of(np.array([[1.5, -2.0, 0.25], [math.nan, math.inf, -0.0]]),
+                        np.array([[0.0, 1e-45, -3e38], [1.0, 2.0, 3.0]]))
 
 
 def info_body(node: bytes = b"front", device: int = 0, flags: int = 1, nonce: int = 0,
@@ -175,6 +193,23 @@ def info_body(node: bytes = b"front", device: int = 0, flags: int = 1, nonce: in
 
 def state_request_body(node: bytes = b"left", digest: bytes = bytes.fromhex(DIGEST)) -> bytes:
     return name(node) + digest
+
+
+BLOCK_REQUEST_HEAD = struct.Struct("<16sBBI")  # digest, query, part, index count
+BLOCK_REPLY_HEAD = struct.Struct("<BBQIIB")  # query, part, seed, particles, emitters, frames
+
+
+def block_request_body(query: int = BlockQuery.RECORDS, part: int = 0, indices=(3, 9),
+                       count: int | None = None) -> bytes:
+    return name(b"left") + BLOCK_REQUEST_HEAD.pack(
+        bytes.fromhex(DIGEST), query, part, len(indices) if count is None else count) \
+        + np.asarray(indices, "<u4").tobytes()
+
+
+def block_reply_body(query: int = BlockQuery.TREE, part: int = 1, particles: int = 10,
+                     emitters: int = 0, frames: int = 0, data: bytes = bytes(16)) -> bytes:
+    return name(b"left") + BLOCK_REPLY_HEAD.pack(query, part, 7, particles, emitters, frames) \
+        + bytes(16 * frames) + data
 
 
 def f32_bits(value: float) -> int:
@@ -235,8 +270,32 @@ controls_with_digest_and_nonce = st.builds(replace, control_messages, digest=con
 infos_with_nonce = st.builds(replace, info_messages, nonce=nonces)
 info_requests = st.builds(InfoRequest, frame_numbers, names)
 state_requests = st.builds(StateRequest, frame_numbers, names, digests)
+block_indices = st.lists(st.integers(0, 2**32 - 1), min_size=1, max_size=40,
+                         unique=True).map(lambda drawn: tuple(sorted(drawn)))
+block_requests = st.one_of(
+    st.builds(BlockRequest, frame_numbers, names, digests, st.just(BlockQuery.TREE),
+              st.integers(0, 2), st.just(()) | block_indices),
+    st.builds(BlockRequest, frame_numbers, names, digests, st.just(BlockQuery.HISTORY),
+              st.just(1), block_indices),
+    st.builds(BlockRequest, frame_numbers, names, digests, st.just(BlockQuery.RECORDS),
+              st.integers(0, 1), block_indices))
+history_frames = st.lists(st.builds(HistoryFrame, st.integers(0, U64),
+                                    st.integers(0, MAX_PARTICLES), st.integers(0, MAX_EMITTERS)),
+                          max_size=3).map(tuple)
+block_replies = st.one_of(
+    st.builds(lambda f, n, part, units, c: BlockReply(f, n, BlockQuery.TREE, part, 5, c, 1,
+                                                      bytes((8, 16, 16)[part] * units)),
+              frame_numbers, names, st.integers(0, 2), st.integers(0, 20),
+              st.integers(0, MAX_PARTICLES)),
+    st.builds(lambda f, n, history, units: BlockReply(f, n, BlockQuery.HISTORY, 1, 0, 3, 2,
+                                                      bytes(16 * units * len(history)),
+                                                      history),
+              frame_numbers, names, history_frames, st.integers(0, 10)),
+    st.builds(lambda f, n, part, units: BlockReply(f, n, BlockQuery.RECORDS, part, U64, 9, 4,
+                                                   bytes((40, 16)[part] * units)),
+              frame_numbers, names, st.integers(0, 1), st.integers(1, 20)))
 all_messages = st.one_of(messages(), controls_with_digest_and_nonce, infos_with_nonce,
-                         info_requests, state_requests)
+                         info_requests, state_requests, block_requests, block_replies)
 master_messages = st.one_of(frame_messages, controls_with_digest_and_nonce, info_requests)
 
 
@@ -255,6 +314,12 @@ EDGE_MESSAGES = {
     "report-resynced": ReportMessage(2, "wall_7-b", "0" * 32, 0, 0, 0, 0, 0, Status.RESYNCED),
     "report-joined": ReportMessage(0, "left", DIGEST, 0, 0, 0, 0, 0, Status.JOINED),
     "report-behind": ReportMessage(U64, "front", "f" * 32, 1, 1, 1, 1, 1, Status.BEHIND),
+    "report-sample": ReportMessage(8, "left", DIGEST, 2, 1, 120, 35, 0, Status.STEPPED, SAMPLE),
+    "report-sample-empty": ReportMessage(1, "left", DIGEST, 0, 0, 0, 0, 0,
+                                         sample=DriftSample(b"")),
+    "report-sample-largest": ReportMessage(9, "left", DIGEST, 2**32 - 1, 0, 0, 0, 0,
+                                           Status.RESYNCED, DriftSample(
+                                               bytes(range(256)) * 96)),
     "stop": ControlMessage(400, Command.STOP),
     "swap": ControlMessage(0, Command.SWAP),
     "resync": ControlMessage(U64, Command.RESYNC, "left", "front", DIGEST),
@@ -281,6 +346,18 @@ EDGE_MESSAGES = {
     "info-request-edges": InfoRequest(U64, "B-_9" * 8),
     "state-request": StateRequest(7, "left", DIGEST),
     "state-request-edges": StateRequest(U64, "x" * 32, "0" * 32),
+    "block-request-whole-level": BlockRequest(9, "left", DIGEST, BlockQuery.TREE, 2),
+    "block-request-most-indices": BlockRequest(U64, "x" * 32, "f" * 32, BlockQuery.RECORDS, 1,
+                                               tuple(range(2**32 - MAX_BLOCK_INDICES, 2**32))),
+    "block-request-history": BlockRequest(0, "front", "0" * 32, BlockQuery.HISTORY, 1, (0,)),
+    "block-reply-sums": BlockReply(3, "left", BlockQuery.TREE, 0, U64, MAX_PARTICLES,
+                                   MAX_EMITTERS, bytes(range(16))),
+    "block-reply-history": BlockReply(U64, "x" * 32, BlockQuery.HISTORY, 1, 0, 0, 0,
+                                      bytes(range(64)) * 2,
+                                      (HistoryFrame(U64 - 1, 4, 1), HistoryFrame(U64, 5, 1))),
+    "block-reply-largest": BlockReply(1, "front", BlockQuery.RECORDS, 0, 1, 1, 0,
+                                      bytes(MAX_BLOCK_BYTES // 40 * 40)),
+    "block-reply-empty": BlockReply(1, "front", BlockQuery.TREE, 2, 0, 0, 0, b""),
 }
 MEMBER_EDGE_MESSAGES = {key: message for key, message in EDGE_MESSAGES.items()
                         if not isinstance(message, MASTER_MESSAGES)}
@@ -351,7 +428,9 @@ def test_kind_command_and_status_numbers_are_fixed():
     """They are wire values: renumbering one is a new version."""
     assert {k.name: k.value for k in Kind} == {
         "FRAME": 1, "REPORT": 2, "CONTROL": 3, "SNAPSHOT": 4, "TRACKING": 5, "CHUNK": 6,
-        "INFO": 7, "DISPLAY": 8, "INFO_REQUEST": 9, "STATE_REQUEST": 10}
+        "INFO": 7, "DISPLAY": 8, "INFO_REQUEST": 9, "STATE_REQUEST": 10, "BLOCK_REQUEST": 11,
+        "BLOCK_REPLY": 12}
+    assert {q.name: q.value for q in BlockQuery} == {"TREE": 1, "HISTORY": 2, "RECORDS": 3}
     assert wire.MASTER_KINDS == MASTER_KINDS
     assert {c.name: c.value for c in Command} == {"RESYNC": 1, "STOP": 2, "SWAP": 3,
                                                   "WELCOME": 4}
@@ -446,6 +525,20 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
     (SnapshotHeader(1, 0, 1, 1, "XY" * 16, np.zeros(0, EMITTER_DTYPE)), "hex digits"),
     (SnapshotChunk(1, 0, bytes(41)), "whole 40-byte records"),
     (SnapshotChunk(1, 0, b""), "whole 40-byte records"),
+    (ReportMessage(1, "front", DIGEST, 1, 0, 0, 0, sample=SAMPLE), "at most the 1 live"),
+    (BlockRequest(1, "left", DIGEST, BlockQuery.RECORDS, 0, (5, 3)), "ascending"),
+    (BlockRequest(1, "left", DIGEST, BlockQuery.RECORDS, 0, ()), "may name none"),
+    (BlockRequest(1, "left", DIGEST, BlockQuery.TREE, 3), "part 3"),
+    (BlockRequest(1, "left", DIGEST, BlockQuery.HISTORY, 0, (1,)), "part 0"),
+    (BlockRequest(1, "left", DIGEST, BlockQuery.TREE, 0, tuple(range(MAX_BLOCK_INDICES + 1))),
+     "ascending indices"),
+    (BlockRequest(1, "left", DIGEST, BlockQuery.TREE, 0, (2**32,)), "ascending indices"),
+    (BlockReply(1, "left", BlockQuery.TREE, 1, 0, 0, 0, bytes(15)), "whole items"),
+    (BlockReply(1, "left", BlockQuery.RECORDS, 0, 0, 0, 0, bytes(MAX_BLOCK_BYTES + 40)),
+     "whole items"),
+    (BlockReply(1, "left", BlockQuery.TREE, 1, 0, MAX_PARTICLES + 1, 0, b""), "counts"),
+    (BlockReply(1, "left", BlockQuery.HISTORY, 1, 0, 0, 0, b"",
+                tuple(HistoryFrame(f, 0, 0) for f in range(65))), "history frames"),
 ])
 def test_encode_refuses_what_decode_would_reject(message, match):
     with pytest.raises(ValueError, match=match):
@@ -576,6 +669,14 @@ REJECTIONS = [
     ("report-stray-byte", craft(Kind.REPORT, report_body(extra=b"\x00")), None,
      "bad-payload"),
     ("report-short", craft(Kind.REPORT, report_body()[:-1]), None, "bad-payload"),
+    ("report-sample-beyond-live", craft(Kind.REPORT, report_body(extra=sample_tail(2))),
+     None, "bad-payload"),
+    ("report-sample-beyond-max", craft(Kind.REPORT, report_body(
+        extra=sample_tail(MAX_SAMPLE + 1), particles=10**6)), None, "bad-payload"),
+    ("report-sample-short", craft(Kind.REPORT, report_body(extra=sample_tail(1, 0))), None,
+     "bad-payload"),
+    ("report-sample-stray-byte", craft(Kind.REPORT, report_body(extra=sample_tail(1) + b"\0")),
+     None, "bad-payload"),
     ("control-empty", craft(Kind.CONTROL, b""), None, "bad-payload"),
     ("control-command-0", craft(Kind.CONTROL, control_body(0)), None, "bad-payload"),
     ("control-command-5", craft(Kind.CONTROL, control_body(5)), None, "bad-payload"),
@@ -629,6 +730,23 @@ REJECTIONS = [
      None, "bad-payload"),
     ("state-request-name-33", craft(Kind.STATE_REQUEST, state_request_body(b"a" * 33)), None,
      "bad-payload"),
+    ("block-request-short", craft(Kind.BLOCK_REQUEST, block_request_body()[:-1]), None,
+     "bad-payload"),
+    ("block-request-head-short", craft(Kind.BLOCK_REQUEST, name(b"left") + bytes(5)), None,
+     "bad-payload"),
+    ("block-request-too-many", craft(Kind.BLOCK_REQUEST, block_request_body(
+        indices=range(MAX_BLOCK_INDICES + 1))), None, "bad-payload"),
+    ("block-request-count-lies", craft(Kind.BLOCK_REQUEST, block_request_body(count=3)), None,
+     "bad-payload"),
+    ("block-reply-head-short", craft(Kind.BLOCK_REPLY, name(b"left") + bytes(10)), None,
+     "bad-payload"),
+    ("block-reply-partial-item", craft(Kind.BLOCK_REPLY, block_reply_body(data=bytes(17))),
+     None, "bad-payload"),
+    ("block-reply-frames-missing", craft(Kind.BLOCK_REPLY, block_reply_body(
+        query=BlockQuery.HISTORY, frames=3, data=b"")[:-1]), None, "bad-payload"),
+    ("block-reply-too-large", craft(Kind.BLOCK_REPLY, block_reply_body(
+        query=BlockQuery.RECORDS, part=0, data=bytes(MAX_BLOCK_BYTES + 40))), None,
+     "bad-payload"),
     # values
     ("dt-nan", craft(Kind.FRAME, frame_body(dt_bits=NAN32)), None, "bad-value"),
     ("dt-inf", craft(Kind.FRAME, frame_body(dt_bits=0x7F800000)), None, "bad-value"),
@@ -663,6 +781,22 @@ REJECTIONS = [
      "bad-value"),
     ("display-phase-3", craft(Kind.DISPLAY, name(b"front") + bytes([3]) + bytes(8)), None,
      "bad-value"),
+    ("block-request-query-4", craft(Kind.BLOCK_REQUEST, block_request_body(query=4)), None,
+     "bad-value"),
+    ("block-request-level-3", craft(Kind.BLOCK_REQUEST, block_request_body(
+        query=BlockQuery.TREE, part=3)), None, "bad-value"),
+    ("block-request-descending", craft(Kind.BLOCK_REQUEST, block_request_body(
+        indices=(9, 3))), None, "bad-value"),
+    ("block-request-repeated", craft(Kind.BLOCK_REQUEST, block_request_body(
+        indices=(3, 3))), None, "bad-value"),
+    ("block-request-records-none", craft(Kind.BLOCK_REQUEST, block_request_body(
+        indices=())), None, "bad-value"),
+    ("block-reply-history-part-0", craft(Kind.BLOCK_REPLY, block_reply_body(
+        query=BlockQuery.HISTORY, part=0)), None, "bad-value"),
+    ("block-reply-too-many-particles", craft(Kind.BLOCK_REPLY, block_reply_body(
+        particles=MAX_PARTICLES + 1)), None, "bad-value"),
+    ("block-reply-65-frames", craft(Kind.BLOCK_REPLY, block_reply_body(
+        query=BlockQuery.HISTORY, frames=65, data=b"")), None, "bad-value"),
 ]
 
 

@@ -53,6 +53,7 @@ class CheckPlan:
     on_loss: str = "continue"
     check_every: int = 1
     snapshot_chunk: int | None = None  # particles per snapshot reply (None: the nodes' default)
+    resync: str = "delta"  # how the nodes load a resync's state: one of RESYNC_MODES
 
 
 def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, n: None
@@ -63,18 +64,18 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     faults = tuple(f if f.node or f.kind in WHOLE_CLUSTER else Fault(f.kind, f.frame,
                                                                      plan.walls[-1])
                    for f in plan.faults)
-    node_args = ("--slow-delay", str(plan.slow_delay))
+    node_args = ("--slow-delay", str(plan.slow_delay), "--resync", plan.resync)
     if plan.snapshot_chunk is not None:
         node_args += ("--snapshot-chunk", str(plan.snapshot_chunk))
     master = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
                           credentials=credentials, barrier_timeout=plan.barrier_timeout,
                           on_loss=plan.on_loss, check_every=plan.check_every,
-                          frame_log=plan.out / "frames.log")
+                          frame_log=plan.out / "frames.log", forensics=plan.out)
     kill = master_kill_frame(faults)
     injected = [(f.node, own) for f in faults if (own := _injected(f)) is not None]
     cluster = ClusterPlan(master, plan.out, {wall: (*node_args, *(
-        arg for node, own in injected if node == wall for arg in ("--inject", str(own))))
-        for wall in plan.walls})
+        arg for node, own in injected if node == wall for arg in ("--inject", str(own))),
+        *_full_resync(faults, wall)) for wall in plan.walls})
     harness = _Harness(faults, node_args, credentials, plan.scene, plan.frames)
     try:
         if kill is None:
@@ -83,7 +84,7 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
             record, killed = _past_a_master_kill(cluster, kill, progress, harness)
     finally:
         harness.close()
-    return check_report(plan.walls, faults, record, harness, killed)
+    return check_report(plan.walls, faults, record, harness, killed, plan.out)
 
 
 def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
@@ -97,6 +98,14 @@ def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
         raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
                          f"master-kill@{kill} (the new master's run counts frames from 1)")
     return kill
+
+
+def _full_resync(faults: tuple[Fault, ...], wall: str) -> tuple[str, ...]:
+    """A wall that the forged snapshots are served to resyncs by full snapshot only (a delta
+    would heal it before any snapshot was asked for); the last --resync counts."""
+    if any(f.kind == "snapshot-forgery" and f.node == wall for f in faults):
+        return ("--resync", "full")
+    return ()
 
 
 def _injected(fault: Fault) -> Fault | None:

@@ -5,7 +5,11 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow")  # the node does them to itself
+from cavesim.core.records import PARTICLE_WORDS
+
+NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove")
+# the node does them to itself; jitter and shove make it drift, as another GPU's rounding
+# would and far beyond any tolerance (cavesim/nodes/drift.py)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
@@ -13,6 +17,7 @@ HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-for
 # snapshots to a node it makes diverge, flood the nodes with junk and state queries
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
+FLIPPED_BIT = 20  # of the word a bitflip changes: a mantissa bit of a float32 field
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 
 
@@ -33,3 +38,23 @@ def parse_fault(spec: str) -> Fault:
         raise ValueError(f"fault {spec!r} must be KIND@FRAME[:NODE] with KIND one of "
                          f"{', '.join(KINDS)} and FRAME >= 1")
     return Fault(match["kind"], int(match["frame"]), match["node"])
+
+
+@dataclass(frozen=True)
+class BitFlip:
+    """Where a `bitflip` fault flips a bit: `bit` of 32-bit word `word` of particle record
+    `particle`."""
+
+    particle: int
+    word: int
+    bit: int
+
+
+def bitflip_target(live: int) -> BitFlip:
+    """The bit a `bitflip` flips in a stream of `live` particles: bit FLIPPED_BIT of the
+    stream's middle word. A function of the live count alone, so that the harness knows it
+    (and can check that the forensics name exactly it)."""
+    if live < 1:
+        raise ValueError(f"a bitflip needs a live particle, got {live=}")
+    word = live * PARTICLE_WORDS // 2
+    return BitFlip(word // PARTICLE_WORDS, word % PARTICLE_WORDS, FLIPPED_BIT)

@@ -3,8 +3,8 @@
 Nothing unchecked is queued: a frame or a command must carry the master's signature (in a
 session with credentials) and this run's id, a WELCOME this node's own fresh nonce, a frame
 must not be older than the node's, a command not older than the newest frame the master
-sent (a RESYNC replayed from earlier in the same run is refused); a state query must be
-signed, of this run and for this wall; an info query must be the master's. Refusals are
+sent (a RESYNC replayed from earlier in the same run is refused); a state or block query
+must be signed, of this run and for this wall; an info query must be the master's. Refusals are
 counted (and logged at a bounded rate), and a sender whose every message fails its
 signature is named with a hint about --key-file. Queries are answered at a bounded rate,
 and dropped and counted when the main thread is behind; the master's frames and commands
@@ -23,6 +23,7 @@ import zenoh
 
 from cavesim.core.errors import ProtocolError
 from cavesim.core.wire import (
+    BlockRequest,
     Command,
     ControlMessage,
     Credentials,
@@ -39,6 +40,7 @@ log = logging.getLogger("cavesim.node")
 QUEUE = 256  # events the main thread may fall behind by
 STATE_RATE, STATE_BURST = 1.0, 2  # snapshots served per second: each may be megabytes
 INFO_RATE, INFO_BURST = 5.0, 5
+BLOCK_RATE, BLOCK_BURST = 20.0, 40  # block questions: a forensics or a delta asks a few
 MASTER = "the master"  # the sender named in a --key-file hint
 
 
@@ -68,6 +70,14 @@ class StateQuery:
 
 
 @dataclass(frozen=True)
+class BlocksQuery:
+    """A question about the state this node holds (desync forensics, a delta resync)."""
+
+    query: zenoh.Query
+    request: BlockRequest
+
+
+@dataclass(frozen=True)
 class InfoQuery:
     query: zenoh.Query
     run_id: int  # of the master asking: the answer carries it back
@@ -80,7 +90,7 @@ class MasterPresence:
     up: bool
 
 
-NodeEvent = FromMaster | StateQuery | InfoQuery | MasterPresence
+NodeEvent = FromMaster | StateQuery | BlocksQuery | InfoQuery | MasterPresence
 
 
 class NodeInbox:
@@ -91,6 +101,7 @@ class NodeInbox:
         self.mismatch = KeyMismatch(f"node {view.wall}")
         self.dropped: Counter[str] = Counter()  # queries the full queue could not take
         self._limits = {StateQuery: RateLimit(STATE_RATE, STATE_BURST),
+                        BlocksQuery: RateLimit(BLOCK_RATE, BLOCK_BURST),
                         InfoQuery: RateLimit(INFO_RATE, INFO_BURST)}
         self._queue: queue.Queue[NodeEvent] = queue.Queue(maxsize=QUEUE)
         self._lock = threading.Lock()
@@ -101,6 +112,7 @@ class NodeInbox:
             session.declare_subscriber(keys.frame, self._on_frame),
             session.declare_subscriber(keys.control, self._on_control),
             session.declare_queryable(keys.state(wall), self._on_state_query),
+            session.declare_queryable(keys.blocks(wall), self._on_blocks_query),
             session.declare_queryable(keys.info(wall), self._on_info_query),
             session.liveliness().declare_subscriber(keys.master_alive, self._on_master,
                                                     history=True),
@@ -154,15 +166,26 @@ class NodeInbox:
                 self._queue.put(FromMaster(message, envelope.run_id))
 
     def _on_state_query(self, query: zenoh.Query) -> None:
-        request = self._request(query, StateRequest)
+        request = self._peer_request(query, StateRequest, "state")
+        if request is not None:
+            self._offer(StateQuery(query, request), query)
+
+    def _on_blocks_query(self, query: zenoh.Query) -> None:
+        request = self._peer_request(query, BlockRequest, "block")
+        if request is not None:
+            self._offer(BlocksQuery(query, request), query)
+
+    def _peer_request(self, query: zenoh.Query, expected: type, what: str):
+        """The request of a signed query of this run for this wall, or None (dropped)."""
+        request = self._request(query, expected)
         if request is None:
-            return
+            return None
         if request.run_id != self.view.run_id or request.message.node != self.view.wall:
             query.drop()
-            self._reject(ProtocolError("wrong-run", "a state query of another run or wall"),
+            self._reject(ProtocolError("wrong-run", f"a {what} query of another run or wall"),
                          str(query.key_expr))
-            return
-        self._offer(StateQuery(query, request.message), query)
+            return None
+        return request.message
 
     def _on_info_query(self, query: zenoh.Query) -> None:
         request = self._request(query, InfoRequest, tell_signature_failures=True)
@@ -229,7 +252,7 @@ class NodeInbox:
             query.drop()
         return envelope
 
-    def _offer(self, event: StateQuery | InfoQuery, query: zenoh.Query) -> None:
+    def _offer(self, event: StateQuery | BlocksQuery | InfoQuery, query: zenoh.Query) -> None:
         """Queue a checked query for the main thread, within its kind's rate (refused and
         counted above it) and while the queue has room (dropped and counted when full)."""
         if not self._limits[type(event)].allow():

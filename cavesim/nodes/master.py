@@ -8,11 +8,17 @@ used up). Per frame k: draw the inputs once (the clock's matrix, the tracked or 
 head, the scene driver's state), publish them, wait until every member has reported k
 (the barrier: on a timeout, record who is stalled and send the frame again; a member
 silent past `evict_after` is evicted under --on-loss continue, or the run ends once it
-has been silent `max_pause` under --on-loss pause), vote on the checksums, resync the odd
-nodes from a healthy one (a node whose resyncs fail MAX_RESYNC_FAILURES times in a row is
-given up), admit walls that joined or fell behind, log the frame. Only frame k's reports
-are kept. It takes typed events from a link (Zenoh in a real run, memory in the tests)
-and leaves the rules to `cavesim/nodes/lockstep.py`; it needs no GL.
+has been silent `max_pause` under --on-loss pause), vote on the checksums, find out what
+differs in each odd node's state (desync forensics, `cavesim/nodes/forensics.py`: it and a
+healthy node are asked for their checksum trees and the differing records; the result goes
+to divergences/frame_<k>.json and the log), resync the odd nodes from a healthy one (a
+node whose resyncs fail MAX_RESYNC_FAILURES times in a row is given up), admit walls that
+joined or fell behind, log the frame. Only frame k's reports are kept. It takes typed
+events from a link (Zenoh in a real run, memory in the tests) and leaves the rules to
+`cavesim/nodes/lockstep.py`; it needs no GL.
+
+In the mixed-hardware mode the vote is each member's drift from an authority instead of its
+checksum (`cavesim/nodes/tolerance.py`), and no forensics run: every wall's bits differ.
 """
 
 from __future__ import annotations
@@ -35,6 +41,8 @@ from cavesim.core.framelog import FrameLogWriter
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import (
+    BlockReply,
+    BlockRequest,
     Command,
     ControlMessage,
     Credentials,
@@ -57,9 +65,17 @@ from cavesim.nodes.events import (
     WallDown,
     WallUp,
 )
+from cavesim.nodes.forensics import (
+    ForensicsError,
+    Side,
+    failed_report,
+    investigate,
+    write_report,
+)
 from cavesim.nodes.lockstep import LOSS_POLICIES, Membership, Vote
 from cavesim.nodes.record import Divergence, FinalAgreement, Join, Loss, Resync, RunRecord, Stall
 from cavesim.nodes.script import ScriptedHead
+from cavesim.nodes.tolerance import Tolerance, ToleranceMode
 
 log = logging.getLogger("cavesim.master")
 RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the node's report
@@ -85,7 +101,9 @@ class MasterConfig:
     evict_after: float = 10.0  # s a member may stay silent in the barrier (continue)
     max_pause: float = 300.0  # s the barrier holds for a silent member (pause)
     check_every: int = 1
+    tolerance: Tolerance | None = None  # mixed hardware: drift from an authority, not bits
     frame_log: Path | None = None
+    forensics: Path | None = None  # the run's folder: divergences/frame_<k>.json go there
     realtime: bool = False  # pace frames by the wall clock (see cavesim/core/clock.py)
     max_frame_time: float = 0.1
     max_substeps: int = 4
@@ -105,6 +123,9 @@ class Link(Protocol):
     def ask_info(self, wall: str) -> None: ...
 
     def sender_hint(self, wall: str) -> str | None: ...
+
+    def ask_blocks(self, wall: str, request: BlockRequest) -> BlockReply | None:
+        """`wall`'s checked reply to a block request (None: refused, or none in time)."""
 
 
 class Master:
@@ -137,6 +158,9 @@ class Master:
         self.up: set[str] = set()  # walls whose liveliness token is there
         self.asked: dict[str, float] = {}  # wall -> when its info was last asked for
         self.resync_failures: dict[str, int] = {}  # wall -> failed resyncs in a row
+        self.tolerance = None if config.tolerance is None else ToleranceMode(
+            config.tolerance, config.walls, config.check_every)
+        self.record.tolerance = self.tolerance
 
     # -- events ----------------------------------------------------------------------------
 
@@ -338,17 +362,42 @@ class Master:
                         silent)
 
     def _agree(self, k: int) -> Vote:
-        """Vote on the members' checksums of frame k and resync the odd ones."""
+        """Vote on the members' checksums of frame k (in the mixed-hardware mode: their
+        drift from the authority) and resync the odd ones."""
         members, reports = self.membership.members, self.reports
-        vote = lockstep.vote(members, reports, compare=k % self.config.check_every == 0)
-        if vote.diverged:
+        compare = k % self.config.check_every == 0
+        vote = lockstep.vote(members, reports, compare) if self.tolerance is None \
+            else self.tolerance.vote(k, members, reports, compare)
+        if vote.named:
+            log.warning("frame %d: divergence, odd node(s): %s", k, ", ".join(vote.named))
+            forensics = self._investigate(k, vote) if self.tolerance is None else None
             self.record.divergences.append(Divergence(
                 k, vote.named, vote.agreed, {n: reports[n].digest for n in members},
-                {n: reports[n].particles for n in members}))
-            log.warning("frame %d: divergence, odd node(s): %s", k, ", ".join(vote.named))
-            for node in vote.odd:
-                self._resync(k, node, vote.source, vote.agreed)
+                {n: reports[n].particles for n in members}, forensics))
+        for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
+            self._resync(k, node, vote.source, vote.agreed)
         return vote
+
+    def _investigate(self, k: int, vote: Vote) -> dict | None:
+        """What differs between each odd node's state and the agreed one (before the resync
+        replaces it): divergences/frame_<k>.json, a line in the log; the file and the
+        first odd node's line for the record. None without a folder for the reports."""
+        if self.config.forensics is None:
+            return None
+        reference = Side(vote.source, vote.agreed)
+        found, started = [], time.monotonic()
+        for node in vote.odd:
+            odd = Side(node, self.reports[node].digest)
+            try:
+                report = investigate(k, odd, reference, self.link.ask_blocks)
+            except ForensicsError as e:
+                report = failed_report(k, odd, reference, str(e))
+            log.warning("%s", report["summary"])
+            found.append(report)
+        path = write_report(self.config.forensics, found[0], found[1:])
+        return {"file": str(path.relative_to(self.config.forensics)),
+                "summary": found[0]["summary"],
+                "seconds": round(time.monotonic() - started, 4)}
 
     def _release_swap(self, k: int) -> None:
         """The swap barrier: SWAP k once every swap-locked member has drawn k, then the

@@ -23,6 +23,8 @@ import zenoh
 
 from cavesim.core.errors import ProtocolError
 from cavesim.core.wire import (
+    BlockReply,
+    BlockRequest,
     ControlMessage,
     Credentials,
     DisplayMessage,
@@ -36,9 +38,10 @@ from cavesim.core.wire import (
     encode,
 )
 from cavesim.core.wire.guards import KeyMismatch
-from cavesim.core.wire.messages import new_run_id
+from cavesim.core.wire.messages import Message, new_run_id
 from cavesim.core.wire.network import lockstep_publisher, open_session
 from cavesim.core.wire.rejects import RejectCounter
+from cavesim.nodes.blocks import BlockAsker
 from cavesim.nodes.events import Described, Displayed, Event, Reported, WallDown, WallUp
 
 log = logging.getLogger("cavesim.master")
@@ -83,6 +86,17 @@ class ZenohMasterLink:
         self.session.get(self.keys.info(wall), lambda reply: self._on_info(wall, reply),
                          timeout=INFO_TIMEOUT, payload=self._seal(InfoRequest(0, wall)))
 
+    def ask_blocks(self, wall: str, request: BlockRequest) -> BlockReply | None:
+        """`wall`'s reply to a block request about its state (desync forensics), checked and
+        of this run; None when it refused or did not answer in time (BLOCK_SECONDS)."""
+        asker = BlockAsker(self.session, self.keys.blocks(wall), self._seal,
+                           self._open_reply, self.rejects)
+        reply = asker(request)
+        if reply is None:
+            log.warning("%s did not answer a %s block question: %s", wall, request.query.name,
+                        asker.refusal or "no reply in time")
+        return reply
+
     def sender_hint(self, wall: str) -> str | None:
         """Why `wall` may not be heard: its messages fail their signature (else None)."""
         return self.mismatch.hint(f"wall {wall}")
@@ -93,6 +107,13 @@ class ZenohMasterLink:
 
     def _seal(self, message) -> bytes:
         return encode(message, self.name, self.credentials, self.run_id)
+
+    def _open_reply(self, data: bytes) -> Message:
+        """A reply to one of our queries, checked: of this run."""
+        envelope = decode_envelope(data, self.name, self.credentials)
+        if envelope.run_id != self.run_id:
+            raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
+        return envelope.message
 
     # -- zenoh callbacks: decode, check, enqueue ------------------------------------------
 

@@ -13,7 +13,11 @@ named node's snapshot of the named frame and checksum in, and load it only whole
 verified; a state query -> stream our snapshot out (cavesim/nodes/snapshots.py); STOP ->
 leave cleanly. A displaying node also draws every frame after its report and swaps when
 the master says SWAP (`cavesim/nodes/screen.py`); closing its window makes it leave, which
-the master sees as a lost wall.
+the master sees as a lost wall. A block query (the master's desync forensics, a resyncing
+node's delta) is answered from the state the node holds (`cavesim/nodes/blocks.py`); each
+frame's fold-1 items go into a history ring on the GPU for them. A RESYNC first tries a
+delta (`cavesim/nodes/delta.py`: only the records whose blocks differ) and falls back to
+the full snapshot.
 
 Nothing waits forever: a node no master has welcomed within `--master-wait` exits with an
 error (naming a --key-file mismatch when it sees one); when the master's liveliness token
@@ -30,15 +34,19 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import zenoh
 
 from cavesim.core.cave.geometry import Cave, Display, load_cave
+from cavesim.core.digest.shape import PARTICLES
+from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import ClusterError, ContextError, ProtocolError
+from cavesim.core.record_diff import field_bit
+from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Engine, load_scene
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import (
+    BlockRequest,
     Command,
     ControlMessage,
     Credentials,
@@ -58,8 +66,12 @@ from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
-from cavesim.nodes.faults import Fault
+from cavesim.nodes.blocks import BlockAsker, serve_blocks
+from cavesim.nodes.delta import DeltaRefused, fetch_delta
+from cavesim.nodes.drift import DRIFT_FAULTS, read_drift_sample
+from cavesim.nodes.faults import Fault, bitflip_target
 from cavesim.nodes.inbox import (
+    BlocksQuery,
     FromMaster,
     InfoQuery,
     MasterPresence,
@@ -67,7 +79,7 @@ from cavesim.nodes.inbox import (
     NodeView,
     StateQuery,
 )
-from cavesim.nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES
+from cavesim.nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES, RESYNC_MODES
 from cavesim.nodes.painter import WallPainter
 from cavesim.nodes.preview_controls import PreviewControls
 from cavesim.nodes.screen import LiveDisplay, PreviewScreen, WallScreen, scaled
@@ -81,6 +93,7 @@ IDLE = 1.0  # s between looks at the master's presence when nothing comes
 MASTER_SILENCE = 10  # x --master-wait: a master this long silent counts as gone
 BEHIND_EVERY = 1.0  # s between two BEHIND reports
 RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
+DELTA_SECONDS = 5.0  # s for all of a delta's questions; then the full snapshot
 
 
 @dataclass(frozen=True)
@@ -104,6 +117,8 @@ class NodeConfig:
     preview_scale: float = 0.5  # of each wall's resolution, in the preview
     on_master_loss: str = "wait"  # or "exit" when the master's liveliness token goes away
     master_wait: float = 60.0  # s to wait for a master's WELCOME, or for a new master
+    drift_sample: int = 0  # mixed-hardware mode: records sampled into each report (0: none)
+    resync: str = "delta"  # how a RESYNC loads the named state: one of RESYNC_MODES
 
 
 class WallNode:
@@ -112,6 +127,8 @@ class WallNode:
     def __init__(self, config: NodeConfig, session: zenoh.Session) -> None:
         if config.on_master_loss not in MASTER_LOSS_POLICIES:
             raise ValueError(f"on_master_loss must be one of {MASTER_LOSS_POLICIES}")
+        if config.resync not in RESYNC_MODES:
+            raise ValueError(f"resync must be one of {RESYNC_MODES}, got {config.resync!r}")
         self.config = config
         self.keys = SessionKeys(config.session)
         self.fired: set[Fault] = set()  # injected faults done
@@ -175,6 +192,8 @@ class WallNode:
                     self._from_master(message, run_id)
                 case StateQuery(query, request):
                     self._serve_state(query, request)
+                case BlocksQuery(query, request):
+                    self._serve_blocks(query, request)
                 case InfoQuery(query, run_id):
                     self._answer_info(query, run_id)
                 case MasterPresence(up):
@@ -305,22 +324,39 @@ class WallNode:
         stepped = time.perf_counter()
         if self._fault("bitflip", k) and self.system.live_count:
             self._flip_one_bit()
+        for kind, perturb in DRIFT_FAULTS.items():
+            if self._fault(kind, k):
+                perturb(self.system)
+                log.warning("%s: fault: %s at frame %d", self.config.wall, kind, k)
         self.previous_inputs = inputs
         self.view.done = k
         state = self.system.checksum()
+        self.system.keep_history(k)
         finished = time.perf_counter()
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
         self._publish(ReportMessage(k, self.config.wall, state.digest, state.particles,
                                     state.emitters, int((stepped - started) * 1e6),
-                                    int((finished - stepped) * 1e6), self.rejects.total))
+                                    int((finished - stepped) * 1e6), self.rejects.total,
+                                    sample=self._sample()))
 
     def _flip_one_bit(self) -> None:
-        particles = self.system.read_particles()
-        words = particles.view(np.uint32)
-        words[len(words) // 2] ^= np.uint32(1 << 20)
-        self.system.write_particles(particles)
-        log.warning("%s: fault: flipped one bit of the particle buffer", self.config.wall)
+        """Flip the bit `bitflip_target` names, in that one record (patched on the GPU)."""
+        target = bitflip_target(self.system.live_count)
+        record = bytearray(self.system.read_records(PARTICLES, [target.particle]))
+        record[target.word * 4 + target.bit // 8] ^= 1 << target.bit % 8
+        self.system.begin_patch()
+        self.system.write_particle_chunk(target.particle, bytes(record))
+        self.system.commit_load()
+        field, bit = field_bit(PARTICLE_DTYPE, target.word, target.bit)
+        log.warning("%s: fault: flipped bit %d of particle %d's %s", self.config.wall, bit,
+                    target.particle, field.name)
+
+    def _sample(self) -> DriftSample | None:
+        """The mixed-hardware mode's drift sample of the state we hold (else None)."""
+        if not self.config.drift_sample:
+            return None
+        return read_drift_sample(self.system, self.config.drift_sample)
 
     def _publish(self, report: ReportMessage, keep: bool = True) -> None:
         """Send `report`; `keep`: it describes the state we hold (repeat it, serve it)."""
@@ -364,15 +400,21 @@ class WallNode:
         """
         source, wall = command.source, self.config.wall
         started = time.monotonic()
+        failed_repliers: set[str] = set()
+        if self.config.resync == "delta" and self._delta(command, failed_repliers, started):
+            return
         deadline = started + transfer_seconds(self.system.capacity)
         request = StateRequest(command.frame, source, command.digest)
-        failed_repliers: set[str] = set()
+        sealed = self._seal(request)
         while (remaining := deadline - time.monotonic()) > 0:
+            received = [len(sealed)]
             header = fetch_snapshot(self.session, self.keys.state(source), self.system,
-                                    self._seal(request), self._open_reply, request, deadline,
-                                    self.rejects, failed_repliers)
+                                    sealed, self._open_reply, request, deadline,
+                                    self.rejects, failed_repliers, received.append)
             if header is not None:
-                self._loaded(header.frame, source, header.chunks, time.monotonic() - started)
+                self._loaded(header.frame, source, f"{header.particles} particles in "
+                             f"{header.chunks} chunks, {sum(received)} bytes",
+                             time.monotonic() - started)
                 return
             time.sleep(min(RESYNC_PAUSE, max(deadline - time.monotonic(), 0.0)))
             list(self.session.liveliness().get(self.keys.alive(source),
@@ -381,23 +423,50 @@ class WallNode:
                   "state", wall, command.frame, source, deadline - started)
         state = self.system.checksum()  # the master sees at once that the resync failed
         self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED),
-                      keep=False)
+                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
+                                    self._sample()), keep=False)
+
+    def _delta(self, command: ControlMessage, failed: set[str], started: float) -> bool:
+        """Load the named state by fetching only the records whose blocks differ from the
+        source's; False (said in the log) when the full snapshot must do it."""
+        source = command.source
+        ask = BlockAsker(self.session, self.keys.blocks(source), self._seal, self._open_reply,
+                         self.rejects, failed, deadline=started + DELTA_SECONDS)
+        try:
+            delta = fetch_delta(self.system, ask, command.frame, source, command.digest)
+        except DeltaRefused as e:
+            if e.bad_data and ask.replier is not None:
+                failed.add(ask.replier)
+            log.warning("%s: no delta resync from %s (%s); streaming the full snapshot",
+                        self.config.wall, source, e)
+            return False
+        self._loaded(command.frame, source, f"by delta, {delta.records} records under "
+                     f"{delta.blocks} differing block(s), {ask.bytes} bytes",
+                     time.monotonic() - started)
+        return True
 
     def _open_reply(self, data: bytes) -> Message:
-        """A snapshot reply, checked: of our run."""
+        """A reply to our snapshot or block query, checked: of our run."""
         envelope = decode_envelope(data, self.config.session, self.config.credentials)
         if envelope.run_id != self.view.run_id:
-            raise ProtocolError("wrong-run", f"a snapshot reply of run {envelope.run_id:#018x}")
+            raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
         return envelope.message
 
-    def _loaded(self, frame: int, source: str, chunks: int, seconds: float) -> None:
+    def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
         self.view.done = frame
         state = self.system.checksum()
-        log.info("%s: resynced to frame %d from %s: %d particles in %d chunks, %.2f s",
-                 self.config.wall, frame, source, state.particles, chunks, seconds)
+        self.system.keep_history(frame)
+        log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.wall, frame,
+                 source, how, seconds)
         self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED))
+                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
+                                    self._sample()))
+
+    def _serve_blocks(self, query: zenoh.Query, request: BlockRequest) -> None:
+        """Answer a question about the state we hold, if it is the one it names."""
+        held = self.last_report
+        serve_blocks(query, self.keys.blocks(self.config.wall), self.system, self.config.wall,
+                     None if held is None else (held.frame, held.digest), request, self._seal)
 
     def _serve_state(self, query: zenoh.Query, request: StateRequest) -> None:
         """Stream our state to a resyncing node, if it is the one it asks for."""

@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
 from cavesim.nodes.swaps import SwapBook
+from cavesim.nodes.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
 EVENT_LISTS = ("divergences", "resyncs", "stalls", "losses", "joins")
 
@@ -26,10 +27,12 @@ class Divergence:
     agreed: str  # the checksum the cluster kept
     checksums: dict[str, str]  # every member's
     particles: dict[str, int]
+    forensics: dict | None = None  # its report's file (in the run's folder) and summary line
 
     def to_json(self) -> dict:
         return {"frame": self.frame, "nodes": list(self.nodes), "agreed_checksum": self.agreed,
-                "checksums": self.checksums, "particles": self.particles}
+                "checksums": self.checksums, "particles": self.particles,
+                **({"forensics": self.forensics} if self.forensics else {})}
 
 
 @dataclass(frozen=True)
@@ -123,6 +126,7 @@ class RunRecord:
     master_dropped: int = 0  # events the master's full queue could not take
     gpus: dict[str, dict] = field(default_factory=dict)  # wall -> what it computes on
     swaps: SwapBook = field(default_factory=SwapBook)  # the swap barrier of displaying walls
+    tolerance: ToleranceMode | None = None  # the mixed-hardware mode's (None: bit-exact)
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -145,6 +149,7 @@ class RunRecord:
         """report.json's content."""
         return {
             "run_id": f"{self.run_id:016x}",
+            "mode": BIT_EXACT if self.tolerance is None else MIXED_HARDWARE,
             "frames": self.frames,
             "interrupted": self.interrupted,
             "nodes": list(self.walls),
@@ -168,6 +173,7 @@ class RunRecord:
             "master_events_dropped": self.master_dropped,
             "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},
             "swap": self.swaps.summary(),
+            **({} if self.tolerance is None else {"tolerance": self.tolerance.summary()}),
         }
 
 

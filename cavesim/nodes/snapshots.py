@@ -96,11 +96,13 @@ def send_snapshot(query: zenoh.Query, key: str, system: ParticleSystem, frame: i
 
 def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, request: bytes,
                    open_reply: Callable[[bytes], Message], wanted: StateRequest,
-                   deadline: float, rejects: RejectCounter,
-                   failed: set[str]) -> SnapshotHeader | None:
+                   deadline: float, rejects: RejectCounter, failed: set[str],
+                   received: Callable[[int], None] = lambda size: None
+                   ) -> SnapshotHeader | None:
     """Ask `key` for the state `wanted` names (`request`: that request, sealed) and load it
     into `system`; its header, or None when nothing was loaded (nobody answered, the
-    deadline passed, or every stream was refused: counted).
+    deadline passed, or every stream was refused: counted). `received` is told the size of
+    each reply followed.
 
     Only a stream whose header is of the wanted frame and checksum is followed, from the
     first replier that sends one; other repliers are ignored, and a replier that sent
@@ -122,8 +124,10 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, req
         replier = str(reply.replier_id)
         if reply.ok is None or replier in failed or source not in (None, replier):
             continue
+        data = reply.ok.payload.to_bytes()
+        received(len(data))
         try:
-            message = open_reply(reply.ok.payload.to_bytes())
+            message = open_reply(data)
             if source is None:
                 _check_wanted(message, wanted)
                 source = replier

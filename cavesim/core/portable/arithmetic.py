@@ -1,12 +1,13 @@
 """The float32 numpy twin of the portable arithmetic (cavesim/gpu/shaders/include/
 arithmetic.glsl, ARITHMETIC_PORTABLE): the same functions, bit for bit.
 
-numpy's float32 +, - and * are IEEE correctly rounded and never fused, like the shader's
-`precise` operations; both flush in code (the GLSL file's header gives the rules).
-f_div and f_sqrt are defined mathematically (correctly rounded), so they are computed
-here in float64, which is correctly rounded after the single rounding to float32 (Figueroa,
-"When is double rounding innocuous?", 1995: 53 >= 2 * 24 + 2); every other function runs
-the shader's operation sequence, operation by operation.
+numpy's float32 +, -, *, / and sqrt are IEEE correctly rounded and never fused, like the
+shader's `precise` operations; both flush in code (the GLSL file's header gives the rules).
+f_div and f_sqrt are defined mathematically (correctly rounded), so numpy's own give their
+bits, save results near 2^-126 (IEEE rounds those to the subnormal grid), which are
+rounded again from float64: exact for a product, correctly rounded for a quotient after
+the second rounding (Figueroa, "When is double rounding innocuous?", 1995: 53 >= 2 * 24 +
+2). Every other function runs the shader's operation sequence, operation by operation.
 
 Arrays are float32 of any shape and broadcast; a vector's components are the last axis.
 Python numbers are accepted where float32 holds them exactly, other dtypes are refused: a
@@ -26,12 +27,10 @@ __all__ = [
 
 _SIGN = np.uint32(0x80000000)
 _MAGNITUDE = np.uint32(0x7FFFFFFF)
-_EXPONENT = np.uint32(0x7F800000)
 _SIGNIFICAND = np.uint32(0x007FFFFF)
 _HIDDEN_BIT = np.uint32(0x00800000)
 _INF = np.uint32(0x7F800000)
 _QUIET_NAN = np.uint32(0x7FC00000).view(np.float32)
-_TWO_24 = np.float32(2.0**24)
 _TWO_64 = np.float64(2.0**64)
 
 
@@ -53,7 +52,7 @@ _SQRT2_BITS = np.uint32(0x3FB504F3)
 _LOG_Q = [_bits(b) for b in (0x3D9021BB, 0xBDEBD1B8, 0x3DEF251A, 0xBDFE5D4F, 0x3E11E9BF,
                              0xBE2AAE50, 0x3E4CCEAC, 0xBE7FFFFC, 0x3EAAAAAA)]
 _TWO_OVER_PI = _bits(0x3F22F983)
-_PIO2 = [np.float32(1.5703125), _bits(0x39FDA000), _bits(0x33A22169)]
+_PIO2 = [np.float32(1.5703125), _bits(0x39FDA000), _bits(0x33A22000), _bits(0x2C34611A)]
 _SIN_S = [_bits(b) for b in (0xB94CA1F9, 0x3C08839E, 0xBE2AAAA3)]
 _COS_C = [_bits(b) for b in (0x37CCF5CE, 0xBAB6061A, 0x3D2AAAA5)]
 _QUARTER = np.float32(0.25)
@@ -87,11 +86,38 @@ def _quiet_floating_point(function):
 
 def _flush(x: np.ndarray) -> np.ndarray:
     bits = np.asarray(x).view(np.uint32)
-    return np.where((bits & _EXPONENT) == 0, bits & _SIGN, bits).view(np.float32)
+    # subnormal: the magnitude, shifted past the sign, is in [2, 2^24); a zero wraps around
+    subnormal = (bits << 1) - np.uint32(1) < np.uint32(0x00FFFFFF)
+    if not subnormal.any():  # the common case, without a copy
+        return np.asarray(x)
+    return np.where(subnormal, bits & _SIGN, bits).view(np.float32)
 
 
 def _quiet(x: np.ndarray) -> np.ndarray:
-    return np.where(np.isnan(x), _QUIET_NAN, x)
+    return _where_rare(np.isnan(x), _QUIET_NAN, x)
+
+
+def _where_rare(mask, value, x):
+    """np.where for a mask that is seldom true: nothing to do when it is all false."""
+    return np.where(mask, value, x) if mask.any() else np.asarray(x)
+
+
+def _select(choose_first, first, second):
+    """first where choose_first (0 or 1 as uint32), else second, by bit masks: np.where
+    branches per element and mispredicts on a random mask, 10 times slower."""
+    mask = np.uint32(0) - choose_first  # all ones or zero
+    return ((first.view(np.uint32) & mask) | (second.view(np.uint32) & ~mask)).view(np.float32)
+
+
+def _negate_where(negative, x):
+    """-x where negative (0 or 1 as uint32), by the sign bit."""
+    return (x.view(np.uint32) ^ (negative << np.uint32(31))).view(np.float32)
+
+
+def _nonzero_at_most_min_normal(x: np.ndarray) -> np.ndarray:
+    """Where float32 x is subnormal or +-2^-126: IEEE rounds below 2^-126 to the subnormal
+    grid, which may give 2^-126 where 24 bits with an unbounded exponent give less."""
+    return (x.view(np.uint32) << 1) - np.uint32(1) < np.uint32(0x01000000)
 
 
 def _round_flush(exact: np.ndarray) -> np.ndarray:
@@ -99,7 +125,7 @@ def _round_flush(exact: np.ndarray) -> np.ndarray:
     with an unbounded exponent, flushed below 2^-126, inf from 2^128: as f_div's
     arith_pack and arith_mul_tiny round."""
     rounded = np.asarray(exact.astype(np.float32))
-    tiny = np.abs(exact) < 2.0**-125
+    tiny = _nonzero_at_most_min_normal(rounded)  # the cast's subnormal rounding differs
     if tiny.any():
         scaled = (exact[tiny] * _TWO_64).astype(np.float32)  # normal unless flushed below
         kept = np.abs(scaled) >= np.float32(2.0**-62)
@@ -120,7 +146,9 @@ def _sub(a, b):
 
 def _mul(a, b):
     product = np.asarray(a * b)
-    tiny = (product.view(np.uint32) & np.uint32(0x7F000000)) == 0
+    # exponent field 0 or 1, not zero (an IEEE product that underflowed to zero is the
+    # definition's zero already)
+    tiny = (product.view(np.uint32) << 1) - np.uint32(1) < np.uint32(0x01FFFFFF)
     if tiny.any():
         a_tiny, b_tiny = (np.broadcast_to(v, product.shape)[tiny] for v in (a, b))
         product = product.copy()
@@ -132,27 +160,29 @@ def _scale(p, n):
     """p 2^n for positive p by the exponent field, as the shader's arith_scale."""
     bits = p.view(np.uint32)
     biased = (bits >> 23).astype(np.int32) + n
-    inside = np.clip(biased, 0, 255).astype(np.uint32)
-    scaled = ((inside << 23) | (bits & _SIGNIFICAND)).view(np.float32)
-    scaled = np.where(biased >= 255, _INF.view(np.float32), scaled)
-    return np.where(biased <= 0, np.float32(0.0), scaled)
+    scaled = ((biased.astype(np.uint32) << 23) | (bits & _SIGNIFICAND)).view(np.float32)
+    scaled = _where_rare(biased >= 255, _INF.view(np.float32), scaled)
+    return _where_rare(biased <= 0, np.float32(0.0), scaled)
 
 
 def _horner(coefficients, x):
-    result = coefficients[0]
-    for coefficient in coefficients[1:]:
-        result = _add(_mul(result, x), coefficient)
+    result = coefficients[0] * x + coefficients[1]
+    for coefficient in coefficients[2:]:
+        result *= x  # in place: the same float32 operations, fewer fresh pages
+        result += coefficient
     return result
 
 
+# _exp, _log and _sin_cos_reduced use plain float32 operations, unflushed, as the shader
+# does: the tiny terms they may make are absorbed (arithmetic.glsl says why).
+
 def _exp(x):
-    nan = np.isnan(x)
-    clamped = np.where(nan, np.float32(0.0), np.clip(x, _EXP_LOW, _EXP_HIGH))
-    n = np.floor(_add(_mul(clamped, _LOG2_E), _HALF))
-    r = _sub(_sub(clamped, _mul(n, _LN2_HIGH)), _mul(n, _LN2_LOW))
-    r2 = _mul(r, r)
-    p = _add(_add(_mul(_horner(_EXP_P, r), r2), r), _ONE)
-    return np.where(nan, _QUIET_NAN, _scale(p, n.astype(np.int32)))
+    clamped = np.clip(x, _EXP_LOW, _EXP_HIGH)  # NaN stays NaN: replaced at the end
+    n = np.floor(clamped * _LOG2_E + _HALF)
+    r = (clamped - n * _LN2_HIGH) - n * _LN2_LOW
+    r2 = r * r
+    p = (_horner(_EXP_P, r) * r2 + r) + _ONE
+    return _where_rare(np.isnan(x), _QUIET_NAN, _scale(p, n.astype(np.int32)))
 
 
 def _log(x):
@@ -164,29 +194,31 @@ def _log(x):
     e = (bits >> 23).astype(np.int32) - 127
     one_plus_f = (bits & _SIGNIFICAND) | np.uint32(0x3F800000)
     halve = one_plus_f >= _SQRT2_BITS
-    one_plus_f = np.where(halve, one_plus_f - _HIDDEN_BIT, one_plus_f)
+    one_plus_f = one_plus_f - (halve.astype(np.uint32) << np.uint32(23))
     e = e + halve
-    f = _sub(one_plus_f.view(np.float32), _ONE)
-    f2 = _mul(f, f)
-    q = _mul(_mul(_horner(_LOG_Q, f), f), f2)
+    f = one_plus_f.view(np.float32) - _ONE
+    f2 = f * f
+    q = (_horner(_LOG_Q, f) * f) * f2
     fe = e.astype(np.float32)
-    q = _add(q, _mul(fe, _LN2_LOW))
-    q = _sub(q, _mul(_HALF, f2))
-    result = _add(_add(f, q), _mul(fe, _LN2_HIGH))
-    result = np.where(inf, x, result)
-    result = np.where(zero, -_INF.view(np.float32), result)
-    return np.where(nan, _QUIET_NAN, result)
+    q = q + fe * _LN2_LOW
+    q = q - _HALF * f2
+    result = (f + q) + fe * _LN2_HIGH
+    result = _where_rare(inf, x, result)
+    result = _where_rare(zero, -_INF.view(np.float32), result)
+    return _where_rare(nan, _QUIET_NAN, result)
 
 
 def _sin_cos_reduced(x):
     """sin r, cos r of the reduced argument and the quadrant, as arith_sin_cos_reduced."""
-    n = np.floor(_add(_mul(x, _TWO_OVER_PI), _HALF))
-    r = _sub(_sub(_sub(x, _mul(n, _PIO2[0])), _mul(n, _PIO2[1])), _mul(n, _PIO2[2]))
-    quadrant = _sub(n, _mul(np.floor(_mul(n, _QUARTER)), _FOUR)).astype(np.int32)
-    r2 = _mul(r, r)
-    sin_r = _add(_mul(_mul(_horner(_SIN_S, r2), r2), r), r)
-    c = _mul(_mul(_horner(_COS_C, r2), r2), r2)
-    cos_r = _add(_sub(c, _mul(_HALF, r2)), _ONE)
+    n = np.floor(x * _TWO_OVER_PI + _HALF)
+    r = x
+    for part in _PIO2:
+        r = r - n * part
+    quadrant = (n - np.floor(n * _QUARTER) * _FOUR).astype(np.uint32)
+    r2 = r * r
+    sin_r = (_horner(_SIN_S, r2) * r2) * r + r
+    c = (_horner(_COS_C, r2) * r2) * r2
+    cos_r = (c - _HALF * r2) + _ONE
     return sin_r, cos_r, quadrant
 
 
@@ -194,7 +226,7 @@ def _finite_or_zero(x):
     """x flushed, with inf and NaN replaced by 0 (their result is NaN), and where they were."""
     x = _flush(x)
     special = (x.view(np.uint32) & _MAGNITUDE) >= _INF
-    return np.where(special, np.float32(0.0), x), special
+    return _where_rare(special, np.float32(0.0), x), special
 
 
 # --- the API ---------------------------------------------------------------------------
@@ -222,14 +254,20 @@ def f_mul(a, b):
 @_quiet_floating_point
 def f_div(a, b):
     """a / b correctly rounded (subnormal operands read as zero, results flushed)."""
-    quotient = f_ftz(a).astype(np.float64) / f_ftz(b).astype(np.float64)
-    return _quiet(_round_flush(quotient))
+    a, b = f_ftz(a), f_ftz(b)
+    quotient = np.asarray(a / b)  # IEEE: correctly rounded but where it is subnormal
+    tiny = _nonzero_at_most_min_normal(quotient)
+    if tiny.any():
+        a_tiny, b_tiny = (np.broadcast_to(v, quotient.shape)[tiny] for v in (a, b))
+        quotient = quotient.copy()
+        quotient[tiny] = _round_flush(a_tiny.astype(np.float64) / b_tiny.astype(np.float64))
+    return _quiet(quotient)
 
 
 @_quiet_floating_point
 def f_sqrt(x):
-    """sqrt(x) correctly rounded; sqrt(-0) = -0, NaN below zero."""
-    return _quiet(np.sqrt(f_ftz(x).astype(np.float64)).astype(np.float32))
+    """sqrt(x) correctly rounded (IEEE, never subnormal); sqrt(-0) = -0, NaN below zero."""
+    return _quiet(np.sqrt(f_ftz(x)))
 
 
 @_quiet_floating_point
@@ -252,17 +290,17 @@ def f_pow(x, y):
 def f_sin(x):
     x, special = _finite_or_zero(_float32(x))
     sin_r, cos_r, quadrant = _sin_cos_reduced(x)
-    value = np.where((quadrant & 1) == 0, sin_r, cos_r)
-    return np.where(special, _QUIET_NAN, np.where(quadrant >= 2, -value, value))
+    value = _select(quadrant & 1, cos_r, sin_r)
+    return _where_rare(special, _QUIET_NAN, _negate_where(quadrant >> 1 & 1, value))
 
 
 @_quiet_floating_point
 def f_cos(x):
     x, special = _finite_or_zero(_float32(x))
     sin_r, cos_r, quadrant = _sin_cos_reduced(x)
-    value = np.where((quadrant & 1) == 0, cos_r, sin_r)
-    negative = (quadrant == 1) | (quadrant == 2)
-    return np.where(special, _QUIET_NAN, np.where(negative, -value, value))
+    value = _select(quadrant & 1, sin_r, cos_r)
+    negative = (quadrant + 1) >> 1 & 1  # quadrants 1 and 2
+    return _where_rare(special, _QUIET_NAN, _negate_where(negative, value))
 
 
 @_quiet_floating_point

@@ -4,6 +4,9 @@ messages."""
 from cavesim.core.wire.credentials import Credentials
 from cavesim.core.wire.keys import SessionKeys
 from cavesim.core.wire.messages import (
+    BlockQuery,
+    BlockReply,
+    BlockRequest,
     Command,
     ControlMessage,
     DisplayMessage,
@@ -23,7 +26,8 @@ from cavesim.core.wire.messages import (
     encode,
 )
 
-__all__ = ["Command", "ControlMessage", "Credentials", "DisplayMessage", "Envelope",
-           "FrameMessage", "HeadState", "InfoMessage", "InfoRequest", "ReportMessage",
+__all__ = ["BlockQuery", "BlockReply", "BlockRequest", "Command", "ControlMessage",
+           "Credentials", "DisplayMessage", "Envelope", "FrameMessage", "HeadState",
+           "InfoMessage", "InfoRequest", "ReportMessage",
            "SessionKeys", "SnapshotChunk", "SnapshotHeader", "StateRequest", "TrackingMessage",
            "WandState", "decode", "decode_envelope", "encode"]

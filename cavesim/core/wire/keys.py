@@ -48,6 +48,10 @@ class SessionKeys:
         """Where a displaying wall reports drawing and swapping a frame (the swap barrier)."""
         return f"{self.prefix}/display/{node}"
 
+    def blocks(self, node: str = "*") -> str:
+        """Where a node answers block requests about its state (forensics, delta resync)."""
+        return f"{self.prefix}/blocks/{node}"
+
     def info(self, node: str = "*") -> str:
         """Where a node answers the master's question: which GPU do you compute on?"""
         return f"{self.prefix}/info/{node}"
@@ -61,5 +65,5 @@ class SessionKeys:
         return f"{self.prefix}/master_alive"
 
     def node_of(self, key: str) -> str:
-        """The wall name at the end of a report, state, info or alive key."""
+        """The wall name at the end of a report, state, blocks, info or alive key."""
         return str(key).rsplit("/", 1)[-1]

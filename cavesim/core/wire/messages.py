@@ -6,7 +6,8 @@ number, payload length) and the payload; in a session with credentials
 the master's Ed25519 signature, and every message ends with an HMAC-SHA256 of all that
 under the session's secret. The run id is the master's, drawn when its run starts: a
 message of another run (a replay) is refused by its receiver. A node's state never
-travels in one message: a snapshot is a header and chunks (see snapshot.py). `decode`
+travels in one message: a snapshot is a header and chunks (see snapshot.py); blocks of
+the checksum's tree and single records travel in bounded block replies. `decode`
 checks everything before trusting anything and raises `ProtocolError` with a short reason
 the receivers count; it never returns a half-checked message.
 """
@@ -24,6 +25,9 @@ from enum import IntEnum
 
 import numpy as np
 
+from cavesim.core.digest.history import HISTORY_FRAMES
+from cavesim.core.digest.shape import ITEM_WORDS, RECORD_WORDS
+from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame import FrameInput
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
@@ -32,9 +36,11 @@ from cavesim.core.wire.credentials import MASTER_SIGNATURE_BYTES, Credentials
 from cavesim.core.wire.keys import check_name
 
 MAGIC = b"CVSM"
-VERSION = 4  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 5  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
 # take part in the swap barrier; 4: a run id in the header, the master's signature, requests
+# (block requests and replies came later as new kinds, which an older build refuses as such);
+# 5: a report may end in a drift sample (the mixed-hardware tolerance mode)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED = 0x01, 0x02
@@ -44,6 +50,7 @@ MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB
 
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
+_SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
 _CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
@@ -52,6 +59,11 @@ INFO_SOFTWARE, INFO_SWAP_LOCKED = 0x01, 0x02
 _DISPLAY = struct.Struct("<BQ")  # phase, the node's monotonic clock in ns
 _CONTROL_TAIL = struct.Struct("<16sQ")  # the named state's digest (RESYNC), nonce (WELCOME)
 _STATE_REQUEST = struct.Struct("<16s")  # the digest of the state asked for
+_BLOCK_REQUEST = struct.Struct("<16sBBI")  # digest, query, part, index count; then indices
+_BLOCK_REPLY = struct.Struct("<BBQIIB")  # query, part, seed, counts, history frames
+_HISTORY_FRAME = struct.Struct("<QII")  # frame, particles, emitters
+MAX_BLOCK_INDICES = 16_384  # items or records one block request names (64 KiB)
+MAX_BLOCK_BYTES = 4 * 2**20  # of a block reply's data, like a snapshot's chunk
 
 
 class Kind(IntEnum):
@@ -65,6 +77,8 @@ class Kind(IntEnum):
     DISPLAY = 8
     INFO_REQUEST = 9
     STATE_REQUEST = 10
+    BLOCK_REQUEST = 11
+    BLOCK_REPLY = 12
 
 
 MASTER_KINDS = frozenset({Kind.FRAME, Kind.CONTROL, Kind.INFO_REQUEST})  # the master signs
@@ -119,6 +133,7 @@ class ReportMessage:
     checksum_us: int
     rejected: int = 0  # messages this node has rejected so far
     status: Status = Status.STEPPED
+    sample: DriftSample | None = None  # mixed-hardware mode: its records sample_indices names
 
 
 @dataclass(frozen=True)
@@ -146,6 +161,63 @@ class StateRequest:
     frame: int
     node: str
     digest: str
+
+
+class BlockQuery(IntEnum):
+    """What a block request asks a node for, of the state it holds (`part` says which)."""
+
+    TREE = 1  # items of one level of the checksum's tree (part: the level, 0 sums, 1, 2),
+    # with the state's seed and counts; no indices: the whole level
+    HISTORY = 2  # fold-1 items (part 1) of every frame its history ring holds up to `frame`
+    RECORDS = 3  # whole records of one stream (part: 0 particles, 1 emitters)
+
+
+_PARTS = {BlockQuery.TREE: (0, 1, 2), BlockQuery.HISTORY: (1,), BlockQuery.RECORDS: (0, 1)}
+
+
+@dataclass(frozen=True)
+class BlockRequest:
+    """A question about `node`'s state of `frame`, whose checksum is `digest` (a node that
+    holds another state refuses it): the master's forensics, or a resyncing node's delta."""
+
+    frame: int
+    node: str
+    digest: str
+    query: BlockQuery
+    part: int
+    indices: tuple[int, ...] = ()  # ascending, at most MAX_BLOCK_INDICES
+
+
+@dataclass(frozen=True)
+class HistoryFrame:
+    """A frame of a node's history ring, and the live counts of its state then."""
+
+    frame: int
+    particles: int
+    emitters: int
+
+
+@dataclass(frozen=True)
+class BlockReply:
+    """A node's answer to a block request: the items or records asked for, in the order
+    asked (HISTORY: frame by frame), with the state's seed and live counts."""
+
+    frame: int
+    node: str
+    query: BlockQuery
+    part: int
+    seed: int
+    particles: int
+    emitters: int
+    data: bytes = field(repr=False)
+    history: tuple[HistoryFrame, ...] = ()  # HISTORY: the frames of `data`, oldest first
+
+    @property
+    def unit(self) -> int:
+        """Bytes of one item or record of the reply's data."""
+        if self.query is BlockQuery.RECORDS:
+            return RECORD_WORDS[self.part] * 4
+        return ITEM_WORDS[self.part] * 4
 
 
 @dataclass(frozen=True)
@@ -230,7 +302,8 @@ class DisplayMessage:
 
 
 Message = (FrameMessage | ReportMessage | ControlMessage | SnapshotHeader | SnapshotChunk
-           | TrackingMessage | InfoMessage | DisplayMessage | InfoRequest | StateRequest)
+           | TrackingMessage | InfoMessage | DisplayMessage | InfoRequest | StateRequest
+           | BlockRequest | BlockReply)
 
 
 @dataclass(frozen=True)
@@ -376,21 +449,45 @@ def _digest_bytes(digest: str) -> bytes:
 
 
 def _write_report(m: ReportMessage) -> tuple[Kind, bytes]:
-    return Kind.REPORT, _name_bytes(m.node) + _REPORT.pack(
+    body = _name_bytes(m.node) + _REPORT.pack(
         _digest_bytes(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
         m.status)
+    if m.sample is None:  # the bit-exact mode's report: no tail
+        return Kind.REPORT, body
+    if len(m.sample) > m.particles:
+        raise ValueError(f"a drift sample holds at most the {m.particles} live records, got "
+                         f"{len(m.sample)}")
+    return Kind.REPORT, body + _SAMPLE.pack(len(m.sample)) + m.sample.records
 
 
 def _read_report(frame: int, payload: bytes) -> ReportMessage:
     node, rest = _read_name(payload)
-    if len(rest) != _REPORT.size:
+    if len(rest) < _REPORT.size:
         raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
                                            f"expected {_REPORT.size}")
-    digest, particles, emitters, step_us, checksum_us, rejected, status = _REPORT.unpack(rest)
+    digest, particles, emitters, step_us, checksum_us, rejected, status = \
+        _REPORT.unpack_from(rest)
     if status not in Status.__members__.values():
         raise ProtocolError("bad-value", f"report status {status} is unknown")
+    sample = _read_sample(rest[_REPORT.size:], particles) if len(rest) > _REPORT.size else None
     return ReportMessage(frame, node, digest.hex(), particles, emitters, step_us, checksum_us,
-                         rejected, Status(status))
+                         rejected, Status(status), sample)
+
+
+def _read_sample(tail: bytes, particles: int) -> DriftSample:
+    """A report's drift sample: a count within MAX_SAMPLE and the live count, and exactly
+    that many records (their values may be anything a GPU writes: a NaN is a drift)."""
+    if len(tail) < _SAMPLE.size:
+        raise ProtocolError("bad-payload", f"a report's drift sample of {len(tail)} bytes has "
+                                           f"no count")
+    (count,) = _SAMPLE.unpack_from(tail)
+    if count > min(MAX_SAMPLE, particles) \
+            or len(tail) != _SAMPLE.size + count * SAMPLE_DTYPE.itemsize:
+        raise ProtocolError("bad-payload", f"a drift sample of {count} records in "
+                                           f"{len(tail)} bytes: expected at most "
+                                           f"min({MAX_SAMPLE}, {particles} live) records of "
+                                           f"{SAMPLE_DTYPE.itemsize} bytes after a 2-byte count")
+    return DriftSample(tail[_SAMPLE.size:])
 
 
 def _write_control(m: ControlMessage) -> tuple[Kind, bytes]:
@@ -439,6 +536,77 @@ def _read_state_request(frame: int, payload: bytes) -> StateRequest:
                                            f"expected {_STATE_REQUEST.size}")
     (digest,) = _STATE_REQUEST.unpack(rest)
     return StateRequest(frame, node, digest.hex())
+
+
+def _write_block_request(m: BlockRequest) -> tuple[Kind, bytes]:
+    indices = np.asarray(m.indices, dtype=np.int64)
+    if m.part not in _PARTS[m.query] or len(indices) > MAX_BLOCK_INDICES \
+            or (indices.size and (indices[0] < 0 or indices[-1] >= 2**32
+                                  or np.any(np.diff(indices) <= 0))) \
+            or (m.query is not BlockQuery.TREE and not indices.size):
+        raise ValueError(f"a {m.query.name} block request names part {m.part} (allowed: "
+                         f"{_PARTS[m.query]}) and 1 to {MAX_BLOCK_INDICES} ascending indices "
+                         f"(a TREE request may name none), got {len(indices)}")
+    return Kind.BLOCK_REQUEST, _name_bytes(m.node) + _BLOCK_REQUEST.pack(
+        _digest_bytes(m.digest), m.query, m.part, len(indices)) + indices.astype("<u4").tobytes()
+
+
+def _read_block_request(frame: int, payload: bytes) -> BlockRequest:
+    node, rest = _read_name(payload)
+    if len(rest) < _BLOCK_REQUEST.size:
+        raise ProtocolError("bad-payload", f"block request body of {len(rest)} bytes is too "
+                                           f"short")
+    digest, query, part, count = _BLOCK_REQUEST.unpack_from(rest)
+    if query not in BlockQuery.__members__.values() or part not in _PARTS[BlockQuery(query)]:
+        raise ProtocolError("bad-value", f"block query {query} of part {part} is unknown")
+    if count > MAX_BLOCK_INDICES or len(rest) != _BLOCK_REQUEST.size + 4 * count:
+        raise ProtocolError("bad-payload", f"a block request of {count} indices in "
+                                           f"{len(rest)} bytes (at most {MAX_BLOCK_INDICES})")
+    indices = np.frombuffer(rest, "<u4", count, _BLOCK_REQUEST.size).astype(np.int64)
+    if np.any(np.diff(indices) <= 0) or (query != BlockQuery.TREE and not count):
+        raise ProtocolError("bad-value", "block request indices must be ascending, and only "
+                                         "a TREE request may name none")
+    return BlockRequest(frame, node, digest.hex(), BlockQuery(query), part,
+                        tuple(indices.tolist()))
+
+
+def _write_block_reply(m: BlockReply) -> tuple[Kind, bytes]:
+    if m.part not in _PARTS[m.query] or len(m.data) > MAX_BLOCK_BYTES \
+            or len(m.data) % m.unit or len(m.history) > HISTORY_FRAMES \
+            or not (0 <= m.particles <= MAX_PARTICLES and 0 <= m.emitters <= MAX_EMITTERS):
+        raise ValueError(f"a block reply holds whole items or records of at most "
+                         f"{MAX_BLOCK_BYTES} bytes, {HISTORY_FRAMES} history frames and counts "
+                         f"within the limits, got {len(m.data)} bytes, {len(m.history)} "
+                         f"frames, {m.particles} and {m.emitters}")
+    history = b"".join(_HISTORY_FRAME.pack(h.frame, h.particles, h.emitters)
+                       for h in m.history)
+    return Kind.BLOCK_REPLY, _name_bytes(m.node) + _BLOCK_REPLY.pack(
+        m.query, m.part, m.seed, m.particles, m.emitters, len(m.history)) + history + m.data
+
+
+def _read_block_reply(frame: int, payload: bytes) -> BlockReply:
+    node, rest = _read_name(payload)
+    if len(rest) < _BLOCK_REPLY.size:
+        raise ProtocolError("bad-payload", f"block reply body of {len(rest)} bytes is too "
+                                           f"short")
+    query, part, seed, particles, emitters, frames = _BLOCK_REPLY.unpack_from(rest)
+    if query not in BlockQuery.__members__.values() or part not in _PARTS[BlockQuery(query)]:
+        raise ProtocolError("bad-value", f"block query {query} of part {part} is unknown")
+    if particles > MAX_PARTICLES or emitters > MAX_EMITTERS or frames > HISTORY_FRAMES:
+        raise ProtocolError("bad-value", f"a block reply of {particles} particles, {emitters} "
+                                         f"emitters and {frames} history frames is beyond the "
+                                         f"limits")
+    start = _BLOCK_REPLY.size + frames * _HISTORY_FRAME.size
+    history = tuple(HistoryFrame(*_HISTORY_FRAME.unpack_from(rest, _BLOCK_REPLY.size + i *
+                                                             _HISTORY_FRAME.size))
+                    for i in range(frames)) if len(rest) >= start else ()
+    reply = BlockReply(frame, node, BlockQuery(query), part, seed, particles, emitters,
+                       rest[start:], history)
+    if len(rest) < start or len(reply.data) > MAX_BLOCK_BYTES or len(reply.data) % reply.unit:
+        raise ProtocolError("bad-payload", f"a block reply's data of {len(rest) - start} "
+                                           f"bytes is not whole {reply.unit}-byte items "
+                                           f"within {MAX_BLOCK_BYTES} bytes")
+    return reply
 
 
 def _write_snapshot(m: SnapshotHeader) -> tuple[Kind, bytes]:
@@ -596,10 +764,12 @@ _PAYLOAD_WRITERS = {FrameMessage: _write_frame, ReportMessage: _write_report,
                     ControlMessage: _write_control, SnapshotHeader: _write_snapshot,
                     SnapshotChunk: _write_chunk, TrackingMessage: _write_tracking,
                     InfoMessage: _write_info, DisplayMessage: _write_display,
-                    InfoRequest: _write_info_request, StateRequest: _write_state_request}
+                    InfoRequest: _write_info_request, StateRequest: _write_state_request,
+                    BlockRequest: _write_block_request, BlockReply: _write_block_reply}
 _PAYLOAD_READERS = {Kind.FRAME: _read_frame, Kind.REPORT: _read_report,
                     Kind.CONTROL: _read_control, Kind.SNAPSHOT: _read_snapshot,
                     Kind.CHUNK: _read_chunk, Kind.TRACKING: _read_tracking,
                     Kind.INFO: _read_info, Kind.DISPLAY: _read_display,
                     Kind.INFO_REQUEST: _read_info_request,
-                    Kind.STATE_REQUEST: _read_state_request}
+                    Kind.STATE_REQUEST: _read_state_request,
+                    Kind.BLOCK_REQUEST: _read_block_request, Kind.BLOCK_REPLY: _read_block_reply}

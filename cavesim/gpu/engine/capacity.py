@@ -16,10 +16,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from cavesim.core.digest.shape import WORDS_PER_GROUP
 from cavesim.core.errors import CapacityError
 from cavesim.core.limits import MAX_BYTE_OFFSET, MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
-from cavesim.gpu.engine.checksum import WORDS_PER_GROUP
 
 PARTICLE_BUFFERS = 2  # front and back: a frame reads one stream and writes the other
 

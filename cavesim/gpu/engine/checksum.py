@@ -16,6 +16,12 @@ The shaders read the live counts from the `counts` buffer: the host writes them 
 GPU (the `plan` pass writes glDispatchComputeIndirect's arguments). Either way the passes
 and the digest are the same; `read` returns digest and counts at once.
 
+The levels under the digest form a hash tree (cavesim/core/digest/shape.py): they stay in
+their buffers until the next `run`, and `read_items` reads any of their items on demand
+(desync forensics, delta resync), so a frame without a divergence reads none of them.
+`keep_history` copies the fold-1 items into a ring slot on the GPU (a few KB per frame at
+1M particles, no wait).
+
 Why any single changed word changes the digest (for fixed counts, hence fixed sizes):
 fmix32 is a bijection of 32-bit words, and so is XOR with a constant, so the changed
 word's mix changes, and so does its invocation's sum (its other terms fixed, addition mod
@@ -32,71 +38,18 @@ probability 1 - 2^-128 like any change of several words.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import moderngl
 import numpy as np
 
-from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
-from cavesim.gpu.engine.programs import (
-    CHECKSUM_FOLD,
-    CHECKSUM_WORDS_PER_THREAD,
-    CHECKSUM_WORKGROUP_SIZE,
-    checksum_programs,
-)
+from cavesim.core.digest.history import HISTORY_FRAMES
+from cavesim.core.digest.shape import ITEM_WORDS, StateChecksum, index_runs, plan
+from cavesim.gpu.engine.programs import checksum_programs
 
-WORDS_PER_GROUP = CHECKSUM_WORKGROUP_SIZE * CHECKSUM_WORDS_PER_THREAD
 COUNTS_BYTES = 8  # std430 { uint particles; uint emitters; }
 RESULT_BYTES = 24  # std430 { uvec4 digest; uint particles; uint emitters; }
 DISPATCH_BYTES = 12  # glDispatchComputeIndirect's x, y, z; `plan` writes three: sums,
 # fold 1, fold 2
 _SHADER_WRITES = moderngl.SHADER_STORAGE_BARRIER_BIT | moderngl.COMMAND_BARRIER_BIT
-
-
-def group_count(words: int) -> int:
-    """Work groups of the sums pass over `words` words of one stream."""
-    return -(-words // WORDS_PER_GROUP)
-
-
-@dataclass(frozen=True)
-class Plan:
-    """How many work groups and items each pass has for given live counts."""
-
-    particle_groups: int
-    emitter_groups: int  # 0 or 1 for up to MAX_EMITTERS records
-
-    @property
-    def sums_groups(self) -> int:
-        """Work groups of the sums pass: the particle stream's, then the emitter stream's."""
-        return self.particle_groups + self.emitter_groups
-
-    @property
-    def items(self) -> tuple[int, int, int]:
-        """Items entering fold 1 (the sums), fold 2 and the digest."""
-        sums = self.sums_groups * CHECKSUM_WORKGROUP_SIZE
-        level_1 = -(-sums // CHECKSUM_FOLD)
-        return sums, level_1, -(-level_1 // CHECKSUM_FOLD)
-
-    def fold_groups(self, level: int) -> int:
-        """Work groups of fold `level` (1 or 2): one invocation per item it writes."""
-        return -(-self.items[level] // CHECKSUM_WORKGROUP_SIZE)
-
-
-def plan(particles: int, emitters: int) -> Plan:
-    return Plan(group_count(particles * PARTICLE_WORDS), group_count(emitters * EMITTER_WORDS))
-
-
-@dataclass(frozen=True)
-class StateChecksum:
-    digest: str  # 32 hex digits over the seed, both streams, their order and the live counts
-    particles: int  # live particles
-    emitters: int
-
-    @classmethod
-    def from_result(cls, result: bytes) -> StateChecksum:
-        """The checksum from the digest pass's 24 bytes."""
-        particles, emitters = np.frombuffer(result, "<u4", 2, 16)
-        return cls(result[:16].hex(), int(particles), int(emitters))
 
 
 class GpuChecksum:
@@ -116,7 +69,9 @@ class GpuChecksum:
         self.result = ctx.buffer(reserve=RESULT_BYTES)
         self._dispatches = ctx.buffer(reserve=3 * DISPATCH_BYTES)
         self._sums = ctx.buffer(reserve=max(sums * 8, 4))
-        self._folds = [ctx.buffer(reserve=max(n * 16, 4)) for n in (level_1, level_2)]
+        self._folds = [ctx.buffer(reserve=max(n, 1) * 16) for n in (level_1, level_2)]
+        self._slot_rows = max(level_1, 1)  # a history slot: fold 1's items at capacity
+        self._history = ctx.buffer(reserve=HISTORY_FRAMES * self._slot_rows * 16)
         self._seed: int | None = None
 
     def run(self, particles: moderngl.Buffer, emitters: moderngl.Buffer | None, seed: int,
@@ -157,6 +112,27 @@ class GpuChecksum:
         self.ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)
         return StateChecksum.from_result(self.result.read(RESULT_BYTES))
 
+    def read_items(self, level: int, indices: np.ndarray) -> np.ndarray:
+        """Items `indices` (ascending) of tree level `level` (0: the sums, 1, 2) as the last
+        `run` left them: (n, ITEM_WORDS[level]) uint32 (waits)."""
+        self.ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)
+        return _read_rows((self._sums, *self._folds)[level], ITEM_WORDS[level], indices)
+
+    def keep_history(self, slot: int) -> None:
+        """Copy the last `run`'s fold-1 items into history slot `slot` (0 to HISTORY_FRAMES -
+        1), GPU to GPU: nothing waits."""
+        self.ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)
+        self.ctx.copy_buffer(self._history, self._folds[0], size=self._slot_rows * 16,
+                             write_offset=slot * self._slot_rows * 16)
+
+    def read_history(self, slot: int, indices: np.ndarray) -> np.ndarray:
+        """Fold-1 items `indices` (ascending) kept in history slot `slot` (waits)."""
+        if len(indices) and indices[-1] >= self._slot_rows:
+            raise ValueError(f"fold-1 items up to {indices[-1]} asked; the history holds "
+                             f"{self._slot_rows} per frame")
+        return _read_rows(self._history, ITEM_WORDS[1], np.asarray(indices)
+                          + slot * self._slot_rows)
+
     def state(self, particles: moderngl.Buffer, particle_count: int,
               emitters: moderngl.Buffer | None, emitter_count: int, seed: int) -> StateChecksum:
         """The checksum of a state whose live counts the host knows."""
@@ -185,5 +161,17 @@ class GpuChecksum:
             program.run(groups[k])
 
     def release(self) -> None:
-        for buffer in (self.counts, self.result, self._dispatches, self._sums, *self._folds):
+        for buffer in (self.counts, self.result, self._dispatches, self._sums, *self._folds,
+                       self._history):
             buffer.release()
+
+
+def _read_rows(buffer: moderngl.Buffer, words: int, indices: np.ndarray) -> np.ndarray:
+    """Rows `indices` (ascending) of `words` uint32 each: one read per run of consecutive
+    rows, as a block's children and a history's blocks come."""
+    indices = np.asarray(indices, dtype=np.int64)
+    rows = np.empty((len(indices), words), dtype=np.uint32)
+    for first, end in index_runs(indices):
+        data = buffer.read((end - first) * words * 4, int(indices[first]) * words * 4)
+        rows[first:end] = np.frombuffer(data, "<u4").reshape(-1, words)
+    return rows

@@ -11,7 +11,13 @@ is checked against the context's limits (`capacity.py`) before anything is alloc
 
 A state load (a snapshot, a test's setup) is staged in the back buffers, the scratch
 between frames, and becomes current only on `commit_load`: a failed or partial load leaves
-the current state untouched.
+the current state untouched. A patch (a delta resync) is a load that starts as a copy of the
+current state and replaces some records.
+
+The checksum's hash tree of the current state (cavesim/core/digest/shape.py) can be read
+item by item (`tree_items`), and `keep_history` keeps each frame's fold-1 items in a ring
+on the GPU (`history` reads them): a node answers the master's forensics and a resyncing
+node's delta requests from these.
 """
 
 from __future__ import annotations
@@ -21,6 +27,8 @@ import dataclasses
 import moderngl
 import numpy as np
 
+from cavesim.core.digest.history import HistoryEntry, HistoryRing
+from cavesim.core.digest.shape import EMITTERS, PARTICLES, StateChecksum, index_runs
 from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.core.errors import StateError
 from cavesim.core.fields import FieldGrid, build_field
@@ -37,7 +45,7 @@ from cavesim.core.records import (
 from cavesim.core.scene.model import CollisionKind, Engine, FieldKind, FieldSampling, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
-from cavesim.gpu.engine.checksum import GpuChecksum, StateChecksum
+from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
@@ -59,6 +67,9 @@ class ParticleSystem:
         self._live: int | None = 0  # None: the last frame's count is still on the GPU
         self._current = 0  # index of the front buffers
         self._loading: int | None = None  # particles of the load staged in the back buffer
+        # the buffers whose checksum tree the GPU holds, and their checksum
+        self._tree: tuple[int, StateChecksum] | None = None
+        self.history_ring = HistoryRing()
         self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
                                   for i in range(PARTICLE_BUFFERS)]
         if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
@@ -173,7 +184,7 @@ class ParticleSystem:
         rotor = self.rotor_inputs.read(scene) if self.rotor_inputs is not None else None
         live = self.live_count
         front, back = self._current, 1 - self._current
-        self._loading = None  # the passes overwrite the back buffers
+        self._loading = self._tree = None  # the passes overwrite the back buffers
         emission = None if self._emitter_update is None else \
             self._emitter_update.run(front, back, frame, rotor)
         program = self._passes.program
@@ -188,6 +199,7 @@ class ParticleSystem:
         `cavesim bench` times as "update"). Nothing is swapped; the compute path steps the
         front buffer in place, so afterwards the state is only good for more timing."""
         write_uniforms(self._passes.program, {"dt": dt})
+        self._tree = None
         self._passes.particle_pass(self._current, 1 - self._current, self.live_count)
         self.ctx.finish()
 
@@ -197,6 +209,7 @@ class ParticleSystem:
         A node started with a wrong seed heals this way when it loads a snapshot.
         """
         self.scene = dataclasses.replace(self.scene, seed=seed)
+        self._tree = None
         self.emitters = EmitterTable.from_scene(self.scene)
         if not len(self.emitters):
             return
@@ -227,13 +240,53 @@ class ParticleSystem:
         emitters = self._emitter_buffers[self._current] if len(self.emitters) else None
         self._checksum.run(self._particle_buffers[self._current], emitters, self.scene.seed)
         state = self._checksum.read()
-        self._live = state.particles
+        self._live, self._tree = state.particles, (self._current, state)
         return state
 
     def _state_checksum(self, index: int, particles: int, seed: int) -> StateChecksum:
         emitters = self._emitter_buffers[index] if len(self.emitters) else None
-        return self._checksum.state(self._particle_buffers[index], particles, emitters,
-                                    len(self.emitters), seed)
+        state = self._checksum.state(self._particle_buffers[index], particles, emitters,
+                                     len(self.emitters), seed)
+        self._tree = (index, state) if seed == self.scene.seed else None
+        return state
+
+    # -- the checksum's tree ----------------------------------------------------------------
+
+    def tree_state(self) -> tuple[int, int, int]:
+        """(seed, live particles, emitters) of the current state, whose tree the GPU then
+        holds."""
+        state = self._current_tree()
+        return self.scene.seed, state.particles, state.emitters
+
+    def tree_items(self, level: int, indices: np.ndarray) -> np.ndarray:
+        """Items `indices` (ascending) of level `level` (0: the sums, 1, 2) of the current
+        state's checksum tree, (n, ITEM_WORDS[level]) uint32; the checksum runs first if the
+        GPU holds another state's tree."""
+        self._current_tree()
+        return self._checksum.read_items(level, indices)
+
+    def keep_history(self, frame: int) -> None:
+        """Keep the current state's fold-1 items as frame `frame`'s in the history ring (a
+        copy on the GPU, no wait)."""
+        state = self._current_tree()
+        slot = self.history_ring.keep(frame, state.particles, state.emitters)
+        self._checksum.keep_history(slot)
+
+    def history(self, indices: np.ndarray, up_to: int) -> list[tuple[HistoryEntry, np.ndarray]]:
+        """Fold-1 items `indices` of every frame the ring holds up to `up_to`, oldest first."""
+        return [(entry, self._checksum.read_history(entry.slot, indices))
+                for entry in self.history_ring.up_to(up_to)]
+
+    def _drop_tree(self, index: int) -> None:
+        """The buffers `index` are being written: the GPU's tree is no longer theirs."""
+        if self._tree is not None and self._tree[0] == index:
+            self._tree = None
+
+    def _current_tree(self) -> StateChecksum:
+        """The current state's checksum, run again if the GPU's tree is another state's."""
+        if self._tree is not None and self._tree[0] == self._current:
+            return self._tree[1]
+        return self.checksum()
 
     def read_particle_chunk(self, first: int, count: int) -> bytes:
         """Records [first, first + count) of the live particle stream, as bytes."""
@@ -244,6 +297,21 @@ class ParticleSystem:
             return b""
         return self._particle_buffers[self._current].read(count * PARTICLE_BYTES,
                                                           first * PARTICLE_BYTES)
+
+    def read_records(self, stream: int, indices: np.ndarray) -> bytes:
+        """Records `indices` (ascending, live) of the current `stream` (PARTICLES or
+        EMITTERS), as bytes in that order."""
+        indices = np.asarray(indices, dtype=np.int64)
+        live = self.live_count if stream == PARTICLES else len(self.emitters)
+        if len(indices) and (indices[0] < 0 or indices[-1] >= live
+                             or np.any(np.diff(indices) <= 0)):
+            raise StateError(f"records must be ascending within the {live} live ones of "
+                             f"stream {stream}, got {len(indices)} from {indices[0]} to "
+                             f"{indices[-1]}")
+        if stream == EMITTERS:
+            return self.read_emitters()[indices].tobytes()
+        return b"".join(self.read_particle_chunk(int(indices[first]), end - first)
+                        for first, end in index_runs(indices))
 
     def read_particles(self) -> np.ndarray:
         """A copy of the live particle stream (PARTICLE_DTYPE), in stream order."""
@@ -267,6 +335,18 @@ class ParticleSystem:
             raise StateError(f"a load of {count} particles does not fit the capacity "
                              f"{self.capacity}; allowed: 0 to {self.capacity}")
         self._loading = count
+        self._drop_tree(1 - self._current)
+
+    def begin_patch(self) -> None:
+        """Start staging a copy of the current particle stream (copied on the GPU) in the
+        back buffer, whose records `write_particle_chunk` may then replace; `commit_load`
+        makes it current, as any load."""
+        live = self.live_count
+        self.begin_load(live)
+        if live:
+            self.ctx.copy_buffer(self._particle_buffers[1 - self._current],
+                                 self._particle_buffers[self._current],
+                                 size=live * PARTICLE_BYTES)
 
     def write_particle_chunk(self, first: int, data: bytes) -> None:
         """Stage whole records [first, ...) of the stream that `begin_load` announced."""
@@ -278,6 +358,7 @@ class ParticleSystem:
                              f"{PARTICLE_BYTES}-byte records within the {self._loading} loaded")
         if count:
             self._particle_buffers[1 - self._current].write(data, offset=first * PARTICLE_BYTES)
+            self._drop_tree(1 - self._current)
 
     def commit_load(self, emitters: np.ndarray | None = None, seed: int | None = None,
                     digest: str | None = None) -> None:
@@ -310,12 +391,14 @@ class ParticleSystem:
             raise StateError(f"emitters: expected {count} records, got {len(emitters)}")
         if count:
             self._emitter_buffers[back].write(emitters.tobytes())
+            self._drop_tree(back)
 
     def restart(self, seed: int) -> None:
         """Back to the start state of a scene whose seed is `seed`: no particles, every
         emitter at rest (all zero, as a new system's are)."""
         self.begin_load(0)
         self.commit_load(np.zeros(len(self.emitters), EMITTER_DTYPE), seed)
+        self.history_ring.clear()
 
     def write_particles(self, particles: np.ndarray) -> None:
         """Replace the live particle stream at once (a test's, a benchmark's or a fault's)."""

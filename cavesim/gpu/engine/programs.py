@@ -13,6 +13,7 @@ from collections.abc import Iterator
 
 import moderngl
 
+from cavesim.core.digest.shape import FOLD, WORDS_PER_THREAD, WORKGROUP_SIZE
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORDS
@@ -39,9 +40,6 @@ COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
 
-CHECKSUM_WORKGROUP_SIZE = 64
-CHECKSUM_WORDS_PER_THREAD = 256  # 10M words (1M particles) leave 39,168 sums to fold
-CHECKSUM_FOLD = 64  # items each fold invocation absorbs in order
 
 # The values each define can take (numbers: the extremes a scene may ask for).
 PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
@@ -62,8 +60,8 @@ EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
     "EMIT_BATCH": (EMIT_BATCH,),
     "FOLLOWING": (0, 1),
 }
-CHECKSUM_DEFINES = {"WORDS_PER_THREAD": CHECKSUM_WORDS_PER_THREAD,
-                    "WORKGROUP_SIZE": CHECKSUM_WORKGROUP_SIZE, "FOLD": CHECKSUM_FOLD,
+CHECKSUM_DEFINES = {"WORDS_PER_THREAD": WORDS_PER_THREAD,
+                    "WORKGROUP_SIZE": WORKGROUP_SIZE, "FOLD": FOLD,
                     "PARTICLE_WORDS": PARTICLE_WORDS, "EMITTER_WORDS": EMITTER_WORDS}
 # The compute path's work group sizes: blocks of 32 particles per invocation (its particle
 # and compaction passes), and the one work group of its scan.

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from contextlib import nullcontext
 
 import moderngl
 import numpy as np
@@ -113,13 +114,19 @@ def twin_results(function: str, operands: Operands) -> np.ndarray:
 
 
 def run_function(ctx: moderngl.Context, function: str, operands: Operands,
-                 arithmetic: str = "portable") -> np.ndarray:
-    """The context's results of `function` on each case, laid out as `twin_results`."""
+                 arithmetic: str = "portable", keep_denormals: bool = False) -> np.ndarray:
+    """The context's results of `function` on each case, laid out as `twin_results`.
+
+    Dispatched as the engine dispatches, with the hardware flushing subnormals, unless
+    `keep_denormals`: then in this thread's own mode, which on llvmpipe with
+    LP_NUM_THREADS=0 keeps subnormals as IEEE 754 says, like a GPU that does not flush.
+    """
     _check(operands)
     program = ARITHMETIC_PROBE.build(ctx, probe_defines(function, arithmetic))
     try:
-        return np.concatenate([_dispatch(ctx, program, operands[start:start + _CHUNK])
-                               for start in range(0, len(operands), _CHUNK)])
+        return np.concatenate([
+            _dispatch(ctx, program, operands[start:start + _CHUNK], keep_denormals)
+            for start in range(0, len(operands), _CHUNK)])
     finally:
         program.release()
 
@@ -150,14 +157,15 @@ def _check(operands: Operands) -> None:
 
 
 def _dispatch(ctx: moderngl.Context, program: moderngl.ComputeShader,
-              operands: Operands) -> np.ndarray:
+              operands: Operands, keep_denormals: bool = False) -> np.ndarray:
     source = ctx.buffer(np.ascontiguousarray(operands).tobytes())
     results = ctx.buffer(reserve=len(operands) * 3 * 4)
     try:
         source.bind_to_storage_buffer(0)
         results.bind_to_storage_buffer(1)
         program["case_count"].value = len(operands)
-        with flushing_denormals():  # as the engine dispatches (cavesim.gpu.gl.denormals)
+        # as the engine dispatches (cavesim.gpu.gl.denormals), or as a GPU that keeps them
+        with nullcontext() if keep_denormals else flushing_denormals():
             program.run(-(-len(operands) // _LOCAL_SIZE))
         ctx.memory_barrier()
         return np.frombuffer(results.read(), dtype=np.float32).reshape(-1, 3)

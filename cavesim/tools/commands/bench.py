@@ -1,5 +1,6 @@
-"""`cavesim bench`: engine throughput, with --cluster the cost of the lock-step, or with
---soak the memory of a long cluster run."""
+"""`cavesim bench`: engine throughput, with --cluster the cost of the lock-step, with
+--resync what healing a bitflip costs (full snapshot against delta), or with --soak the
+memory of a long cluster run."""
 
 from __future__ import annotations
 
@@ -53,13 +54,18 @@ def add(commands) -> None:
                              f"(default: 100000)")
     parser.add_argument("--out", type=output_folder, default=Path("out/bench"),
                         help="directory for bench.json and bench.md, cluster.json and "
-                             "cluster.md, or soak.json (default: out/bench)")
+                             "cluster.md, resync.json, or soak.json (default: out/bench)")
     parser.add_argument("--cluster", action="store_true",
                         help="lock-step figures instead: barrier round trip with 2, 4 and 8 "
                              "nodes, and a 4-wall run against four systems back to back")
     parser.add_argument("--nodes", type=node_counts,
                         help=f"with --cluster: node counts of the barrier runs "
                              f"(default: {CLUSTER_NODES})")
+    parser.add_argument("--resync", action="store_true",
+                        help="what healing a one-particle bitflip costs instead: the full "
+                             "snapshot against the delta resync, two nodes on loopback, at "
+                             "the one --sizes count (default 1000000); and the forensics' "
+                             "history ring per frame")
     parser.add_argument("--soak", action="store_true",
                         help="a long cluster run as fast as it goes instead, sampling the "
                              "resident memory of the master and every node")
@@ -82,10 +88,13 @@ def _bench_scene(path: Path):
 
 def bench(args: argparse.Namespace, console: Console) -> int:
     """`cavesim bench`: check the scene and the output directory, then `run_bench`
-    (or, with --cluster, `bench_cluster`; with --soak, `bench_soak`)."""
+    (or, with --cluster, `bench_cluster`; with --resync, `bench_resync`; with --soak,
+    `bench_soak`)."""
     if args.soak:
         return bench_soak(args, console)
     _only_with_soak(args)
+    if args.resync:
+        return bench_resync(args, console)
     if args.cluster:
         return bench_cluster(args, console)
     if args.nodes is not None:
@@ -114,6 +123,24 @@ def bench_cluster(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
+def bench_resync(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench --resync`: check the flags, then `run_resync_bench`."""
+    from cavesim.tools.bench.resync import RESYNC_PARTICLES, run_resync_bench
+
+    for name, value in (("--cluster", args.cluster), ("--nodes", args.nodes is not None),
+                        ("--scene", args.scene is not None),
+                        ("--frames", args.frames is not None)):
+        if value:
+            raise UsageError(f"cavesim bench: error: argument {name}: not with --resync")
+    sizes = args.sizes or [RESYNC_PARTICLES]
+    if len(sizes) != 1:
+        raise UsageError(f"cavesim bench: error: argument --sizes: --resync measures one "
+                         f"particle count, got {len(sizes)}")
+    output_directory(args.out, "bench")
+    run_resync_bench(sizes[0], args.out, console)
+    return 0
+
+
 def _only_with_soak(args: argparse.Namespace) -> None:
     for name in SOAK_ONLY:
         if getattr(args, name) is not None:
@@ -132,7 +159,7 @@ def bench_soak(args: argparse.Namespace, console: Console) -> int:
     )
 
     for name, value in (("--cluster", args.cluster), ("--nodes", args.nodes is not None),
-                        ("--sizes", args.sizes is not None)):
+                        ("--sizes", args.sizes is not None), ("--resync", args.resync)):
         if value:
             raise UsageError(f"cavesim bench: error: argument {name}: not with --soak")
     frames = args.frames or SOAK_FRAMES

@@ -12,7 +12,7 @@ from rich.progress import Progress
 from cavesim.core.output import check_written, writing
 from cavesim.core.wire.network import session_name
 from cavesim.nodes.faults import KINDS
-from cavesim.nodes.lockstep import LOSS_POLICIES
+from cavesim.nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 from cavesim.tools.arguments import (
     RUN_ERROR,
     UsageError,
@@ -42,6 +42,9 @@ def add(commands) -> None:
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
     parser.add_argument("--on-loss", choices=LOSS_POLICIES, default="continue")
     parser.add_argument("--check-every", type=frame_count, default=1)
+    parser.add_argument("--resync", choices=RESYNC_MODES, default="delta",
+                        help="how a diverged node loads the healthy state: a delta of the "
+                             "differing blocks first (default), or the full snapshot")
     parser.add_argument("--out", type=output_folder, default=Path("out/check"))
     parser.add_argument("--session", default="check", type=session_name)
     parser.set_defaults(handler=check)
@@ -49,6 +52,7 @@ def add(commands) -> None:
 
 def check(args: argparse.Namespace, console) -> int:
     from cavesim.nodes.check import CheckPlan, master_kill_frame, run_check
+    from cavesim.nodes.check_report import check_passed
     from cavesim.tools.reports.check import check_table
 
     walls = wall_names(args.walls)
@@ -70,7 +74,7 @@ def check(args: argparse.Namespace, console) -> int:
     configure_logging(False)
     plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
                      args.session, args.barrier_timeout, on_loss=args.on_loss,
-                     check_every=args.check_every)
+                     check_every=args.check_every, resync=args.resync)
     with Progress(console=console) as progress:
         task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
         report = run_check(plan, lambda k, live: progress.update(task, completed=k))
@@ -80,5 +84,4 @@ def check(args: argparse.Namespace, console) -> int:
     console.print(check_table(report))
     check_written(path)
     console.print(f"wrote {path}")
-    healthy = report["final"].get("agree") and report["all_detected"] and report["all_healed"]
-    return 0 if healthy and (args.inject or report["divergences"] == 0) else RUN_ERROR
+    return 0 if check_passed(report, bool(args.inject)) else RUN_ERROR

@@ -13,7 +13,7 @@ from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.network import add_network_arguments
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from cavesim.nodes.faults import parse_fault
-from cavesim.nodes.lockstep import LOSS_POLICIES, MASTER_LOSS_POLICIES
+from cavesim.nodes.lockstep import LOSS_POLICIES, MASTER_LOSS_POLICIES, RESYNC_MODES
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
@@ -31,6 +31,8 @@ from cavesim.tools.arguments import (
     signing_key,
     wall_list,
 )
+from cavesim.tools.mixed_hardware import add_arguments as add_mixed_hardware_arguments
+from cavesim.tools.mixed_hardware import node_sample_from, tolerance_from
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 log = logging.getLogger("cavesim")
@@ -72,10 +74,12 @@ def add_master(commands) -> None:
                         default=0.1, help="real time: most wall time one tick may count")
     parser.add_argument("--max-substeps", type=number_in(int, 1, 100, "frames"), default=4,
                         help="real time: most frames sent back to back to catch up")
-    parser.add_argument("--report", type=output_path, help="write the run's JSON report here")
+    parser.add_argument("--report", type=output_path, help="write the run's JSON report here "
+                        "(divergence forensics go beside it, into divergences/)")
     parser.add_argument("--frame-log", type=output_path, help="record every frame's inputs here")
     parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
     parser.add_argument("--verbose", action="store_true")
+    add_mixed_hardware_arguments(parser, master=True)
     add_network_arguments(parser)
     parser.set_defaults(handler=master)
 
@@ -88,6 +92,7 @@ def master(args: argparse.Namespace, console) -> int:
     configure_logging(args.verbose)
     network, credentials = network_and_key(args, "master")
     signing_key(credentials, args.key_file, "master")
+    tolerance = tolerance_from(args, args.walls, "master")
     for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
         if path is not None:
             output_file(path, "master", flag)
@@ -95,10 +100,11 @@ def master(args: argparse.Namespace, console) -> int:
                           credentials, barrier_timeout=args.barrier_timeout,
                           join_timeout=args.join_timeout, on_loss=args.on_loss or "continue",
                           evict_after=args.evict_after, max_pause=args.max_pause,
-                          check_every=args.check_every,
+                          check_every=args.check_every, tolerance=tolerance,
                           clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
                           realtime=args.realtime, max_frame_time=args.max_frame_time,
-                          max_substeps=args.max_substeps)
+                          max_substeps=args.max_substeps,
+                          forensics=args.report.parent if args.report else None)
 
     def progress(k: int, live: int) -> None:
         if args.progress:
@@ -152,7 +158,12 @@ def add_node(commands) -> None:
     parser.add_argument("--master-wait", type=seconds, default=60.0,
                         help="seconds to wait for a master's welcome, or for a new master "
                              "(default 60); then the node exits 1")
+    parser.add_argument("--resync", choices=RESYNC_MODES, default="delta",
+                        help="how a RESYNC loads the healthy state: fetch only the records "
+                             "under the differing blocks of the checksum tree, falling back "
+                             "to the full snapshot (delta, default), or the full snapshot")
     parser.add_argument("--verbose", action="store_true")
+    add_mixed_hardware_arguments(parser, master=False)
     add_network_arguments(parser)
     parser.set_defaults(handler=node)
 
@@ -187,5 +198,6 @@ def node(args: argparse.Namespace, console) -> int:
                         engine=args.engine,
                         display=args.display, preview=args.preview,
                         preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
-                        master_wait=args.master_wait)
+                        master_wait=args.master_wait, resync=args.resync,
+                        drift_sample=node_sample_from(args, "node"))
     return run_node(config)

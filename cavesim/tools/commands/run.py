@@ -25,6 +25,7 @@ from cavesim.nodes.cluster import ClusterPlan, run_cluster
 from cavesim.nodes.lockstep import LOSS_POLICIES
 from cavesim.nodes.master import MasterConfig
 from cavesim.nodes.report_file import ReportFile
+from cavesim.nodes.tolerance import Tolerance
 from cavesim.tools.arguments import (
     INTERRUPTED,
     UsageError,
@@ -39,7 +40,9 @@ from cavesim.tools.arguments import (
     wall_count,
     wall_names,
 )
-from cavesim.tools.reports.run import demo_table, gpu_table, summary_table
+from cavesim.tools.mixed_hardware import add_arguments as add_mixed_hardware_arguments
+from cavesim.tools.mixed_hardware import node_arguments, tolerance_from
+from cavesim.tools.reports.run import demo_table, forensic_lines, gpu_table, summary_table
 
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
@@ -61,6 +64,7 @@ class RunPlan:
     display: bool = False  # every wall live in its window ([wall.display] of the CAVE)
     preview: bool = False  # a member "preview" shows the CAVE unfolded in a desktop window
     engine: Engine | None = None  # every wall's particle engine path (None: the scene's)
+    tolerance: Tolerance | None = None  # the mixed-hardware mode (None: bit-exact)
 
     @property
     def members(self) -> tuple[str, ...]:
@@ -90,11 +94,14 @@ class RunPlan:
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
-                              frame_log=self.out / "frames.log")
+                              tolerance=self.tolerance, frame_log=self.out / "frames.log",
+                              forensics=self.out)
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
+        mixed = node_arguments(self.tolerance)
         return ClusterPlan(master, self.out,
-                           {wall: self.node_args(wall) for wall in self.members}, drawing)
+                           {wall: (*self.node_args(wall), *mixed) for wall in self.members},
+                           drawing)
 
 
 def run_walls(plan: RunPlan, console: Console) -> dict:
@@ -119,6 +126,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     frame_log, logs = plan.out / "frames.log", plan.out / "logs"
     check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))
+    for line in forensic_lines(report):
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))
@@ -187,6 +196,7 @@ def add(commands) -> None:
     parser.add_argument("--key-file", type=Path,
                         help="the session's master.key (`cavesim keys`): every message signed; "
                              "the nodes get OUT/session.key")
+    add_mixed_hardware_arguments(parser, master=True)
     parser.set_defaults(handler=run)
 
 
@@ -200,6 +210,7 @@ def run(args: argparse.Namespace, console) -> int:
     if PREVIEW in walls:
         raise UsageError(f"cavesim run: error: argument --cave: a wall may not be called "
                          f"{PREVIEW!r} (the preview's name)")
+    tolerance = tolerance_from(args, walls, "run")
     gpus = {} if args.display else _gpus(args, walls, cave)
     output_directory(args.out, "run")
     frames = args.frames or default_frames(scene)
@@ -207,7 +218,7 @@ def run(args: argparse.Namespace, console) -> int:
                    on_loss=args.on_loss or "continue",
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus, display=args.display,
-                   preview=args.preview, engine=args.engine)
+                   preview=args.preview, engine=args.engine, tolerance=tolerance)
     report = run_walls(plan, console)
     if report["interrupted"]:
         return INTERRUPTED

@@ -16,13 +16,13 @@ import sys
 import moderngl
 import numpy as np
 
+from cavesim.core.digest.reference import reference_checksum
+from cavesim.core.digest.shape import WORKGROUP_SIZE
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.errors import ContextError, ShaderError
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.engine.checksum import GpuChecksum
-from cavesim.gpu.engine.checksum_reference import reference_checksum
-from cavesim.gpu.engine.programs import CHECKSUM_WORKGROUP_SIZE
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context, describe
 
 PROBE_TIMEOUT = 60.0  # s for one device: open a context, compile, run the checksum once
@@ -41,7 +41,7 @@ LIMITS = (  # what sizes a wall can have: particles, dispatches, emitted batches
 NEEDS = (  # (limit, least value, what needs it) beyond GL 4.3 itself
     ("GL_MAX_GEOMETRY_OUTPUT_VERTICES", EMIT_BATCH, "the emitter pass writes a batch per "
                                                     "geometry-shader invocation"),
-    ("GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS", CHECKSUM_WORKGROUP_SIZE, "the checksum's "
+    ("GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS", WORKGROUP_SIZE, "the checksum's "
                                                                       "workgroup"),
 )
 

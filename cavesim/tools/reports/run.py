@@ -9,6 +9,7 @@ def summary_table(report: dict) -> Table:
     rows = [
         ("frames", report["frames"]),
         ("walls", ", ".join(report["nodes"])),
+        *mode_rows(report),
         ("frames per second", report["frames_per_second"]),
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
         ("live particles (last / max)",
@@ -21,6 +22,37 @@ def summary_table(report: dict) -> Table:
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
     return _table("cavesim run", rows)
+
+
+def mode_rows(report: dict) -> list[tuple[str, str]]:
+    """How the walls were compared: bit-exact, or the mixed-hardware tolerance mode with its
+    settings, breaches and the worst drift seen."""
+    tolerance = report.get("tolerance")
+    if tolerance is None:
+        return [("mode", report["mode"])]
+    worst = [d["worst"] for d in tolerance["drift"].values()]
+    position = max((w["position_max_m"] for w in worst if w["position_max_m"] is not None),
+                   default=0.0)
+    velocity = max((w["velocity_max_m_s"] for w in worst if w["velocity_max_m_s"] is not None),
+                   default=0.0)
+    return [("mode", f"{report['mode']} (authority {tolerance['authority']})"),
+            ("resync every / sample", f"{tolerance['resync_every_frames']} frames / "
+                                      f"{tolerance['sample_records']} records"),
+            ("tolerance (position / velocity)", f"{tolerance['position_tolerance_m']:g} m / "
+                                                f"{tolerance['velocity_tolerance_m_s']:g} m/s"),
+            ("breaches / periodic resyncs",
+             f"{tolerance['breach_total']} / {tolerance['periodic_resyncs']}"),
+            ("worst drift (position / velocity)", f"{position:g} m / {velocity:g} m/s")]
+
+
+def forensic_lines(report: dict, shown: int = 10) -> list[str]:
+    """What differed at each divergence (the first `shown`), as the master's forensics found
+    it, and where the whole report is."""
+    explained = [d["forensics"] for d in report["divergences"] if d.get("forensics")]
+    lines = [f"{f['summary']} ({f['file']})" for f in explained[:shown]]
+    if len(explained) > shown:
+        lines.append(f"... and {len(explained) - shown} more in divergences/")
+    return lines
 
 
 def gpu_table(report: dict) -> Table:

@@ -5,11 +5,12 @@
 //     and lets the compiler fuse a*b+c, so GPUs of different vendors part after a while.
 //   ARITHMETIC_PORTABLE: the same bits on every GPU. Only +, - and * of the hardware are
 //     used, each correctly rounded (GLSL 4.30, 4.7.1) and kept unfused by `precise`;
-//     division and square root are integer long division and the digit-by-digit square
-//     root on the 24-bit significands (exact uint arithmetic), correctly rounded; exp, log,
-//     sin and cos are Cody-Waite range reductions and Horner polynomials (Moshier's Cephes
-//     expf, logf, sinf, cosf) of those +, -, *. Subnormals are handled in code, never by
-//     the hardware (llvmpipe flushes them, NVIDIA flushes in GL, others keep them):
+//     division and square root are Newton-Raphson estimates made exact by integer
+//     remainders on the 24-bit significands (uint arithmetic is exact), so correctly
+//     rounded; exp, log, sin and cos are Cody-Waite range reductions and Horner
+//     polynomials (Moshier's Cephes expf, logf, sinf, cosf) of those +, -, *.
+//     Subnormals are handled in code, never by the hardware (llvmpipe flushes them,
+//     NVIDIA flushes in GL, others keep them):
 //     - an operand whose exponent field is 0 reads as a zero of its sign (DAZ);
 //     - a result is its exact value rounded to nearest even to 24 bits with an unbounded
 //       exponent, then a zero of its sign if below 2^-126 in magnitude, inf if 2^128 or
@@ -43,7 +44,9 @@ const uint ARITH_HIDDEN_BIT = 0x00800000u;
 const uint ARITH_INF = 0x7f800000u;
 const uint ARITH_QUIET_NAN = 0x7fc00000u;
 const float ARITH_TWO_24 = 16777216.0;          // 2^24
+#define ARITH_TWO_MINUS_23 uintBitsToFloat(0x34000000u)   // 2^-23
 #define ARITH_TWO_MINUS_24 uintBitsToFloat(0x33800000u)   // 2^-24
+#define ARITH_TWO_MINUS_25 uintBitsToFloat(0x33000000u)   // 2^-25
 #define ARITH_TWO_MINUS_102 uintBitsToFloat(0x0c800000u)  // 2^-102
 
 // --- flushing and the three correctly rounded operations -----------------------------
@@ -101,8 +104,12 @@ float arith_mul_tiny(float a, float b) {
 
 float arith_mul(float a, float b) {
     precise float product = a * b;
-    // exponent field 0 or 1: a zero, a subnormal, or below 2^-125
-    return (floatBitsToUint(product) & 0x7f000000u) == 0u ? arith_mul_tiny(a, b) : product;
+    // exponent field 0 or 1: a zero, a subnormal, or below 2^-125 (an `if`, not `?:`, so
+    // that a GPU can skip the rare case instead of computing it always)
+    if ((floatBitsToUint(product) & 0x7f000000u) == 0u) {
+        product = arith_mul_tiny(a, b);
+    }
+    return product;
 }
 
 float f_add(float a, float b) {
@@ -157,7 +164,13 @@ vec3 f_mul(vec3 a, float b) {
     return vec3(f_mul(a.x, b), f_mul(a.y, b), f_mul(a.z, b));
 }
 
-// --- division and square root: exact integer arithmetic on the significands -----------
+// --- division and square root: an estimate, made exact by integer remainders ----------
+//
+// Newton-Raphson gives the 25 leading bits of the quotient or root within a few units;
+// the remainder of that candidate is computed exactly in 32-bit uint arithmetic (modulo
+// 2^32, exact since it is far below 2^31 in magnitude), and the candidate is corrected
+// until 0 <= remainder < divisor (Markstein's idea, with integers where he has an FMA).
+// So the estimate's own rounding never shows, and the result is correctly rounded.
 
 // sign | (exponent, significand) after rounding: the 24-bit significand `kept` (hidden bit
 // included) with its round bit and sticky bit, rounded to nearest even; a carry out moves
@@ -177,8 +190,30 @@ float arith_pack(uint sign, int biased_exponent, uint kept, bool round_bit, bool
     return uintBitsToFloat(sign | (uint(biased_exponent) << 23) | (kept & ARITH_SIGNIFICAND));
 }
 
-// a / b correctly rounded: restoring long division of the significands (25 quotient bits:
-// 24 and the round bit; the remainder is the sticky bit).
+// 1/d for d in [1, 2) within 1.5e-7 relative: a bit-pattern guess (5% off) and three
+// Newton steps y (2 - d y).
+float arith_reciprocal_estimate(float d) {
+    precise float y = uintBitsToFloat(0x7ef311c3u - floatBitsToUint(d));
+    for (int step = 0; step < 3; ++step) {
+        precise float error = 2.0 - d * y;
+        y = y * error;
+    }
+    return y;
+}
+
+// 1/sqrt(u) for u in [1, 4) within 1.5e-7 relative: the bit-pattern guess 0x5f3759df and
+// three Newton steps y (3/2 - u/2 y^2).
+float arith_inverse_root_estimate(float u) {
+    precise float y = uintBitsToFloat(0x5f3759dfu - (floatBitsToUint(u) >> 1));
+    for (int step = 0; step < 3; ++step) {
+        precise float error = 1.5 - 0.5 * u * y * y;
+        y = y * error;
+    }
+    return y;
+}
+
+// a / b correctly rounded: Q = floor(A 2^24 / B) of the significands A >= B (25 bits: 24
+// and the round bit) with remainder R = A 2^24 - Q B (the sticky bit).
 float f_div(float a, float b) {
     uint a_bits = floatBitsToUint(a);
     uint b_bits = floatBitsToUint(b);
@@ -198,22 +233,34 @@ float f_div(float a, float b) {
     if (a_exponent == 0u || b_exponent == 255u) {
         return uintBitsToFloat(sign);  // 0 / nonzero, finite / inf
     }
-    uint remainder = a_significand | ARITH_HIDDEN_BIT;
+    uint dividend = a_significand | ARITH_HIDDEN_BIT;
     uint divisor = b_significand | ARITH_HIDDEN_BIT;
     int biased_exponent = int(a_exponent) - int(b_exponent) + 127;
-    if (remainder < divisor) {
-        remainder <<= 1;
+    if (dividend < divisor) {
+        dividend <<= 1;
         biased_exponent -= 1;
     }
-    uint quotient = 0u;
-    for (int bit = 0; bit < 25; ++bit) {
-        bool fits = remainder >= divisor;
-        remainder -= fits ? divisor : 0u;
-        quotient = (quotient << 1) | uint(fits);
-        remainder <<= 1;
+    // 2^23 / B, and Q within 8 units (float spacing 2 above 2^24, 1.5e-7 relative error)
+    precise float reciprocal = arith_reciprocal_estimate(
+        uintBitsToFloat(0x3f800000u | b_significand));
+    precise float quotient_estimate = float(dividend) * reciprocal * 2.0;
+    uint quotient = uint(quotient_estimate);
+    int remainder = int((dividend << 24) - quotient * divisor);
+    // remainder / B more quotient units (exact to within one), then the last unit
+    precise float units = floor(float(remainder) * reciprocal * ARITH_TWO_MINUS_23);
+    int steps = int(units);
+    quotient += uint(steps);
+    remainder -= steps * int(divisor);
+    if (remainder < 0) {
+        quotient -= 1u;
+        remainder += int(divisor);
+    }
+    if (remainder >= int(divisor)) {
+        quotient += 1u;
+        remainder -= int(divisor);
     }
     return arith_pack(sign, biased_exponent, quotient >> 1, (quotient & 1u) != 0u,
-                      remainder != 0u);
+                      remainder != 0);
 }
 
 vec2 f_div(vec2 a, vec2 b) {
@@ -232,9 +279,9 @@ vec3 f_div(vec3 a, float b) {
     return vec3(f_div(a.x, b), f_div(a.y, b), f_div(a.z, b));
 }
 
-// sqrt(x) correctly rounded: the digit-by-digit (restoring) square root of the significand
-// scaled to 50 bits, two bits a step, giving 25 root bits (24 and the round bit); the
-// remainder is the sticky bit. sqrt(-0) = -0; sqrt(x < 0) = NaN.
+// sqrt(x) correctly rounded: S = floor(sqrt(X)) of the significand scaled to X = m 2^25
+// (even exponent) or m 2^26 (odd), 25 bits (24 and the round bit), with remainder
+// R = X - S^2 (the sticky bit). sqrt(-0) = -0; sqrt(x < 0) = NaN.
 float f_sqrt(float x) {
     uint bits = floatBitsToUint(x);
     uint biased = (bits >> 23) & 0xffu;
@@ -251,27 +298,40 @@ float f_sqrt(float x) {
     if (biased == 255u) {
         return x;  // +inf
     }
-    // x = m 2^(e-23), m in [2^23, 2^24): the root's 25 bits are floor(sqrt(m 2^25)) for
-    // even e and floor(sqrt(m 2^26)) for odd e; `pending` holds the radicand's top 32 bits
-    // of 50 (the rest are zeros).
     int exponent = int(biased) - 127;
+    bool odd = (exponent & 1) != 0;
     uint m = significand | ARITH_HIDDEN_BIT;
-    uint pending = (exponent & 1) != 0 ? m << 8 : m << 7;
-    uint remainder = 0u;
-    uint root = 0u;
-    for (int step = 0; step < 25; ++step) {
-        remainder = (remainder << 2) | (pending >> 30);
-        pending <<= 2;
-        uint trial = (root << 2) | 1u;
-        bool fits = remainder >= trial;
-        remainder -= fits ? trial : 0u;
-        root = (root << 1) | uint(fits);
+    // X 2^-48 in [1, 4), its root estimated within 1.5e-7 relative: S within 8 units
+    precise float unit = uintBitsToFloat((odd ? 0x40000000u : 0x3f800000u) | significand);
+    precise float inverse_root = arith_inverse_root_estimate(unit);
+    precise float root_estimate = unit * inverse_root * ARITH_TWO_24;
+    uint root = uint(root_estimate);
+    int remainder = int((odd ? m << 26 : m << 25) - root * root);
+    // R / 2S more units (within one), R updated exactly, then the last unit
+    precise float units = floor(float(remainder) * inverse_root * ARITH_TWO_MINUS_25);
+    int steps = int(units);
+    remainder -= steps * (2 * int(root) + steps);
+    root += uint(steps);
+    if (remainder < 0) {
+        remainder += 2 * int(root) - 1;
+        root -= 1u;
+    }
+    if (remainder > 2 * int(root)) {
+        root += 1u;
+        remainder -= 2 * int(root) - 1;
     }
     return arith_pack(0u, (exponent >> 1) + 127, root >> 1, (root & 1u) != 0u,
-                      remainder != 0u);
+                      remainder != 0);
 }
 
 // --- exp, log, pow, sin, cos: range reduction and polynomials of +, -, * ---------------
+//
+// Inside these functions the operations are plain `precise` ones, not flushed: none of
+// their values is subnormal or near 2^-126, except, for tiny arguments, terms that are
+// then added to a value at least 2^24 times larger (r^2 P(r) to r in exp, r^3 S(r^2) to r
+// and r^4 C(r^2) - r^2/2 to 1 in sin and cos, (x 2/pi) to 1/2). Such a sum rounds to the
+// larger value whatever the hardware made of the tiny term (a subnormal, a zero, 2^-126),
+// so the result has the same bits everywhere.
 
 #define ARITH_LOG2_E uintBitsToFloat(0x3fb8aa3bu)   // 1.44269502
 // ln 2 = LN2_HIGH + LN2_LOW (Cody-Waite; LN2_HIGH = 355/512 has 9 bits, so n LN2_HIGH is
@@ -310,17 +370,17 @@ float arith_exp(float x) {
     // e^89 overflows and e^-104 flushes whatever the polynomial gives; the clamp keeps n
     // an int for any x, inf included
     precise float clamped = clamp(x, -104.0, 89.0);
-    precise float n = floor(arith_add(arith_mul(clamped, ARITH_LOG2_E), 0.5));
-    precise float r = arith_sub(arith_sub(clamped, arith_mul(n, ARITH_LN2_HIGH)),
-                                arith_mul(n, ARITH_LN2_LOW));
-    precise float r2 = arith_mul(r, r);
+    precise float n = floor(clamped * ARITH_LOG2_E + 0.5);
+    // r = x for n = 0; otherwise 0 or at least 2^-36 (a multiple of n LN2_LOW's last place)
+    precise float r = (clamped - n * ARITH_LN2_HIGH) - n * ARITH_LN2_LOW;
+    precise float r2 = r * r;
     precise float p = ARITH_EXP_P0;
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P1);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P2);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P3);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P4);
-    p = arith_add(arith_mul(p, r), ARITH_EXP_P5);
-    p = arith_add(arith_add(arith_mul(p, r2), r), 1.0);
+    p = p * r + ARITH_EXP_P1;
+    p = p * r + ARITH_EXP_P2;
+    p = p * r + ARITH_EXP_P3;
+    p = p * r + ARITH_EXP_P4;
+    p = p * r + ARITH_EXP_P5;
+    p = (p * r2 + r) + 1.0;
     return arith_scale(p, int(n));
 }
 
@@ -360,23 +420,24 @@ float arith_log(float x) {
         one_plus_f -= ARITH_HIDDEN_BIT;  // halved, into [sqrt(1/2), 1)
         e += 1;
     }
-    precise float f = arith_sub(uintBitsToFloat(one_plus_f), 1.0);  // exact (Sterbenz)
-    precise float f2 = arith_mul(f, f);
+    // f is 0 or at least 2^-24 in magnitude, and each Horner value 0 or at least 2^-28
+    // (a sum of terms near 0.1), so no value here comes near the subnormals
+    precise float f = uintBitsToFloat(one_plus_f) - 1.0;  // exact (Sterbenz)
+    precise float f2 = f * f;
     precise float q = ARITH_LOG_Q0;
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q1);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q2);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q3);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q4);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q5);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q6);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q7);
-    q = arith_add(arith_mul(q, f), ARITH_LOG_Q8);
-    q = arith_mul(arith_mul(q, f), f2);
+    q = q * f + ARITH_LOG_Q1;
+    q = q * f + ARITH_LOG_Q2;
+    q = q * f + ARITH_LOG_Q3;
+    q = q * f + ARITH_LOG_Q4;
+    q = q * f + ARITH_LOG_Q5;
+    q = q * f + ARITH_LOG_Q6;
+    q = q * f + ARITH_LOG_Q7;
+    q = q * f + ARITH_LOG_Q8;
+    q = (q * f) * f2;
     precise float fe = float(e);
-    q = arith_add(q, arith_mul(fe, ARITH_LN2_LOW));
-    q = arith_sub(q, arith_mul(0.5, f2));
-    precise float result = arith_add(f, q);
-    result = arith_add(result, arith_mul(fe, ARITH_LN2_HIGH));
+    q = q + fe * ARITH_LN2_LOW;
+    q = q - 0.5 * f2;
+    precise float result = (f + q) + fe * ARITH_LN2_HIGH;
     return result;
 }
 
@@ -389,12 +450,15 @@ float f_pow(float x, float y) {
     return arith_exp(arith_mul(f_ftz(y), arith_log(f_ftz(x))));
 }
 
-// x - n pi/2 with pi/2 = PIO2_1 + PIO2_2 + PIO2_3 (Cody-Waite, Cephes' split: 8, 11 and
-// 24 bits, so n PIO2_1 and n PIO2_2 are exact for |n| < 2^13, |x| < 12867)
+// x - n pi/2 with pi/2 = PIO2_1 + PIO2_2 + PIO2_3 + PIO2_4 (Cody-Waite; Cephes' first two
+// parts, 8 and 11 bits, the third 11 bits, so n PIO2_1..3 are exact for |n| < 2^13, that
+// is |x| < 12867; the four parts sum to pi/2 within 2^-64 of it, enough for arguments as
+// close to a multiple of pi/2 as float32 holds: README.md "Portable arithmetic")
 #define ARITH_TWO_OVER_PI uintBitsToFloat(0x3f22f983u)  // 0.636619747
 const float ARITH_PIO2_1 = 1.5703125;
 #define ARITH_PIO2_2 uintBitsToFloat(0x39fda000u)  // 4.83751297e-4
-#define ARITH_PIO2_3 uintBitsToFloat(0x33a22169u)  // 7.54979013e-8
+#define ARITH_PIO2_3 uintBitsToFloat(0x33a22000u)  // 7.54953362e-8
+#define ARITH_PIO2_4 uintBitsToFloat(0x2c34611au)  // 2.56334407e-12
 // Cephes sinf/cosf on |r| <= pi/4: sin r = r + r^3 S(r^2), cos r = 1 - r^2/2 + r^4 C(r^2)
 #define ARITH_SIN_S0 uintBitsToFloat(0xb94ca1f9u)  // -1.95152956e-4
 #define ARITH_SIN_S1 uintBitsToFloat(0x3c08839eu)  //  8.33216123e-3
@@ -406,26 +470,30 @@ const float ARITH_PIO2_1 = 1.5703125;
 // sin r and cos r of the reduced argument, and the quadrant n mod 4 of x, for x finite
 // and not subnormal.
 void arith_sin_cos_reduced(float x, out float sin_r, out float cos_r, out int quadrant) {
-    precise float n = floor(arith_add(arith_mul(x, ARITH_TWO_OVER_PI), 0.5));
-    precise float r = arith_sub(arith_sub(arith_sub(x, arith_mul(n, ARITH_PIO2_1)),
-                                          arith_mul(n, ARITH_PIO2_2)),
-                                arith_mul(n, ARITH_PIO2_3));
+    precise float n = floor(x * ARITH_TWO_OVER_PI + 0.5);
+    // r = x for n = 0; otherwise 0 or at least 2^-62 (a multiple of n PIO2_4's last place)
+    precise float r = x - n * ARITH_PIO2_1;
+    r = r - n * ARITH_PIO2_2;
+    r = r - n * ARITH_PIO2_3;
+    r = r - n * ARITH_PIO2_4;
     // n mod 4, exact for any n: n/4 and 4 floor(n/4) are exact, their difference too
-    precise float n_mod_4 = arith_sub(n, arith_mul(floor(arith_mul(n, 0.25)), 4.0));
+    precise float n_mod_4 = n - floor(n * 0.25) * 4.0;
     quadrant = int(n_mod_4);
-    precise float r2 = arith_mul(r, r);
+    precise float r2 = r * r;
     precise float s = ARITH_SIN_S0;
-    s = arith_add(arith_mul(s, r2), ARITH_SIN_S1);
-    s = arith_add(arith_mul(s, r2), ARITH_SIN_S2);
-    sin_r = arith_add(arith_mul(arith_mul(s, r2), r), r);
+    s = s * r2 + ARITH_SIN_S1;
+    s = s * r2 + ARITH_SIN_S2;
+    precise float sine = (s * r2) * r + r;
+    sin_r = sine;
     precise float c = ARITH_COS_C0;
-    c = arith_add(arith_mul(c, r2), ARITH_COS_C1);
-    c = arith_add(arith_mul(c, r2), ARITH_COS_C2);
-    c = arith_mul(arith_mul(c, r2), r2);
-    cos_r = arith_add(arith_sub(c, arith_mul(0.5, r2)), 1.0);
+    c = c * r2 + ARITH_COS_C1;
+    c = c * r2 + ARITH_COS_C2;
+    c = (c * r2) * r2;
+    precise float cosine = (c - 0.5 * r2) + 1.0;
+    cos_r = cosine;
 }
 
-// sin x; accurate for |x| < 8192 (README.md), NaN for inf and NaN.
+// sin x; accurate for |x| <= 8192 (README.md), NaN for inf and NaN.
 float f_sin(float x) {
     x = f_ftz(x);
     if ((floatBitsToUint(x) & ARITH_MAGNITUDE) >= ARITH_INF) {
@@ -438,7 +506,7 @@ float f_sin(float x) {
     return quadrant >= 2 ? -value : value;
 }
 
-// cos x; accurate for |x| < 8192 (README.md), NaN for inf and NaN.
+// cos x; accurate for |x| <= 8192 (README.md), NaN for inf and NaN.
 float f_cos(float x) {
     x = f_ftz(x);
     if ((floatBitsToUint(x) & ARITH_MAGNITUDE) >= ARITH_INF) {

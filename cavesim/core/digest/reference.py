@@ -1,20 +1,24 @@
-"""The GPU checksum's float-free numpy twin: the same integer passes, for tests and `doctor`.
+"""The GPU checksum's float-free numpy twin: the same integer passes, for tests, `doctor`
+and walls simulated in memory.
 
-Mirrors shaders/checksum/ and include/digest.glsl step by step (see checksum.py for the
-passes and why any changed word changes the digest).
+Mirrors shaders/checksum/ and include/digest.glsl step by step (see
+cavesim/gpu/engine/checksum.py for the passes and why any changed word changes the digest);
+`reference_levels` gives every level of the tree, as the GPU keeps them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
-from cavesim.gpu.engine.checksum import WORDS_PER_GROUP, StateChecksum, group_count
-from cavesim.gpu.engine.programs import (
-    CHECKSUM_FOLD,
-    CHECKSUM_WORDS_PER_THREAD,
-    CHECKSUM_WORKGROUP_SIZE,
+from cavesim.core.digest.shape import (
+    FOLD,
+    WORDS_PER_GROUP,
+    WORDS_PER_THREAD,
+    WORKGROUP_SIZE,
+    StateChecksum,
+    group_count,
 )
+from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 
 _PERMUTE_CONSTANTS = (0x6A09E667, 0xBB67AE85, 0x3C6EF372, 0xA54FF53A)
 _FOLD_IV = (0x510E527F, 0x9B05688C)
@@ -24,25 +28,37 @@ _DIGEST_IV = (0x1F83D9AB, 0x5BE0CD19, 0xCBBB9D5D, 0x629A292A)
 def reference_checksum(particle_words: np.ndarray, emitter_words: np.ndarray,
                        seed: int) -> StateChecksum:
     """The checksum of a state given as the uint32 words of its two live streams."""
+    particle_words, emitter_words = _streams(particle_words, emitter_words)
+    particles = particle_words.size // PARTICLE_WORDS
+    emitters = emitter_words.size // EMITTER_WORDS
+    header = np.array([[seed & 0xFFFFFFFF, seed >> 32, particles, emitters]], dtype=np.uint32)
+    state = _absorb(np.array([_DIGEST_IV], dtype=np.uint32), header)
+    for item in reference_levels(particle_words, emitter_words)[2]:
+        state = _absorb(state, item[None])
+    digest = _permute(_permute(state))
+    return StateChecksum(digest.astype("<u4").tobytes().hex(), particles, emitters)
+
+
+def reference_levels(particle_words: np.ndarray, emitter_words: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tree under the digest: the sums (n, 2), fold 1's and fold 2's items (n, 4)."""
+    particle_words, emitter_words = _streams(particle_words, emitter_words)
+    sums = np.concatenate([reference_sums(particle_words), reference_sums(emitter_words)])
+    items = np.zeros((len(sums), 4), dtype=np.uint32)
+    items[:, :2] = sums
+    level_1 = _fold(items, 1)
+    return sums, level_1, _fold(level_1, 2)
+
+
+def _streams(particle_words: np.ndarray, emitter_words: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
     particle_words = np.asarray(particle_words, dtype=np.uint32).reshape(-1)
     emitter_words = np.asarray(emitter_words, dtype=np.uint32).reshape(-1)
     if particle_words.size % PARTICLE_WORDS or emitter_words.size % EMITTER_WORDS:
         raise ValueError(f"streams must be whole records of {PARTICLE_WORDS} and "
                          f"{EMITTER_WORDS} words, got {particle_words.size} and "
                          f"{emitter_words.size} words")
-    particles = particle_words.size // PARTICLE_WORDS
-    emitters = emitter_words.size // EMITTER_WORDS
-    sums = np.concatenate([reference_sums(particle_words), reference_sums(emitter_words)])
-    items = np.zeros((len(sums), 4), dtype=np.uint32)
-    items[:, :2] = sums
-    for level in (1, 2):
-        items = _fold(items, level)
-    header = np.array([[seed & 0xFFFFFFFF, seed >> 32, particles, emitters]], dtype=np.uint32)
-    state = _absorb(np.array([_DIGEST_IV], dtype=np.uint32), header)
-    for item in items:
-        state = _absorb(state, item[None])
-    digest = _permute(_permute(state))
-    return StateChecksum(digest.astype("<u4").tobytes().hex(), particles, emitters)
+    return particle_words, emitter_words
 
 
 def reference_sums(words: np.ndarray) -> np.ndarray:
@@ -56,23 +72,23 @@ def reference_sums(words: np.ndarray) -> np.ndarray:
     padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)
     padded[: words.size] = lanes
     # invocation t of group g reads words g·WORDS_PER_GROUP + k·WORKGROUP_SIZE + t
-    by_invocation = padded.reshape(groups, CHECKSUM_WORDS_PER_THREAD, CHECKSUM_WORKGROUP_SIZE, 2)
+    by_invocation = padded.reshape(groups, WORDS_PER_THREAD, WORKGROUP_SIZE, 2)
     sums = by_invocation.sum(axis=1, dtype=np.uint64)
     return (sums & 0xFFFFFFFF).astype(np.uint32).reshape(-1, 2)
 
 
 def _fold(items: np.ndarray, level: int) -> np.ndarray:
-    """Fold pass `level`: chunk j of CHECKSUM_FOLD items absorbed in order (all j at once)."""
+    """Fold pass `level`: chunk j of FOLD items absorbed in order (all j at once)."""
     count = len(items)
-    chunks = -(-count // CHECKSUM_FOLD)
+    chunks = -(-count // FOLD)
     state = np.empty((chunks, 4), dtype=np.uint32)
     state[:, 0], state[:, 1] = level, np.arange(chunks)
     state[:, 2:] = _FOLD_IV
-    padded = np.zeros((chunks * CHECKSUM_FOLD, 4), dtype=np.uint32)
+    padded = np.zeros((chunks * FOLD, 4), dtype=np.uint32)
     padded[:count] = items
-    padded = padded.reshape(chunks, CHECKSUM_FOLD, 4)
-    live = (np.arange(chunks * CHECKSUM_FOLD) < count).reshape(chunks, CHECKSUM_FOLD, 1)
-    for k in range(CHECKSUM_FOLD):
+    padded = padded.reshape(chunks, FOLD, 4)
+    live = (np.arange(chunks * FOLD) < count).reshape(chunks, FOLD, 1)
+    for k in range(FOLD):
         state = np.where(live[:, k], _absorb(state, padded[:, k]), state)
     return state
 
