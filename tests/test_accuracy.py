@@ -108,6 +108,22 @@ def test_the_error_sources_are_kept_apart(quick_run):
         assert row.gpu_step_ms > 0 and row.gpu_run_s > 0
 
 
+def test_portable_arithmetic_costs_time_not_accuracy(quick_run):
+    """The portable GPU run differs from the native one by float32 rounding alone, and its
+    step time is measured; a portable run that fell back to native would show no difference
+    anywhere (its own division, sqrt and exp round differently from the built-ins)."""
+    result, _, _ = quick_run
+    for row in result.rows:
+        assert math.isfinite(row.portable_rms) and row.portable_max >= row.portable_rms
+        assert row.arithmetic_rms < FLOAT32_FLOOR, row
+        assert abs(row.portable_rms - row.gpu_rms) <= row.arithmetic_rms + 1e-12, row
+        assert row.portable_step_ms > 0
+    downwash = [r.arithmetic_rms for r in result.rows if r.case == "downwash"]
+    assert max(downwash) > 0, "the rotor flow's divisions, sqrt, exp and pow are the own ones"
+    for summary in result.summaries:
+        assert summary.portable_cost > 0 and summary.to_json()["portable_cost"] > 0
+
+
 def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     result, out, printed = quick_run
     names = ("accuracy.csv", "accuracy.md", "accuracy.json", "work_precision.png")
@@ -123,7 +139,7 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert len(report["summary"]) == 3 * len(METHODS)
     assert [c["name"] for c in report["cases"]] == ["uniform", "vortex", "downwash"]
     text = (out / "accuracy.md").read_text()
-    for heading in ("## uniform", "## vortex", "## downwash", "observed (f64)"):
+    for heading in ("## uniform", "## vortex", "## downwash", "observed (f64)", "portable cost"):
         assert heading in text
     assert all(f"| {m.name} |" in text for m in METHODS)
     png = (out / "work_precision.png").read_bytes()

@@ -67,6 +67,9 @@ def test_ratios_and_rates_follow_from_the_times(bench_run):
             assert ratios[f"{path}_vs_copy"] == pytest.approx(s[path] / s["copy"])
         assert ratios["gs_tf_vs_numpy"] == pytest.approx(s["numpy"] / s["gs_tf_frame"])
         assert ratios["checksum_share"] == pytest.approx(s["checksum"] / s["compute_frame"])
+        for engine in ("gs_tf", "compute"):
+            assert ratios[f"{engine}_portable_cost"] == pytest.approx(
+                s[f"{engine}_portable_frame"] / s[f"{engine}_frame"])
         for path, seconds in s.items():
             assert size["particles_per_s"][path] == pytest.approx(size["particles"] / seconds)
 
@@ -86,13 +89,15 @@ def test_every_target_is_judged_at_the_largest_size_when_its_own_is_missing(benc
 def test_markdown_has_the_table_and_targets(bench_run):
     _, out, _ = bench_run
     text = (out / "bench.md").read_text()
-    assert "| particles | GS/TF frame ms | compute frame ms | compute speedup |" in text
+    assert ("| particles | GS/TF frame ms | compute frame ms | compute speedup | portable GS/TF "
+            "frame ms | portable compute frame ms | portable cost |") in text
     assert "| 2,000 |" in text and "| 5,000 |" in text
     assert all(t.ratio in text for t in TARGETS)
 
 
 def figures(particles: int, compute_frame_s: float = 0.5) -> SizeFigures:
     return SizeFigures(particles, gs_tf_frame_s=2.0, compute_frame_s=compute_frame_s,
+                       gs_tf_portable_frame_s=2.2, compute_portable_frame_s=0.6,
                        gs_tf_update_s=1.5, compute_update_s=0.3, checksum_s=0.05, copy_s=0.1,
                        numpy_s=30.0, gpu_frames=2, numpy_frames=2, live_after=particles)
 

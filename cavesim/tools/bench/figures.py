@@ -11,11 +11,11 @@ from dataclasses import dataclass
 ENGINES = ("gs_tf", "compute")
 # Timed paths, as keys of `seconds`: a whole frame and the particle pass alone per engine
 # path, the checksum, the copy bound and the numpy twin
-PATHS = ("gs_tf_frame", "compute_frame", "gs_tf_update", "compute_update", "checksum",
-         "copy", "numpy")
+PATHS = ("gs_tf_frame", "compute_frame", "gs_tf_portable_frame", "compute_portable_frame",
+         "gs_tf_update", "compute_update", "checksum", "copy", "numpy")
 RATIOS = ("compute_speedup", "gs_tf_frame_vs_copy", "compute_frame_vs_copy",
           "gs_tf_update_vs_copy", "compute_update_vs_copy", "gs_tf_vs_numpy",
-          "checksum_share")
+          "checksum_share", "gs_tf_portable_cost", "compute_portable_cost")
 
 
 @dataclass(frozen=True)
@@ -23,6 +23,8 @@ class SizeFigures:
     particles: int
     gs_tf_frame_s: float  # ParticleSystem.step + checksum on the GS/TF path
     compute_frame_s: float  # the same on the compute path (its one wait is in the checksum)
+    gs_tf_portable_frame_s: float  # the GS/TF frame with [simulation] arithmetic = "portable"
+    compute_portable_frame_s: float  # the compute frame likewise
     gs_tf_update_s: float  # the GS/TF particle pass alone (transform feedback)
     compute_update_s: float  # the compute particle pass alone (in place, survivor masks)
     checksum_s: float  # one ParticleSystem.checksum()
@@ -57,6 +59,16 @@ class SizeFigures:
     def gs_tf_vs_numpy(self) -> float:
         """Speedup of the GS/TF frame over the numpy float32 twin's step."""
         return self.numpy_s / self.gs_tf_frame_s
+
+    @property
+    def gs_tf_portable_cost(self) -> float:
+        """How many times longer a portable-arithmetic GS/TF frame takes than a native one."""
+        return self.gs_tf_portable_frame_s / self.gs_tf_frame_s
+
+    @property
+    def compute_portable_cost(self) -> float:
+        """The same on the compute path."""
+        return self.compute_portable_frame_s / self.compute_frame_s
 
     @property
     def checksum_share(self) -> float:

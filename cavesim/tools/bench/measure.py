@@ -19,7 +19,7 @@ import numpy as np
 from cavesim.core.errors import CavesimError
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.scene.model import CollisionKind, Engine, Scene
+from cavesim.core.scene.model import Arithmetic, CollisionKind, Engine, Scene
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine.particle_system import ParticleSystem
 from cavesim.tools.bench.figures import SizeFigures
@@ -27,7 +27,8 @@ from cavesim.tools.bench.workload import FRAME_DT, frame_inputs, preload
 
 WARMUP_FRAMES = 2
 NUMPY_WARMUP_FRAMES = 1
-GL_PATHS = 6  # timed per size on the GL context: 2 frames, 2 updates, checksum, copy
+GL_PATHS = 8  # timed per size on the GL context: 2 native and 2 portable frames, 2 updates,
+# checksum, copy
 
 Tick = Callable[[str], None]  # called after every warm-up or timed frame, with the path name
 
@@ -76,13 +77,15 @@ def measure_size(ctx: moderngl.Context, scene: Scene, count: int, frames: int,
     records = preload(scene, count, _ground_grid(scene))
     gs_tf = _engine_seconds(ctx, scene, Engine.GS_TF, records, frames, tick)
     compute = _engine_seconds(ctx, scene, Engine.COMPUTE, records, frames, tick)
+    portable = [_portable_frame_seconds(ctx, scene, engine, records, frames, tick)
+                for engine in (Engine.GS_TF, Engine.COMPUTE)]
     copy = _copy_seconds(ctx, records, frames, tick)
     numpy_s = _numpy_twin_seconds(scene, records, frames, tick)
     if (error := ctx.error) != "GL_NO_ERROR":
         raise BenchError(f"GL reported {error} while benchmarking {count} particles")
-    return SizeFigures(count, gs_tf.frame, compute.frame, gs_tf.update, compute.update,
-                       gs_tf.checksum, copy, numpy_s, frames, numpy_frames(frames),
-                       min(gs_tf.live_after, compute.live_after))
+    return SizeFigures(count, gs_tf.frame, compute.frame, *portable, gs_tf.update,
+                       compute.update, gs_tf.checksum, copy, numpy_s, frames,
+                       numpy_frames(frames), min(gs_tf.live_after, compute.live_after))
 
 
 def _ground_grid(scene: Scene) -> HeightGrid | None:
@@ -98,14 +101,7 @@ def _engine_seconds(ctx: moderngl.Context, scene: Scene, engine: Engine,
     """One engine path: whole frames (step + checksum), then its particle pass alone."""
     system = ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
     try:
-        system.write_particles(records)
-        inputs = iter(frame_inputs(scene, WARMUP_FRAMES + frames))
-
-        def frame() -> None:
-            system.step(next(inputs))
-            system.checksum()  # reads back: the frame is done
-
-        frame_s = median_seconds(frame, WARMUP_FRAMES, frames, lambda: tick(f"{engine} frame"))
+        frame_s = _frame_seconds(system, scene, records, frames, lambda: tick(f"{engine} frame"))
         live_after = system.live_count
         checksum_s = median_seconds(system.checksum, WARMUP_FRAMES, frames,
                                     lambda: tick("checksum")) if engine is Engine.GS_TF else 0.0
@@ -114,6 +110,31 @@ def _engine_seconds(ctx: moderngl.Context, scene: Scene, engine: Engine,
     finally:
         system.release()
     return _PathTimes(frame_s, update_s, checksum_s, live_after)
+
+
+def _portable_frame_seconds(ctx: moderngl.Context, scene: Scene, engine: Engine,
+                            records: np.ndarray, frames: int, tick: Tick) -> float:
+    """Whole frames of one engine path with the scene's arithmetic portable."""
+    portable = dataclasses.replace(scene, engine=engine, arithmetic=Arithmetic.PORTABLE)
+    system = ParticleSystem(ctx, portable)
+    try:
+        return _frame_seconds(system, scene, records, frames,
+                              lambda: tick(f"{engine} portable frame"))
+    finally:
+        system.release()
+
+
+def _frame_seconds(system: ParticleSystem, scene: Scene, records: np.ndarray, frames: int,
+                   tick: Callable[[], None]) -> float:
+    """Median whole frame (step, then the checksum that waits for it) from `records`."""
+    system.write_particles(records)
+    inputs = iter(frame_inputs(scene, WARMUP_FRAMES + frames))
+
+    def frame() -> None:
+        system.step(next(inputs))
+        system.checksum()  # reads back: the frame is done
+
+    return median_seconds(frame, WARMUP_FRAMES, frames, tick)
 
 
 def _copy_seconds(ctx: moderngl.Context, records: np.ndarray, frames: int,

@@ -18,7 +18,9 @@ from cavesim.tools.bench.figures import SizeFigures, evaluate_targets
 
 # Two-line column headers: stacked in the terminal, joined by a space in markdown
 HEADERS = (("", "particles"), ("GS/TF", "frame ms"), ("compute", "frame ms"),
-           ("compute", "speedup"), ("GS/TF", "update ms"), ("compute", "update ms"),
+           ("compute", "speedup"), ("portable GS/TF", "frame ms"),
+           ("portable compute", "frame ms"), ("portable", "cost"), ("GS/TF", "update ms"),
+           ("compute", "update ms"),
            ("copy", "ms"), ("GS/TF frame", "vs copy"), ("compute frame", "vs copy"),
            ("checksum", "ms"), ("numpy", "ms"), ("GS/TF", "vs numpy"))
 NOTES = (
@@ -33,6 +35,9 @@ NOTES = (
     "copy is ctx.copy_buffer of the particle state (count x 40 bytes, read and written): the "
     "memory-bandwidth bound on this context",
     "numpy is TwinSystem in float32 on the CPU",
+    "portable: the same frames with [simulation] arithmetic = \"portable\" (own division, "
+    "square root and exp from correctly rounded +, -, *, denormals flushed: the same bits on "
+    "every GPU); cost = portable compute frame / native compute frame",
     "compute_speedup = gs_tf_frame / compute_frame; *_vs_copy = path / copy; "
     "gs_tf_vs_numpy = numpy / gs_tf_frame; checksum_share = checksum / compute_frame",
 )
@@ -50,7 +55,10 @@ def table_rows(sizes: list[SizeFigures]) -> list[tuple[str, ...]]:
               ("gs_tf_frame", "compute_frame")]
         updates = [f"{f.seconds(path) * 1e3:.2f}" for path in ("gs_tf_update", "compute_update")]
         updates.append(f"{f.copy_s * 1e3:.3f}")
+        portable = [f"{f.seconds(path) * 1e3:.2f}" for path in
+                    ("gs_tf_portable_frame", "compute_portable_frame")]
         rows.append((f"{f.particles:,}", *ms, format_ratio("compute_speedup", f.compute_speedup),
+                     *portable, format_ratio("compute_portable_cost", f.compute_portable_cost),
                      *updates, format_ratio("gs_tf_frame_vs_copy", f.gs_tf_frame_vs_copy),
                      format_ratio("compute_frame_vs_copy", f.compute_frame_vs_copy),
                      f"{f.checksum_s * 1e3:.2f}", f"{f.numpy_s * 1e3:.1f}",

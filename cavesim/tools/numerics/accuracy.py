@@ -19,7 +19,6 @@ import moderngl
 import numpy as np
 from rich.console import Console
 
-from cavesim.core.scene.model import FieldSampling
 from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.gl.context import create_context, describe
 from cavesim.tools.numerics.cases import (
@@ -43,7 +42,15 @@ from cavesim.tools.numerics.reference import (
 )
 from cavesim.tools.numerics.report import build_report, write_outputs
 from cavesim.tools.numerics.results import Row, Summary, make_rows, summarize
-from cavesim.tools.numerics.runs import Run, gpu_runs, twin_runs
+from cavesim.tools.numerics.runs import (
+    HARDWARE,
+    MANUAL,
+    PORTABLE,
+    GpuVariant,
+    Run,
+    gpu_runs,
+    twin_runs,
+)
 
 MAX_WORKERS = 4
 
@@ -95,7 +102,7 @@ def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, conso
     workers = workers or min(os.cpu_count() or 1, MAX_WORKERS)
     gl = describe(ctx)
     jobs = _float64_jobs(cases, dts, final_time, workers)
-    gpu_total = sum(len(dts) * len(METHODS) * (2 if c.filtering else 1) for c in cases)
+    gpu_total = sum(len(dts) * len(METHODS) * len(_variants(c)) for c in cases)
     with progress_bar(console) as progress:
         task = progress.add_task("accuracy", total=gpu_total + len(jobs))
 
@@ -113,18 +120,22 @@ def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, conso
     return AccuracyResult(rows, summaries, report, paths)
 
 
+def _variants(case: Case) -> list[GpuVariant]:
+    """Manual trilinear and portable arithmetic always, hardware filtering where asked."""
+    return [MANUAL, PORTABLE] + ([HARDWARE] if case.filtering else [])
+
+
 def _gpu_phase(ctx: moderngl.Context, cases: list[Case], dts: tuple[float, ...],
                final_time: float, tick: Callable[[str], None]
                ) -> dict[tuple[str, str, str], list[Run]]:
-    """GPU runs by (case, integrator, sampling)."""
+    """GPU runs by (case, integrator, variant name)."""
     runs = {}
     for case in cases:
-        samplings = [FieldSampling.MANUAL] + ([FieldSampling.HARDWARE] if case.filtering else [])
         for method in METHODS:
-            for sampling in samplings:
-                label = f"GPU {case.name} {method.name} ({sampling.value})"
-                runs[case.name, method.name, sampling.value] = gpu_runs(
-                    ctx, case, method.integrator, sampling, dts, final_time,
+            for variant in _variants(case):
+                label = f"GPU {case.name} {method.name} ({variant.name})"
+                runs[case.name, method.name, variant.name] = gpu_runs(
+                    ctx, case, method.integrator, variant, dts, final_time,
                     lambda label=label: tick(label))
     return runs
 
@@ -192,10 +203,10 @@ def _evaluate(cases: list[Case], gpu: dict, done: dict,
         reference = _reference(case, done, final_time)
         scale = float(np.sqrt(np.mean(np.sum(reference.pos**2, axis=1))))
         for method in METHODS:
-            hardware = gpu.get((case.name, method.name, FieldSampling.HARDWARE.value))
-            case_rows = make_rows(case, method, reference,
-                                  gpu[case.name, method.name, FieldSampling.MANUAL.value],
-                                  done["twin", case.name, method.name], hardware, scale)
+            hardware = gpu.get((case.name, method.name, HARDWARE.name))
+            case_rows = make_rows(case, method, reference, gpu[case.name, method.name, MANUAL.name],
+                                  done["twin", case.name, method.name], hardware,
+                                  gpu[case.name, method.name, PORTABLE.name], scale)
             rows += case_rows
             summaries.append(summarize(case, method, case_rows, REPORT_DT))
     return rows, summaries

@@ -24,7 +24,13 @@ from cavesim.core.errors import SceneError
 from cavesim.core.helicopter.rotor import induced_velocity
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
-from cavesim.core.scene.model import AIR_VISCOSITY, FieldSampling, Integrator, Scene
+from cavesim.core.scene.model import (
+    AIR_VISCOSITY,
+    Arithmetic,
+    FieldSampling,
+    Integrator,
+    Scene,
+)
 from cavesim.core.scene_frame import RotorFrame, SceneFrame
 
 FINAL_TIME = 1.0  # s: a whole number of steps of every dt below
@@ -62,10 +68,12 @@ class Case:
     filtering: bool = False  # also run with hardware filtering and compare with manual
     source: Path | None = None  # the scene file, for errors
 
-    def scene(self, integrator: Integrator,
-              sampling: FieldSampling = FieldSampling.MANUAL) -> Scene:
+    def scene(self, integrator: Integrator, sampling: FieldSampling = FieldSampling.MANUAL,
+              arithmetic: Arithmetic = Arithmetic.NATIVE) -> Scene:
         data = copy.deepcopy(self.data)
         data["simulation"]["integrator"] = integrator.value
+        if arithmetic is not Arithmetic.NATIVE:
+            data["simulation"]["arithmetic"] = arithmetic.value
         if sampling is not FieldSampling.MANUAL:
             data["field"]["sampling"] = sampling.value
         return parse_scene(data, self.source, self.name)

@@ -13,7 +13,7 @@ from cavesim.tools.numerics.results import Summary
 
 TERMINAL_HEADERS = ("integrator", "order", "expected", "observed (f64)", "verdict",
                     "GPU RMS (m)", "f64 RMS (m)", "float32 floor (m)", "filtering (m)",
-                    "GPU ms/step")
+                    "GPU ms/step", "portable RMS (m)", "portable cost")
 VERDICT_STYLES = {"ok": "green", "exact": "green", "OFF": "bold red", "NOT exact": "bold red"}
 
 

@@ -23,7 +23,8 @@ from cavesim.tools.numerics.results import Row, Summary, dt_label
 
 HEADERS = ("integrator", "order", "expected", "observed (f64)", "fit over", "verdict",
            "GPU RMS (m)", "GPU max (m)", "f64 RMS (m)", "float32 floor (m)", "filtering (m)",
-           "GPU ms/step", "GPU ns/particle", "hw-filter ms/step")
+           "GPU ms/step", "GPU ns/particle", "hw-filter ms/step", "portable RMS (m)",
+           "portable vs native (m)", "portable ms/step", "portable cost")
 NOTES = (
     "GPU = the engine in float32 with manual trilinear sampling; f64 = the numpy twin in "
     "float64 with the same method and dt (time-stepping error alone); both against the "
@@ -42,6 +43,10 @@ NOTES = (
     f"{order_rule.FIT_POINTS} finest dts whose error exceeds {order_rule.ROUND_OFF_MARGIN:g} "
     f"times the float64 round-off n steps can accumulate (n eps |x|); fewer than "
     f"{order_rule.MIN_FIT_POINTS} such dts give no order",
+    "portable = the GPU with [simulation] arithmetic = \"portable\" (own division, square "
+    "root, exp, log, sin and cos from correctly rounded +, -, *, denormals flushed: the same "
+    "bits on every GPU) against the reference; portable vs native = the largest RMS "
+    "|portable GPU - native GPU| over the dts; cost = portable ms/step / GPU ms/step",
     "GPU ms/step is the median wall time of one ParticleSystem.step + ctx.finish(); "
     "run time to T in the plot and CSV is steps x median",
 )
@@ -74,8 +79,9 @@ def table_rows(summaries: list[Summary]) -> list[tuple[str, ...]]:
     return [(s.integrator, str(s.order), _expected(s), _observed(s), _fit_range(s), s.verdict,
              _e(s.gpu_rms), _e(s.gpu_max), _e(s.twin_rms), _e(s.float32_floor),
              _e(s.filtering_rms), f"{s.gpu_step_ms:.3f}", f"{s.gpu_ns_per_particle:.1f}",
-             "-" if math.isnan(s.hardware_step_ms) else f"{s.hardware_step_ms:.3f}")
-            for s in summaries]
+             "-" if math.isnan(s.hardware_step_ms) else f"{s.hardware_step_ms:.3f}",
+             _e(s.portable_rms), _e(s.arithmetic_floor), f"{s.portable_step_ms:.3f}",
+             f"{s.portable_cost:.2f}x") for s in summaries]
 
 
 def _reference_text(case: Case, dts: tuple[float, ...]) -> str:

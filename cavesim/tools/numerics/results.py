@@ -5,7 +5,9 @@ Error sources, kept apart:
   gpu        GPU (float32, manual trilinear) against the float64 reference: everything;
   twin       float64 twin against the reference: time stepping alone;
   float32    GPU against the float64 twin of the same method and dt: float32 arithmetic;
-  filtering  GPU with hardware filtering against the GPU with manual trilinear.
+  filtering  GPU with hardware filtering against the GPU with manual trilinear;
+  portable   GPU with portable arithmetic against the reference, and against the native
+             GPU (arithmetic): what the same bits on every GPU cost in accuracy.
 """
 
 from __future__ import annotations
@@ -54,6 +56,10 @@ class Row:
     gpu_ns_per_particle: float  # per step
     gpu_run_s: float  # steps * median step: the GPU's cost of reaching T
     hardware_step_ms: float  # median step with hardware filtering; NaN where not run
+    portable_rms: float  # GPU with [simulation] arithmetic = "portable" against the reference
+    portable_max: float
+    arithmetic_rms: float  # RMS |portable GPU - native GPU|
+    portable_step_ms: float  # median step with portable arithmetic
 
     def to_json(self) -> dict[str, object]:
         return {k: (None if isinstance(v, float) and math.isnan(v) else v)
@@ -61,10 +67,11 @@ class Row:
 
 
 def make_rows(case: Case, method: Method, reference: Reference, gpu: list[Run],
-              twin: list[Run], hardware: list[Run] | None, scale: float) -> list[Row]:
+              twin: list[Run], hardware: list[Run] | None, portable: list[Run],
+              scale: float) -> list[Row]:
     """The rows of one case and method; `scale` is the RMS size of the final positions."""
     rows = []
-    for k, (g, t) in enumerate(zip(gpu, twin, strict=True)):
+    for k, (g, t, p) in enumerate(zip(gpu, twin, portable, strict=True)):
         ref = reference.position_at(t.end_time)
         hw = rms_and_max(hardware[k].pos, g.pos) if hardware else (NAN, NAN)
         rows.append(Row(case.name, method.name, g.dt, dt_label(g.dt), g.steps,
@@ -72,7 +79,9 @@ def make_rows(case: Case, method: Method, reference: Reference, gpu: list[Run],
                         *rms_and_max(g.pos, t.pos), *hw, round_off_floor(t.steps, scale),
                         g.step_seconds * 1e3, g.step_seconds / len(g.pos) * 1e9,
                         g.steps * g.step_seconds,
-                        hardware[k].step_seconds * 1e3 if hardware else NAN))
+                        hardware[k].step_seconds * 1e3 if hardware else NAN,
+                        *rms_and_max(p.pos, ref), rms_and_max(p.pos, g.pos)[0],
+                        p.step_seconds * 1e3))
     return rows
 
 
@@ -95,10 +104,18 @@ class Summary:
     float32_floor: float  # RMS |GPU - twin| at the finest dt: where float32 dominates
     filtering_rms: float  # at the report dt; NaN where not run
     hardware_step_ms: float  # at the report dt; NaN where not run
+    portable_rms: float  # at the report dt
+    arithmetic_floor: float  # largest RMS |portable GPU - native GPU| over the dts
+    portable_step_ms: float  # at the report dt
+
+    @property
+    def portable_cost(self) -> float:
+        """How many times longer a portable step takes than a native one (report dt)."""
+        return self.portable_step_ms / self.gpu_step_ms
 
     def to_json(self) -> dict[str, object]:
         return {k: (None if isinstance(v, float) and math.isnan(v) else v)
-                for k, v in asdict(self).items()}
+                for k, v in {**asdict(self), "portable_cost": self.portable_cost}.items()}
 
 
 def summarize(case: Case, method: Method, rows: list[Row], report_dt: float) -> Summary:
@@ -118,5 +135,6 @@ def summarize(case: Case, method: Method, rows: list[Row], report_dt: float) -> 
     return Summary(case.name, method.name, method.order, expected, fit.order,
                    tuple(dt_label(dt) for dt in fit.dts), exact, verdict, twin_max_error,
                    at.gpu_rms, at.gpu_max, at.twin_rms, at.gpu_step_ms, at.gpu_ns_per_particle,
-                   finest.float32_rms, at.filtering_rms, at.hardware_step_ms)
+                   finest.float32_rms, at.filtering_rms, at.hardware_step_ms, at.portable_rms,
+                   max(r.arithmetic_rms for r in rows), at.portable_step_ms)
 

@@ -16,7 +16,7 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import CavesimError
-from cavesim.core.scene.model import FieldSampling, Integrator
+from cavesim.core.scene.model import Arithmetic, FieldSampling, Integrator
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.numerics.cases import Case
@@ -27,6 +27,20 @@ WARMUP_STEPS = 2  # untimed, on a throwaway copy of the state: shader JIT, first
 
 class AccuracyError(CavesimError, RuntimeError):
     """A run lost particles or left GL in an error state: its errors would be meaningless."""
+
+
+@dataclass(frozen=True)
+class GpuVariant:
+    """How the GPU runs a case: its field sampling and its arithmetic."""
+
+    name: str
+    sampling: FieldSampling = FieldSampling.MANUAL
+    arithmetic: Arithmetic = Arithmetic.NATIVE
+
+
+MANUAL = GpuVariant("manual")  # the engine's default: manual trilinear, native arithmetic
+HARDWARE = GpuVariant("hardware", sampling=FieldSampling.HARDWARE)
+PORTABLE = GpuVariant("portable", arithmetic=Arithmetic.PORTABLE)
 
 
 @dataclass(frozen=True)
@@ -46,11 +60,11 @@ def end_time(final_time: float, dt: float) -> float:
     return steps_to(final_time, dt) * float(np.float32(dt))
 
 
-def gpu_runs(ctx: moderngl.Context, case: Case, integrator: Integrator, sampling: FieldSampling,
+def gpu_runs(ctx: moderngl.Context, case: Case, integrator: Integrator, variant: GpuVariant,
              dts: tuple[float, ...], final_time: float,
              tick: Callable[[], None] = lambda: None) -> list[Run]:
     """Final positions and step times of the GPU engine, one run per dt."""
-    system = ParticleSystem(ctx, case.scene(integrator, sampling))
+    system = ParticleSystem(ctx, case.scene(integrator, variant.sampling, variant.arithmetic))
     try:
         system.write_particles(case.particles)
         for _ in range(WARMUP_STEPS):
@@ -64,7 +78,7 @@ def gpu_runs(ctx: moderngl.Context, case: Case, integrator: Integrator, sampling
         system.release()
     if (error := ctx.error) != "GL_NO_ERROR":
         raise AccuracyError(f"GL reported {error} running {case.name} with {integrator.value} "
-                            f"({sampling.value} sampling)")
+                            f"({variant.name})")
     return runs
 
 
