@@ -34,7 +34,7 @@ from cavesim.gpu.engine.programs import (
     feature_combinations,
     scene_programs,
 )
-from cavesim.gpu.gl.arithmetic_probe import ARITHMETIC_MODES, ARITHMETIC_PROBE, probe_defines
+from cavesim.gpu.gl.arithmetic_probe import ARITHMETIC_PROBE, probe_defines
 from cavesim.gpu.gl.denormal_probe import DENORMAL_PROBE_DISPATCH, DENORMAL_PROBE_DRAW
 from cavesim.gpu.gl.filtering import FILTER_PROBE
 from cavesim.gpu.render.programs import render_combinations, render_programs
@@ -89,7 +89,7 @@ def all_builds(scene_dir: Path) -> list[Build]:
     add([*feature_combinations(), *render_combinations()], "feature combination")
     add([(FILTER_PROBE, {}), (DENORMAL_PROBE_DRAW, {}), (DENORMAL_PROBE_DISPATCH, {})],
         "probe")
-    add([(ARITHMETIC_PROBE, probe_defines("f_normalize vec3", mode)) for mode in ARITHMETIC_MODES],
+    add([(ARITHMETIC_PROBE, probe_defines("f_normalize vec3", mode)) for mode in ARITHMETIC_IDS],
         "probe")
     return list(builds.values())
 
