@@ -17,7 +17,15 @@ from pathlib import Path
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from cavesim.core._grids import cells, check_box, corner_of, float_grid, mix, read_npz
+from cavesim.core._grids import (
+    cells,
+    check_box,
+    corner_of,
+    float_grid,
+    index_scale,
+    mix,
+    read_npz,
+)
 from cavesim.core.errors import FieldError
 from cavesim.core.flows import MODELS
 from cavesim.core.interpolation import is_cubic, texels, weights
@@ -70,6 +78,11 @@ class FieldGrid:
         """Texels per axis as (nx, ny, nz): the resolution, plus the ghosts of a cubic."""
         nz, ny, nx, _ = self.texels.shape
         return nx, ny, nz
+
+    @property
+    def index_scale(self) -> np.ndarray:
+        """Grid index per metre on each axis, float32: the shader's uniform of this name."""
+        return index_scale(self.box_min, self.box_max, self.resolution)
 
 
 def build_field(field: Field) -> FieldGrid:
