@@ -34,10 +34,14 @@ of that factor per axis (1/8 and 1/216 in 3D), so a shader multiplies by exact c
 from __future__ import annotations
 
 import math
+import operator
+from collections.abc import Callable
 
 import numpy as np
 
 from cavesim.core.scene.model import FieldInterpolation
+
+Arithmetic = Callable[[object, object], np.ndarray]
 
 # Per cubic: (the weights' factor per axis, the m-th-difference end rule's largest m, (a, b)
 # of the inner weights w1 = (3t − a) t² + b and w2 = (3s − a) s² + b with s = 1 − t).
@@ -84,11 +88,16 @@ def axis_map(n: int, interpolation: FieldInterpolation) -> np.ndarray:
     return np.linalg.solve(system, np.vstack([np.eye(n), np.zeros((2, n))]))
 
 
-def weights(t: np.ndarray, interpolation: FieldInterpolation) -> tuple[np.ndarray, ...]:
-    """The four integer-polynomial weights of texels i0 … i0 + 3 at fractions t in [0, 1]."""
+def weights(t: np.ndarray, interpolation: FieldInterpolation, add: Arithmetic = operator.add,
+            sub: Arithmetic = operator.sub, mul: Arithmetic = operator.mul
+            ) -> tuple[np.ndarray, ...]:
+    """The four integer-polynomial weights of texels i0 … i0 + 3 at fractions t in [0, 1],
+    in the shader's operation order (shaders/include/field.glsl cubic_weights) with the
+    given arithmetic: numpy's operators, or the portable twin's f_add, f_sub, f_mul."""
     _, _, (a, b) = _CUBICS[interpolation]
-    s = 1 - t
-    inner = ((3 * t - a) * (t * t) + b, (3 * s - a) * (s * s) + b)
+    s = sub(1, t)
+    t2, s2 = mul(t, t), mul(s, s)
+    inner = add(mul(sub(mul(3, t), a), t2), b), add(mul(sub(mul(3, s), a), s2), b)
     if interpolation is FieldInterpolation.BSPLINE:
-        return s * s * s, *inner, t * t * t
-    return -t * (s * s), *inner, -s * (t * t)
+        return mul(s2, s), *inner, mul(t2, t)
+    return -mul(t, s2), *inner, -mul(s, t2)
