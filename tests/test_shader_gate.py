@@ -41,9 +41,9 @@ def test_the_gate_covers_every_scene_and_every_feature_combination(builds):
     combinations = 1
     for values in PHYSICS_FEATURES.values():
         combinations *= len(values)
-    assert combinations >= 2 * 2 * 2 * 3 * 7 * 2 * 2 * 2 * 2
+    assert combinations >= 2 * 2 * 2 * 3 * 8 * 2 * 2 * 2 * 2
     assert len(physics) >= combinations  # the product, plus the scenes' own class counts
-    assert {dict(b.defines)["INTEGRATOR"] for b in physics} == set(range(7))
+    assert {dict(b.defines)["INTEGRATOR"] for b in physics} == set(range(8))
     assert any(dict(b.defines).get("CLASS_COUNT") == MAX_PARTICLE_CLASSES
                for b in builds if b.spec == DUST)
 

@@ -36,10 +36,14 @@ class Method:
         return self.order if order_limit is None else min(self.order, order_limit)
 
 
+# The exponential methods solve the linear part (drag, damping, dp/dt = v) exactly and
+# approximate only how the forcing u(p)/tau + g changes along the path: the exponential step
+# holds it, ETD2RK takes it linear in time. With a uniform flow it does not change, so both are
+# the closed form itself.
+EXPONENTIAL_METHODS = frozenset({Integrator.EXPONENTIAL, Integrator.ETD2RK})
+
 METHODS: tuple[Method, ...] = tuple(
-    # the exponential step holds the flow over the step and solves the rest exactly: with a
-    # uniform flow nothing is held, so it is the closed form itself
     Method(i, ORDERS[i], ORDER_TOLERANCE,
-           frozenset({"uniform"}) if i is Integrator.EXPONENTIAL else frozenset())
+           frozenset({"uniform"}) if i in EXPONENTIAL_METHODS else frozenset())
     for i in Integrator)
 

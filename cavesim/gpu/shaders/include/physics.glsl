@@ -2,6 +2,7 @@
 // compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING), one
 // INTEGRATOR and one COLLISION kind; cavesim/twin/ holds the float64 twin of every line.
 #pragma once
+#include "arithmetic.glsl"
 
 #define INTEGRATOR_EXPLICIT_EULER 0
 #define INTEGRATOR_SEMI_IMPLICIT_EULER 1
@@ -10,6 +11,7 @@
 #define INTEGRATOR_RK2 4
 #define INTEGRATOR_RK4 5
 #define INTEGRATOR_EXPONENTIAL 6
+#define INTEGRATOR_ETD2RK 7
 #define COLLISION_NONE 0
 #define COLLISION_PLANE 1
 #define COLLISION_HEIGHTFIELD 2
@@ -74,75 +76,151 @@ void linear_parts(vec3 p, float inv_tau_p, out vec3 f, out float lambda) {
 #endif
 }
 
-#if INTEGRATOR == INTEGRATOR_EXPONENTIAL
+#if INTEGRATOR == INTEGRATOR_EXPONENTIAL || INTEGRATOR == INTEGRATOR_ETD2RK
+// 1/k! of the series below, as exact bits: how a literal such as 1.0 / 6.0 is rounded is
+// up to the compiler (macros: glslang refuses uintBitsToFloat in a const initializer;
+// cavesim/core/portable/constants.py holds the same bits)
+#define INV_FACTORIAL_3 uintBitsToFloat(0x3E2AAAABu)
+#define INV_FACTORIAL_4 uintBitsToFloat(0x3D2AAAABu)
+#define INV_FACTORIAL_5 uintBitsToFloat(0x3C088889u)
+#define INV_FACTORIAL_6 uintBitsToFloat(0x3AB60B61u)
+#define INV_FACTORIAL_7 uintBitsToFloat(0x39500D01u)
+#define INV_FACTORIAL_8 uintBitsToFloat(0x37D00D01u)
+
 // phi1(x) = (1 - e^-x) / x and phi2(x) = (x - 1 + e^-x) / x^2, by series where the closed
 // forms cancel catastrophically in float32.
 void exponential_weights(float x, out float e, out float phi1, out float phi2) {
-    e = exp(-x);
+    e = f_exp(-x);
     if (x < 0.5) {
-        phi1 = 1.0 - x * (1.0 / 2.0 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0
-               - x * (1.0 / 720.0 - x * (1.0 / 5040.0))))));
-        phi2 = 1.0 / 2.0 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0
-               - x * (1.0 / 720.0 - x * (1.0 / 5040.0 - x * (1.0 / 40320.0))))));
+        float tail1 = f_sub(INV_FACTORIAL_6, f_mul(x, INV_FACTORIAL_7));
+        tail1 = f_sub(INV_FACTORIAL_5, f_mul(x, tail1));
+        tail1 = f_sub(INV_FACTORIAL_4, f_mul(x, tail1));
+        tail1 = f_sub(INV_FACTORIAL_3, f_mul(x, tail1));
+        tail1 = f_sub(0.5, f_mul(x, tail1));
+        phi1 = f_sub(1.0, f_mul(x, tail1));
+        float tail2 = f_sub(INV_FACTORIAL_7, f_mul(x, INV_FACTORIAL_8));
+        tail2 = f_sub(INV_FACTORIAL_6, f_mul(x, tail2));
+        tail2 = f_sub(INV_FACTORIAL_5, f_mul(x, tail2));
+        tail2 = f_sub(INV_FACTORIAL_4, f_mul(x, tail2));
+        tail2 = f_sub(INV_FACTORIAL_3, f_mul(x, tail2));
+        phi2 = f_sub(0.5, f_mul(x, tail2));
     } else {
-        phi1 = (1.0 - e) / x;
-        phi2 = (x - 1.0 + e) / (x * x);
+        phi1 = f_div(f_sub(1.0, e), x);
+        phi2 = f_div(f_add(f_sub(x, 1.0), e), f_mul(x, x));
     }
 }
 #endif
 
+#if INTEGRATOR == INTEGRATOR_ETD2RK
+#define INV_FACTORIAL_9 uintBitsToFloat(0x3638EF1Du)
+#define INV_FACTORIAL_10 uintBitsToFloat(0x3493F27Eu)
+#define INV_FACTORIAL_11 uintBitsToFloat(0x32D7322Bu)
+
+// phi3(x) = (x^2/2 - x + 1 - e^-x) / x^3 = (1/2 - phi2) / x; below x = 1, where that
+// cancels, its series to x^8/11! (the first term left out is below 2e-8 of phi3).
+float phi3_weight(float x, float phi2) {
+    if (x < 1.0) {
+        float tail = f_sub(INV_FACTORIAL_10, f_mul(x, INV_FACTORIAL_11));
+        tail = f_sub(INV_FACTORIAL_9, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_8, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_7, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_6, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_5, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_4, f_mul(x, tail));
+        return f_sub(INV_FACTORIAL_3, f_mul(x, tail));
+    }
+    return f_div(f_sub(0.5, phi2), x);
+}
+#endif
+
+// Every method moves the position in ONE addition of a whole increment (p += h * (...)),
+// and the implicit ones step the velocity by an increment of the acceleration r = f - lambda v
+// rather than by weights that decay it: a weight near 1 (e^-x, 1 / (1 + x)) rounded to float32
+// is the same relative error every step, a drift that grows as dt shrinks. So float32 adds only
+// the rounding of the stored state (README: the float32 floor).
 void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #if INTEGRATOR == INTEGRATOR_EXPLICIT_EULER
     vec3 a = acceleration(p, v, inv_tau_p);
-    p += h * v;
-    v += h * a;
+    p = f_add(p, f_mul(h, v));
+    v = f_add(v, f_mul(h, a));
 #elif INTEGRATOR == INTEGRATOR_SEMI_IMPLICIT_EULER
     // linearly implicit in the stiff drag and damping, explicit in the rest; the new
-    // velocity moves the position. Stable for any tau: v' = (v + h f) / (1 + h lambda)
+    // velocity moves the position. Stable for any tau: v' = v + h (f - lambda v) / (1 + h lambda)
     vec3 f;
     float lambda;
     linear_parts(p, inv_tau_p, f, lambda);
-    v = (v + h * f) / (1.0 + h * lambda);
-    p += h * v;
+    float weight = f_div(h, f_add(1.0, f_mul(h, lambda)));
+    v = f_add(v, f_mul(weight, f_sub(f, f_mul(lambda, v))));
+    p = f_add(p, f_mul(h, v));
 #elif INTEGRATOR == INTEGRATOR_TRAPEZOID
     // UberFlow eq. (1)-(2): Euler velocity, position from the mean of old and new velocity
-    vec3 v1 = v + h * acceleration(p, v, inv_tau_p);
-    p += 0.5 * h * (v + v1);
+    float half_h = f_mul(0.5, h);
+    vec3 v1 = f_add(v, f_mul(h, acceleration(p, v, inv_tau_p)));
+    p = f_add(p, f_mul(half_h, f_add(v, v1)));
     v = v1;
 #elif INTEGRATOR == INTEGRATOR_VERLET
     // velocity Verlet; the drag's velocity dependence is met with an Euler-predicted velocity
+    float half_h = f_mul(0.5, h);
     vec3 a0 = acceleration(p, v, inv_tau_p);
-    p += h * v + (0.5 * h * h) * a0;
-    vec3 a1 = acceleration(p, v + h * a0, inv_tau_p);
-    v += (0.5 * h) * (a0 + a1);
+    p = f_add(p, f_mul(h, f_add(v, f_mul(half_h, a0))));
+    vec3 a1 = acceleration(p, f_add(v, f_mul(h, a0)), inv_tau_p);
+    v = f_add(v, f_mul(half_h, f_add(a0, a1)));
 #elif INTEGRATOR == INTEGRATOR_RK2
     // explicit midpoint
+    float half_h = f_mul(0.5, h);
     vec3 a0 = acceleration(p, v, inv_tau_p);
-    vec3 pm = p + (0.5 * h) * v;
-    vec3 vm = v + (0.5 * h) * a0;
-    p += h * vm;
-    v += h * acceleration(pm, vm, inv_tau_p);
+    vec3 pm = f_add(p, f_mul(half_h, v));
+    vec3 vm = f_add(v, f_mul(half_h, a0));
+    p = f_add(p, f_mul(h, vm));
+    v = f_add(v, f_mul(h, acceleration(pm, vm, inv_tau_p)));
 #elif INTEGRATOR == INTEGRATOR_RK4
+    float half_h = f_mul(0.5, h);
     vec3 k1p = v;
     vec3 k1v = acceleration(p, v, inv_tau_p);
-    vec3 k2p = v + (0.5 * h) * k1v;
-    vec3 k2v = acceleration(p + (0.5 * h) * k1p, k2p, inv_tau_p);
-    vec3 k3p = v + (0.5 * h) * k2v;
-    vec3 k3v = acceleration(p + (0.5 * h) * k2p, k3p, inv_tau_p);
-    vec3 k4p = v + h * k3v;
-    vec3 k4v = acceleration(p + h * k3p, k4p, inv_tau_p);
-    p += (h / 6.0) * (k1p + 2.0 * k2p + 2.0 * k3p + k4p);
-    v += (h / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    vec3 k2p = f_add(v, f_mul(half_h, k1v));
+    vec3 k2v = acceleration(f_add(p, f_mul(half_h, k1p)), k2p, inv_tau_p);
+    vec3 k3p = f_add(v, f_mul(half_h, k2v));
+    vec3 k3v = acceleration(f_add(p, f_mul(half_h, k2p)), k3p, inv_tau_p);
+    vec3 k4p = f_add(v, f_mul(h, k3v));
+    vec3 k4v = acceleration(f_add(p, f_mul(h, k3p)), k4p, inv_tau_p);
+    vec3 dp = f_add(f_add(f_add(k1p, f_mul(2.0, k2p)), f_mul(2.0, k3p)), k4p);
+    vec3 dv = f_add(f_add(f_add(k1v, f_mul(2.0, k2v)), f_mul(2.0, k3v)), k4v);
+    float sixth_h = f_div(h, 6.0);
+    p = f_add(p, f_mul(sixth_h, dp));
+    v = f_add(v, f_mul(sixth_h, dv));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
-    // Exact solution of dv/dt = f - lambda v with the flow held at its value at p:
-    // f = u(p)/tau + g, lambda = 1/tau + k. Stable for any step (stiff fine dust).
+    // Exponential Euler: exact solution of dv/dt = f - lambda v with the flow held at its
+    // value at p: f = u(p)/tau + g, lambda = 1/tau + k. Stable for any step (stiff fine
+    // dust). Increment form: r = f - lambda v, p += h (v + h phi2 r), v += h phi1 r.
     vec3 f;
     float lambda;
     linear_parts(p, inv_tau_p, f, lambda);
     float e, phi1, phi2;
-    exponential_weights(lambda * h, e, phi1, phi2);
-    p += (h * phi1) * v + (h * h * phi2) * f;
-    v = e * v + (h * phi1) * f;
+    exponential_weights(f_mul(lambda, h), e, phi1, phi2);
+    vec3 r = f_sub(f, f_mul(lambda, v));
+    p = f_add(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))));
+    v = f_add(v, f_mul(f_mul(h, phi1), r));
+#elif INTEGRATOR == INTEGRATOR_ETD2RK
+    // ETD2RK (Cox & Matthews 2002), order 2 and stable for any step: the exponential step
+    // predicts pa, the forcing is taken linear in time from f(p) to f(pa) (d = f(pa) - f(p)),
+    // and the linear part is solved exactly against it (twin: etd2rk in
+    // cavesim/core/twin/integrators.py, which derives the position's weights):
+    //   p' = p + h (v + h phi2 r + h phi3 d),  v' = v + h (phi1 r + phi2 d)
+    vec3 f;
+    float lambda;
+    linear_parts(p, inv_tau_p, f, lambda);
+    float x = f_mul(lambda, h);
+    float e, phi1, phi2;
+    exponential_weights(x, e, phi1, phi2);
+    float phi3 = phi3_weight(x, phi2);
+    vec3 r = f_sub(f, f_mul(lambda, v));
+    vec3 w = f_add(v, f_mul(f_mul(h, phi2), r));
+    vec3 fa;
+    float lambda_a;  // lambda does not depend on the position
+    linear_parts(f_add(p, f_mul(h, w)), inv_tau_p, fa, lambda_a);
+    vec3 d = f_sub(fa, f);
+    p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))));
+    v = f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))));
 #else
 #error unknown INTEGRATOR
 #endif
