@@ -89,7 +89,7 @@ def _phi_series(x: np.ndarray, k: int) -> np.ndarray:
 def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """e^-x, phi1 = (1 - e^-x)/x and phi2 = (x - 1 + e^-x)/x^2, accurate for all x >= 0.
 
-    phi_k(x) here is phi_k(-x) of Hochbruck & Ostermann (2010), Acta Numerica 19, eq. (2.10):
+    phi_k(x) here is phi_k(-x) of Hochbruck & Ostermann (2010), Acta Numerica 19, 209-286:
     the weights of the exact solution of dv/dt = f - x/h v over a step h.
     """
     series = x < SERIES_BELOW
@@ -119,7 +119,7 @@ def exponential(p, v, h, forces):
 
 
 def etd2rk(p, v, h, forces):
-    """ETD2RK of Cox & Matthews (2002), J. Comput. Phys. 176, eq. (22), order 2, for
+    """ETD2RK of Cox & Matthews (2002), J. Comput. Phys. 176, 430-455, order 2, for
     dv/dt = F(p) - lambda v, dp/dt = v, with F(p) = u(p)/tau + g and lambda = 1/tau + k.
 
     The linear part, drag and dp/dt = v, is integrated exactly; F is interpolated linearly
@@ -133,7 +133,7 @@ def etd2rk(p, v, h, forces):
     exact solution, integrated once more: phi_k -> phi_k+1). Exact wherever F is constant
     along the path (uniform flow), stable for any h/tau (the stiff part is never stepped
     explicitly); its stiff order is 2 (Hochbruck & Ostermann 2005, SIAM J. Numer. Anal. 43,
-    the order conditions b1 + b2 = phi1, b2 c2 = phi2 with c2 = 1).
+    1069-1090: the conditions b1 + b2 = phi1, b2 c2 = phi2 hold with c2 = 1).
     """
     f, lam = forces.linear_parts(p)
     x = lam * h
