@@ -1,6 +1,9 @@
 // The forces on a particle and the integrators that advance it by one step. Each scene
 // compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING), one
-// INTEGRATOR and one COLLISION kind; cavesim/twin/ holds the float64 twin of every line.
+// INTEGRATOR and one COLLISION kind; cavesim/core/twin/ holds the float64 twin of every
+// line. Every float operation goes through arithmetic.glsl (f_add, f_mul, ...): plain
+// operators for ARITHMETIC_NATIVE, the same bits on every GPU for ARITHMETIC_PORTABLE,
+// mirrored operation by operation in float32 by cavesim/core/portable/.
 #pragma once
 #include "arithmetic.glsl"
 
@@ -49,13 +52,13 @@ float inverse_relaxation_time(uint class_id) {
 vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
     vec3 a = vec3(0.0);
 #if HAS_DRAG
-    a += (flow_at(p) - v) * inv_tau_p;
+    a = f_add(a, f_mul(f_sub(flow_at(p), v), inv_tau_p));
 #endif
 #if HAS_GRAVITY
-    a += gravity;
+    a = f_add(a, gravity);
 #endif
 #if HAS_DAMPING
-    a -= damping * v;
+    a = f_sub(a, f_mul(damping, v));
 #endif
     return a;
 }
@@ -65,14 +68,14 @@ void linear_parts(vec3 p, float inv_tau_p, out vec3 f, out float lambda) {
     f = vec3(0.0);
     lambda = 0.0;
 #if HAS_DRAG
-    f += flow_at(p) * inv_tau_p;
-    lambda += inv_tau_p;
+    f = f_add(f, f_mul(flow_at(p), inv_tau_p));
+    lambda = f_add(lambda, inv_tau_p);
 #endif
 #if HAS_GRAVITY
-    f += gravity;
+    f = f_add(f, gravity);
 #endif
 #if HAS_DAMPING
-    lambda += damping;
+    lambda = f_add(lambda, damping);
 #endif
 }
 
@@ -251,12 +254,12 @@ void collide(inout vec3 p, inout vec3 v) {
         return;
     }
     p.z = height;
-    float vn = dot(v, n);
+    float vn = f_dot(v, n);
     if (vn < 0.0) {
-        vec3 v_normal = vn * n;
-        vec3 v_tangent = v - v_normal;
-        float keep = length(v) < friction_min_speed ? 1.0 : 1.0 - friction;
-        v = keep * v_tangent - resilience * v_normal;
+        vec3 v_normal = f_mul(vn, n);
+        vec3 v_tangent = f_sub(v, v_normal);
+        float keep = f_length(v) < friction_min_speed ? 1.0 : f_sub(1.0, friction);
+        v = f_sub(f_mul(keep, v_tangent), f_mul(resilience, v_normal));
     }
 }
 #endif
@@ -285,7 +288,8 @@ bool advance(inout Particle q, float h) {
 
 // One frame of one particle, the arithmetic both engine paths' particle passes share
 // (GS/TF update.glsl, compute update_blocks.glsl): it ages by h and moves.
-// Returns whether it lives on: not expired and not run away.
+// Returns whether it lives on: not expired and not run away. The age's float64 add stays
+// outside arithmetic.glsl: portable only where the GPU rounds doubles as IEEE does.
 bool step_particle(inout Particle q, float h) {
     q.age += double(h);
     bool sane = advance(q, h);
