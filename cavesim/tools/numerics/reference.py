@@ -3,15 +3,16 @@
 A GPU or twin run of n frames of dt ends at n * float32(dt), not exactly at T (dt enters
 the engine as float32), so a reference is a state (p, v, a) at a known time and is carried
 to each run's end by a Taylor step of the gap: p + v gap + a gap²/2 and v + a gap; the gap
-is below 1e-7 s, the neglected terms (da/dt) gap² below 1e-12 m/s.
+is below 1e-7 s, the neglected terms, of order (da/dt) gap², below 1e-10 m/s.
 
   uniform flow: the closed form of dv/dt = f - lambda v with f, lambda constant;
   other cases:  the float64 twin's RK4 on the same field (the same interpolated grid, the
                 same float32-rounded constants) with REFINEMENT-times smaller steps than
                 the finest dt measured.
 
-How accurate the fine RK4 is, `tolerance_sweep` measures: Dormand-Prince 5(4) with its own
-step control (adaptive.py) at TOLERANCES, each against the reference.
+How accurate the fine RK4 is, sweep.py says: `adaptive` carries the case's particles with
+Dormand-Prince 5(4) and its own step control (adaptive.py) at each of TOLERANCES, and
+each result is held against the reference.
 """
 
 from __future__ import annotations

@@ -16,10 +16,11 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from cavesim.core.scene.model import Integrator
 from cavesim.tools.numerics import order as order_rule
 from cavesim.tools.numerics.cases import REPORT_DT, TAU, Case
 from cavesim.tools.numerics.cloud import CLOUD_CELL
-from cavesim.tools.numerics.methods import FORGOTTEN_TOLERANCE, METHODS
+from cavesim.tools.numerics.methods import FIELD_EVALUATIONS, FORGOTTEN_TOLERANCE, METHODS
 from cavesim.tools.numerics.reference import REFINEMENT, TOLERANCES
 from cavesim.tools.numerics.results import Row, Summary, dt_label
 from cavesim.tools.numerics.sweep import ReferenceAccuracy, SweepRow
@@ -144,9 +145,8 @@ def _reference_text(case: Case, dts: tuple[float, ...], final_time: float) -> st
         return "closed form (float64)"
     step = min(dts) / REFINEMENT
     steps = max(1, round(final_time / step))
-    rk4 = next(m for m in METHODS if m.name == "rk4")
     return (f"float64 twin RK4, step {dt_label(step)} s ({steps:,} steps, "
-            f"{steps * rk4.evaluations:,} field evaluations per particle)")
+            f"{steps * FIELD_EVALUATIONS[Integrator.RK4]:,} field evaluations per particle)")
 
 
 def build_report(cases: list[Case], dts: tuple[float, ...], final_time: float,
