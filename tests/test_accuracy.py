@@ -284,7 +284,7 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert [c["name"] for c in report["cases"]] == ["uniform", "vortex", "downwash"]
     text = (out / "accuracy.md").read_text()
     for heading in ("## uniform", "## vortex", "## downwash", "observed (f64)", "portable cost",
-                    "evals/step", "GPU vel RMS (m/s)", "GPU cloud", "Reference check",
+                    "evals per step", "GPU vel RMS (m/s)", "GPU cloud", "Reference check",
                     "Reference error at most", "= 10 tau"):
         assert heading in text
     assert all(f"| {m.name} |" in text for m in METHODS)

@@ -26,7 +26,7 @@ from cavesim.tools.numerics.results import Row, Summary, dt_label
 from cavesim.tools.numerics.sweep import ReferenceAccuracy, SweepRow
 
 HEADERS = ("integrator", "order", "expected", "observed (f64)", "fit over", "verdict",
-           "evals/step", "GPU RMS (m)", "GPU max (m)", "f64 RMS (m)", "GPU vel RMS (m/s)",
+           "evals per step", "GPU RMS (m)", "GPU max (m)", "f64 RMS (m)", "GPU vel RMS (m/s)",
            "GPU vel max (m/s)", "f64 vel RMS (m/s)", "GPU cloud", "f64 cloud",
            "float32 floor (m)", "filtering (m)", "GPU ms/step", "GPU ns/particle",
            "hw-filter ms/step", "portable RMS (m)", "portable vs native (m)",
@@ -43,7 +43,7 @@ NOTES = (
     f"errors and costs at dt = {dt_label(REPORT_DT)} s unless said otherwise; RMS and max "
     "are over particles of the position error |x - x_ref|, vel of the velocity error "
     "|v - v_ref|",
-    "evals/step = field evaluations (flow samples: a trilinear fetch or a rotor evaluation) "
+    "evals per step = field evaluations (flow samples: a trilinear fetch or a rotor evaluation) "
     "per particle and step, from the methods table (a test counts them in the twin); the "
     "cost that does not depend on the hardware. work_precision_evaluations.png plots the "
     "GPU error against evaluations per particle to T, work_precision.png against run time",
