@@ -14,8 +14,8 @@ from cavesim.core.emitters import EMIT_BATCH, EmitterTable
 from cavesim.core.fields import FieldGrid, build_field, sample_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid, load_heightfield
+from cavesim.core.helicopter.downwash import downwash
 from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
-from cavesim.core.helicopter.rotor import downwash
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.core.scene.model import CollisionKind, FieldKind, Scene
