@@ -206,3 +206,11 @@ def test_jet_peak_is_where_the_profile_peaks():
         measured = outwash_profile(r, R, v_i, R)
         assert speed == pytest.approx(measured.peak_speed, rel=0.02)
         assert z == pytest.approx(measured.peak_height, rel=0.1)
+
+
+def test_the_validation_figure_is_written(tmp_path):
+    from cavesim.tools.reports.outwash import plot_outwash
+
+    path = tmp_path / "outwash.png"
+    plot_outwash(path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 50_000
