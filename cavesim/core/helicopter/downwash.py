@@ -125,11 +125,9 @@ def _width(q, jet: WallJet, R: float):
     return width, WALL_JET_WIDTH_EXPONENT / 2 * far4 / (axis * width4) * width
 
 
-def _flux(q, z, jet: WallJet, R: float, v_i: float):
-    """G = Phi / r² and its derivatives dG/dz, dG/d(r²) at r² = q, height z >= 0."""
-    h = jet.hub_height
-    # the slipstream: Phi_wake = q pi v_i (g / sigma) S~(x), S~ = (1 + x⁴)^-1/4,
-    # x = q g / (R sigma)²
+def _wake(q, z, h: float, R: float):
+    """The slipstream, Phi_wake / (pi v_i r²) = (g / sigma) (1 + x⁴)^-1/4 with x = r² g /
+    (R sigma)², and its derivatives in z and r²."""
     depth = h - z
     s = np.sqrt(depth * depth + R * R)
     g = 1 + depth / s  # w / v_i
@@ -145,27 +143,38 @@ def _flux(q, z, jet: WallJet, R: float, v_i: float):
     tilde_x = -x2 * x * tilde**5
     speed = g / sigma
     speed_d = (g_d - g * sigma_d / sigma) / sigma
-    wake = math.pi * v_i * speed * tilde
-    wake_z = -math.pi * v_i * (speed_d * tilde + speed * tilde_x * q * c_d)
-    wake_q = math.pi * v_i * speed * tilde_x * c
-    # entrainment: E = 1 + (E_g - 1) exp(-z² / (q + R²)), E_g = (1 + (q / r_e²)²)^0.2
+    return (speed * tilde, -(speed_d * tilde + speed * tilde_x * q * c_d),
+            speed * tilde_x * c)
+
+
+def _entrainment(q, z, jet: WallJet, R: float):
+    """E = 1 + (E_g - 1) exp(-z² / (r² + R²)), E_g = (1 + (r² / r_e²)²)^0.2, and its
+    derivatives in z and r²."""
     u = q / jet.growth_radius_sq
     grown = (1 + u * u) ** (FLUX_GROWTH_EXPONENT / 4)
     grown_q = FLUX_GROWTH_EXPONENT / 2 * u * grown / ((1 + u * u) * jet.growth_radius_sq)
     reach = q + R * R
     fade = np.exp(-z * z / reach)
-    entrain = 1 + (grown - 1) * fade
-    entrain_z = -2 * z * (grown - 1) * fade / reach
-    entrain_q = grown_q * fade + (grown - 1) * fade * z * z / (reach * reach)
+    return (1 + (grown - 1) * fade, -2 * z * (grown - 1) * fade / reach,
+            grown_q * fade + (grown - 1) * fade * z * z / (reach * reach))
+
+
+def _layer(q, z, jet: WallJet, R: float):
+    """The wall jet's flux fraction T(z / delta(r²)) and its derivatives in z and r²."""
     width, width_q = _width(q, jet, R)
     eta = z / width
     layer, layer_eta = _profile(eta)
-    layer_z = layer_eta / width
-    layer_q = -layer_eta * eta * width_q / width
-    G = wake * entrain * layer
-    G_z = wake_z * entrain * layer + wake * entrain_z * layer + wake * entrain * layer_z
-    G_q = wake_q * entrain * layer + wake * entrain_q * layer + wake * entrain * layer_q
-    return G, G_z, G_q
+    return layer, layer_eta / width, -layer_eta * eta * width_q / width
+
+
+def _flux(q, z, jet: WallJet, R: float, v_i: float):
+    """G = Phi / r² = pi v_i Phi_wake E T and its derivatives dG/dz, dG/d(r²) at r² = q,
+    height z >= 0."""
+    (w, w_z, w_q), (e, e_z, e_q) = _wake(q, z, jet.hub_height, R), _entrainment(q, z, jet, R)
+    t, t_z, t_q = _layer(q, z, jet, R)
+    scale = math.pi * v_i
+    return (scale * w * e * t, scale * (w_z * e * t + w * e_z * t + w * e * t_z),
+            scale * (w_q * e * t + w * e_q * t + w * e * t_q))
 
 
 def _frame(points, hub, ground_z):
