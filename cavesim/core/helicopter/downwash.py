@@ -76,6 +76,12 @@ PROFILE_PEAK = 1.0920453  # f_max, at eta = 0.17655 (tests/test_downwash.py chec
 PROFILE_PEAK_HEIGHT = 0.17655
 PROFILE_INTEGRAL = PROFILE_FLUX / PROFILE_PEAK  # integral of u/u_max over eta
 
+# Far out the flux Q (r/r_e)^0.8 at width 0.098 H^0.1 r^0.9 has Poreh's u_max: r_e^0.8 =
+# Q / (2 pi F 1.03 0.098 K^1/2 H^0.2) with Q / K^1/2 = sqrt(pi/2) R sigma k (F: the profile's
+# integral), so r_e^0.8 = R sigma k / (WALL_JET_GROWTH H^0.2).
+WALL_JET_GROWTH = (2 * math.sqrt(2 * math.pi) * WALL_JET_WIDTH * PROFILE_INTEGRAL
+                   * WALL_JET_SPEED)
+
 AXIS_SMOOTHING = 0.5  # rotor radii: the width law's r² + (R/2)² keeps it smooth on the axis
 
 
@@ -99,11 +105,7 @@ def wall_jet(hub_height: float, rotor_radius: float) -> WallJet:
     spread = math.sqrt(1.0 + (WAKE_SPREADING * h * growth / (2.0 * R)) ** 2)
     # flux pi R² v_i sigma through a tube of radius R sigma / sqrt(growth) at 2 v_T / sigma
     source_width = R * spread * math.sqrt(growth) * k / (4.0 * PROFILE_INTEGRAL)
-    # far out the flux Q (r/r_e)^0.8 at width 0.098 H^0.1 r^0.9 has Poreh's u_max:
-    # r_e^0.8 = Q / (2 pi F 1.03 0.098 K^1/2 H^0.2), Q / K^1/2 = sqrt(pi/2) R sigma k
-    growth_radius = (R * spread * k / (2.0 * math.sqrt(2.0 * math.pi) * WALL_JET_WIDTH
-                                       * PROFILE_INTEGRAL * WALL_JET_SPEED * H**0.2)
-                     ) ** (1.0 / FLUX_GROWTH_EXPONENT)
+    growth_radius = (R * spread * k / (WALL_JET_GROWTH * H**0.2)) ** (1.0 / FLUX_GROWTH_EXPONENT)
     return WallJet(h, source_width, growth_radius**2, (WALL_JET_WIDTH * H**0.1) ** 2)
 
 
@@ -168,13 +170,12 @@ def _layer(q, z, jet: WallJet, R: float):
 
 
 def _flux(q, z, jet: WallJet, R: float, v_i: float):
-    """G = Phi / r² = pi v_i Phi_wake E T and its derivatives dG/dz, dG/d(r²) at r² = q,
-    height z >= 0."""
+    """G = Phi / (pi r²) = v_i (Phi_wake / pi v_i r²) E T and its derivatives dG/dz,
+    dG/d(r²) at r² = q, height z >= 0: u_r = r G_z / 2 and u_z = -(G + r² G_q)."""
     (w, w_z, w_q), (e, e_z, e_q) = _wake(q, z, jet.hub_height, R), _entrainment(q, z, jet, R)
     t, t_z, t_q = _layer(q, z, jet, R)
-    scale = math.pi * v_i
-    return (scale * w * e * t, scale * (w_z * e * t + w * e_z * t + w * e * t_z),
-            scale * (w_q * e * t + w * e_q * t + w * e * t_q))
+    return (v_i * w * e * t, v_i * (w_z * e * t + w * e_z * t + w * e * t_z),
+            v_i * (w_q * e * t + w * e_q * t + w * e * t_q))
 
 
 def _frame(points, hub, ground_z):
@@ -193,8 +194,8 @@ def downwash(points, hub, v_i: float, rotor_radius: float, ground_z: float, dtyp
     jet = wall_jet(float(hub[2]) - ground_z, rotor_radius)
     G, G_z, G_q = _flux(q, z, jet, rotor_radius, v_i)
     out = np.empty((len(q), 3))
-    out[:, :2] = offset * (G_z / (2 * math.pi))[:, None]
-    out[:, 2] = -side * (G + q * G_q) / math.pi
+    out[:, :2] = offset * (G_z / 2)[:, None]
+    out[:, 2] = -side * (G + q * G_q)
     return out.astype(dtype)
 
 
@@ -202,7 +203,7 @@ def stream_function(points, hub, v_i: float, rotor_radius: float, ground_z: floa
     """The Stokes stream function psi (m³/s) of `downwash` at world points (N, 3)."""
     offset, q, z, side = _frame(points, hub, ground_z)
     jet = wall_jet(float(hub[2]) - ground_z, rotor_radius)
-    return -side * q * _flux(q, z, jet, rotor_radius, v_i)[0] / (2 * math.pi)
+    return -side * q * _flux(q, z, jet, rotor_radius, v_i)[0] / 2
 
 
 def jet_peak(r, hub_height: float, v_i: float, rotor_radius: float):
@@ -212,7 +213,7 @@ def jet_peak(r, hub_height: float, v_i: float, rotor_radius: float):
     q = r * r
     jet = wall_jet(hub_height, rotor_radius)
     z = PROFILE_PEAK_HEIGHT * _width(q, jet, rotor_radius)[0]
-    return r * _flux(q, z, jet, rotor_radius, v_i)[1] / (2 * math.pi), z
+    return r * _flux(q, z, jet, rotor_radius, v_i)[1] / 2, z
 
 
 def friction_velocity(helicopter: Helicopter, r, hub_height: float, v_i: float):

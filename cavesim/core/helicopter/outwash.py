@@ -21,7 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.helicopter.downwash import WALL_JET_SPEED, WALL_JET_WIDTH, downwash
+from cavesim.core.helicopter.downwash import (
+    WALL_JET_SPEED,
+    WALL_JET_SPEED_EXPONENT,
+    WALL_JET_WIDTH,
+    WALL_JET_WIDTH_EXPONENT,
+    downwash,
+)
 from cavesim.core.helicopter.rotor import GROUND_EFFECT_HOLD
 
 PROFILE_SAMPLES = 6001  # heights a vertical profile is sampled at, up to 2 rotor radii
@@ -38,13 +44,14 @@ def poreh_peak_speed(thrust_velocity: float, rotor_radius: float, hub_height: fl
     velocity v_T (T / rho = 2 pi R² v_T²) with its hub `hub_height` above the ground."""
     momentum = 2 * math.pi * rotor_radius**2 * thrust_velocity**2
     H = max(hub_height, GROUND_EFFECT_HOLD * rotor_radius)
-    return WALL_JET_SPEED * math.sqrt(momentum) * H**0.1 * np.asarray(r, float) ** -1.1
+    decay = np.asarray(r, float) ** WALL_JET_SPEED_EXPONENT
+    return WALL_JET_SPEED * math.sqrt(momentum) * H**0.1 * decay
 
 
 def poreh_half_width(rotor_radius: float, hub_height: float, r):
     """Poreh et al.'s wall-jet half-width (m) at distances r."""
     H = max(hub_height, GROUND_EFFECT_HOLD * rotor_radius)
-    return WALL_JET_WIDTH * H**0.1 * np.asarray(r, float) ** 0.9
+    return WALL_JET_WIDTH * H**0.1 * np.asarray(r, float) ** WALL_JET_WIDTH_EXPONENT
 
 
 @dataclass(frozen=True)
