@@ -28,11 +28,11 @@ FOUNTAIN = {
 
 def scene_dict(integrator="semi_implicit_euler", capacity=4000, emitters=(), drag=True,
                gravity=True, damping=None, collision=None, field=None, seed=7,
-               engine="gs_tf") -> dict:
+               engine="gs_tf", arithmetic="native") -> dict:
     """A scene dict: sand and dust in a vortex with the chosen features."""
     data = {
         "simulation": {"capacity": capacity, "seed": seed, "integrator": integrator,
-                       "random_texture_size": 64, "engine": engine},
+                       "random_texture_size": 64, "engine": engine, "arithmetic": arithmetic},
         "particle_class": [SAND, DUST],
         "emitter": [copy.deepcopy(e) for e in emitters],
         "forces": {},

@@ -214,3 +214,29 @@ def test_the_validation_figure_is_written(tmp_path):
     path = tmp_path / "outwash.png"
     plot_outwash(path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 50_000
+
+
+def test_the_shaders_constants_are_the_float64_models():
+    """rotor.glsl's literals (their bits in cavesim/core/portable/constants.py, which
+    tests/test_portable_physics.py holds to the shader) round the float64 model's values."""
+    import cavesim.core.helicopter.downwash as model
+    from cavesim.core.portable import constants, rotor
+
+    values = {
+        "WAKE_SPREADING": model.WAKE_SPREADING,
+        "WALL_JET_GROWTH": model.WALL_JET_GROWTH,
+        "WALL_JET_WIDTH_SQ": model.WALL_JET_WIDTH**2,
+        "FOUR_PROFILE_INTEGRAL": 4 * model.PROFILE_INTEGRAL,
+        "PROFILE_DECAY": model.PROFILE_DECAY,
+        "PROFILE_SHAPE": model.PROFILE_SHAPE,
+        "PROFILE_INNER": model.PROFILE_INNER,
+        "PROFILE_FLUX": model.PROFILE_FLUX,
+        "ONE_FIFTH": model.FLUX_GROWTH_EXPONENT / 4,  # also H^0.2 of (0.098 H^0.1)²
+        "TWO_FIFTHS": model.FLUX_GROWTH_EXPONENT / 2,
+        "WIDTH_POWER": 2 * model.WALL_JET_WIDTH_EXPONENT,
+        "HALF_WIDTH_POWER": model.WALL_JET_WIDTH_EXPONENT / 2,
+    }
+    for name, value in values.items():
+        assert getattr(constants, name) == np.float32(value), name
+    assert rotor.PROFILE_RISE == model.PROFILE_RISE
+    assert rotor.GROWTH_POWER == 1 / model.FLUX_GROWTH_EXPONENT

@@ -4,6 +4,7 @@
 //   z:    particles it emits this frame
 //   w:    emission serial of its first particle this frame (wraps at 2^32)
 #pragma once
+#include "arithmetic.glsl"
 
 uniform float dt;
 
@@ -42,7 +43,7 @@ double frame_rate(int e) {
 }
 
 vec3 emitter_center(int e) {
-    return uintBitsToFloat(emitter_row(e, 6).xyz) + emitter_position(e);
+    return f_add(uintBitsToFloat(emitter_row(e, 6).xyz), emitter_position(e));
 }
 #else
 double frame_rate(int e) {
@@ -74,7 +75,8 @@ uvec4 random_lookup(int e, uint serial, uint texel) {
     return texelFetch(random_texture, ivec2(moved_x, moved_y), 0);
 }
 
-// 24 random bits as an exact float in [0, 1)
+// 24 random bits as an exact float in [0, 1): an integer below 2^24 times 2^-24 is exact
+// in any arithmetic
 float unit_float(uint word) {
-    return float(word >> 8u) * (1.0 / 16777216.0);
+    return float(word >> 8u) * 5.9604644775390625e-8;
 }
