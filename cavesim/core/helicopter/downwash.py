@@ -63,9 +63,10 @@ WALL_JET_WIDTH_EXPONENT = 0.9
 FLUX_GROWTH_EXPONENT = 0.8  # r u_max delta ~ r^(1 - 1.1 + 0.9)
 
 # The wall jet's profile u/u_max = f(eta) / f_max, eta = z / delta, fitted to Verhoff's
-# u/u_max = 1.48 eta^(1/7) (1 - erf(0.68 eta)) (Verhoff 1963, Princeton report 626; the
-# profile measured radial wall jets follow, Glauert 1956, J. Fluid Mech. 1:625) within
-# 0.018 for 0.1 <= eta <= 2.5; below eta = 0.1, Verhoff's power law has no smooth fit.
+# empirical wall-jet profile u/u_max = 1.48 eta^(1/7) (1 - erf(0.68 eta)) (Verhoff 1963,
+# Princeton University report 626) within 0.018 for 0.1 <= eta <= 2.5 (below eta = 0.1 its
+# power law has no smooth fit). Radial wall jets keep one profile too (Poreh et al. found
+# theirs similar and of Glauert's form: Glauert 1956, J. Fluid Mech. 1:625).
 PROFILE_DECAY = 2.1  # a
 PROFILE_RISE = 60.0  # b: the inner layer, delta / 60 thick
 PROFILE_SHAPE = 3.3  # c
