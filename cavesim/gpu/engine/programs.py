@@ -20,6 +20,7 @@ from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORD
 from cavesim.core.scene.model import (
     Arithmetic,
     CollisionKind,
+    FieldInterpolation,
     FieldKind,
     FieldSampling,
     Integrator,
@@ -40,6 +41,8 @@ INTEGRATOR_IDS = {
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
+INTERPOLATION_IDS = {FieldInterpolation.TRILINEAR: 0, FieldInterpolation.CATMULL_ROM: 1,
+                     FieldInterpolation.BSPLINE: 2}
 
 
 # The values each define can take (numbers: the extremes a scene may ask for).
@@ -53,6 +56,7 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "FIELD_OUT_OF_DOMAIN": tuple(OUT_OF_DOMAIN_IDS.values()),
     "FIELD_SAMPLING": tuple(SAMPLING_IDS.values()),
     "FIELD_IS_ROTOR": (0, 1),
+    "FIELD_INTERPOLATION": tuple(INTERPOLATION_IDS.values()),
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
@@ -111,6 +115,8 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "FIELD_OUT_OF_DOMAIN": OUT_OF_DOMAIN_IDS[field.out_of_domain] if field else 0,
         "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
         "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),
+        # trilinear for a rotor and with hardware sampling: the scene loader sees to it
+        "FIELD_INTERPOLATION": INTERPOLATION_IDS[field.interpolation] if field else 0,
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
     }
 
@@ -152,26 +158,43 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
 
 
 def physics_variants() -> Iterator[dict[str, int]]:
-    """The particle pass's defines the gate checks. Native: every combination. Portable,
-    whose inlined arithmetic makes a program many times larger (the full product would take
-    the reference front-end minutes): every integrator with every feature on, and with each
-    other feature switched one at a time, which together hold every line and every #if of
-    the portable code. Hardware sampling is not among them: the scene loader refuses it."""
+    """The particle pass's defines the gate checks, each once, as `physics_defines` could
+    give them (`reachable`). Native: every combination. Portable, whose inlined arithmetic
+    makes a program many times larger (the full product would take the reference front-end
+    minutes): every integrator with every feature on (the flow from a B-spline grid), and
+    with each other feature switched one at a time, which together hold every line and every
+    #if of the portable code. Hardware sampling is not among them: the loader refuses it."""
+    seen = set()
+
+    def once(defines: dict[str, int]) -> Iterator[dict[str, int]]:
+        defines = reachable(defines)
+        if (key := tuple(defines.items())) not in seen:
+            seen.add(key)
+            yield defines
+
     native = {**PHYSICS_FEATURES, "ARITHMETIC": (ARITHMETIC_IDS[Arithmetic.NATIVE],)}
     for values in itertools.product(*native.values()):
-        yield dict(zip(native, values, strict=True))
+        yield from once(dict(zip(native, values, strict=True)))
     fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
              "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
     switched = {name: values for name, values in PHYSICS_FEATURES.items()
                 if name not in (*fixed, "INTEGRATOR")}
     every_feature = {name: values[-1] for name, values in switched.items()}
     for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
-        base = {**every_feature, **fixed, "INTEGRATOR": integrator}
-        yield base
+        base = {**every_feature, **fixed, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": 0}
+        yield from once(base)
         for name, values in switched.items():
             for value in values:
                 if value != base[name]:
-                    yield {**base, name: value}
+                    yield from once({**base, name: value})
+
+
+def reachable(defines: dict[str, int]) -> dict[str, int]:
+    """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
+    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise."""
+    grid = (defines["HAS_DRAG"] and not defines["FIELD_IS_ROTOR"]
+            and defines["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
+    return defines if grid else {**defines, "FIELD_INTERPOLATION": 0}
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
