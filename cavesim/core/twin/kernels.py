@@ -14,7 +14,7 @@ from functools import partial
 import numpy as np
 
 from cavesim.core.fields import sample_field
-from cavesim.core.helicopter.rotor import downwash
+from cavesim.core.helicopter.downwash import downwash
 from cavesim.core.portable import field as portable_field
 from cavesim.core.portable import ground as portable_ground
 from cavesim.core.portable import rotor as portable_rotor
