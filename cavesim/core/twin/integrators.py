@@ -30,7 +30,7 @@ def explicit_euler(p, v, h, forces):
 
 def semi_implicit_euler(p, v, h, forces):
     """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
-    f, lam = forces.linear_parts(p)
+    f, lam = forces.linear_parts(p, v)
     v = (v + h * f) / (1 + h * lam)
     return p + h * v, v
 
@@ -85,7 +85,7 @@ def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
 def exponential(p, v, h, forces):
     """Exact for linear drag with the flow held over the step; stable for any tau/h, order 1."""
-    f, lam = forces.linear_parts(p)
+    f, lam = forces.linear_parts(p, v)
     e, phi1, phi2 = exponential_weights(lam * h)
     return p + (h * phi1) * v + (h * h * phi2) * f, e * v + (h * phi1) * f
 

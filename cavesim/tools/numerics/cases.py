@@ -43,8 +43,9 @@ HELICOPTER_SCENE = "config/scenes/brownout.toml"  # the downwash case's default 
 
 TAU = 0.5  # s, Stokes relaxation time of the probe particles
 DENSITY = 1000.0  # kg/m³
-PROBE = {"name": "probe", "density": DENSITY,
-         "diameter": math.sqrt(18.0 * AIR_VISCOSITY * TAU / DENSITY)}  # tau = rho d² / (18 mu)
+# tau = rho d² / (18 mu); Stokes drag named, as the closed-form references assume it
+PROBE = {"name": "probe", "density": DENSITY, "drag": "stokes",
+         "diameter": math.sqrt(18.0 * AIR_VISCOSITY * TAU / DENSITY)}
 GRAVITY = [0.0, 0.0, -9.81]
 LIFETIME = 1e9  # s: nobody dies
 HUB_HEIGHT = 8.0  # m above the ground, for the downwash case

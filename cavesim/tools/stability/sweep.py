@@ -45,8 +45,10 @@ def sweep_scene(integrator: Integrator, per_class: int):
     return parse_scene({
         "simulation": {"capacity": per_class * len(TAUS), "seed": 1,
                        "integrator": integrator.value, "random_texture_size": 16},
+        # Stokes drag named: the limits above are linear drag's
         "particle_class": [{"name": f"tau{i}", "diameter": diameter_for(tau),
-                            "density": DENSITY} for i, tau in enumerate(TAUS)],
+                            "density": DENSITY, "drag": "stokes"}
+                           for i, tau in enumerate(TAUS)],
         "forces": {"gravity": [0.0, 0.0, -9.81], "drag": {}},
         "field": {"kind": "uniform", "box_min": [-1e7] * 3, "box_max": [1e7] * 3,
                   "resolution": [2, 2, 2], "params": {"velocity": list(FLOW)}},

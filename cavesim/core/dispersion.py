@@ -1,0 +1,90 @@
+"""Turbulent dispersion: a random walk in the flow each particle sees, drawn from the
+random texture so that every node draws the same numbers.
+
+The model, per particle at the start of each step of length h (twin of
+shaders/include/dispersion.glsl):
+  - the eddy diffusivity of Prandtl's mixing length, K = l² |du/dz| (Prandtl 1925), with
+    l = kappa z / (1 + kappa z / l_inf) growing from the ground (Blackadar 1962; z the
+    height above the ground, l_inf the scene's `mixing_length`) and the shear du/dz from
+    the flow itself by differences over SHEAR_STEP;
+  - the particle's share of it, K_p = w K with w = lambda / (lambda + |du/dz|): an eddy
+    turns over in about 1/|du/dz| (the mixing-length time scale), the particle's slip
+    relaxes at its drag rate lambda, and a grain slower than the eddies follows them only
+    in part (Tchen's ratio T_L / (T_L + tau), Hinze 1975, "Turbulence", sec. 5-6);
+  - the flow the particle sees over the step is u(p) + (dK_p/dz) z^ + sqrt(2 K_p / h) xi,
+    with xi three independent draws of zero mean and unit variance.
+For fine dust (lambda h >> 1) this is the random displacement model
+dx = (u + grad K) dt + sqrt(2 K dt) xi (Legg & Raupach 1982; Wilson & Sawford 1996): its
+drift keeps a well-mixed tracer well mixed where K changes with height (horizontal
+gradients, on the rotor's scale, are left out). A heavy grain gets the same white noise
+through its drag: its long-time diffusivity is K_p, and its share w keeps saltating sand
+near the ground, where 1/|du/dz| is short. White in frame time: the velocity seen jumps
+every frame, and dispersion over times beyond the eddies' 1/|du/dz| is what it gets right.
+
+The draws: one 32-bit word per particle and frame, at the particle's index in the stream,
+the same on every node; word index & 3 of lattice texel index >> 2, moved by the frame's
+map (`moved_texel`). Three 10-bit fields j give xi = sqrt(3) ((2j + 1)/1024 - 1):
+uniform, unit variance (to 1e-6), summed over frames into Gaussians. Indices repeat words
+beyond WORDS_PER_TEXEL × size² particles: the loader holds the capacity below that.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from cavesim.core.helicopter.rotor import KARMAN
+from cavesim.core.random_texture import WORDS_PER_TEXEL, moved_texel
+
+FlowSampler = Callable[[np.ndarray], np.ndarray]
+
+SHEAR_STEP = 0.1  # m: the flow is sampled this far above and below a particle
+FIELD_BITS = 10  # bits of a word per draw
+FIELD_MASK = (1 << FIELD_BITS) - 1
+SQRT3 = np.sqrt(3.0)
+
+
+def draws(random: np.ndarray, transform: np.ndarray, count: int, dtype=np.float64
+          ) -> np.ndarray:
+    """xi (count, 3) of the particles at stream indices 0..count-1 in this frame."""
+    index = np.arange(count, dtype=np.uint64)
+    xs, ys = moved_texel((0, 0), index // WORDS_PER_TEXEL, transform, random.shape[0])
+    words = random[ys, xs, index % WORDS_PER_TEXEL]
+    fields = np.stack([(words >> np.uint32(FIELD_BITS * c)) & FIELD_MASK for c in range(3)],
+                      axis=1).astype(dtype)
+    return dtype(SQRT3) * ((2 * fields + 1) * dtype(1 / 1024) - 1)
+
+
+def mixing_length(height: np.ndarray, longest: float) -> np.ndarray:
+    """l = kappa z / (1 + kappa z / l_inf), 0 at and below the ground."""
+    grown = KARMAN * np.maximum(height, 0.0)
+    return grown / (1.0 + grown / longest)
+
+
+def particle_diffusivity(flow: FlowSampler, p: np.ndarray, height: np.ndarray,
+                         drag_rate: np.ndarray, longest: float) -> tuple[np.ndarray, np.ndarray]:
+    """(K_p, dK_p/dz), each (N,), at points p (N, 3) that stand `height` (N,) above the ground,
+    for particles whose slip relaxes at `drag_rate` (N,)."""
+    step = np.zeros(3)
+    step[2] = SHEAR_STEP
+    below, here, above = flow(p - step), flow(p), flow(p + step)
+    shares = []
+    for lower, upper, z in ((below, here, height - SHEAR_STEP / 2),
+                            (here, above, height + SHEAR_STEP / 2)):
+        shear = np.linalg.norm(upper - lower, axis=1) / SHEAR_STEP
+        share = drag_rate / (drag_rate + shear)
+        shares.append(share * mixing_length(z, longest) ** 2 * shear)
+    low, high = shares
+    return 0.5 * (low + high), (high - low) / SHEAR_STEP
+
+
+def seen_turbulence(diffusivity: np.ndarray, gradient: np.ndarray, xi: np.ndarray, h: float
+                    ) -> np.ndarray:
+    """What the particle sees besides u(p) over a step h: drift (dK_p/dz) z^ plus the
+    random velocity sqrt(2 K_p / h) xi; (N, 3). Nothing in a step of no time."""
+    if h <= 0:
+        return np.zeros_like(xi)
+    out = np.sqrt(2.0 * diffusivity / h)[:, None] * xi
+    out[:, 2] += gradient
+    return out
