@@ -11,6 +11,7 @@ from cavesim.core.dispersion import (
     mixing_length,
     particle_diffusivity,
     seen_turbulence,
+    shear_samples,
 )
 from cavesim.core.fields import FieldGrid, save_field
 from cavesim.core.frame import FrameInput
@@ -56,7 +57,8 @@ def test_mixing_length_diffusivity_is_kappa_u_star_z_in_the_surface_layer():
     """K = l² |du/dz| with l = kappa z gives the textbook kappa u* z (Monin-Obukhov, neutral)."""
     z = np.array([0.5, 1.0, 2.0, 4.0])
     p = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
-    k, dk = particle_diffusivity(log_law, p, z, np.full(len(z), TRACER), longest=1e9)
+    k, dk = particle_diffusivity(*shear_samples(log_law, p), z, np.full(len(z), TRACER),
+                                 longest=1e9)
     np.testing.assert_allclose(k, KARMAN * U_STAR * z, rtol=5e-3)  # differences over 0.1 m
     np.testing.assert_allclose(dk, KARMAN * U_STAR, rtol=5e-3)
 
@@ -65,8 +67,8 @@ def test_heavy_grains_follow_the_eddies_in_part():
     """A grain relaxing at 1/s where the eddies turn over in 1/|du/dz| = 0.4 s and 1.6 s."""
     z = np.array([0.5, 2.0])
     p = np.stack([np.zeros(2), np.zeros(2), z], axis=1)
-    tracer, _ = particle_diffusivity(log_law, p, z, np.full(2, TRACER), longest=1e9)
-    grain, _ = particle_diffusivity(log_law, p, z, np.full(2, 1.0), longest=1e9)
+    tracer, _ = particle_diffusivity(*shear_samples(log_law, p), z, np.full(2, TRACER), 1e9)
+    grain, _ = particle_diffusivity(*shear_samples(log_law, p), z, np.full(2, 1.0), 1e9)
     shear = U_STAR / (KARMAN * z)
     np.testing.assert_allclose(grain / tracer, 1.0 / (1.0 + shear), rtol=1e-2)
 
@@ -91,7 +93,8 @@ def test_the_drift_keeps_a_well_mixed_tracer_well_mixed():
         z = rng.uniform(0.0, top, n)
         for _ in range(300):
             p = np.stack([np.zeros(n), np.zeros(n), z], axis=1)
-            k, dk = particle_diffusivity(log_law, p, z, np.full(n, TRACER), longest=1e9)
+            k, dk = particle_diffusivity(*shear_samples(log_law, p), z, np.full(n, TRACER),
+                                         1e9)
             xi = rng.uniform(-np.sqrt(3), np.sqrt(3), n)
             z = z + (dk if drift else 0.0) * h + np.sqrt(2 * k * h) * xi
             z = np.abs(z)

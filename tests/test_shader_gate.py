@@ -8,7 +8,9 @@ import pytest
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
+from cavesim.core.scene import Arithmetic
 from cavesim.gpu.engine.programs import (
+    ARITHMETIC_IDS,
     BLOCK_DEFINES,
     BLOCK_UPDATE,
     PARTICLE_UPDATE,
@@ -20,12 +22,14 @@ from cavesim.gpu.shader_gate import (
     all_builds,
     check_on_context,
     check_sources,
+    context_builds,
     lint,
     uniform_components,
 )
 from cavesim.gpu.shader_source import ProgramSpec, ShaderSource
 
 SCENES = Path(__file__).parents[1] / "config" / "scenes"
+NATIVE, PORTABLE = ARITHMETIC_IDS[Arithmetic.NATIVE], ARITHMETIC_IDS[Arithmetic.PORTABLE]
 FIXTURES = Path(__file__).parent / "glsl_fixtures"
 
 
@@ -38,12 +42,24 @@ def test_the_gate_covers_every_scene_and_every_feature_combination(builds):
     origins = {build.origin for build in builds}
     assert {f"scene {path.stem}" for path in SCENES.glob("*.toml")} | {"probe"} <= origins
     physics = [b for b in builds if b.spec == PARTICLE_UPDATE]
+    native = [b for b in physics if dict(b.defines)["ARITHMETIC"] == NATIVE]
+    portable = [dict(b.defines) for b in physics if dict(b.defines)["ARITHMETIC"] == PORTABLE]
     combinations = 1
-    for values in PHYSICS_FEATURES.values():
-        combinations *= len(values)
+    for name, values in PHYSICS_FEATURES.items():
+        combinations *= len(values) if name != "ARITHMETIC" else 1
     assert combinations >= 2 * 2 * 2 * 3 * 7 * 2 * 2 * 2 * 2
-    assert len(physics) >= combinations  # the product, plus the scenes' own class counts
-    assert {dict(b.defines)["INTEGRATOR"] for b in physics} == set(range(7))
+    assert len(native) >= combinations  # the product, plus the scenes' own class counts
+    assert {dict(b.defines)["INTEGRATOR"] for b in native} == set(range(7))
+    # portable: each integrator with every other feature at each of its values
+    for integrator in range(7):
+        for name, values in PHYSICS_FEATURES.items():
+            if name not in ("ARITHMETIC", "FIELD_SAMPLING", "INTEGRATOR"):
+                seen = {d[name] for d in portable if d["INTEGRATOR"] == integrator}
+                assert seen == set(values), (integrator, name)
+    compiled = context_builds(builds)
+    assert all(b in compiled for b in native)
+    assert not any(dict(b.defines)["ARITHMETIC"] == PORTABLE for b in compiled
+                   if b.spec in (PARTICLE_UPDATE, BLOCK_UPDATE))
     assert any(dict(b.defines).get("CLASS_COUNT") == MAX_PARTICLE_CLASSES
                for b in builds if b.spec == DUST)
 
@@ -56,7 +72,7 @@ def test_every_program_passes_the_reference_front_end_and_the_lint(builds):
 
 @pytest.mark.slow
 def test_every_program_compiles_on_this_context_within_gl43_uniform_limits(ctx, builds):
-    findings = check_on_context(ctx, builds)
+    findings = check_on_context(ctx, context_builds(builds))
     assert findings == [], "\n".join(map(str, findings[:10]))
 
 
@@ -76,7 +92,8 @@ def test_the_gate_fails_a_program_that_ends_with_a_line_directive():
     findings = check_sources([build])
     assert {f.stage for f in findings} == {"vertex", "geometry"}
     assert all("C0115" in f.message and "'#line 48 0'" in f.message for f in findings)
-    assert str(findings[0]).startswith("particles/update.glsl [CLASS_COUNT=1, COLLISION=0")
+    assert str(findings[0]).startswith("particles/update.glsl [ARITHMETIC=0, CLASS_COUNT=1, "
+                                       "COLLISION=0")
 
 
 def test_lint_passes_what_the_assembler_writes():

@@ -92,4 +92,10 @@ def mix(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     return a * (1 - t) + b * t  # GLSL mix(), in this order
 
 
+def index_scale(box_min, box_max, resolution) -> np.ndarray:
+    """(resolution - 1) / (box_max - box_min) per axis, as float32: world to grid index.
 
+    The bits the GPU's *_index_scale uniforms hold, and the portable twin multiplies by.
+    """
+    size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
+    return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)

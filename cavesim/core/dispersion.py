@@ -62,13 +62,18 @@ def mixing_length(height: np.ndarray, longest: float) -> np.ndarray:
     return grown / (1.0 + grown / longest)
 
 
-def particle_diffusivity(flow: FlowSampler, p: np.ndarray, height: np.ndarray,
-                         drag_rate: np.ndarray, longest: float) -> tuple[np.ndarray, np.ndarray]:
-    """(K_p, dK_p/dz), each (N,), at points p (N, 3) that stand `height` (N,) above the ground,
-    for particles whose slip relaxes at `drag_rate` (N,)."""
-    step = np.zeros(3)
-    step[2] = SHEAR_STEP
-    below, here, above = flow(p - step), flow(p), flow(p + step)
+def shear_samples(flow: FlowSampler, p: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The flow SHEAR_STEP below, at and above points p (N, 3)."""
+    lift = np.zeros(3, dtype=p.dtype)
+    lift[2] = SHEAR_STEP
+    return flow(p - lift), flow(p), flow(p + lift)
+
+
+def particle_diffusivity(below: np.ndarray, here: np.ndarray, above: np.ndarray,
+                         height: np.ndarray, drag_rate: np.ndarray, longest: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """(K_p, dK_p/dz), each (N,), from the flow sampled below, at and above points standing
+    `height` (N,) above the ground, for particles whose slip relaxes at `drag_rate` (N,)."""
     shares = []
     for lower, upper, z in ((below, here, height - SHEAR_STEP / 2),
                             (here, above, height + SHEAR_STEP / 2)):
@@ -88,3 +93,14 @@ def seen_turbulence(diffusivity: np.ndarray, gradient: np.ndarray, xi: np.ndarra
     out = np.sqrt(2.0 * diffusivity / h)[:, None] * xi
     out[:, 2] += gradient
     return out
+
+
+def turbulence(forces, p: np.ndarray, v: np.ndarray, ground: np.ndarray, longest: float,
+               xi: np.ndarray, h: float) -> np.ndarray:
+    """The turbulence particles at p (N, 3) moving at v see over a step h, over ground of
+    height `ground` (N,), with draws xi (N, 3); `forces` gives the flow and drag rate."""
+    below, here, above = shear_samples(forces.flow, p)
+    rate = forces.drag_rate(here - v)[:, 0]
+    diffusivity, gradient = particle_diffusivity(below, here, above, p[:, 2] - ground, rate,
+                                                 longest)
+    return seen_turbulence(diffusivity, gradient, xi, h)

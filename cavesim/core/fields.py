@@ -14,7 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-from cavesim.core._grids import cells, check_box, corner_of, float_grid, mix, read_npz
+from cavesim.core._grids import (
+    cells,
+    check_box,
+    corner_of,
+    float_grid,
+    index_scale,
+    mix,
+    read_npz,
+)
 from cavesim.core.errors import FieldError
 from cavesim.core.flows import MODELS
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
@@ -52,6 +60,11 @@ class FieldGrid:
         """Nodes per axis as (nx, ny, nz)."""
         nz, ny, nx, _ = self.velocity.shape
         return nx, ny, nz
+
+    @property
+    def index_scale(self) -> np.ndarray:
+        """Grid index per metre on each axis, float32: the shader's uniform of this name."""
+        return index_scale(self.box_min, self.box_max, self.resolution)
 
 
 def build_field(field: Field) -> FieldGrid:

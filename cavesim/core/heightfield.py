@@ -13,7 +13,15 @@ from pathlib import Path
 
 import numpy as np
 
-from cavesim.core._grids import cells, check_box, corner_of, float_grid, mix, read_npz
+from cavesim.core._grids import (
+    cells,
+    check_box,
+    corner_of,
+    float_grid,
+    index_scale,
+    mix,
+    read_npz,
+)
 from cavesim.core.errors import FieldError
 
 MAX_HEIGHT_NODES = 4096  # per axis, a common GL_MAX_TEXTURE_SIZE floor
@@ -48,6 +56,11 @@ class HeightGrid:
         """Nodes per axis as (nx, ny)."""
         ny, nx = self.height.shape
         return nx, ny
+
+    @property
+    def index_scale(self) -> np.ndarray:
+        """Grid index per metre on each axis, float32: the shader's uniform of this name."""
+        return index_scale(self.box_min, self.box_max, self.resolution)
 
 
 def load_heightfield(path) -> HeightGrid:

@@ -76,6 +76,19 @@ def moved_texel(base: tuple[int, int], k: np.ndarray, matrix: np.ndarray, size: 
     return xs, ys
 
 
+def random_texels(random: np.ndarray, base, serial: np.ndarray, matrix: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """The two texels (N, 4) uint32 of the particles with emission `serial`, as the
+    shader's random_lookup fetches them from the texture's words `random`."""
+    size = random.shape[0]
+    base = tuple(int(b) for b in base)
+    texels = []
+    for texel in (0, 1):
+        xs, ys = lookup_coordinates(base, serial, texel, matrix, size)
+        texels.append(random[ys, xs])  # texelFetch(ivec2(x, y)) reads row y, column x
+    return texels[0], texels[1]
+
+
 def unit_float(words: np.ndarray) -> np.ndarray:
     """Map uint32 words to exact float values in [0, 1) with 24 random bits."""
     return (np.asarray(words, dtype=np.uint32) >> 8).astype(np.float64) * 2.0**-24

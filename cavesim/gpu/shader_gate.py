@@ -2,11 +2,13 @@
 
 Mesa's llvmpipe accepts GLSL that stricter drivers reject, so every assembled stage of every
 program of every scene in config/scenes/, and of every combination of feature values the
-engine can generate, is
+engine can generate (in portable arithmetic a subset that holds every line:
+`programs.physics_variants`), is
   1. linted for what a driver is known to reject though the GLSL spec allows it,
   2. validated by the Khronos reference front-end, `glslangValidator` (Debian package
      `glslang-tools`), and
-  3. compiled and linked on a GL context, its uniforms held to the smallest GL 4.3 limits.
+  3. compiled and linked on a GL context, its uniforms held to the smallest GL 4.3 limits
+     (not the particle passes in portable arithmetic: `context_builds`).
 A finding names the program, its defines, the stage and the message with `file.glsl:LINE`.
 """
 
@@ -24,9 +26,15 @@ from pathlib import Path
 import moderngl
 
 from cavesim.core.errors import ShaderError
-from cavesim.core.scene import load_scene
-from cavesim.gpu.engine.programs import feature_combinations, scene_programs
-from cavesim.gpu.gl.arithmetic_probe import ARITHMETIC_MODES, ARITHMETIC_PROBE, probe_defines
+from cavesim.core.scene import Arithmetic, load_scene
+from cavesim.gpu.engine.programs import (
+    ARITHMETIC_IDS,
+    BLOCK_UPDATE,
+    PARTICLE_UPDATE,
+    feature_combinations,
+    scene_programs,
+)
+from cavesim.gpu.gl.arithmetic_probe import ARITHMETIC_PROBE, probe_defines
 from cavesim.gpu.gl.denormal_probe import DENORMAL_PROBE_DISPATCH, DENORMAL_PROBE_DRAW
 from cavesim.gpu.gl.filtering import FILTER_PROBE
 from cavesim.gpu.render.programs import render_combinations, render_programs
@@ -40,6 +48,7 @@ STAGE_EXTENSIONS = {"vertex": "vert", "geometry": "geom", "fragment": "frag",
 GL43_UNIFORM_COMPONENTS = {"vertex": 1024, "geometry": 1024, "fragment": 1024, "compute": 512}
 _LINE_DIRECTIVE = re.compile(r"\s*#\s*line\b")
 _BATCH = 400  # sources per glslangValidator run
+PORTABLE = ARITHMETIC_IDS[Arithmetic.PORTABLE]
 
 
 @dataclass(frozen=True)
@@ -80,7 +89,7 @@ def all_builds(scene_dir: Path) -> list[Build]:
     add([*feature_combinations(), *render_combinations()], "feature combination")
     add([(FILTER_PROBE, {}), (DENORMAL_PROBE_DRAW, {}), (DENORMAL_PROBE_DISPATCH, {})],
         "probe")
-    add([(ARITHMETIC_PROBE, probe_defines("f_normalize vec3", mode)) for mode in ARITHMETIC_MODES],
+    add([(ARITHMETIC_PROBE, probe_defines("f_normalize vec3", mode)) for mode in ARITHMETIC_IDS],
         "probe")
     return list(builds.values())
 
@@ -133,6 +142,15 @@ def _validate(stages: list[tuple[Build, str, ShaderSource]], folder: Path,
         raise ShaderError(f"{validator} failed (exit {result.returncode}) without naming a "
                           f"file: {(result.stderr or result.stdout).strip()[:300]}")
     return findings
+
+
+def context_builds(builds: Iterable[Build]) -> list[Build]:
+    """The builds the context step compiles: all but the particle passes in portable
+    arithmetic. Their inlined arithmetic takes llvmpipe about 2 s a program; they declare no
+    uniform of their own, the reference front-end validates every one, and
+    tests/test_portable_physics.py compiles and runs every integrator on both paths."""
+    return [build for build in builds if build.spec not in (PARTICLE_UPDATE, BLOCK_UPDATE)
+            or dict(build.defines)["ARITHMETIC"] != PORTABLE]
 
 
 def check_on_context(ctx: moderngl.Context, builds: Iterable[Build]) -> list[Finding]:

@@ -1,7 +1,9 @@
 """The numpy twin of the GPU engine: the same forces, integrators, collisions and emission.
 
 In float64 it is the reference the GPU is tested against; in float32 it is the CPU
-baseline of the benchmark. Each function names the shader lines it mirrors.
+baseline of the benchmark; for a scene in portable arithmetic it computes with the
+portable kernels (`kernels.py`, cavesim/core/portable/) and holds the GPU's bits. Each
+function names the shader lines it mirrors.
 """
 
 from cavesim.core.twin.integrators import INTEGRATORS

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from cavesim.core.emitters import EmitterTable
-from cavesim.core.random_texture import lookup_coordinates, unit_float
+from cavesim.core.random_texture import random_texels, unit_float
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
 
 
@@ -23,18 +23,17 @@ def update_emitters(state: np.ndarray, table: EmitterTable, dt: np.float32,
 
 
 def spawn(table: EmitterTable, e: int, serials: np.ndarray, random: np.ndarray,
-          transform: np.ndarray, dtype=np.float64, origin=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """New particles of emitter e with the given emission serials (PARTICLE_DTYPE)."""
-    size = random.shape[0]
-    base = tuple(int(b) for b in table.random_base[e])
-    words = []
-    for texel in (0, 1):
-        xs, ys = lookup_coordinates(base, serials, texel, transform, size)
-        words.append(random[ys, xs])  # texelFetch(ivec2(x, y)) reads row y, column x
-    r0, r1 = words
+          transform: np.ndarray, dtype=np.float64, origin=None) -> np.ndarray:
+    """New particles of emitter e with the given emission serials (PARTICLE_DTYPE).
+
+    `origin`: the frame's emission origin where the scene's emitters follow the helicopter.
+    """
+    r0, r1 = random_texels(random, table.random_base[e], serials, transform)
     u0 = unit_float(r0).astype(dtype)
     u1 = unit_float(r1).astype(dtype)
-    center = np.asarray(origin, np.float32).astype(dtype) + table.position[e]
+    center = table.position[e].astype(dtype)
+    if origin is not None:
+        center = np.asarray(origin, np.float32).astype(dtype) + center
     position = center + (u0[:, :3] - 0.5) * table.extent[e]
     versine = u0[:, 3] * dtype(table.versine_spread[e])
     cos_theta = 1 - versine

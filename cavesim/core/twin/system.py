@@ -1,7 +1,9 @@
 """The whole engine in numpy: the reference of `ParticleSystem`, frame for frame.
 
-State is kept in `dtype` (float64 for the reference, float32 for the CPU baseline) and
-in the GPU's stream order, so a test can compare particle i with particle i.
+State is kept in the GPU's stream order, so a test can compare particle i with particle i,
+and computed by one of two sets of kernels (`kernels.py`): the twin's own in `dtype`
+(float64: the reference; float32: the CPU baseline), or for a scene in portable arithmetic
+the portable float32 ones, which give the GPU's bits.
 """
 
 from __future__ import annotations
@@ -10,21 +12,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.dispersion import draws, particle_diffusivity, seen_turbulence
+from cavesim.core.dispersion import draws
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
-from cavesim.core.fields import FieldGrid, build_field, sample_field
+from cavesim.core.fields import FieldGrid, build_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
-from cavesim.core.helicopter.rotor import downwash
+from cavesim.core.portable.forces import PortableForces
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
-from cavesim.core.scene.model import CollisionKind, FieldKind, Scene
+from cavesim.core.scene.model import Arithmetic, CollisionKind, FieldKind, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
-from cavesim.core.twin.collision import collide, ground
-from cavesim.core.twin.emission import emission_order, spawn, update_emitters
+from cavesim.core.twin.emission import emission_order, update_emitters
 from cavesim.core.twin.forces import ForceModel
-from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.core.twin.kernels import PORTABLE, Kernels, reference_kernels
 
 
 @dataclass
@@ -56,7 +57,9 @@ class TwinParticles:
                      for name in ("pos", "vel", "age", "lifetime", "class_id")))
 
 
-RUNAWAY = 1e15  # as in physics.glsl: a particle beyond it (or non-finite) is dropped
+# as in physics.glsl, whose float32 bits it compares: a particle at or beyond it (or not
+# finite) is dropped
+RUNAWAY = np.float32(1e15)
 
 
 def sane(x: np.ndarray) -> np.ndarray:
@@ -65,11 +68,19 @@ def sane(x: np.ndarray) -> np.ndarray:
 
 
 class TwinSystem:
-    """numpy twin of `cavesim.gpu.engine.ParticleSystem` for one scene."""
+    """numpy twin of `cavesim.gpu.engine.ParticleSystem` for one scene.
 
-    def __init__(self, scene: Scene, dtype=np.float64) -> None:
+    With `dtype` None, a scene in portable arithmetic gets the portable kernels (float32, the
+    GPU's bits) and any other the float64 reference; a given `dtype` always means the
+    reference kernels in it.
+    """
+
+    def __init__(self, scene: Scene, dtype=None) -> None:
         self.scene = scene
-        self.dtype = np.dtype(dtype).type
+        portable = dtype is None and scene.arithmetic is Arithmetic.PORTABLE
+        self.kernels: Kernels = PORTABLE if portable else reference_kernels(
+            np.dtype(dtype or np.float64).type)
+        self.dtype = self.kernels.dtype
         self.table = EmitterTable.from_scene(scene)
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         grid_field = scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR
@@ -83,7 +94,8 @@ class TwinSystem:
         self.inv_tau = (1.0 / np.array(taus, dtype=np.float64)).astype(np.float32)
         self.reynolds_per_speed = np.array(scene.reynolds_per_speed() or (0.0,),
                                            dtype=np.float32)
-        self.integrate = INTEGRATORS[scene.integrator]
+        self.integrate = self.kernels.integrators[scene.integrator]
+        self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
 
@@ -95,22 +107,22 @@ class TwinSystem:
         self.particles = TwinParticles.from_records(records, self.dtype)
 
     def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None,
-                   turbulence: np.ndarray | None = None) -> ForceModel:
+                   turbulence: np.ndarray | None = None) -> ForceModel | PortableForces:
         """The force model of particles of the given classes (in this frame's rotor wash,
         seeing `turbulence` besides the flow)."""
         f = self.scene.forces
-        dtype = self.dtype
+        dtype, kernels = self.dtype, self.kernels
         flow = None
         inv_tau = reynolds = None
         if rotor is not None and f.drag is not None:
             radius, ground_z = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
 
             def flow(p):
-                return downwash(p, rotor.hub, float(rotor.induced_velocity), radius, ground_z,
-                                dtype=dtype)
+                return kernels.rotor_flow(p, rotor.hub, float(rotor.induced_velocity), radius,
+                                          ground_z)
         elif self.field is not None:
             def flow(p):
-                return sample_field(self.field, p, self.scene.field.out_of_domain, dtype=dtype)
+                return kernels.field_flow(self.field, p, self.scene.field.out_of_domain)
         if flow is not None:
             index = np.minimum(class_id, len(self.inv_tau) - 1)
             inv_tau = self.inv_tau[index].astype(dtype)[:, None]
@@ -118,7 +130,7 @@ class TwinSystem:
                 reynolds = self.reynolds_per_speed[index].astype(dtype)[:, None]
         gravity = None if f.gravity is None else np.array(f.gravity, dtype=np.float32).astype(dtype)
         damping = None if f.damping is None else dtype(np.float32(f.damping))
-        return ForceModel(gravity, damping, inv_tau, flow, reynolds, turbulence)
+        return kernels.forces(gravity, damping, inv_tau, flow, reynolds, turbulence)
 
     def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
         """Advance one frame exactly as the GPU does (survivors, then new particles)."""
@@ -131,22 +143,21 @@ class TwinSystem:
             forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces))
         pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt), forces)
         if self.scene.collision is not None:
-            pos, vel = collide(pos, vel, self.scene.collision, self.heights)
+            pos, vel = self.kernels.collide(pos, vel, self.scene.collision, self.heights)
         alive &= sane(pos) & sane(vel)
         moved = TwinParticles(pos, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
 
-    def _turbulence(self, frame: FrameInput, forces: ForceModel) -> np.ndarray:
+    def _turbulence(self, frame: FrameInput, forces: ForceModel | PortableForces
+                    ) -> np.ndarray:
         """What each particle sees besides the flow this step (dispersion.glsl's twin)."""
         q = self.particles
-        height = q.pos[:, 2] - ground(self.scene.collision, self.heights, q.pos[:, :2],
-                                      self.dtype)[0]
-        rate = forces.drag_rate(forces.flow(q.pos) - q.vel)[:, 0]
-        diffusivity, gradient = particle_diffusivity(
-            forces.flow, q.pos, height, rate, self.scene.forces.dispersion.mixing_length)
+        ground, _ = self.kernels.ground(self.scene.collision, self.heights, q.pos[:, :2])
         xi = draws(self.random, frame.random_transform, len(q.age), self.dtype)
-        return seen_turbulence(diffusivity, gradient, xi, self.dtype(frame.dt))
+        return self.kernels.turbulence(forces, q.pos, q.vel, ground,
+                                       self.scene.forces.dispersion.mixing_length, xi,
+                                       self.dtype(frame.dt))
 
     def _emit(self, frame: FrameInput, survivors: int, rotor) -> list[TwinParticles]:
         if not len(self.table):
@@ -161,9 +172,9 @@ class TwinSystem:
                 break
             serials = (self.emitters["serial"][e].astype(np.uint64) + first
                        + np.arange(min(n, room), dtype=np.uint64)) & 0xFFFFFFFF
-            origin = (0.0, 0.0, 0.0) if rotor is None else rotor.origins[e]
-            records = spawn(self.table, e, serials, self.random, frame.random_transform,
-                            self.dtype, origin)
+            origin = rotor.origins[e] if self.following else None
+            records = self.kernels.spawn(self.table, e, serials, self.random,
+                                         frame.random_transform, origin=origin)
             new.append(TwinParticles.from_records(records, self.dtype))
             room -= len(records)
         return new

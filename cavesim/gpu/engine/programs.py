@@ -18,6 +18,7 @@ from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORDS
 from cavesim.core.scene.model import (
+    Arithmetic,
     CollisionKind,
     FieldKind,
     FieldSampling,
@@ -28,7 +29,9 @@ from cavesim.core.scene.model import (
 from cavesim.gpu.shader_source import ProgramSpec
 
 # Feature ids as the shaders spell them (#define INTEGRATOR_RK4 5 ... in
-# shaders/include/physics.glsl); tests/test_features.py holds the two sides together.
+# shaders/include/physics.glsl, ARITHMETIC_PORTABLE in arithmetic.glsl);
+# tests/test_features.py and tests/test_portable_physics.py hold the two sides together.
+ARITHMETIC_IDS = {Arithmetic.NATIVE: 0, Arithmetic.PORTABLE: 1}
 INTEGRATOR_IDS = {
     Integrator.EXPLICIT_EULER: 0, Integrator.SEMI_IMPLICIT_EULER: 1, Integrator.TRAPEZOID: 2,
     Integrator.VERLET: 3, Integrator.RK2: 4, Integrator.RK4: 5, Integrator.EXPONENTIAL: 6,
@@ -40,6 +43,7 @@ SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
 
 # The values each define can take (numbers: the extremes a scene may ask for).
 PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
+    "ARITHMETIC": tuple(ARITHMETIC_IDS.values()),
     "HAS_GRAVITY": (0, 1),
     "HAS_DRAG": (0, 1),
     "HAS_DAMPING": (0, 1),
@@ -50,7 +54,15 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "FIELD_IS_ROTOR": (0, 1),
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
+# Drag beyond Stokes and dispersion (with the random texture's size it reads), checked
+# by the gate in the variants `physics_variants` names, not in the full product
+TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
+    "HAS_SCHILLER_NAUMANN": (0, 1),
+    "HAS_DISPERSION": (0, 1),
+    "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
+}
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
+    "ARITHMETIC": tuple(ARITHMETIC_IDS.values()),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
     "EMIT_BATCH": (EMIT_BATCH,),
     "FOLLOWING": (0, 1),
@@ -66,7 +78,7 @@ BLOCK_DEFINES = {"WORKGROUP_SIZE": BLOCK_WORKGROUP_SIZE}
 SCAN_DEFINES = {"SCAN_SIZE": SCAN_SIZE, "EMIT_BATCH": EMIT_BATCH}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
-                              tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
+                              (*PHYSICS_FEATURES, *TRANSPORT_FEATURES), PARTICLE_VARYINGS)
 EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
                              tuple(EMISSION_FEATURES), ("out_state",))
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
@@ -86,7 +98,7 @@ CHECKSUM_PROGRAMS = (
 )
 # the compute path's four passes (cavesim/gpu/engine/compute.py)
 BLOCK_UPDATE = ProgramSpec("particles/update_blocks.glsl", ("compute",),
-                           (*PHYSICS_FEATURES, *BLOCK_DEFINES))
+                           (*PHYSICS_FEATURES, *TRANSPORT_FEATURES, *BLOCK_DEFINES))
 SCAN = ProgramSpec("particles/scan.glsl", ("compute",), tuple(SCAN_DEFINES))
 COMPACT = ProgramSpec("particles/compact.glsl", ("compute",), tuple(BLOCK_DEFINES))
 APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATURES))
@@ -96,6 +108,7 @@ def physics_defines(scene: Scene) -> dict[str, int]:
     """Feature switches of the particle pass (on either engine path)."""
     field = scene.field
     return {
+        "ARITHMETIC": ARITHMETIC_IDS[scene.arithmetic],
         "HAS_GRAVITY": int(scene.forces.gravity is not None),
         "HAS_DRAG": int(scene.forces.drag is not None),
         "HAS_DAMPING": int(scene.forces.damping is not None),
@@ -105,12 +118,16 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
         "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
+        "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
+        "HAS_DISPERSION": int(scene.forces.dispersion is not None),
+        "RANDOM_SIZE": scene.random_texture_size,
     }
 
 
 def emission_defines(scene: Scene) -> dict[str, int]:
-    """Sizes of the emitter programs."""
+    """Sizes and arithmetic of the emitter programs."""
     return {
+        "ARITHMETIC": ARITHMETIC_IDS[scene.arithmetic],
         "RANDOM_SIZE": scene.random_texture_size,
         "EMIT_BATCH": EMIT_BATCH,
         "FOLLOWING": int(any(e.follow_helicopter for e in scene.emitters)),
@@ -130,17 +147,63 @@ def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
 
 
 def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
-    """Every engine program with every combination of the values its defines can take."""
-    for spec, features, fixed in ((PARTICLE_UPDATE, PHYSICS_FEATURES, {}),
-                                  (BLOCK_UPDATE, PHYSICS_FEATURES, BLOCK_DEFINES),
-                                  (EMITTER_UPDATE, EMISSION_FEATURES, {}),
-                                  (EMIT, EMISSION_FEATURES, {}),
-                                  (APPEND, EMISSION_FEATURES, {})):
-        for values in itertools.product(*features.values()):
-            yield spec, {**dict(zip(features, values, strict=True)), **fixed}
+    """Every engine program with every combination of the values its defines can take; in
+    portable arithmetic the particle passes in `physics_variants` only."""
+    for spec, fixed in ((PARTICLE_UPDATE, {}), (BLOCK_UPDATE, BLOCK_DEFINES)):
+        for defines in physics_variants():
+            yield spec, {**defines, **fixed}
+    for spec in (EMITTER_UPDATE, EMIT, APPEND):
+        for values in itertools.product(*EMISSION_FEATURES.values()):
+            yield spec, dict(zip(EMISSION_FEATURES, values, strict=True))
     for spec, defines in ((SCAN, SCAN_DEFINES), (COMPACT, BLOCK_DEFINES),
                           *((spec, defines) for _, spec, defines in CHECKSUM_PROGRAMS)):
         yield spec, dict(defines)
+
+
+def physics_variants() -> Iterator[dict[str, int]]:
+    """The particle pass's defines the gate checks. Native: every combination of
+    PHYSICS_FEATURES with the transport features off, and each transport combination with
+    every integrator, both flows and both grounds (all else on). Portable, whose inlined
+    arithmetic makes a program many times larger (the full product would take the reference
+    front-end minutes): every integrator with every feature on, and with each other feature
+    switched one at a time, which together hold every line and every #if of the portable
+    code. Hardware sampling is not among them: the scene loader refuses it."""
+    off = {name: values[0] for name, values in TRANSPORT_FEATURES.items()}
+    on = {name: values[-1] for name, values in TRANSPORT_FEATURES.items()}
+    native = {**PHYSICS_FEATURES, "ARITHMETIC": (ARITHMETIC_IDS[Arithmetic.NATIVE],)}
+    for values in itertools.product(*native.values()):
+        yield {**dict(zip(native, values, strict=True)), **off}
+    every_feature = {name: values[-1] for name, values in native.items()}
+    for integrator, rotor, collision in itertools.product(
+            PHYSICS_FEATURES["INTEGRATOR"], (0, 1), (1, 2)):
+        for drag_law, dispersion in ((1, 0), (0, 1), (1, 1)):
+            yield {**every_feature, **on, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": rotor,
+                   "COLLISION": collision, "HAS_SCHILLER_NAUMANN": drag_law,
+                   "HAS_DISPERSION": dispersion}
+    fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
+             "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
+    features = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
+    switched = {name: values for name, values in features.items()
+                if name not in (*fixed, "INTEGRATOR")}
+    every_feature = {name: values[-1] for name, values in switched.items()}
+    for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
+        base = {**every_feature, **fixed, "INTEGRATOR": integrator}
+        yield base
+        variants = {tuple(valid_transport({**base, name: value}).items())
+                    for name, values in switched.items() for value in values
+                    if value != base[name]}
+        yield from (dict(variant) for variant in sorted(variants))
+
+
+def valid_transport(defines: dict[str, int]) -> dict[str, int]:
+    """`defines` with the transport features the rest allows (physics.glsl's #errors):
+    both need drag, dispersion a ground."""
+    out = dict(defines)
+    if not out["HAS_DRAG"]:
+        out["HAS_SCHILLER_NAUMANN"] = out["HAS_DISPERSION"] = 0
+    if out["COLLISION"] == COLLISION_IDS[None]:
+        out["HAS_DISPERSION"] = 0
+    return out
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:

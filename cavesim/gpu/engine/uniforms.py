@@ -27,10 +27,14 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
     if forces.drag is not None:
         values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
                                      dtype=np.float32)
+        if any(scene.reynolds_per_speed()):
+            values["reynolds_per_speed"] = np.array(scene.reynolds_per_speed(),
+                                                    dtype=np.float32)
+        if forces.dispersion is not None:
+            values["mixing_length"] = np.float32(forces.dispersion.mixing_length)
         if field is not None:  # a grid
             values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
-            values["field_index_scale"] = index_scale(field.box_min, field.box_max,
-                                                      field.resolution)
+            values["field_index_scale"] = field.index_scale
         else:  # the rotor's downwash: its size and the ground it blows against
             values["rotor_radius"] = np.float32(scene.helicopter.rotor_radius)
             values["rotor_ground_z"] = np.float32(ground_height(scene))
@@ -42,21 +46,14 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
         if collision.kind is CollisionKind.PLANE:
             values["ground_z"] = np.float32(collision.height)
         else:
-            ny, nx = ground.height.shape
             values["ground_box_min"] = np.array(ground.box_min, dtype=np.float32)
-            values["ground_index_scale"] = index_scale(ground.box_min, ground.box_max, (nx, ny))
+            values["ground_index_scale"] = ground.index_scale
     return values
 
 
 def rotor_uniforms(rotor: FrameRotor) -> dict[str, object]:
     """The downwash's per-frame uniforms (a helicopter scene's rotor this frame)."""
     return {"rotor_hub": rotor.hub, "induced_velocity": rotor.induced_velocity}
-
-
-def index_scale(box_min, box_max, resolution) -> np.ndarray:
-    """(resolution - 1) / (box_max - box_min) per axis, as float32: world to grid index."""
-    size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
-    return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)
 
 
 def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> None:

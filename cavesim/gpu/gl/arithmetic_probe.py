@@ -16,12 +16,12 @@ import moderngl
 import numpy as np
 
 from cavesim.core import portable
+from cavesim.gpu.engine.programs import ARITHMETIC_IDS
 from cavesim.gpu.gl.denormals import flushing_denormals
 from cavesim.gpu.shader_source import ProgramSpec
 
 ARITHMETIC_PROBE = ProgramSpec("probes/arithmetic.glsl", ("compute",),
                                ("ARITHMETIC", "FUNCTION", "REPEAT"))
-ARITHMETIC_MODES = {"native": 0, "portable": 1}  # include/arithmetic.glsl's ARITHMETIC_*
 
 Operands = np.ndarray  # float32, (cases, 3 operands a b c, 3 components x y z)
 Twin = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -97,10 +97,10 @@ def probe_defines(function: str, arithmetic: str, repeat: int = 0) -> dict[str, 
     """The probe's defines for `function` (a FUNCTIONS name) in mode `arithmetic`."""
     if function not in TWINS:
         raise ValueError(f"function must be one of {FUNCTIONS}, got {function!r}")
-    if arithmetic not in ARITHMETIC_MODES:
-        raise ValueError(f"arithmetic must be one of {sorted(ARITHMETIC_MODES)}, "
+    if arithmetic not in ARITHMETIC_IDS:  # the scene's Arithmetic, or its name
+        raise ValueError(f"arithmetic must be one of {sorted(ARITHMETIC_IDS)}, "
                          f"got {arithmetic!r}")
-    return {"ARITHMETIC": ARITHMETIC_MODES[arithmetic], "FUNCTION": FUNCTIONS.index(function),
+    return {"ARITHMETIC": ARITHMETIC_IDS[arithmetic], "FUNCTION": FUNCTIONS.index(function),
             "REPEAT": repeat}
 
 

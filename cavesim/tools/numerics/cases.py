@@ -131,7 +131,8 @@ def vortex_case(count: int) -> Case:
 
 def downwash_case(helicopter_scene: Path, count: int) -> Case:
     """The scene file's rotor downwash (its helicopter, forces and field), without its
-    emitters and ground, under a fixed rotor HUB_HEIGHT above the ground at full speed."""
+    emitters, ground and random walk (deterministic paths to measure), under a fixed rotor
+    HUB_HEIGHT above the ground at full speed."""
     data = read_toml(helicopter_scene, SceneError, "scene file")
     if "helicopter" not in data or data.get("field", {}).get("kind") != "rotor":
         raise SceneError(f"{helicopter_scene}: the downwash case needs a helicopter scene with "
@@ -139,6 +140,8 @@ def downwash_case(helicopter_scene: Path, count: int) -> Case:
                          f"{'present' if 'helicopter' in data else 'missing'} and field.kind = "
                          f"{data.get('field', {}).get('kind')!r}")
     data = {key: value for key, value in data.items() if key not in ("emitter", "collision")}
+    data["forces"] = {key: value for key, value in data["forces"].items()
+                      if key != "dispersion"}
     data["simulation"] = _simulation(count)
     data["particle_class"] = [dict(PROBE)]
     scene = parse_scene(data, helicopter_scene)

@@ -1,7 +1,11 @@
 // The forces on a particle and the integrators that advance it by one step. Each scene
-// compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING), one
-// INTEGRATOR and one COLLISION kind; cavesim/twin/ holds the float64 twin of every line.
+// compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING, with drag
+// HAS_SCHILLER_NAUMANN and HAS_DISPERSION), one INTEGRATOR and one COLLISION kind;
+// cavesim/core/twin/ holds the float64 twin of every line. Every float operation goes through arithmetic.glsl (f_add, f_mul, ...): plain
+// operators for ARITHMETIC_NATIVE, the same bits on every GPU for ARITHMETIC_PORTABLE,
+// mirrored operation by operation in float32 by cavesim/core/portable/.
 #pragma once
+#include "arithmetic.glsl"
 
 #define INTEGRATOR_EXPLICIT_EULER 0
 #define INTEGRATOR_SEMI_IMPLICIT_EULER 1
@@ -43,50 +47,122 @@ float inverse_relaxation_time(uint class_id) {
 }
 #endif
 
-// a = (u(p) - v) / tau + g - k v   (Kolb et al.: Stokes drag toward the flow texture)
+// Both act through drag; dispersion measures heights from the ground (the scene loader's
+// rules; programs.physics_defines and physics_variants keep to them)
+#if (HAS_SCHILLER_NAUMANN || HAS_DISPERSION) && !HAS_DRAG
+#error HAS_SCHILLER_NAUMANN and HAS_DISPERSION need HAS_DRAG
+#endif
+#if HAS_DISPERSION && COLLISION == COLLISION_NONE
+#error HAS_DISPERSION needs a COLLISION ground
+#endif
+
+// The particle being stepped, set by advance() before integrate() and read by each
+// acceleration() and linear_parts() of its step (the twin's ForceModel holds the same)
+#if HAS_SCHILLER_NAUMANN
+uniform float reynolds_per_speed[CLASS_COUNT];  // d / nu per class; 0: a Stokes class
+float step_reynolds_per_speed;  // Re = this × |u - v|
+#endif
+#if HAS_DISPERSION
+vec3 step_turbulence;  // dispersion.glsl: what the particle sees besides u(p) this step
+#endif
+
+#if HAS_DRAG
+// Schiller & Naumann: C_D = 24/Re (1 + 0.15 Re^0.687) (cavesim/core/drag.py), constants
+// as exact bits (cavesim/core/portable/constants.py)
+#define SCHILLER_NAUMANN_COEFFICIENT uintBitsToFloat(0x3E19999Au)  // 0.15
+#define SCHILLER_NAUMANN_EXPONENT uintBitsToFloat(0x3F2FDF3Bu)  // 0.687
+
+// lambda, the rate at which drag relaxes the slip u - v: 1/tau (Stokes), times
+// 1 + 0.15 Re^0.687 for a Schiller-Naumann class
+float drag_rate(vec3 slip, float inv_tau_p) {
+#if HAS_SCHILLER_NAUMANN
+    float reynolds = f_mul(f_length(slip), step_reynolds_per_speed);
+    if (reynolds > 0.0) {
+        float wake = f_mul(SCHILLER_NAUMANN_COEFFICIENT,
+                           f_pow(reynolds, SCHILLER_NAUMANN_EXPONENT));
+        return f_mul(inv_tau_p, f_add(1.0, wake));
+    }
+#endif
+    return inv_tau_p;
+}
+
+// The flow drag pulls toward: u(p), and with dispersion the turbulence seen this step
+vec3 seen_flow(vec3 u) {
+#if HAS_DISPERSION
+    return f_add(u, step_turbulence);
+#else
+    return u;
+#endif
+}
+#endif
+
+// a = (u(p) + u_t - v) lambda + g - k v   (Kolb et al.: drag toward the flow texture;
+// lambda = 1/tau for Stokes drag, from the slip u(p) - v for Schiller-Naumann's)
 vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
     vec3 a = vec3(0.0);
 #if HAS_DRAG
-    a += (flow_at(p) - v) * inv_tau_p;
+    vec3 u = flow_at(p);
+    a = f_add(a, f_mul(f_sub(seen_flow(u), v), drag_rate(f_sub(u, v), inv_tau_p)));
 #endif
 #if HAS_GRAVITY
-    a += gravity;
+    a = f_add(a, gravity);
 #endif
 #if HAS_DAMPING
-    a -= damping * v;
+    a = f_sub(a, f_mul(damping, v));
 #endif
     return a;
 }
 
-// a = f - lambda v: the forcing f = u(p)/tau + g and the linear rate lambda = 1/tau + k
-void linear_parts(vec3 p, float inv_tau_p, out vec3 f, out float lambda) {
+// a = f - lambda v: the forcing f = (u(p) + u_t) lambda_d + g and the linear rate
+// lambda = lambda_d + k, the drag rate lambda_d held at its value for the slip u(p) - v
+void linear_parts(vec3 p, vec3 v, float inv_tau_p, out vec3 f, out float lambda) {
     f = vec3(0.0);
     lambda = 0.0;
 #if HAS_DRAG
-    f += flow_at(p) * inv_tau_p;
-    lambda += inv_tau_p;
+    vec3 u = flow_at(p);
+    float rate = drag_rate(f_sub(u, v), inv_tau_p);
+    f = f_add(f, f_mul(seen_flow(u), rate));
+    lambda = f_add(lambda, rate);
 #endif
 #if HAS_GRAVITY
-    f += gravity;
+    f = f_add(f, gravity);
 #endif
 #if HAS_DAMPING
-    lambda += damping;
+    lambda = f_add(lambda, damping);
 #endif
 }
 
 #if INTEGRATOR == INTEGRATOR_EXPONENTIAL
+// 1/k! of the series below, as exact bits: how a literal such as 1.0 / 6.0 is rounded is
+// up to the compiler (macros: glslang refuses uintBitsToFloat in a const initializer;
+// cavesim/core/portable/constants.py holds the same bits)
+#define INV_FACTORIAL_3 uintBitsToFloat(0x3E2AAAABu)
+#define INV_FACTORIAL_4 uintBitsToFloat(0x3D2AAAABu)
+#define INV_FACTORIAL_5 uintBitsToFloat(0x3C088889u)
+#define INV_FACTORIAL_6 uintBitsToFloat(0x3AB60B61u)
+#define INV_FACTORIAL_7 uintBitsToFloat(0x39500D01u)
+#define INV_FACTORIAL_8 uintBitsToFloat(0x37D00D01u)
+
 // phi1(x) = (1 - e^-x) / x and phi2(x) = (x - 1 + e^-x) / x^2, by series where the closed
 // forms cancel catastrophically in float32.
 void exponential_weights(float x, out float e, out float phi1, out float phi2) {
-    e = exp(-x);
+    e = f_exp(-x);
     if (x < 0.5) {
-        phi1 = 1.0 - x * (1.0 / 2.0 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0
-               - x * (1.0 / 720.0 - x * (1.0 / 5040.0))))));
-        phi2 = 1.0 / 2.0 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x * (1.0 / 120.0
-               - x * (1.0 / 720.0 - x * (1.0 / 5040.0 - x * (1.0 / 40320.0))))));
+        float tail1 = f_sub(INV_FACTORIAL_6, f_mul(x, INV_FACTORIAL_7));
+        tail1 = f_sub(INV_FACTORIAL_5, f_mul(x, tail1));
+        tail1 = f_sub(INV_FACTORIAL_4, f_mul(x, tail1));
+        tail1 = f_sub(INV_FACTORIAL_3, f_mul(x, tail1));
+        tail1 = f_sub(0.5, f_mul(x, tail1));
+        phi1 = f_sub(1.0, f_mul(x, tail1));
+        float tail2 = f_sub(INV_FACTORIAL_7, f_mul(x, INV_FACTORIAL_8));
+        tail2 = f_sub(INV_FACTORIAL_6, f_mul(x, tail2));
+        tail2 = f_sub(INV_FACTORIAL_5, f_mul(x, tail2));
+        tail2 = f_sub(INV_FACTORIAL_4, f_mul(x, tail2));
+        tail2 = f_sub(INV_FACTORIAL_3, f_mul(x, tail2));
+        phi2 = f_sub(0.5, f_mul(x, tail2));
     } else {
-        phi1 = (1.0 - e) / x;
-        phi2 = (x - 1.0 + e) / (x * x);
+        phi1 = f_div(f_sub(1.0, e), x);
+        phi2 = f_div(f_add(f_sub(x, 1.0), e), f_mul(x, x));
     }
 }
 #endif
@@ -94,55 +170,63 @@ void exponential_weights(float x, out float e, out float phi1, out float phi2) {
 void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #if INTEGRATOR == INTEGRATOR_EXPLICIT_EULER
     vec3 a = acceleration(p, v, inv_tau_p);
-    p += h * v;
-    v += h * a;
+    p = f_add(p, f_mul(h, v));
+    v = f_add(v, f_mul(h, a));
 #elif INTEGRATOR == INTEGRATOR_SEMI_IMPLICIT_EULER
     // linearly implicit in the stiff drag and damping, explicit in the rest; the new
     // velocity moves the position. Stable for any tau: v' = (v + h f) / (1 + h lambda)
     vec3 f;
     float lambda;
-    linear_parts(p, inv_tau_p, f, lambda);
-    v = (v + h * f) / (1.0 + h * lambda);
-    p += h * v;
+    linear_parts(p, v, inv_tau_p, f, lambda);
+    v = f_div(f_add(v, f_mul(h, f)), f_add(1.0, f_mul(h, lambda)));
+    p = f_add(p, f_mul(h, v));
 #elif INTEGRATOR == INTEGRATOR_TRAPEZOID
     // UberFlow eq. (1)-(2): Euler velocity, position from the mean of old and new velocity
-    vec3 v1 = v + h * acceleration(p, v, inv_tau_p);
-    p += 0.5 * h * (v + v1);
+    float half_h = f_mul(0.5, h);
+    vec3 v1 = f_add(v, f_mul(h, acceleration(p, v, inv_tau_p)));
+    p = f_add(p, f_mul(half_h, f_add(v, v1)));
     v = v1;
 #elif INTEGRATOR == INTEGRATOR_VERLET
     // velocity Verlet; the drag's velocity dependence is met with an Euler-predicted velocity
+    float half_h = f_mul(0.5, h);
     vec3 a0 = acceleration(p, v, inv_tau_p);
-    p += h * v + (0.5 * h * h) * a0;
-    vec3 a1 = acceleration(p, v + h * a0, inv_tau_p);
-    v += (0.5 * h) * (a0 + a1);
+    p = f_add(p, f_add(f_mul(h, v), f_mul(f_mul(half_h, h), a0)));
+    vec3 a1 = acceleration(p, f_add(v, f_mul(h, a0)), inv_tau_p);
+    v = f_add(v, f_mul(half_h, f_add(a0, a1)));
 #elif INTEGRATOR == INTEGRATOR_RK2
     // explicit midpoint
+    float half_h = f_mul(0.5, h);
     vec3 a0 = acceleration(p, v, inv_tau_p);
-    vec3 pm = p + (0.5 * h) * v;
-    vec3 vm = v + (0.5 * h) * a0;
-    p += h * vm;
-    v += h * acceleration(pm, vm, inv_tau_p);
+    vec3 pm = f_add(p, f_mul(half_h, v));
+    vec3 vm = f_add(v, f_mul(half_h, a0));
+    p = f_add(p, f_mul(h, vm));
+    v = f_add(v, f_mul(h, acceleration(pm, vm, inv_tau_p)));
 #elif INTEGRATOR == INTEGRATOR_RK4
+    float half_h = f_mul(0.5, h);
     vec3 k1p = v;
     vec3 k1v = acceleration(p, v, inv_tau_p);
-    vec3 k2p = v + (0.5 * h) * k1v;
-    vec3 k2v = acceleration(p + (0.5 * h) * k1p, k2p, inv_tau_p);
-    vec3 k3p = v + (0.5 * h) * k2v;
-    vec3 k3v = acceleration(p + (0.5 * h) * k2p, k3p, inv_tau_p);
-    vec3 k4p = v + h * k3v;
-    vec3 k4v = acceleration(p + h * k3p, k4p, inv_tau_p);
-    p += (h / 6.0) * (k1p + 2.0 * k2p + 2.0 * k3p + k4p);
-    v += (h / 6.0) * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+    vec3 k2p = f_add(v, f_mul(half_h, k1v));
+    vec3 k2v = acceleration(f_add(p, f_mul(half_h, k1p)), k2p, inv_tau_p);
+    vec3 k3p = f_add(v, f_mul(half_h, k2v));
+    vec3 k3v = acceleration(f_add(p, f_mul(half_h, k2p)), k3p, inv_tau_p);
+    vec3 k4p = f_add(v, f_mul(h, k3v));
+    vec3 k4v = acceleration(f_add(p, f_mul(h, k3p)), k4p, inv_tau_p);
+    vec3 dp = f_add(f_add(f_add(k1p, f_mul(2.0, k2p)), f_mul(2.0, k3p)), k4p);
+    vec3 dv = f_add(f_add(f_add(k1v, f_mul(2.0, k2v)), f_mul(2.0, k3v)), k4v);
+    float sixth_h = f_div(h, 6.0);
+    p = f_add(p, f_mul(sixth_h, dp));
+    v = f_add(v, f_mul(sixth_h, dv));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
     // Exact solution of dv/dt = f - lambda v with the flow held at its value at p:
     // f = u(p)/tau + g, lambda = 1/tau + k. Stable for any step (stiff fine dust).
     vec3 f;
     float lambda;
-    linear_parts(p, inv_tau_p, f, lambda);
+    linear_parts(p, v, inv_tau_p, f, lambda);
     float e, phi1, phi2;
-    exponential_weights(lambda * h, e, phi1, phi2);
-    p += (h * phi1) * v + (h * h * phi2) * f;
-    v = e * v + (h * phi1) * f;
+    exponential_weights(f_mul(lambda, h), e, phi1, phi2);
+    float h_phi1 = f_mul(h, phi1);
+    p = f_add(p, f_add(f_mul(h_phi1, v), f_mul(f_mul(f_mul(h, h), phi2), f)));
+    v = f_add(f_mul(e, v), f_mul(h_phi1, f));
 #else
 #error unknown INTEGRATOR
 #endif
@@ -173,14 +257,18 @@ void collide(inout vec3 p, inout vec3 v) {
         return;
     }
     p.z = height;
-    float vn = dot(v, n);
+    float vn = f_dot(v, n);
     if (vn < 0.0) {
-        vec3 v_normal = vn * n;
-        vec3 v_tangent = v - v_normal;
-        float keep = length(v) < friction_min_speed ? 1.0 : 1.0 - friction;
-        v = keep * v_tangent - resilience * v_normal;
+        vec3 v_normal = f_mul(vn, n);
+        vec3 v_tangent = f_sub(v, v_normal);
+        float keep = f_length(v) < friction_min_speed ? 1.0 : f_sub(1.0, friction);
+        v = f_sub(f_mul(keep, v_tangent), f_mul(resilience, v_normal));
     }
 }
+#endif
+
+#if HAS_DISPERSION
+#include "dispersion.glsl"
 #endif
 
 // Beyond this a state is lost to overflow; such a particle is dropped, never stored.
@@ -197,19 +285,29 @@ bool finite(vec3 x) {
 // One step of one particle's motion. Returns false when the step ran away (an unstable
 // integrator, an absurd field): the particle pass drops it, so NaN or Inf never reach the
 // GPU state (a status, not a crash).
-bool advance(inout Particle q, float h) {
-    integrate(q.pos, q.vel, inverse_relaxation_time(q.class_id), h);
+// `index`: the particle's place in the stream, the same on every node (its random draws).
+bool advance(inout Particle q, float h, uint index) {
+    float inv_tau_p = inverse_relaxation_time(q.class_id);
+#if HAS_SCHILLER_NAUMANN
+    step_reynolds_per_speed = reynolds_per_speed[min(q.class_id, uint(CLASS_COUNT - 1))];
+#endif
+#if HAS_DISPERSION
+    step_turbulence = turbulence_seen(q.pos, q.vel, inv_tau_p, index, h);
+#endif
+    integrate(q.pos, q.vel, inv_tau_p, h);
 #if COLLISION != COLLISION_NONE
     collide(q.pos, q.vel);
 #endif
     return finite(q.pos) && finite(q.vel);
 }
 
-// One frame of one particle, the arithmetic both engine paths' particle passes share
-// (GS/TF update.glsl, compute update_blocks.glsl): it ages by h and moves.
-// Returns whether it lives on: not expired and not run away.
-bool step_particle(inout Particle q, float h) {
+// One frame of the particle at `index` in the stream, the arithmetic both engine paths'
+// particle passes share (GS/TF update.glsl, compute update_blocks.glsl): it ages by h
+// and moves.
+// Returns whether it lives on: not expired and not run away. The age's float64 add stays
+// outside arithmetic.glsl: portable only where the GPU rounds doubles as IEEE does.
+bool step_particle(inout Particle q, float h, uint index) {
     q.age += double(h);
-    bool sane = advance(q, h);
+    bool sane = advance(q, h, index);
     return q.age < double(q.lifetime) && sane;
 }

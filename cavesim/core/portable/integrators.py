@@ -1,0 +1,120 @@
+"""One step of each integrator in portable arithmetic: `integrate` and `exponential_weights`
+of shaders/include/physics.glsl, operation by operation in float32.
+
+Same signature as the float64 reference (cavesim/core/twin/integrators.py): (p, v, h,
+forces) -> (p, v), with `forces` a `PortableForces`. Where the shader branches per particle,
+both sides are computed here and the branch's own is selected.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from cavesim.core.portable.arithmetic import f_add, f_div, f_exp, f_mul, f_sub
+from cavesim.core.portable.constants import (
+    INV_FACTORIAL_3,
+    INV_FACTORIAL_4,
+    INV_FACTORIAL_5,
+    INV_FACTORIAL_6,
+    INV_FACTORIAL_7,
+    INV_FACTORIAL_8,
+)
+from cavesim.core.scene.model import Integrator
+
+HALF, ONE, TWO, SIX = np.float32(0.5), np.float32(1.0), np.float32(2.0), np.float32(6.0)
+SERIES_BELOW = np.float32(0.5)  # x below which phi1 and phi2 are summed as series
+
+
+def explicit_euler(p, v, h, forces):
+    """Explicit (forward) Euler, order 1."""
+    a = forces.acceleration(p, v)
+    return f_add(p, f_mul(h, v)), f_add(v, f_mul(h, a))
+
+
+def semi_implicit_euler(p, v, h, forces):
+    """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
+    f, lam = forces.linear_parts(p, v)
+    v = f_div(f_add(v, f_mul(h, f)), f_add(ONE, f_mul(h, lam)))
+    return f_add(p, f_mul(h, v)), v
+
+
+def trapezoid(p, v, h, forces):
+    """UberFlow eq. (1)-(2): Euler velocity, trapezoidal position, order 1."""
+    half_h = f_mul(HALF, h)
+    v1 = f_add(v, f_mul(h, forces.acceleration(p, v)))
+    return f_add(p, f_mul(half_h, f_add(v, v1))), v1
+
+
+def verlet(p, v, h, forces):
+    """Velocity Verlet with an Euler-predicted velocity for the drag, order 2."""
+    half_h = f_mul(HALF, h)
+    a0 = forces.acceleration(p, v)
+    p = f_add(p, f_add(f_mul(h, v), f_mul(f_mul(half_h, h), a0)))
+    a1 = forces.acceleration(p, f_add(v, f_mul(h, a0)))
+    return p, f_add(v, f_mul(half_h, f_add(a0, a1)))
+
+
+def rk2(p, v, h, forces):
+    """Explicit midpoint Runge-Kutta, order 2."""
+    half_h = f_mul(HALF, h)
+    a0 = forces.acceleration(p, v)
+    pm = f_add(p, f_mul(half_h, v))
+    vm = f_add(v, f_mul(half_h, a0))
+    return f_add(p, f_mul(h, vm)), f_add(v, f_mul(h, forces.acceleration(pm, vm)))
+
+
+def rk4(p, v, h, forces):
+    """Classic Runge-Kutta, order 4."""
+    half_h = f_mul(HALF, h)
+    k1p = v
+    k1v = forces.acceleration(p, v)
+    k2p = f_add(v, f_mul(half_h, k1v))
+    k2v = forces.acceleration(f_add(p, f_mul(half_h, k1p)), k2p)
+    k3p = f_add(v, f_mul(half_h, k2v))
+    k3v = forces.acceleration(f_add(p, f_mul(half_h, k2p)), k3p)
+    k4p = f_add(v, f_mul(h, k3v))
+    k4v = forces.acceleration(f_add(p, f_mul(h, k3p)), k4p)
+    dp = f_add(f_add(f_add(k1p, f_mul(TWO, k2p)), f_mul(TWO, k3p)), k4p)
+    dv = f_add(f_add(f_add(k1v, f_mul(TWO, k2v)), f_mul(TWO, k3v)), k4v)
+    sixth_h = f_div(h, SIX)
+    return f_add(p, f_mul(sixth_h, dp)), f_add(v, f_mul(sixth_h, dv))
+
+
+def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """e^-x, phi1 = (1 - e^-x)/x and phi2 = (x - 1 + e^-x)/x^2; series below x = 0.5."""
+    e = f_exp(-x)
+    tail1 = f_sub(INV_FACTORIAL_6, f_mul(x, INV_FACTORIAL_7))
+    for coefficient in (INV_FACTORIAL_5, INV_FACTORIAL_4, INV_FACTORIAL_3, HALF):
+        tail1 = f_sub(coefficient, f_mul(x, tail1))
+    tail2 = f_sub(INV_FACTORIAL_7, f_mul(x, INV_FACTORIAL_8))
+    for coefficient in (INV_FACTORIAL_6, INV_FACTORIAL_5, INV_FACTORIAL_4, INV_FACTORIAL_3):
+        tail2 = f_sub(coefficient, f_mul(x, tail2))
+    with np.errstate(divide="ignore", invalid="ignore"):  # x = 0 takes the series
+        closed1 = f_div(f_sub(ONE, e), x)
+        closed2 = f_div(f_add(f_sub(x, ONE), e), f_mul(x, x))
+    series = x < SERIES_BELOW
+    phi1 = np.where(series, f_sub(ONE, f_mul(x, tail1)), closed1)
+    phi2 = np.where(series, f_sub(HALF, f_mul(x, tail2)), closed2)
+    return e, phi1, phi2
+
+
+def exponential(p, v, h, forces):
+    """Exact for linear drag with the flow held over the step; stable for any tau/h, order 1."""
+    f, lam = forces.linear_parts(p, v)
+    e, phi1, phi2 = exponential_weights(f_mul(lam, h))
+    h_phi1 = f_mul(h, phi1)
+    p = f_add(p, f_add(f_mul(h_phi1, v), f_mul(f_mul(f_mul(h, h), phi2), f)))
+    return p, f_add(f_mul(e, v), f_mul(h_phi1, f))
+
+
+INTEGRATORS: dict[Integrator, Callable] = {
+    Integrator.EXPLICIT_EULER: explicit_euler,
+    Integrator.SEMI_IMPLICIT_EULER: semi_implicit_euler,
+    Integrator.TRAPEZOID: trapezoid,
+    Integrator.VERLET: verlet,
+    Integrator.RK2: rk2,
+    Integrator.RK4: rk4,
+    Integrator.EXPONENTIAL: exponential,
+}

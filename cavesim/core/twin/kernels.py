@@ -1,0 +1,56 @@
+"""The arithmetic a `TwinSystem` computes with: the reference's or the portable one's.
+
+REFERENCE kernels are the twin's own (float64: the accuracy reference; float32: the CPU
+baseline of the benchmark). PORTABLE kernels (cavesim/core/portable/) repeat the shaders'
+portable arithmetic operation by operation in float32: bit for bit the GPU's state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+
+from cavesim.core import dispersion
+from cavesim.core.fields import sample_field
+from cavesim.core.helicopter.rotor import downwash
+from cavesim.core.portable import dispersion as portable_dispersion
+from cavesim.core.portable import field as portable_field
+from cavesim.core.portable import ground as portable_ground
+from cavesim.core.portable import rotor as portable_rotor
+from cavesim.core.portable import spawn as portable_spawn
+from cavesim.core.portable.forces import PortableForces
+from cavesim.core.portable.integrators import INTEGRATORS as PORTABLE_INTEGRATORS
+from cavesim.core.scene.model import Integrator
+from cavesim.core.twin import collision, emission
+from cavesim.core.twin.forces import ForceModel
+from cavesim.core.twin.integrators import INTEGRATORS
+
+
+@dataclass(frozen=True)
+class Kernels:
+    dtype: type  # of positions and velocities
+    integrators: Mapping[Integrator, Callable]  # (p, v, h, forces) -> (p, v)
+    # (gravity, damping, inv_tau, flow, reynolds_per_speed, turbulence) -> a model with
+    # acceleration(p, v), linear_parts(p, v) and drag_rate(slip)
+    forces: Callable
+    rotor_flow: Callable  # (p, hub, v_i, rotor_radius, ground_z) -> u(p)
+    field_flow: Callable  # (grid, p, out_of_domain) -> u(p)
+    ground: Callable  # (collision, heights, xy) -> (height, normal)
+    collide: Callable  # (p, v, collision, heights) -> (p, v)
+    turbulence: Callable  # (forces, p, v, ground, mixing_length, xi, h) -> u_t
+    spawn: Callable  # (table, e, serials, random, transform, origin) -> records
+
+
+def reference_kernels(dtype) -> Kernels:
+    """The twin's own arithmetic in `dtype`."""
+    return Kernels(dtype, INTEGRATORS, ForceModel, partial(downwash, dtype=dtype),
+                   partial(sample_field, dtype=dtype), partial(collision.ground, dtype=dtype),
+                   collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype))
+
+
+PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PortableForces, portable_rotor.flow_at,
+                   portable_field.flow_at, portable_ground.ground_at, portable_ground.collide,
+                   portable_dispersion.turbulence, portable_spawn.spawn)
