@@ -3,9 +3,11 @@
 One GL context plays a helicopter scene with the master's inputs (its driver's frames, a
 random transform per frame from the clock seed) and draws every wall of a CAVE at chosen
 frames, unfolded into one composite, as `cavesim run` would (the walls of a run hold
-the same bits). The measures: the share of the dust-covered picture that is one
-connected cloud, and the coefficient of variation of the dust's density binned by
-azimuth around the rotor (separate puffs make it large, one ring of cloud small).
+the same bits). The measures: along the horizon, the share of the band just above it
+that the dust covers, column by column (separate puffs leave gaps, one cloud none); the
+share of the sky the dust covers (a cloud that rises, not a sheet on the ground); and the
+coefficient of variation of the dust's particle counts binned by azimuth around the rotor
+(large for puffs, small for a ring of cloud).
 """
 
 from __future__ import annotations
@@ -24,12 +26,15 @@ from cavesim.core.scene.model import Scene
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render.composite import compose
-from cavesim.gpu.render.wall_renderer import WallRenderer
+from cavesim.gpu.render.wall_renderer import RenderSettings, WallRenderer
 from cavesim.nodes.script import ScriptedHead
 
 FRAME_DT = 1 / 60
 CLOCK_SEED = 7  # the transforms' generator, as a master's clock seed
 DUST_LEVELS = 12  # a pixel is cloud where dust changed it by more than this (of 255)
+SKY_LEVELS = 3  # a pixel of the view without dust is sky within this of the sky colour
+BAND_SHARE = 0.05  # the band above the horizon: this share of the picture's height
+COVERED = 0.25  # a column is clouded where dust covers this share of its band
 AZIMUTH_BINS = 24
 
 
@@ -80,23 +85,33 @@ def cloud_mask(picture: Image.Image, clear: Image.Image) -> np.ndarray:
     return np.abs(a - b).max(axis=2) > DUST_LEVELS
 
 
-def connected_share(mask: np.ndarray) -> float:
-    """The largest 4-connected region's share of the masked pixels (0 without any)."""
-    total = int(mask.sum())
-    if total == 0:
-        return 0.0
-    labels = np.where(mask, np.arange(mask.size).reshape(mask.shape) + 1, 0)
-    while True:  # every pixel takes its neighbours' largest label until nothing changes
-        grown = labels.copy()
-        grown[1:] = np.maximum(grown[1:], labels[:-1])
-        grown[:-1] = np.maximum(grown[:-1], labels[1:])
-        grown[:, 1:] = np.maximum(grown[:, 1:], labels[:, :-1])
-        grown[:, :-1] = np.maximum(grown[:, :-1], labels[:, 1:])
-        grown = np.where(mask, grown, 0)
-        if np.array_equal(grown, labels):
-            break
-        labels = grown
-    return float(np.bincount(labels[mask]).max() / total)
+def sky(clear: Image.Image) -> np.ndarray:
+    """The sky's pixels in the view without dust."""
+    colour = np.asarray(RenderSettings().sky) * 255.0
+    return np.abs(np.asarray(clear, dtype=float) - colour).max(axis=2) <= SKY_LEVELS
+
+
+def horizon_band(picture: Image.Image, clear: Image.Image) -> np.ndarray:
+    """Per column that shows sky: the share of the band of BAND_SHARE of the picture's
+    height up to its horizon (its lowest sky pixel) that the dust changed."""
+    mask, is_sky = cloud_mask(picture, clear), sky(clear)
+    rows = max(1, round(BAND_SHARE * mask.shape[0]))
+    shares = []
+    for column in np.flatnonzero(is_sky.any(axis=0)):
+        horizon = np.flatnonzero(is_sky[:, column]).max()
+        shares.append(mask[max(0, horizon + 1 - rows):horizon + 1, column].mean())
+    return np.array(shares)
+
+
+def sky_coverage(picture: Image.Image, clear: Image.Image) -> float:
+    """The share of the sky the dust covers."""
+    return float(cloud_mask(picture, clear)[sky(clear)].mean())
+
+
+def band_measures(shares: np.ndarray) -> tuple[float, float]:
+    """(coverage, CV): the share of columns at least COVERED clouded along the horizon, and
+    the coefficient of variation of the columns' clouded shares."""
+    return float((shares >= COVERED).mean()), float(shares.std() / max(shares.mean(), 1e-9))
 
 
 def azimuth_cv(positions: np.ndarray, hub: np.ndarray, bins: int = AZIMUTH_BINS) -> float:
