@@ -2,7 +2,7 @@
 // drawn from the shared random texture, so every node draws the same numbers. The model
 // and its sources: cavesim/core/dispersion.py (float64 twin); portable twin:
 // cavesim/core/portable/dispersion.py. Included by physics.glsl where HAS_DISPERSION.
-//   K = l² |du/dz|, l = kappa z / (1 + kappa z / l_inf)     (Prandtl; Blackadar)
+//   K = l^2 |du/dz|, l = kappa z / (1 + kappa z / l_inf)    (Prandtl; Blackadar)
 //   K_p = K lambda / (lambda + |du/dz|)                       (the particle's share)
 //   seen: (dK_p/dz) z^ + sqrt(2 K_p / h) xi
 #pragma once

@@ -1,9 +1,10 @@
 // The forces on a particle and the integrators that advance it by one step. Each scene
 // compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING, with drag
 // HAS_SCHILLER_NAUMANN and HAS_DISPERSION), one INTEGRATOR and one COLLISION kind;
-// cavesim/core/twin/ holds the float64 twin of every line. Every float operation goes through arithmetic.glsl (f_add, f_mul, ...): plain
-// operators for ARITHMETIC_NATIVE, the same bits on every GPU for ARITHMETIC_PORTABLE,
-// mirrored operation by operation in float32 by cavesim/core/portable/.
+// cavesim/core/twin/ holds the float64 twin of every line. Every float operation goes
+// through arithmetic.glsl (f_add, f_mul, ...): plain operators for ARITHMETIC_NATIVE,
+// the same bits on every GPU for ARITHMETIC_PORTABLE, mirrored operation by operation in
+// float32 by cavesim/core/portable/.
 #pragma once
 #include "arithmetic.glsl"
 
@@ -59,8 +60,11 @@ float inverse_relaxation_time(uint class_id) {
 // The particle being stepped, set by advance() before integrate() and read by each
 // acceleration() and linear_parts() of its step (the twin's ForceModel holds the same)
 #if HAS_SCHILLER_NAUMANN
-uniform float reynolds_per_speed[CLASS_COUNT];  // d / nu per class; 0: a Stokes class
-float step_reynolds_per_speed;  // Re = this × |u - v|
+// d / nu per class (0: a Stokes class), four to a vec4: an array element takes a vec4's
+// room of the uniform storage, and a second per-class float array would overrun the
+// 512 components a GL 4.3 compute stage must offer at 64 classes
+uniform vec4 reynolds_per_speed[(CLASS_COUNT + 3) / 4];
+float step_reynolds_per_speed;  // Re = this * |u - v|
 #endif
 #if HAS_DISPERSION
 vec3 step_turbulence;  // dispersion.glsl: what the particle sees besides u(p) this step
@@ -217,8 +221,8 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     p = f_add(p, f_mul(sixth_h, dp));
     v = f_add(v, f_mul(sixth_h, dv));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
-    // Exact solution of dv/dt = f - lambda v with the flow held at its value at p:
-    // f = u(p)/tau + g, lambda = 1/tau + k. Stable for any step (stiff fine dust).
+    // Exact solution of dv/dt = f - lambda v with the flow and the drag rate held at
+    // their values at (p, v) (linear_parts). Stable for any step (stiff fine dust).
     vec3 f;
     float lambda;
     linear_parts(p, v, inv_tau_p, f, lambda);
@@ -289,7 +293,8 @@ bool finite(vec3 x) {
 bool advance(inout Particle q, float h, uint index) {
     float inv_tau_p = inverse_relaxation_time(q.class_id);
 #if HAS_SCHILLER_NAUMANN
-    step_reynolds_per_speed = reynolds_per_speed[min(q.class_id, uint(CLASS_COUNT - 1))];
+    uint drag_class = min(q.class_id, uint(CLASS_COUNT - 1));
+    step_reynolds_per_speed = reynolds_per_speed[drag_class / 4u][drag_class % 4u];
 #endif
 #if HAS_DISPERSION
     step_turbulence = turbulence_seen(q.pos, q.vel, inv_tau_p, index, h);
