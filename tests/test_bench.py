@@ -14,10 +14,14 @@ import sys
 import pytest
 
 from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.scene import load_scene
 from cavesim.gpu.engine.capacity import capacity_limits
+from cavesim.tools.arguments import REPO_ROOT
 from cavesim.tools.bench import TARGETS, SizeFigures
 from cavesim.tools.bench.figures import PATHS, RATIOS, evaluate_targets
+from cavesim.tools.bench.measure import measure_size
 from cavesim.tools.bench.runner import DEFAULT_SIZES, default_sizes
+from cavesim.tools.bench.workload import frame_inputs
 from cavesim.tools.cli import main
 
 SIZES = (2000, 5000)
@@ -159,3 +163,14 @@ def test_a_size_beyond_the_context_fails_in_one_line_before_measuring(ctx, tmp_p
     assert f"{limits.binding.name} = {limits.binding.value}" in done.stderr
     assert ctx.info["GL_RENDERER"] in done.stderr
     assert "measured" not in done.stdout and not list(tmp_path.rglob("*.json"))
+
+
+def test_a_helicopter_scene_is_measured_with_its_rotor_flying_its_timeline(ctx):
+    """The brownout demo steps with a rotor frame every frame, as a node decodes it."""
+    scene = load_scene(REPO_ROOT / "config/scenes/brownout.toml")
+    frames = frame_inputs(scene, 3)
+    assert all(state.rotor is not None and len(state.rotor.emission_factors) ==
+               len(scene.emitters) for _, state in frames)
+    figures = measure_size(ctx, scene, 2000, 1, lambda path: None)
+    assert figures.live_after == 2000
+    assert figures.compute_portable_cost > 0 and figures.gs_tf_portable_cost > 0

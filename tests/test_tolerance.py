@@ -318,9 +318,21 @@ def test_the_summary_names_the_mode_and_its_settings():
     link.walls["left"].nudge_at[3] = SMALL
     summary = run(link, frames=5, tolerance=Tolerance("front", sample=4)).summary()
     rows = dict(mode_rows(summary))
-    assert rows["mode"] == "mixed-hardware tolerance (authority front)"
+    assert rows["mode"] == "mixed-hardware tolerance (authority front, native arithmetic)"
     assert rows["resync every / sample"] == "120 frames / 4 records"
     assert rows["tolerance (position / velocity)"] == "0.002 m / 0.01 m/s"
     assert rows["breaches / periodic resyncs"] == "0 / 0"
     assert rows["worst drift (position / velocity)"] == "1e-06 m / 0 m/s"
-    assert mode_rows(run(MemoryLink(WALLS), frames=2).summary()) == [("mode", "bit-exact")]
+    assert mode_rows(run(MemoryLink(WALLS), frames=2).summary()) == [
+        ("mode", "bit-exact (native arithmetic)")]
+
+
+def test_the_summary_names_the_scenes_arithmetic(tmp_path):
+    """Bit-exact across mixed GPUs needs portable arithmetic: the report says which ran."""
+    portable = tmp_path / "portable.toml"
+    portable.write_text(MINIMAL.read_text().replace("[simulation]",
+                                                    '[simulation]\narithmetic = "portable"'))
+    config = MasterConfig(WALLS, portable, 2, "memory", barrier_timeout=0.05)
+    summary = run_master(config, MemoryLink(WALLS)).summary()
+    assert summary["arithmetic"] == "portable"
+    assert dict(mode_rows(summary))["mode"] == "bit-exact (portable arithmetic)"

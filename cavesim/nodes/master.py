@@ -151,7 +151,7 @@ class Master:
                            config.max_substeps)
         self.head = ScriptedHead()
         self.stopping = False
-        self.record = RunRecord(config.walls)
+        self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value)
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
         self.swaps = self.record.swaps

@@ -127,6 +127,8 @@ class RunRecord:
     gpus: dict[str, dict] = field(default_factory=dict)  # wall -> what it computes on
     swaps: SwapBook = field(default_factory=SwapBook)  # the swap barrier of displaying walls
     tolerance: ToleranceMode | None = None  # the mixed-hardware mode's (None: bit-exact)
+    arithmetic: str = "native"  # the scene's [simulation] arithmetic: "portable" is the same
+    # bits on every GPU, "native" only on identical ones
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -150,6 +152,7 @@ class RunRecord:
         return {
             "run_id": f"{self.run_id:016x}",
             "mode": BIT_EXACT if self.tolerance is None else MIXED_HARDWARE,
+            "arithmetic": self.arithmetic,
             "frames": self.frames,
             "interrupted": self.interrupted,
             "nodes": list(self.walls),

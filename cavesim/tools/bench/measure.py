@@ -131,7 +131,7 @@ def _frame_seconds(system: ParticleSystem, scene: Scene, records: np.ndarray, fr
     inputs = iter(frame_inputs(scene, WARMUP_FRAMES + frames))
 
     def frame() -> None:
-        system.step(next(inputs))
+        system.step(*next(inputs))
         system.checksum()  # reads back: the frame is done
 
     return median_seconds(frame, WARMUP_FRAMES, frames, tick)
@@ -158,5 +158,5 @@ def _numpy_twin_seconds(scene: Scene, records: np.ndarray, frames: int, tick: Ti
     twin = TwinSystem(scene, dtype=np.float32)
     twin.write_particles(records)
     inputs = iter(frame_inputs(scene, NUMPY_WARMUP_FRAMES + numpy_frames(frames)))
-    return median_seconds(lambda: twin.step(next(inputs)), NUMPY_WARMUP_FRAMES,
+    return median_seconds(lambda: twin.step(*next(inputs)), NUMPY_WARMUP_FRAMES,
                           numpy_frames(frames), lambda: tick("numpy twin"))

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from cavesim.core.drivers import driver_for
 from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene.model import CollisionKind, Scene
+from cavesim.core.scene_frame import SceneFrame
 
 FRAME_DT = 1 / 60  # s
 LIFETIME = 1e6  # s: no particle dies while measured, so every frame moves the full pool
@@ -46,8 +48,14 @@ def ground_level(scene: Scene, ground: HeightGrid | None) -> float:
     return float(ground.height.max())
 
 
-def frame_inputs(scene: Scene, count: int) -> list[FrameInput]:
-    """`count` frames at 60 Hz, each with its own random-texture transform."""
+def frame_inputs(scene: Scene, count: int) -> list[tuple[FrameInput, SceneFrame]]:
+    """`count` frames at 60 Hz, each with its own random-texture transform, and the scene's
+    state as a node decodes it from the master's driver (a helicopter flies its timeline)."""
     rng = np.random.Generator(np.random.PCG64([scene.seed, 1]))
-    return [FrameInput(FRAME_DT, draw_transform(rng, scene.random_texture_size))
-            for _ in range(count)]
+    driver = driver_for(scene)
+    frames = []
+    for k in range(1, count + 1):
+        state = driver.advance(k * FRAME_DT, FRAME_DT, None).frame
+        frames.append((FrameInput(FRAME_DT, draw_transform(rng, scene.random_texture_size)),
+                       driver.decode(driver.encode(state))))
+    return frames

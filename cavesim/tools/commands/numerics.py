@@ -1,5 +1,5 @@
-"""`cavesim accuracy` (error against run time) and `cavesim stability` (stiff and extreme
-cases): the numerics reports."""
+"""`cavesim accuracy` (error against run time and field evaluations) and `cavesim stability`
+(stiff and extreme cases): the numerics reports."""
 
 from __future__ import annotations
 
@@ -25,14 +25,16 @@ def add_accuracy(commands) -> None:
     from cavesim.tools.numerics.cases import HELICOPTER_SCENE, PARTICLES, QUICK_PARTICLES
 
     parser = commands.add_parser(
-        "accuracy", help="error against run time of every integrator: GPU, float64 twin and "
-                         "reference in a uniform flow, a vortex and a rotor downwash")
+        "accuracy", help="error against run time and field evaluations of every integrator: "
+                         "GPU, float64 twin and reference (checked by Dormand-Prince) in a "
+                         "uniform flow, a vortex and a rotor downwash")
     parser.add_argument("--scene", type=scene_file,
                         help=f"helicopter scene whose rotor downwash is the third case "
                              f"(default: {HELICOPTER_SCENE})")
     parser.add_argument("--out", type=output_folder, default=Path("out/accuracy"),
-                        help="directory for accuracy.csv, accuracy.md, accuracy.json and "
-                             "work_precision.png (default: out/accuracy)")
+                        help="directory for accuracy.csv, accuracy.md, accuracy.json, "
+                             "work_precision.png and work_precision_evaluations.png (default: "
+                             "out/accuracy)")
     parser.add_argument("--particles", type=number_in(int, 1, MAX_PARTICLES,
                                                       "a particle count"),
                         help=f"particles per case (default: {PARTICLES:,}; with --quick: "

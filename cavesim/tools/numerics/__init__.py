@@ -1,8 +1,11 @@
-"""Accuracy of the integrators: error against run time on the GPU, with the float64 twin.
+"""Accuracy of the integrators: error against run time on the GPU and against field
+evaluations, with the float64 twin.
 
-`cavesim accuracy` runs every integrator of `METHODS` (the one table of method, order and
-tolerance that the tests read too) over a range of dts in the cases of `cases.py`, and
-writes accuracy.csv, accuracy.md, accuracy.json and work_precision.png.
+`cavesim accuracy` runs every integrator of `METHODS` (the one table of method, order,
+tolerance and field evaluations per step that the tests read too) over a range of dts in
+the cases of `cases.py`, checks the float64 reference with Dormand-Prince 5(4) at a sweep
+of tolerances (`sweep.py`), and writes accuracy.csv, accuracy.md, accuracy.json,
+work_precision.png and work_precision_evaluations.png.
 """
 
 from cavesim.tools.numerics.accuracy import AccuracyResult, run_accuracy, run_command

@@ -1,8 +1,9 @@
 """`run_accuracy`: every integrator, every dt, every case - on the GPU, then in float64.
 
 The GPU runs come first and alone, so their step times are not shared with the numpy work;
-the float64 work (twin runs, fine references) then runs in worker processes, one job per
-case and integrator, the references split by particles (which never interact).
+the float64 work (twin runs, fine references, the Dormand-Prince tolerance sweep) then runs
+in worker processes, one job per case and integrator or tolerance, the references split
+by particles (which never interact).
 """
 
 from __future__ import annotations
@@ -35,7 +36,9 @@ from cavesim.tools.numerics.display import progress_bar, show
 from cavesim.tools.numerics.methods import METHODS
 from cavesim.tools.numerics.reference import (
     REFINEMENT,
+    TOLERANCES,
     Reference,
+    adaptive,
     closed_form,
     concatenate,
     fine_rk4,
@@ -51,6 +54,13 @@ from cavesim.tools.numerics.runs import (
     gpu_runs,
     twin_runs,
 )
+from cavesim.tools.numerics.sweep import (
+    ReferenceAccuracy,
+    SweepRow,
+    reference_accuracy,
+    smallest_fitted_error,
+    sweep_rows,
+)
 
 MAX_WORKERS = 4
 
@@ -59,6 +69,8 @@ MAX_WORKERS = 4
 class AccuracyResult:
     rows: list[Row]
     summaries: list[Summary]
+    sweep: list[SweepRow]  # every case, every tolerance
+    reference_accuracy: list[ReferenceAccuracy]  # the cases without a closed form
     report: dict[str, object]
     paths: list[Path]
 
@@ -111,13 +123,13 @@ def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, conso
 
         gpu = _gpu_phase(ctx, cases, dts, final_time, tick)
         done = _run_jobs(jobs, workers, tick)
-    rows, summaries = _evaluate(cases, gpu, done, final_time)
-    report = build_report(cases, dts, final_time, summaries, gl, workers)
-    show(report, summaries, console)
-    paths = write_outputs(report, rows, summaries, out_dir)
+    rows, summaries, sweep, accuracies = _evaluate(cases, gpu, done, final_time)
+    report = build_report(cases, dts, final_time, summaries, sweep, accuracies, gl, workers)
+    show(report, summaries, sweep, accuracies, console)
+    paths = write_outputs(report, rows, summaries, sweep, accuracies, out_dir)
     for path in paths:
         console.print(f"wrote {path}", markup=False, highlight=False, soft_wrap=True)
-    return AccuracyResult(rows, summaries, report, paths)
+    return AccuracyResult(rows, summaries, sweep, accuracies, report, paths)
 
 
 def _variants(case: Case) -> list[GpuVariant]:
@@ -142,14 +154,16 @@ def _gpu_phase(ctx: moderngl.Context, cases: list[Case], dts: tuple[float, ...],
 
 @dataclass(frozen=True)
 class _Job:
-    key: tuple[str, ...]  # ("twin", case, integrator) or ("reference", case, chunk)
+    key: tuple[str, ...]  # ("twin", case, integrator), ("reference", case, chunk) or
+    #                       ("adaptive", case, tolerance)
     function: Callable
     args: tuple
 
 
 def _float64_jobs(cases: list[Case], dts: tuple[float, ...], final_time: float,
                   workers: int) -> list[_Job]:
-    """References first, one chunk of particles per worker: they are the longest jobs."""
+    """References first, one chunk of particles per worker: they are the longest jobs; then
+    the sweep, the loosest tolerance last (the shortest)."""
     jobs = []
     step = min(dts) / REFINEMENT
     for case in cases:
@@ -159,6 +173,9 @@ def _float64_jobs(cases: list[Case], dts: tuple[float, ...], final_time: float,
                           (case.subset(slice(a, b)), final_time, step))
                      for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True))
                      if b > a]
+    for tolerance in sorted(TOLERANCES):
+        jobs += [_Job(("adaptive", case.name, f"{tolerance:g}"), adaptive,
+                      (case, final_time, tolerance)) for case in cases]
     for case in cases:
         jobs += [_Job(("twin", case.name, m.name), twin_runs,
                       (case, m.integrator, dts, final_time)) for m in METHODS]
@@ -169,7 +186,8 @@ def _run_jobs(jobs: list[_Job], workers: int,
               tick: Callable[[str], None]) -> dict[tuple[str, ...], object]:
     def label(job: _Job) -> str:
         kind, case, what = job.key
-        return f"float64 {case} {what}" if kind == "twin" else f"float64 {case} reference"
+        return {"twin": f"float64 {case} {what}", "reference": f"float64 {case} reference",
+                "adaptive": f"float64 {case} Dormand-Prince tol {what}"}[kind]
 
     if workers == 1:
         done = {}
@@ -196,17 +214,27 @@ def _reference(case: Case, done, final_time: float) -> Reference:
     return concatenate([r for _, r in parts])
 
 
-def _evaluate(cases: list[Case], gpu: dict, done: dict,
-              final_time: float) -> tuple[list[Row], list[Summary]]:
-    rows, summaries = [], []
+def _evaluate(cases: list[Case], gpu: dict, done: dict, final_time: float
+              ) -> tuple[list[Row], list[Summary], list[SweepRow], list[ReferenceAccuracy]]:
+    rows, summaries, sweep, accuracies = [], [], [], []
     for case in cases:
         reference = _reference(case, done, final_time)
         scale = float(np.sqrt(np.mean(np.sum(reference.pos**2, axis=1))))
+        case_rows, case_summaries = [], []
         for method in METHODS:
             hardware = gpu.get((case.name, method.name, HARDWARE.name))
-            case_rows = make_rows(case, method, reference, gpu[case.name, method.name, MANUAL.name],
-                                  done["twin", case.name, method.name], hardware,
-                                  gpu[case.name, method.name, PORTABLE.name], scale)
-            rows += case_rows
-            summaries.append(summarize(case, method, case_rows, REPORT_DT))
-    return rows, summaries
+            method_rows = make_rows(case, method, reference,
+                                    gpu[case.name, method.name, MANUAL.name],
+                                    done["twin", case.name, method.name], hardware,
+                                    gpu[case.name, method.name, PORTABLE.name], scale)
+            case_rows += method_rows
+            case_summaries.append(summarize(case, method, method_rows, REPORT_DT))
+        states = [r for k, r in done.items() if k[0] == "adaptive" and k[1] == case.name]
+        case_sweep = sweep_rows(case.name, reference, states)
+        if not case.closed_form:
+            accuracies.append(reference_accuracy(
+                case_sweep, smallest_fitted_error(case.name, case_rows, case_summaries)))
+        rows += case_rows
+        summaries += case_summaries
+        sweep += case_sweep
+    return rows, summaries, sweep, accuracies

@@ -1,14 +1,18 @@
 """The float64 answers every run is measured against, at the final time of that run.
 
 A GPU or twin run of n frames of dt ends at n * float32(dt), not exactly at T (dt enters
-the engine as float32), so a reference is a state (p, v) at a known time and is carried
-to each run's end as p + v * (t - t_ref): the gap is below 1e-7 s, the neglected term
-a * gap² / 2 below 1e-13 m.
+the engine as float32), so a reference is a state (p, v, a) at a known time and is carried
+to each run's end by a Taylor step of the gap: p + v gap + a gap²/2 and v + a gap; the gap
+is below 1e-7 s, the neglected terms, of order (da/dt) gap², below 1e-10 m/s.
 
   uniform flow: the closed form of dv/dt = f - lambda v with f, lambda constant;
   other cases:  the float64 twin's RK4 on the same field (the same interpolated grid, the
                 same float32-rounded constants) with REFINEMENT-times smaller steps than
                 the finest dt measured.
+
+How accurate the fine RK4 is, sweep.py says: `adaptive` carries the case's particles with
+Dormand-Prince 5(4) and its own step control (adaptive.py) at each of TOLERANCES, and
+each result is held against the reference.
 """
 
 from __future__ import annotations
@@ -19,10 +23,13 @@ import numpy as np
 
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.tools.numerics.adaptive import dormand_prince
 from cavesim.tools.numerics.cases import Case
 
 REFINEMENT = 16  # reference step = finest dt / REFINEMENT
+TOLERANCES = tuple(10.0**-k for k in range(6, 13))  # of the Dormand-Prince sweep
 
 
 @dataclass(frozen=True)
@@ -30,13 +37,19 @@ class Reference:
     time: float  # s
     pos: np.ndarray  # (N, 3) float64
     vel: np.ndarray  # (N, 3) float64
+    acc: np.ndarray  # (N, 3) float64, the acceleration at (pos, vel)
     step: float | None  # s, of the RK4 run; None for the closed form
 
     def position_at(self, t: float) -> np.ndarray:
-        return self.pos + self.vel * (t - self.time)
+        gap = t - self.time
+        return self.pos + self.vel * gap + self.acc * (0.5 * gap * gap)
+
+    def velocity_at(self, t: float) -> np.ndarray:
+        return self.vel + self.acc * (t - self.time)
 
 
-def _twin_forces(case: Case):
+def twin_forces(case: Case) -> ForceModel:
+    """The float64 twin's force model on the case's particles in the case's frame."""
     twin = TwinSystem(case.scene(Integrator.RK4), np.float64)
     rotor = twin.rotor_inputs.read(case.frame) if twin.rotor_inputs is not None else None
     return twin.forces_for(case.particles["class_id"], rotor)
@@ -49,12 +62,12 @@ def closed_form(case: Case, t: float) -> Reference:
     where v_inf = f / lambda (= u + g tau without damping)."""
     p0 = case.particles["pos"].astype(np.float64)
     v0 = case.particles["vel"].astype(np.float64)
-    f, lam = _twin_forces(case).linear_parts(p0, v0)  # Stokes: lambda does not depend on v0
+    f, lam = twin_forces(case).linear_parts(p0, v0)  # Stokes: lambda does not depend on v0
     v_inf = f / lam
     decay = np.exp(-lam * t)
     grown = -np.expm1(-lam * t) / lam
-    return Reference(t, p0 + v_inf * t + (v0 - v_inf) * grown,
-                     v_inf + (v0 - v_inf) * decay, None)
+    v = v_inf + (v0 - v_inf) * decay
+    return Reference(t, p0 + v_inf * t + (v0 - v_inf) * grown, v, f - lam * v, None)
 
 
 def fine_rk4(case: Case, t: float, step: float) -> Reference:
@@ -63,16 +76,36 @@ def fine_rk4(case: Case, t: float, step: float) -> Reference:
     h = t / steps
     p = case.particles["pos"].astype(np.float64)
     v = case.particles["vel"].astype(np.float64)
-    forces = _twin_forces(case)
+    forces = twin_forces(case)
     rk4 = INTEGRATORS[Integrator.RK4]
     for _ in range(steps):
         p, v = rk4(p, v, h, forces)
-    return Reference(t, p, v, h)
+    return Reference(t, p, v, forces.acceleration(p, v), h)
+
+
+@dataclass(frozen=True)
+class AdaptiveState:
+    """Where Dormand-Prince at one tolerance ends, and what it cost per particle."""
+
+    tolerance: float
+    pos: np.ndarray  # (N, 3) float64 at the end time
+    vel: np.ndarray
+    accepted: np.ndarray  # (N,) steps
+    rejected: np.ndarray
+    evaluations: np.ndarray  # (N,) field evaluations
+
+
+def adaptive(case: Case, t: float, tolerance: float) -> AdaptiveState:
+    """The case's particles carried to t by Dormand-Prince 5(4) at `tolerance`."""
+    run = dormand_prince(case.particles["pos"], case.particles["vel"], twin_forces(case), t,
+                         tolerance)
+    return AdaptiveState(tolerance, run.pos, run.vel, run.accepted, run.rejected,
+                         run.evaluations)
 
 
 def concatenate(parts: list[Reference]) -> Reference:
     """One reference from references of consecutive particle chunks."""
     first = parts[0]
-    return Reference(first.time, np.concatenate([r.pos for r in parts]),
-                     np.concatenate([r.vel for r in parts]), first.step)
+    return Reference(first.time, *(np.concatenate([getattr(r, name) for r in parts])
+                                   for name in ("pos", "vel", "acc")), first.step)
 

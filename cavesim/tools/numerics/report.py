@@ -1,5 +1,6 @@
-"""The accuracy files: accuracy.csv (every run), accuracy.md and accuracy.json (the summary)
-and work_precision.png. Table cells are built once here; the terminal shows the same cells.
+"""The accuracy files: accuracy.csv (every run), accuracy.md and accuracy.json (the summary,
+the reference check) and the work-precision plots against run time and field evaluations.
+Table cells are built once here; the terminal shows the same cells.
 """
 
 from __future__ import annotations
@@ -15,22 +16,41 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from cavesim.core.scene.model import Integrator
 from cavesim.tools.numerics import order as order_rule
-from cavesim.tools.numerics.cases import REPORT_DT, Case
-from cavesim.tools.numerics.methods import METHODS
-from cavesim.tools.numerics.reference import REFINEMENT
+from cavesim.tools.numerics.cases import REPORT_DT, TAU, Case
+from cavesim.tools.numerics.cloud import CLOUD_CELL
+from cavesim.tools.numerics.methods import FIELD_EVALUATIONS, FORGOTTEN_TOLERANCE, METHODS
+from cavesim.tools.numerics.reference import REFINEMENT, TOLERANCES
 from cavesim.tools.numerics.results import Row, Summary, dt_label
+from cavesim.tools.numerics.sweep import ReferenceAccuracy, SweepRow
 
 HEADERS = ("integrator", "order", "expected", "observed (f64)", "fit over", "verdict",
-           "GPU RMS (m)", "GPU max (m)", "f64 RMS (m)", "float32 floor (m)", "filtering (m)",
-           "GPU ms/step", "GPU ns/particle", "hw-filter ms/step", "portable RMS (m)",
-           "portable vs native (m)", "portable ms/step", "portable cost")
+           "evals per step", "GPU RMS (m)", "GPU max (m)", "f64 RMS (m)", "GPU vel RMS (m/s)",
+           "GPU vel max (m/s)", "f64 vel RMS (m/s)", "GPU cloud", "f64 cloud",
+           "float32 floor (m)", "filtering (m)", "GPU ms/step", "GPU ns/particle",
+           "hw-filter ms/step", "portable RMS (m)", "portable vs native (m)",
+           "portable ms/step", "portable cost")
+SWEEP_HEADERS = ("tolerance", "steps (mean)", "steps (max)", "rejected (mean)",
+                 "evals/particle", "RMS vs reference (m)", "max (m)", "vel RMS (m/s)",
+                 "RMS vs tightest (m)")
 NOTES = (
     "GPU = the engine in float32 with manual trilinear sampling; f64 = the numpy twin in "
     "float64 with the same method and dt (time-stepping error alone); both against the "
     "float64 reference at the run's end time",
+    f"every run lasts T = {1 / TAU:g} tau (probe particles with tau = {TAU:g} s): the "
+    "particles have forgotten their start and follow the flow, as the demo's cloud does",
     f"errors and costs at dt = {dt_label(REPORT_DT)} s unless said otherwise; RMS and max "
-    "are over particles of the position error |x - x_ref|",
+    "are over particles of the position error |x - x_ref|, vel of the velocity error "
+    "|v - v_ref|",
+    "evals per step = field evaluations (flow samples: a trilinear fetch or a rotor evaluation) "
+    "per particle and step, from the methods table (a test counts them in the twin); the "
+    "cost that does not depend on the hardware. work_precision_evaluations.png plots the "
+    "GPU error against evaluations per particle to T, work_precision.png against run time",
+    f"cloud = the concentration-field error (downwash, the demo's flow): final positions "
+    f"deposited cloud-in-cell on {CLOUD_CELL:g} m cubes around the reference cloud, and "
+    "the fraction of the cloud's mass misplaced against the reference's (half the L1 "
+    "distance of the normalized densities; 0 = the same cloud, 1 = disjoint)",
     "float32 floor = RMS |GPU - f64| at the finest dt: float32 arithmetic alone, where it "
     "is largest",
     "filtering = RMS |GPU with hardware filtering - GPU with manual trilinear| (vortex only: "
@@ -39,6 +59,15 @@ NOTES = (
     "expected = the order the tests hold a method to: its theoretical order, capped by the "
     "case's field (a trilinear grid is only Lipschitz: its gradient jumps at cell faces, "
     "which caps every method at order 2); '-' where the case is not smooth",
+    "forgets (uniform flow, explicit and semi-implicit Euler): every method relaxes to the "
+    "exact terminal velocity, and these two also cover the transient's exact distance, so "
+    "after 10 tau their error is about e^-10 of the transient's and no power of dt; held "
+    f"below {FORGOTTEN_TOLERANCE:g} m instead of to an order",
+    "reference check: Dormand-Prince 5(4) with a step of its own per particle (error per "
+    "component of (p, v) held to tol (1 + |y|)) at each tolerance, against the reference at "
+    "T; the reference's error is at most the RMS at the tightest tolerance plus what DP "
+    "moved since the next looser one; margin = the smallest f64 error an order fit uses "
+    "over that bound",
     f"observed order: least-squares slope of log(f64 RMS error) against log(dt) over the "
     f"{order_rule.FIT_POINTS} finest dts whose error exceeds {order_rule.ROUND_OFF_MARGIN:g} "
     f"times the float64 round-off n steps can accumulate (n eps |x|); fewer than "
@@ -59,39 +88,70 @@ def _e(x: float) -> str:
 def _expected(s: Summary) -> str:
     if s.exact:
         return "exact"
+    if s.forgets:
+        return "forgets"
     if s.expected is None:
         return "-"
     return f"{s.expected:g}" + (" (grid)" if s.expected < s.order else "")
 
 
 def _observed(s: Summary) -> str:
-    if s.exact:
+    if s.exact or s.forgets:
         return f"err {s.twin_max_error:.0e}"
     return "-" if math.isnan(s.observed) else f"{s.observed:.2f}"
 
 
 def _fit_range(s: Summary) -> str:
-    return f"{s.fit_dts[-1]}..{s.fit_dts[0]}" if len(s.fit_dts) > 1 else "-"
+    held = not (s.exact or s.forgets) and len(s.fit_dts) > 1
+    return f"{s.fit_dts[-1]}..{s.fit_dts[0]}" if held else "-"
 
 
 def table_rows(summaries: list[Summary]) -> list[tuple[str, ...]]:
     """One row of display cells per summary, in HEADERS order."""
     return [(s.integrator, str(s.order), _expected(s), _observed(s), _fit_range(s), s.verdict,
-             _e(s.gpu_rms), _e(s.gpu_max), _e(s.twin_rms), _e(s.float32_floor),
+             str(s.evaluations), _e(s.gpu_rms), _e(s.gpu_max), _e(s.twin_rms),
+             _e(s.gpu_vel_rms), _e(s.gpu_vel_max), _e(s.twin_vel_rms), _e(s.gpu_cloud),
+             _e(s.twin_cloud), _e(s.float32_floor),
              _e(s.filtering_rms), f"{s.gpu_step_ms:.3f}", f"{s.gpu_ns_per_particle:.1f}",
              "-" if math.isnan(s.hardware_step_ms) else f"{s.hardware_step_ms:.3f}",
              _e(s.portable_rms), _e(s.arithmetic_floor), f"{s.portable_step_ms:.3f}",
              f"{s.portable_cost:.2f}x") for s in summaries]
 
 
-def _reference_text(case: Case, dts: tuple[float, ...]) -> str:
+def sweep_table_rows(sweep: list[SweepRow]) -> list[tuple[str, ...]]:
+    """One row of display cells per tolerance, in SWEEP_HEADERS order."""
+    return [(f"{r.tolerance:.0e}", f"{r.accepted:.0f}", str(r.accepted_max),
+             f"{r.rejected:.1f}", f"{r.evaluations:,.0f}", _e(r.rms), _e(r.max),
+             _e(r.vel_rms), _e(r.to_tightest_rms)) for r in sweep]
+
+
+def reference_sentence(accuracy: ReferenceAccuracy | None, sweep: list[SweepRow]) -> str:
+    """What the sweep says about the case's reference, in one sentence."""
+    tightest = sweep[-1]
+    if accuracy is None:
+        return (f"The reference is the closed form; Dormand-Prince against it: error "
+                f"{_e(tightest.rms)} m at tol {tightest.tolerance:.0e} "
+                f"({tightest.accepted:.0f} steps), following the tolerance.")
+    return (f"Reference error at most {_e(accuracy.bound)} m RMS (the fine RK4 against "
+            f"Dormand-Prince at tol {tightest.tolerance:.0e}: {_e(accuracy.rms)} m "
+            f"RMS, {_e(accuracy.max)} m max, {_e(accuracy.vel_rms)} m/s; DP moved "
+            f"{_e(accuracy.dp_moved)} m since the next looser tolerance). The smallest f64 "
+            f"error an order fit uses, {_e(accuracy.smallest_fitted)} m, is "
+            f"{accuracy.margin:.3g} times that.")
+
+
+def _reference_text(case: Case, dts: tuple[float, ...], final_time: float) -> str:
     if case.closed_form:
         return "closed form (float64)"
-    return f"float64 twin RK4, step {dt_label(min(dts) / REFINEMENT)} s"
+    step = min(dts) / REFINEMENT
+    steps = max(1, round(final_time / step))
+    return (f"float64 twin RK4, step {dt_label(step)} s ({steps:,} steps, "
+            f"{steps * FIELD_EVALUATIONS[Integrator.RK4]:,} field evaluations per particle)")
 
 
 def build_report(cases: list[Case], dts: tuple[float, ...], final_time: float,
-                 summaries: list[Summary], gl: dict[str, str], workers: int) -> dict:
+                 summaries: list[Summary], sweep: list[SweepRow],
+                 accuracies: list[ReferenceAccuracy], gl: dict[str, str], workers: int) -> dict:
     return {
         "command": "accuracy",
         "gl": gl,
@@ -99,34 +159,50 @@ def build_report(cases: list[Case], dts: tuple[float, ...], final_time: float,
         "float64_workers": workers,
         "versions": {"moderngl": moderngl.__version__, "numpy": np.__version__},
         "final_time": final_time,
+        "tau": TAU,
         "dts": [dt_label(dt) for dt in dts],
         "report_dt": dt_label(REPORT_DT),
         "particles": len(cases[0].particles),
         "methods": [{"integrator": m.name, "order": m.order, "tolerance": m.tolerance,
-                     "exact_in": sorted(m.exact_in)} for m in METHODS],
+                     "evaluations": m.evaluations, "exact_in": sorted(m.exact_in),
+                     "forgets_in": sorted(m.forgets_in)} for m in METHODS],
         "cases": [{"name": c.name, "description": c.description, "smooth": c.smooth,
-                   "order_limit": c.order_limit, "filtering": c.filtering,
-                   "reference": _reference_text(c, dts)} for c in cases],
+                   "closed_form": c.closed_form,
+                   "order_limit": c.order_limit, "filtering": c.filtering, "cloud": c.cloud,
+                   "reference": _reference_text(c, dts, final_time)} for c in cases],
+        "tolerances": sorted(TOLERANCES, reverse=True),
         "summary": [s.to_json() for s in summaries],
+        "sweep": [r.to_json() for r in sweep],
+        "reference_accuracy": [a.to_json() for a in accuracies],
         "notes": list(NOTES),
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
     }
 
 
-def markdown(report: dict, summaries: list[Summary]) -> str:
+def _table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
+    return (["| " + " | ".join(headers) + " |",
+             "|" + "|".join(":---" if i == 0 else "---:" for i in range(len(headers))) + "|"]
+            + ["| " + " | ".join(row) + " |" for row in rows])
+
+
+def markdown(report: dict, summaries: list[Summary], sweep: list[SweepRow],
+             accuracies: list[ReferenceAccuracy]) -> str:
     gl = report["gl"]
     lines = [f"# cavesim accuracy - {report['particles']:,} particles to "
-             f"T = {report['final_time']:g} s", "",
-             f"{gl['renderer']} ({gl['version']}), {report['cpu_count']} CPUs, dt = "
+             f"T = {report['final_time']:g} s = {report['final_time'] / report['tau']:g} tau",
+             "", f"{gl['renderer']} ({gl['version']}), {report['cpu_count']} CPUs, dt = "
              f"{report['dts'][0]} ... {report['dts'][-1]} s, {report['created']}", ""]
     for case in report["cases"]:
-        lines += [f"## {case['name']}", "", f"{case['description']}; reference: "
-                  f"{case['reference']}", "",
-                  "| " + " | ".join(HEADERS) + " |",
-                  "|" + "|".join(":---" if i == 0 else "---:" for i in range(len(HEADERS))) + "|"]
-        lines += ["| " + " | ".join(row) + " |"
-                  for row in table_rows([s for s in summaries if s.case == case["name"]])]
-        lines.append("")
+        name = case["name"]
+        case_sweep = [r for r in sweep if r.case == name]
+        accuracy = next((a for a in accuracies if a.case == name), None)
+        lines += [f"## {name}", "", f"{case['description']}; reference: "
+                  f"{case['reference']}", ""]
+        lines += _table(HEADERS, table_rows([s for s in summaries if s.case == name]))
+        lines += ["", f"Reference check ({name}): Dormand-Prince 5(4) against the reference "
+                  "at T", ""]
+        lines += _table(SWEEP_HEADERS, sweep_table_rows(case_sweep))
+        lines += ["", reference_sentence(accuracy, case_sweep), ""]
     lines += ["## Notes", ""] + [f"- {note}" for note in report["notes"]]
     return "\n".join(lines) + "\n"
 
@@ -142,16 +218,26 @@ def write_csv(rows: list[Row], path: Path) -> None:
                              for v in (getattr(row, n) for n in names)])
 
 
+OUTPUT_NAMES = ("accuracy.csv", "accuracy.md", "accuracy.json", "work_precision.png",
+                "work_precision_evaluations.png")
+
+
 def write_outputs(report: dict, rows: list[Row], summaries: list[Summary],
+                  sweep: list[SweepRow], accuracies: list[ReferenceAccuracy],
                   out_dir: Path) -> list[Path]:
-    """accuracy.csv, accuracy.md, accuracy.json and work_precision.png in `out_dir`."""
-    from cavesim.tools.numerics.plots import work_precision  # matplotlib: only when writing
+    """The files of OUTPUT_NAMES in `out_dir`."""
+    from cavesim.tools.numerics.plots import (  # matplotlib: only when writing
+        EVALUATIONS,
+        RUN_TIME,
+        work_precision,
+    )
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    paths = [out_dir / name for name in ("accuracy.csv", "accuracy.md", "accuracy.json",
-                                         "work_precision.png")]
+    paths = [out_dir / name for name in OUTPUT_NAMES]
     write_csv(rows, paths[0])
-    paths[1].write_text(markdown(report, summaries), encoding="utf-8")
+    paths[1].write_text(markdown(report, summaries, sweep, accuracies), encoding="utf-8")
     paths[2].write_text(json.dumps(report, indent=2) + "\n", encoding="utf-8")
-    work_precision(rows, [c["name"] for c in report["cases"]], paths[3])
+    cases = [c["name"] for c in report["cases"]]
+    work_precision(rows, cases, RUN_TIME, paths[3])
+    work_precision(rows, cases, EVALUATIONS, paths[4])
     return paths

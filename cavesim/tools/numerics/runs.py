@@ -49,6 +49,7 @@ class Run:
     steps: int
     end_time: float  # s, steps * float32(dt)
     pos: np.ndarray  # (N, 3) float64 final positions
+    vel: np.ndarray  # (N, 3) float64 final velocities
     step_seconds: float = float("nan")  # median wall time of one GPU step; NaN for the twin
 
 
@@ -63,7 +64,7 @@ def end_time(final_time: float, dt: float) -> float:
 def gpu_runs(ctx: moderngl.Context, case: Case, integrator: Integrator, variant: GpuVariant,
              dts: tuple[float, ...], final_time: float,
              tick: Callable[[], None] = lambda: None) -> list[Run]:
-    """Final positions and step times of the GPU engine, one run per dt."""
+    """Final states and step times of the GPU engine, one run per dt."""
     system = ParticleSystem(ctx, case.scene(integrator, variant.sampling, variant.arithmetic))
     try:
         system.write_particles(case.particles)
@@ -93,13 +94,14 @@ def _timed_run(ctx: moderngl.Context, system: ParticleSystem, case: Case, dt: fl
         ctx.finish()
         seconds.append(time.perf_counter() - start)
     _check_count(system.live_count, case, f"GPU, dt={dt:.6g}")
-    pos = system.read_particles()["pos"].astype(np.float64)
-    return Run(dt, steps, end_time(final_time, dt), pos, statistics.median(seconds))
+    state = system.read_particles()
+    return Run(dt, steps, end_time(final_time, dt), state["pos"].astype(np.float64),
+               state["vel"].astype(np.float64), statistics.median(seconds))
 
 
 def twin_runs(case: Case, integrator: Integrator, dts: tuple[float, ...],
               final_time: float) -> list[Run]:
-    """Final positions of the float64 twin, one run per dt."""
+    """Final states of the float64 twin, one run per dt."""
     twin = TwinSystem(case.scene(integrator), np.float64)
     runs = []
     for dt in dts:
@@ -108,7 +110,8 @@ def twin_runs(case: Case, integrator: Integrator, dts: tuple[float, ...],
         for _ in range(steps):
             twin.step(frame, case.frame)
         _check_count(twin.live_count, case, f"float64 twin, {integrator.value}, dt={dt:.6g}")
-        runs.append(Run(dt, steps, end_time(final_time, dt), twin.particles.pos.copy()))
+        runs.append(Run(dt, steps, end_time(final_time, dt), twin.particles.pos.copy(),
+                        twin.particles.vel.copy()))
     return runs
 
 

@@ -29,13 +29,14 @@ def mode_rows(report: dict) -> list[tuple[str, str]]:
     settings, breaches and the worst drift seen."""
     tolerance = report.get("tolerance")
     if tolerance is None:
-        return [("mode", report["mode"])]
+        return [("mode", f"{report['mode']} ({report['arithmetic']} arithmetic)")]
     worst = [d["worst"] for d in tolerance["drift"].values()]
     position = max((w["position_max_m"] for w in worst if w["position_max_m"] is not None),
                    default=0.0)
     velocity = max((w["velocity_max_m_s"] for w in worst if w["velocity_max_m_s"] is not None),
                    default=0.0)
-    return [("mode", f"{report['mode']} (authority {tolerance['authority']})"),
+    return [("mode", f"{report['mode']} (authority {tolerance['authority']}, "
+                     f"{report['arithmetic']} arithmetic)"),
             ("resync every / sample", f"{tolerance['resync_every_frames']} frames / "
                                       f"{tolerance['sample_records']} records"),
             ("tolerance (position / velocity)", f"{tolerance['position_tolerance_m']:g} m / "
