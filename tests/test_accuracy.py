@@ -70,7 +70,7 @@ def test_the_table_has_every_integrator_with_the_twins_order():
         assert method.order == ORDERS[method.integrator]
         assert method.tolerance == 0.3
     exact = {m.name: sorted(m.exact_in) for m in METHODS if m.exact_in}
-    assert exact == {"exponential": ["uniform"]}
+    assert exact == {"exponential": ["uniform"], "etd2rk": ["uniform"]}
     forgets = {m.name: sorted(m.forgets_in) for m in METHODS if m.forgets_in}
     assert forgets == {"explicit_euler": ["uniform"], "semi_implicit_euler": ["uniform"]}
 

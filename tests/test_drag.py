@@ -2,6 +2,7 @@
 choice of law per class, and the float64 twin's drag (settling, the frozen exponential
 step)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -19,6 +20,7 @@ from cavesim.core.scene import (
 )
 from cavesim.core.scene.drag_choice import chosen_law, flow_scales
 from cavesim.core.twin import INTEGRATORS, TwinSystem
+from cavesim.core.twin.integrators import exponential_weights
 
 SAND = ParticleClass("sand", 150e-6, 2650.0)
 AIR = Drag()
@@ -64,8 +66,8 @@ def still_air_scene(integrator: Integrator, drag: str | None = None):
     }, name="still")
 
 
-@pytest.mark.parametrize("integrator", [Integrator.EXPONENTIAL, Integrator.RK4,
-                                        Integrator.SEMI_IMPLICIT_EULER])
+@pytest.mark.parametrize("integrator", [Integrator.ETD2RK, Integrator.EXPONENTIAL,
+                                        Integrator.RK4, Integrator.SEMI_IMPLICIT_EULER])
 @pytest.mark.parametrize(("drag", "speed"), [(None, 1.03), ("stokes", 1.80)])
 def test_the_twin_settles_sand_at_its_terminal_speed(integrator, drag, speed):
     """Dropped from rest in still air, after 2 s (about 10 relaxation times)."""
@@ -77,6 +79,25 @@ def test_the_twin_settles_sand_at_its_terminal_speed(integrator, drag, speed):
     for _ in range(120):
         p, v = step(p, v, 1 / 60, forces)
     assert -v[0, 2] == pytest.approx(speed, abs=0.005)
+
+
+def test_etd2rk_holds_the_starting_drag_rate_in_its_second_stage():
+    """In a flow that changes along the path, ETD2RK's forcing at the predicted position
+    uses the drag rate of the slip at the start (lambda frozen over the step)."""
+    twin = TwinSystem(still_air_scene(Integrator.ETD2RK))
+    base = twin.forces_for(np.zeros(1, np.uint32))
+    forces = dataclasses.replace(base, flow=lambda p: np.stack(
+        [3.0 * p[:, 2], np.zeros(len(p)), np.zeros(len(p))], axis=1))
+    p, v, h = np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 5.0]]), 1 / 60
+    f, lam, drag = forces.linear_parts(p, v)
+    assert drag[0, 0] == pytest.approx(drag_factor(np.hypot(3.0, 5.0) * SAND.diameter / NU)
+                                       / SAND.relaxation_time(MU))
+    _, phi1, phi2 = exponential_weights(lam * h)
+    w = v + h * phi2 * (f - lam * v)
+    d = forces.flow(p + h * w) * drag + forces.gravity - f  # drag: the start's rate
+    expected = v + h * (phi1 * (f - lam * v) + phi2 * d)
+    _, v1 = INTEGRATORS[Integrator.ETD2RK](p, v, h, forces)
+    np.testing.assert_allclose(v1, expected, rtol=1e-12)
 
 
 def test_the_exponential_step_freezes_the_drag_rate_at_the_start():

@@ -173,7 +173,7 @@ def test_minimal_has_only_gravity() -> None:
 
 def test_dust_devil() -> None:
     scene = load_scene(SCENES / "dust_devil.toml")
-    assert scene.integrator is Integrator.EXPONENTIAL and scene.capacity == 300000
+    assert scene.integrator is Integrator.ETD2RK and scene.capacity == 300000
     assert scene.field is not None and scene.field.kind is FieldKind.VORTEX
     assert scene.forces.drag is not None and scene.forces.gravity is not None
     assert scene.collision is not None and scene.collision.kind is CollisionKind.PLANE
@@ -216,7 +216,7 @@ def test_defaults(tmp_path: Path) -> None:
     path = write(tmp_path, "[simulation]\ncapacity = 0\nseed = 0\n", name="bare.toml")
     scene = load_scene(str(path))
     assert scene == Scene(name="bare", source=path, capacity=0, seed=0,
-                          integrator=Integrator.EXPONENTIAL, random_texture_size=256,
+                          integrator=Integrator.ETD2RK, random_texture_size=256,
                           particle_classes=(), emitters=(), forces=Forces(), field=None,
                           collision=None)
     assert parse_scene({"simulation": {"capacity": 1, "seed": 2}}).name == "scene"

@@ -14,13 +14,16 @@ def _bits(word: int) -> np.float32:
     return np.array(word, dtype=np.uint32).view(np.float32)[()]
 
 
-# physics.glsl: 1/k! of the exponential integrator's series
+# physics.glsl: 1/k! of the exponential integrators' series
 INV_FACTORIAL_3 = _bits(0x3E2AAAAB)
 INV_FACTORIAL_4 = _bits(0x3D2AAAAB)
 INV_FACTORIAL_5 = _bits(0x3C088889)
 INV_FACTORIAL_6 = _bits(0x3AB60B61)
 INV_FACTORIAL_7 = _bits(0x39500D01)
 INV_FACTORIAL_8 = _bits(0x37D00D01)
+INV_FACTORIAL_9 = _bits(0x3638EF1D)  # ETD2RK's phi3
+INV_FACTORIAL_10 = _bits(0x3493F27E)
+INV_FACTORIAL_11 = _bits(0x32D7322B)
 
 # rotor.glsl: the downwash model's shape constants (cavesim/core/helicopter/rotor.py)
 WAKE_FLOOR = _bits(0x3A83126F)  # 1e-3

@@ -57,18 +57,26 @@ class PortableForces:
             a = f_sub(a, f_mul(self.damping, v))
         return a
 
-    def linear_parts(self, p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f, lambda) of dv/dt = f - lambda v with the flow and the drag rate held at
-        (p, v); lambda is (N, 1)."""
-        f = np.zeros_like(p)
-        lam = np.zeros((len(p), 1), dtype=np.float32)
-        if self.flow is not None:
-            u = self.flow(p)
-            rate = self.drag_rate(f_sub(u, v))
-            f = f_add(f, f_mul(self.seen_flow(u), rate))
-            lam = f_add(lam, rate)
+    def _forcing(self, u: np.ndarray | None, drag: np.ndarray) -> np.ndarray:
+        f = np.zeros((len(drag), 3), dtype=np.float32)
+        if u is not None:
+            f = f_add(f, f_mul(self.seen_flow(u), drag))
         if self.gravity is not None:
             f = f_add(f, self.gravity)
-        if self.damping is not None:
-            lam = f_add(lam, self.damping)
-        return f, lam
+        return f
+
+    def forcing(self, p: np.ndarray, drag: np.ndarray) -> np.ndarray:
+        """`forcing_at` of physics.glsl: f at p for the drag rate `drag` (N, 1)."""
+        return self._forcing(None if self.flow is None else self.flow(p), drag)
+
+    def linear_parts(self, p: np.ndarray, v: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(f, lambda, lambda_d) of dv/dt = f - lambda v with the flow and the drag rate held
+        at (p, v); each (N, 1) but f."""
+        drag = np.zeros((len(p), 1), dtype=np.float32)
+        u = None
+        if self.flow is not None:
+            u = self.flow(p)
+            drag = self.drag_rate(f_sub(u, v))
+        lam = drag if self.damping is None else f_add(drag, self.damping)
+        return self._forcing(u, drag), lam, drag

@@ -1,5 +1,5 @@
-"""One step of each integrator in portable arithmetic: `integrate` and `exponential_weights`
-of shaders/include/physics.glsl, operation by operation in float32.
+"""One step of each integrator in portable arithmetic: `integrate`, `exponential_weights` and
+`phi3_weight` of shaders/include/physics.glsl, operation by operation in float32.
 
 Same signature as the float64 reference (cavesim/core/twin/integrators.py): (p, v, h,
 forces) -> (p, v), with `forces` a `PortableForces`. Where the shader branches per particle,
@@ -20,11 +20,15 @@ from cavesim.core.portable.constants import (
     INV_FACTORIAL_6,
     INV_FACTORIAL_7,
     INV_FACTORIAL_8,
+    INV_FACTORIAL_9,
+    INV_FACTORIAL_10,
+    INV_FACTORIAL_11,
 )
 from cavesim.core.scene.model import Integrator
 
 HALF, ONE, TWO, SIX = np.float32(0.5), np.float32(1.0), np.float32(2.0), np.float32(6.0)
 SERIES_BELOW = np.float32(0.5)  # x below which phi1 and phi2 are summed as series
+PHI3_SERIES_BELOW = np.float32(1.0)  # and phi3
 
 
 def explicit_euler(p, v, h, forces):
@@ -35,8 +39,9 @@ def explicit_euler(p, v, h, forces):
 
 def semi_implicit_euler(p, v, h, forces):
     """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
-    f, lam = forces.linear_parts(p, v)
-    v = f_div(f_add(v, f_mul(h, f)), f_add(ONE, f_mul(h, lam)))
+    f, lam, _ = forces.linear_parts(p, v)
+    weight = f_div(h, f_add(ONE, f_mul(h, lam)))
+    v = f_add(v, f_mul(weight, f_sub(f, f_mul(lam, v))))
     return f_add(p, f_mul(h, v)), v
 
 
@@ -51,7 +56,7 @@ def verlet(p, v, h, forces):
     """Velocity Verlet with an Euler-predicted velocity for the drag, order 2."""
     half_h = f_mul(HALF, h)
     a0 = forces.acceleration(p, v)
-    p = f_add(p, f_add(f_mul(h, v), f_mul(f_mul(half_h, h), a0)))
+    p = f_add(p, f_mul(h, f_add(v, f_mul(half_h, a0))))
     a1 = forces.acceleration(p, f_add(v, f_mul(h, a0)))
     return p, f_add(v, f_mul(half_h, f_add(a0, a1)))
 
@@ -100,13 +105,38 @@ def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return e, phi1, phi2
 
 
+def phi3_weight(x: np.ndarray, phi2: np.ndarray) -> np.ndarray:
+    """phi3 = (x^2/2 - x + 1 - e^-x)/x^3 = (1/2 - phi2)/x; series below x = 1."""
+    tail = f_sub(INV_FACTORIAL_10, f_mul(x, INV_FACTORIAL_11))
+    for coefficient in (INV_FACTORIAL_9, INV_FACTORIAL_8, INV_FACTORIAL_7, INV_FACTORIAL_6,
+                        INV_FACTORIAL_5, INV_FACTORIAL_4):
+        tail = f_sub(coefficient, f_mul(x, tail))
+    with np.errstate(divide="ignore", invalid="ignore"):  # x = 0 takes the series
+        closed = f_div(f_sub(HALF, phi2), x)
+    return np.where(x < PHI3_SERIES_BELOW, f_sub(INV_FACTORIAL_3, f_mul(x, tail)), closed)
+
+
 def exponential(p, v, h, forces):
-    """Exact for linear drag with the flow held over the step; stable for any tau/h, order 1."""
-    f, lam = forces.linear_parts(p, v)
-    e, phi1, phi2 = exponential_weights(f_mul(lam, h))
-    h_phi1 = f_mul(h, phi1)
-    p = f_add(p, f_add(f_mul(h_phi1, v), f_mul(f_mul(f_mul(h, h), phi2), f)))
-    return p, f_add(f_mul(e, v), f_mul(h_phi1, f))
+    """Exponential Euler in increment form, order 1: r = f - lambda v,
+    p += h (v + h phi2 r), v += h phi1 r."""
+    f, lam, _ = forces.linear_parts(p, v)
+    _, phi1, phi2 = exponential_weights(f_mul(lam, h))
+    r = f_sub(f, f_mul(lam, v))
+    p = f_add(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))))
+    return p, f_add(v, f_mul(f_mul(h, phi1), r))
+
+
+def etd2rk(p, v, h, forces):
+    """ETD2RK (Cox & Matthews 2002), order 2: the float64 twin's `etd2rk` derives it."""
+    f, lam, drag = forces.linear_parts(p, v)
+    x = f_mul(lam, h)
+    _, phi1, phi2 = exponential_weights(x)
+    phi3 = phi3_weight(x, phi2)
+    r = f_sub(f, f_mul(lam, v))
+    w = f_add(v, f_mul(f_mul(h, phi2), r))
+    d = f_sub(forces.forcing(f_add(p, f_mul(h, w)), drag), f)
+    p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))))
+    return p, f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))))
 
 
 INTEGRATORS: dict[Integrator, Callable] = {
@@ -117,4 +147,5 @@ INTEGRATORS: dict[Integrator, Callable] = {
     Integrator.RK2: rk2,
     Integrator.RK4: rk4,
     Integrator.EXPONENTIAL: exponential,
+    Integrator.ETD2RK: etd2rk,
 }

@@ -37,7 +37,9 @@ class Simulation:
 
     capacity: Annotated[int, Range(ge=0, le=MAX_PARTICLES)]  # hard cap of live particles
     seed: Annotated[int, Range(ge=0, lt=2**63)]  # seeds the random texture (numpy PCG64)
-    integrator: Integrator = Integrator.EXPONENTIAL
+    # ETD2RK: stable at any dt/tau (a scene cannot know its dt: the master's clock sets it
+    # per frame), exact where the exponential step is and second order elsewhere
+    integrator: Integrator = Integrator.ETD2RK
     # edge of the square random texture
     random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
                                    Rule("a power of two", _power_of_two)] = 256

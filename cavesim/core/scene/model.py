@@ -37,6 +37,7 @@ class Integrator(StrEnum):
     RK2 = "rk2"
     RK4 = "rk4"
     EXPONENTIAL = "exponential"
+    ETD2RK = "etd2rk"
 
 
 class Engine(StrEnum):

@@ -45,18 +45,29 @@ class ForceModel:
             a -= self.damping * v
         return a
 
-    def linear_parts(self, p: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f, lambda) of dv/dt = f - lambda v with the flow and the drag rate held at their
-        values at (p, v) (the exponential integrator)."""
-        f = np.zeros_like(p)
-        lam = np.zeros((len(p), 1), dtype=p.dtype)
+    def _forcing(self, u: np.ndarray | None, drag: np.ndarray) -> np.ndarray:
+        if u is None:
+            f = np.zeros((len(drag), 3), dtype=drag.dtype)
+        else:
+            f = (u if self.turbulence is None else u + self.turbulence) * drag
+        if self.gravity is not None:
+            f = f + self.gravity
+        return f
+
+    def forcing(self, p: np.ndarray, drag: np.ndarray) -> np.ndarray:
+        """f = (u(p) + u_t) lambda_d + g of dv/dt = f - lambda v for the drag rate lambda_d
+        (N, 1) held over the step (ETD2RK's second stage)."""
+        return self._forcing(None if self.flow is None else self.flow(p), drag)
+
+    def linear_parts(self, p: np.ndarray, v: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(f, lambda, lambda_d) of dv/dt = f - lambda v with the flow and the drag rate
+        lambda_d held at their values at (p, v) (the exponential integrators); lambda =
+        lambda_d + k, each (N, 1)."""
+        drag = np.zeros((len(p), 1), dtype=p.dtype)
+        u = None
         if self.flow is not None:
             u = self.flow(p)
-            rate = self.drag_rate(u - v)
-            f += (u if self.turbulence is None else u + self.turbulence) * rate
-            lam += rate
-        if self.gravity is not None:
-            f += self.gravity
-        if self.damping is not None:
-            lam += self.damping
-        return f, lam
+            drag = self.drag_rate(u - v)
+        lam = drag if self.damping is None else drag + self.damping
+        return self._forcing(u, drag), lam, drag

@@ -6,6 +6,7 @@ choice to the function, and `ORDERS` gives each method's theoretical order of ac
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -30,8 +31,8 @@ def explicit_euler(p, v, h, forces):
 
 def semi_implicit_euler(p, v, h, forces):
     """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
-    f, lam = forces.linear_parts(p, v)
-    v = (v + h * f) / (1 + h * lam)
+    f, lam, _ = forces.linear_parts(p, v)
+    v = v + (h / (1 + h * lam)) * (f - lam * v)  # = (v + h f) / (1 + h lambda), as an increment
     return p + h * v, v
 
 
@@ -44,7 +45,7 @@ def trapezoid(p, v, h, forces):
 def verlet(p, v, h, forces):
     """Velocity Verlet with an Euler-predicted velocity for the drag, order 2."""
     a0 = forces.acceleration(p, v)
-    p = p + h * v + (0.5 * h * h) * a0
+    p = p + h * (v + (0.5 * h) * a0)
     a1 = forces.acceleration(p, v + h * a0)
     return p, v + (0.5 * h) * (a0 + a1)
 
@@ -73,21 +74,77 @@ rk4 = _explicit_runge_kutta(RK4_CLASSIC_A, RK4_CLASSIC_B)
 rk4.__doc__ = "Classic Runge-Kutta, order 4."
 
 
+SERIES_BELOW = 1.0  # x below which the phi functions are summed as their Taylor series
+SERIES_TERMS = 18  # x^17 / 18! < 2e-16: the series is exact to float64 below SERIES_BELOW
+
+
+def _phi_series(x: np.ndarray, k: int) -> np.ndarray:
+    """phi_k(-x) = sum_j (-x)^j / (j + k)!, by Horner; exact to float64 for 0 <= x < 1."""
+    total = np.zeros_like(x)
+    for j in reversed(range(SERIES_TERMS)):
+        total = 1.0 / math.factorial(j + k) - x * total
+    return total
+
+
 def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """e^-x, phi1 = (1 - e^-x)/x and phi2 = (x - 1 + e^-x)/x^2, accurate for all x >= 0."""
-    small = x < 1e-3
-    xs = np.where(small, 1.0, x)
+    """e^-x, phi1 = (1 - e^-x)/x and phi2 = (x - 1 + e^-x)/x^2, accurate for all x >= 0.
+
+    phi_k(x) here is phi_k(-x) of Hochbruck & Ostermann (2010), Acta Numerica 19, 209-286:
+    the weights of the exact solution of dv/dt = f - x/h v over a step h.
+    """
+    series = x < SERIES_BELOW
+    xs = np.where(series, 1.0, x)
     em1 = np.expm1(-xs)
-    phi1 = np.where(small, 1 - x / 2 + x * x / 6, -em1 / xs)
-    phi2 = np.where(small, 0.5 - x / 6 + x * x / 24, (xs + em1) / (xs * xs))
+    phi1 = np.where(series, _phi_series(x, 1), -em1 / xs)
+    phi2 = np.where(series, _phi_series(x, 2), (xs + em1) / (xs * xs))
     return np.exp(-x), phi1, phi2
 
 
+def phi3_weight(x: np.ndarray, phi2: np.ndarray) -> np.ndarray:
+    """phi3 = (x^2/2 - x + 1 - e^-x)/x^3 = (1/2 - phi2)/x, the series below SERIES_BELOW
+    (where the recurrence cancels)."""
+    series = x < SERIES_BELOW
+    return np.where(series, _phi_series(x, 3), (0.5 - phi2) / np.where(series, 1.0, x))
+
+
 def exponential(p, v, h, forces):
-    """Exact for linear drag with the flow held over the step; stable for any tau/h, order 1."""
-    f, lam = forces.linear_parts(p, v)
-    e, phi1, phi2 = exponential_weights(lam * h)
-    return p + (h * phi1) * v + (h * h * phi2) * f, e * v + (h * phi1) * f
+    """Exponential Euler: exact for linear drag with the flow held over the step; stable for
+    any tau/h, order 1. In increment form (r is the acceleration at the start; e^-x never
+    enters, so nothing cancels in 1 - e^-x at small h) with the position moved in one
+    addition: float32 keeps its floor at every dt."""
+    f, lam, _ = forces.linear_parts(p, v)
+    _, phi1, phi2 = exponential_weights(lam * h)
+    r = f - lam * v
+    return p + h * (v + (h * phi2) * r), v + (h * phi1) * r
+
+
+def etd2rk(p, v, h, forces):
+    """ETD2RK of Cox & Matthews (2002), J. Comput. Phys. 176, 430-455, order 2, for
+    dv/dt = F(p) - lambda v, dp/dt = v, with F(p) = (u(p) + u_t) lambda_d + g and lambda =
+    lambda_d + k, the drag rate lambda_d held at its value at the start (1/tau for Stokes
+    drag; Schiller-Naumann's from the slip there).
+
+    The linear part, drag and dp/dt = v, is integrated exactly; F is interpolated linearly
+    in time between its value at the start and at the exponential-Euler predicted position
+    pa (two flow evaluations per step, like RK2). With x = lambda h, r = F(p) - lambda v and
+    d = F(pa) - F(p):
+        pa = p + h (v + h phi2 r)
+        p' = p + h (v + h phi2 r + h phi3 d)
+        v' = v + h (phi1 r + phi2 d)
+    (the velocity is Cox & Matthews' ETD2RK; the position is the same quadrature of the
+    exact solution, integrated once more: phi_k -> phi_k+1). Exact wherever F is constant
+    along the path (uniform flow), stable for any h/tau (the stiff part is never stepped
+    explicitly); its stiff order is 2 (Hochbruck & Ostermann 2005, SIAM J. Numer. Anal. 43,
+    1069-1090: the conditions b1 + b2 = phi1, b2 c2 = phi2 hold with c2 = 1).
+    """
+    f, lam, drag = forces.linear_parts(p, v)
+    x = lam * h
+    _, phi1, phi2 = exponential_weights(x)
+    phi3 = phi3_weight(x, phi2)
+    r = f - lam * v
+    w = v + (h * phi2) * r
+    d = forces.forcing(p + h * w, drag) - f
+    return p + h * (w + (h * phi3) * d), v + h * (phi1 * r + phi2 * d)
 
 
 INTEGRATORS: dict[Integrator, Step] = {
@@ -98,6 +155,7 @@ INTEGRATORS: dict[Integrator, Step] = {
     Integrator.RK2: rk2,
     Integrator.RK4: rk4,
     Integrator.EXPONENTIAL: exponential,
+    Integrator.ETD2RK: etd2rk,
 }
 
 ORDERS: dict[Integrator, int] = {
@@ -108,4 +166,5 @@ ORDERS: dict[Integrator, int] = {
     Integrator.RK2: 2,
     Integrator.RK4: 4,
     Integrator.EXPONENTIAL: 1,
+    Integrator.ETD2RK: 2,
 }

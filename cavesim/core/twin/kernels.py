@@ -34,7 +34,7 @@ class Kernels:
     dtype: type  # of positions and velocities
     integrators: Mapping[Integrator, Callable]  # (p, v, h, forces) -> (p, v)
     # (gravity, damping, inv_tau, flow, reynolds_per_speed, turbulence) -> a model with
-    # acceleration(p, v), linear_parts(p, v) and drag_rate(slip)
+    # acceleration(p, v), linear_parts(p, v), forcing(p, drag) and drag_rate(slip)
     forces: Callable
     rotor_flow: Callable  # (p, hub, v_i, rotor_radius, ground_z) -> u(p)
     field_flow: Callable  # (grid, p, out_of_domain) -> u(p)

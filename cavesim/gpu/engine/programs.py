@@ -35,6 +35,7 @@ ARITHMETIC_IDS = {Arithmetic.NATIVE: 0, Arithmetic.PORTABLE: 1}
 INTEGRATOR_IDS = {
     Integrator.EXPLICIT_EULER: 0, Integrator.SEMI_IMPLICIT_EULER: 1, Integrator.TRAPEZOID: 2,
     Integrator.VERLET: 3, Integrator.RK2: 4, Integrator.RK4: 5, Integrator.EXPONENTIAL: 6,
+    Integrator.ETD2RK: 7,
 }
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}

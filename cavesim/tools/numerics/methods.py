@@ -28,6 +28,7 @@ FIELD_EVALUATIONS: dict[Integrator, int] = {
     Integrator.RK2: 2,
     Integrator.RK4: 4,
     Integrator.EXPONENTIAL: 1,
+    Integrator.ETD2RK: 2,  # at the start and at the exponential step's predicted position
 }
 
 
@@ -55,9 +56,12 @@ class Method:
         return self.order if order_limit is None else min(self.order, order_limit)
 
 
-# The exponential step holds the flow over the step and solves the rest exactly: with a
-# uniform flow nothing is held, so it is the closed form itself.
-EXACT_IN = {Integrator.EXPONENTIAL: frozenset({"uniform"})}
+# The exponential methods solve the linear part (drag, damping, dp/dt = v) exactly and
+# approximate only how the forcing u(p)/tau + g changes along the path: the exponential step
+# holds it, ETD2RK takes it linear in time. With a uniform flow it does not change, so both
+# are the closed form itself.
+EXACT_IN = {Integrator.EXPONENTIAL: frozenset({"uniform"}),
+            Integrator.ETD2RK: frozenset({"uniform"})}
 # In a uniform flow every method relaxes to the exact terminal velocity, and explicit and
 # semi-implicit Euler also move the particle the exact total distance of the transient
 # (the geometric sums of their velocity decay, (1 - h/tau)^k and (1 + h/tau)^-k, add up

@@ -75,7 +75,7 @@ def dt_spike(ctx) -> list[dict]:
                  f"a warning; the hitch becomes {burst} frames of {clock.dt:.4f} s back to "
                  f"back and {clock.dropped_seconds:.2f} s are dropped", True,
                  max_dt_sent=max(sent), frames_in_burst=burst)]
-    for integrator in (Integrator.EXPLICIT_EULER, Integrator.EXPONENTIAL):
+    for integrator in (Integrator.EXPLICIT_EULER, Integrator.EXPONENTIAL, Integrator.ETD2RK):
         system = ParticleSystem(ctx, busy_scene(integrator))
         _steps(system, 1 / 60, 30)
         before = system.live_count

@@ -13,7 +13,12 @@ import numpy as np  # noqa: E402
 
 from cavesim.core.scene import Integrator  # noqa: E402
 from cavesim.tools.stability.extremes import run_extremes  # noqa: E402
-from cavesim.tools.stability.sweep import STABILITY_LIMITS, STEPS, run_sweep  # noqa: E402
+from cavesim.tools.stability.sweep import (  # noqa: E402
+    DRAG_CASES,
+    STABILITY_LIMITS,
+    STEPS,
+    run_sweep,
+)
 
 
 def run_stability(ctx, out_dir: Path, frames: int = 120) -> dict:
@@ -36,23 +41,25 @@ def run_stability(ctx, out_dir: Path, frames: int = 120) -> dict:
 
 
 def markdown(report: dict) -> str:
-    lines = ["# cavesim stability", "", "## Stiff sweep: linear drag, tau from 10 s to 1 µs",
-             "", "Largest bounded dt/tau on the GPU against the theoretical limit "
-             "(120 frames; particles that run away are dropped, never stored).", "",
-             "| integrator | dt | theory: stable for dt/tau < | largest bounded dt/tau "
-             "| smallest divergent dt/tau | agrees |", "|---|---:|---:|---:|---:|---|"]
-    for integrator in Integrator:
-        for dt in STEPS:
-            rows = [r for r in report["sweep"]
-                    if r["integrator"] == integrator.value and r["dt"] == dt]
-            bounded = [r["dt_over_tau"] for r in rows if r["outcome"] == "bounded"]
-            divergent = [r["dt_over_tau"] for r in rows if r["outcome"] == "divergent"]
-            limit = STABILITY_LIMITS[integrator]
-            lines.append(f"| {integrator.value} | 1/{round(1 / dt)} | "
-                         f"{'any' if np.isinf(limit) else limit} | "
-                         f"{max(bounded, default=0):.3g} | "
-                         f"{format(min(divergent), '.3g') if divergent else 'none'} | "
-                         f"{'yes' if all(r['agrees'] for r in rows) else 'NO'} |")
+    lines = ["# cavesim stability", "", "## Stiff sweep: drag, tau from 10 s to 1 µs",
+             "", "Largest bounded stiffness h = dt·lambda (dt/tau for Stokes drag) on the GPU "
+             "against the theoretical limit (120 frames; particles that run away are dropped, "
+             "never stored).", "",
+             "| drag | integrator | dt | theory: stable for h < | largest bounded h "
+             "| smallest divergent h | agrees |", "|---|---|---:|---:|---:|---:|---|"]
+    for drag in DRAG_CASES:
+        for integrator in Integrator:
+            for dt in STEPS:
+                rows = [r for r in report["sweep"] if r["drag"] == drag.name
+                        and r["integrator"] == integrator.value and r["dt"] == dt]
+                bounded = [r["stiffness"] for r in rows if r["outcome"] == "bounded"]
+                divergent = [r["stiffness"] for r in rows if r["outcome"] == "divergent"]
+                limit = STABILITY_LIMITS[integrator]
+                lines.append(f"| {drag.name} | {integrator.value} | 1/{round(1 / dt)} | "
+                             f"{'any' if np.isinf(limit) else limit} | "
+                             f"{max(bounded, default=0):.3g} | "
+                             f"{format(min(divergent), '.3g') if divergent else 'none'} | "
+                             f"{'yes' if all(r['agrees'] for r in rows) else 'NO'} |")
     lines += ["", "## Extreme cases", "", "| case | outcome | what the user sees | state finite |",
               "|---|---|---|---|"]
     for r in report["extremes"]:
@@ -64,20 +71,22 @@ def markdown(report: dict) -> str:
 def plot(sweep: list[dict], path: Path) -> None:
     """The map: integrators against dt/tau, bounded (green) or divergent (red), with the
     theoretical limits as bars."""
-    fig, ax = plt.subplots(figsize=(10, 4.5), dpi=100)
-    names = [i.value for i in Integrator]
+    lines = [(d.name, i) for d in DRAG_CASES for i in Integrator]
+    fig, ax = plt.subplots(figsize=(10, 1.2 + 0.45 * len(lines)), dpi=100)
     for row in sweep:
-        y = names.index(row["integrator"]) + (0.12 if row["dt"] == STEPS[1] else -0.12)
+        y = lines.index((row["drag"], Integrator(row["integrator"]))) \
+            + (0.12 if row["dt"] == STEPS[1] else -0.12)
         colour = "tab:green" if row["outcome"] == "bounded" else "tab:red"
-        ax.scatter(row["dt_over_tau"], y, c=colour, s=18, marker="o" if row["agrees"] else "x")
-    for k, integrator in enumerate(Integrator):
+        ax.scatter(row["stiffness"], y, c=colour, s=18, marker="o" if row["agrees"] else "x")
+    for k, (_, integrator) in enumerate(lines):
         limit = STABILITY_LIMITS[integrator]
         if np.isfinite(limit):
             ax.plot([limit, limit], [k - 0.35, k + 0.35], c="k", lw=1.5)
     ax.set_xscale("log")
+    names = [i.value if len(DRAG_CASES) == 1 else f"{d} {i.value}" for d, i in lines]
     ax.set_yticks(range(len(names)), names)
-    ax.set_xlabel("dt / tau (stiffness)")
-    ax.set_title("Linear drag on the GPU: bounded (green) or divergent (red); black bar: "
+    ax.set_xlabel("h = dt · lambda (dt / tau for Stokes drag): stiffness")
+    ax.set_title("Drag on the GPU: bounded (green) or divergent (red); black bar: "
                  "theory's limit")
     ax.grid(True, axis="x", alpha=0.3)
     fig.tight_layout()

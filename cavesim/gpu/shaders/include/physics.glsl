@@ -15,6 +15,7 @@
 #define INTEGRATOR_RK2 4
 #define INTEGRATOR_RK4 5
 #define INTEGRATOR_EXPONENTIAL 6
+#define INTEGRATOR_ETD2RK 7
 #define COLLISION_NONE 0
 #define COLLISION_PLANE 1
 #define COLLISION_HEIGHTFIELD 2
@@ -117,26 +118,46 @@ vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
     return a;
 }
 
-// a = f - lambda v: the forcing f = (u(p) + u_t) lambda_d + g and the linear rate
-// lambda = lambda_d + k, the drag rate lambda_d held at its value for the slip u(p) - v
-void linear_parts(vec3 p, vec3 v, float inv_tau_p, out vec3 f, out float lambda) {
-    f = vec3(0.0);
-    lambda = 0.0;
+// The forcing f = (u + u_t) lambda_d + g of dv/dt = f - lambda v where the flow is u, for
+// the drag rate lambda_d (u and lambda_d unused without drag)
+vec3 forcing(vec3 u, float drag) {
+    vec3 f = vec3(0.0);
 #if HAS_DRAG
-    vec3 u = flow_at(p);
-    float rate = drag_rate(f_sub(u, v), inv_tau_p);
-    f = f_add(f, f_mul(seen_flow(u), rate));
-    lambda = f_add(lambda, rate);
+    f = f_add(f, f_mul(seen_flow(u), drag));
 #endif
 #if HAS_GRAVITY
     f = f_add(f, gravity);
 #endif
-#if HAS_DAMPING
-    lambda = f_add(lambda, damping);
+    return f;
+}
+
+// ... at the point p
+vec3 forcing_at(vec3 p, float drag) {
+#if HAS_DRAG
+    return forcing(flow_at(p), drag);
+#else
+    return forcing(vec3(0.0), drag);
 #endif
 }
 
-#if INTEGRATOR == INTEGRATOR_EXPONENTIAL
+// a = f - lambda v with the flow and the drag rate held at their values at (p, v): the
+// forcing f and lambda = lambda_d + k. Returns the drag rate lambda_d it held.
+float linear_parts(vec3 p, vec3 v, float inv_tau_p, out vec3 f, out float lambda) {
+    vec3 u = vec3(0.0);
+    float drag = 0.0;
+#if HAS_DRAG
+    u = flow_at(p);
+    drag = drag_rate(f_sub(u, v), inv_tau_p);
+#endif
+    f = forcing(u, drag);
+    lambda = drag;
+#if HAS_DAMPING
+    lambda = f_add(lambda, damping);
+#endif
+    return drag;
+}
+
+#if INTEGRATOR == INTEGRATOR_EXPONENTIAL || INTEGRATOR == INTEGRATOR_ETD2RK
 // 1/k! of the series below, as exact bits: how a literal such as 1.0 / 6.0 is rounded is
 // up to the compiler (macros: glslang refuses uintBitsToFloat in a const initializer;
 // cavesim/core/portable/constants.py holds the same bits)
@@ -171,6 +192,33 @@ void exponential_weights(float x, out float e, out float phi1, out float phi2) {
 }
 #endif
 
+#if INTEGRATOR == INTEGRATOR_ETD2RK
+#define INV_FACTORIAL_9 uintBitsToFloat(0x3638EF1Du)
+#define INV_FACTORIAL_10 uintBitsToFloat(0x3493F27Eu)
+#define INV_FACTORIAL_11 uintBitsToFloat(0x32D7322Bu)
+
+// phi3(x) = (x^2/2 - x + 1 - e^-x) / x^3 = (1/2 - phi2) / x; below x = 1, where that
+// cancels, its series to x^8/11! (the first term left out is below 2e-8 of phi3).
+float phi3_weight(float x, float phi2) {
+    if (x < 1.0) {
+        float tail = f_sub(INV_FACTORIAL_10, f_mul(x, INV_FACTORIAL_11));
+        tail = f_sub(INV_FACTORIAL_9, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_8, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_7, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_6, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_5, f_mul(x, tail));
+        tail = f_sub(INV_FACTORIAL_4, f_mul(x, tail));
+        return f_sub(INV_FACTORIAL_3, f_mul(x, tail));
+    }
+    return f_div(f_sub(0.5, phi2), x);
+}
+#endif
+
+// Every method moves the position in ONE addition of a whole increment (p += h * (...)),
+// and the implicit ones step the velocity by an increment of the acceleration r = f - lambda v
+// rather than by weights that decay it: a weight near 1 (e^-x, 1 / (1 + x)) rounded to float32
+// is the same relative error every step, a drift that grows as dt shrinks. So float32 adds only
+// the rounding of the stored state (README: the float32 floor).
 void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #if INTEGRATOR == INTEGRATOR_EXPLICIT_EULER
     vec3 a = acceleration(p, v, inv_tau_p);
@@ -178,11 +226,12 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     v = f_add(v, f_mul(h, a));
 #elif INTEGRATOR == INTEGRATOR_SEMI_IMPLICIT_EULER
     // linearly implicit in the stiff drag and damping, explicit in the rest; the new
-    // velocity moves the position. Stable for any tau: v' = (v + h f) / (1 + h lambda)
+    // velocity moves the position. Stable for any tau: v' = v + h (f - lambda v) / (1 + h lambda)
     vec3 f;
     float lambda;
     linear_parts(p, v, inv_tau_p, f, lambda);
-    v = f_div(f_add(v, f_mul(h, f)), f_add(1.0, f_mul(h, lambda)));
+    float weight = f_div(h, f_add(1.0, f_mul(h, lambda)));
+    v = f_add(v, f_mul(weight, f_sub(f, f_mul(lambda, v))));
     p = f_add(p, f_mul(h, v));
 #elif INTEGRATOR == INTEGRATOR_TRAPEZOID
     // UberFlow eq. (1)-(2): Euler velocity, position from the mean of old and new velocity
@@ -194,7 +243,7 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     // velocity Verlet; the drag's velocity dependence is met with an Euler-predicted velocity
     float half_h = f_mul(0.5, h);
     vec3 a0 = acceleration(p, v, inv_tau_p);
-    p = f_add(p, f_add(f_mul(h, v), f_mul(f_mul(half_h, h), a0)));
+    p = f_add(p, f_mul(h, f_add(v, f_mul(half_h, a0))));
     vec3 a1 = acceleration(p, f_add(v, f_mul(h, a0)), inv_tau_p);
     v = f_add(v, f_mul(half_h, f_add(a0, a1)));
 #elif INTEGRATOR == INTEGRATOR_RK2
@@ -221,16 +270,36 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     p = f_add(p, f_mul(sixth_h, dp));
     v = f_add(v, f_mul(sixth_h, dv));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
-    // Exact solution of dv/dt = f - lambda v with the flow and the drag rate held at
-    // their values at (p, v) (linear_parts). Stable for any step (stiff fine dust).
+    // Exponential Euler: exact solution of dv/dt = f - lambda v with the flow and the drag
+    // rate held at their values at (p, v) (linear_parts). Stable for any step (stiff fine
+    // dust). Increment form: r = f - lambda v, p += h (v + h phi2 r), v += h phi1 r.
     vec3 f;
     float lambda;
     linear_parts(p, v, inv_tau_p, f, lambda);
     float e, phi1, phi2;
     exponential_weights(f_mul(lambda, h), e, phi1, phi2);
-    float h_phi1 = f_mul(h, phi1);
-    p = f_add(p, f_add(f_mul(h_phi1, v), f_mul(f_mul(f_mul(h, h), phi2), f)));
-    v = f_add(f_mul(e, v), f_mul(h_phi1, f));
+    vec3 r = f_sub(f, f_mul(lambda, v));
+    p = f_add(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))));
+    v = f_add(v, f_mul(f_mul(h, phi1), r));
+#elif INTEGRATOR == INTEGRATOR_ETD2RK
+    // ETD2RK (Cox & Matthews 2002), order 2 and stable for any step: the exponential step
+    // predicts pa, the forcing is taken linear in time from f(p) to f(pa) (d = f(pa) - f(p)),
+    // and the linear part is solved exactly against it (twin: etd2rk in
+    // cavesim/core/twin/integrators.py, which derives the position's weights):
+    //   p' = p + h (v + h phi2 r + h phi3 d),  v' = v + h (phi1 r + phi2 d)
+    vec3 f;
+    float lambda;
+    float drag = linear_parts(p, v, inv_tau_p, f, lambda);
+    float x = f_mul(lambda, h);
+    float e, phi1, phi2;
+    exponential_weights(x, e, phi1, phi2);
+    float phi3 = phi3_weight(x, phi2);
+    vec3 r = f_sub(f, f_mul(lambda, v));
+    vec3 w = f_add(v, f_mul(f_mul(h, phi2), r));
+    // the drag rate held over the step (Schiller-Naumann's from the slip at its start)
+    vec3 d = f_sub(forcing_at(f_add(p, f_mul(h, w)), drag), f);
+    p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))));
+    v = f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))));
 #else
 #error unknown INTEGRATOR
 #endif

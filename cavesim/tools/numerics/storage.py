@@ -1,0 +1,44 @@
+"""The float32 storage floor: the part of the float32 floor no integrator form removes.
+
+The GPU keeps every particle's position and velocity in float32, so each step ends in a
+rounding of the state to float32, whatever the arithmetic before it. While a particle's
+velocity changes, the position's roundings (about ulp(|p|) / sqrt(12) per component and
+step) random-walk to ~ ulp(|p|) sqrt(steps); once it moves at a steady velocity (terminal
+velocity in a uniform flow, the settling speed along a vortex's axis) the increment h v is
+the same every step, and so is its rounding against the float32 grid around p: that error
+grows like steps, not their root. The storage floor is all of it: the RMS distance between
+the float64 twin and the same twin whose state is rounded to float32 after every step. A
+form is as good as float32 allows when its float32 floor (RMS |GPU - twin|) is at the
+storage floor (README: the float32 floor).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cavesim.core.scene.model import Integrator
+from cavesim.core.twin import INTEGRATORS, TwinSystem
+from cavesim.tools.numerics.cases import Case
+
+
+def storage_floors(case: Case, integrator: Integrator, dts: tuple[float, ...],
+                   final_time: float, round_velocity: bool = True) -> list[float]:
+    """m: per dt, RMS |float64 run - float64 run stored in float32 every step| at final_time
+    (its position, and its velocity unless `round_velocity` is False)."""
+    twin = TwinSystem(case.scene(integrator), np.float64)
+    rotor = twin.rotor_inputs.read(case.frame) if twin.rotor_inputs is not None else None
+    forces = twin.forces_for(case.particles["class_id"], rotor)
+    step = INTEGRATORS[integrator]
+    floors = []
+    for dt in dts:
+        h = float(np.float32(dt))  # the engine's step, as the twin takes it
+        exact_p = stored_p = case.particles["pos"].astype(np.float64)
+        exact_v = stored_v = case.particles["vel"].astype(np.float64)
+        for _ in range(round(final_time / dt)):
+            exact_p, exact_v = step(exact_p, exact_v, h, forces)
+            stored_p, stored_v = step(stored_p, stored_v, h, forces)
+            stored_p = stored_p.astype(np.float32).astype(np.float64)
+            if round_velocity:
+                stored_v = stored_v.astype(np.float32).astype(np.float64)
+        floors.append(float(np.sqrt(np.mean(np.sum((exact_p - stored_p) ** 2, axis=1)))))
+    return floors
