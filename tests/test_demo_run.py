@@ -23,7 +23,7 @@ def test_brownout_run_is_consistent_replays_and_plots(tmp_path, ctx):
     report = json.loads((tmp_path / "report.json").read_text())
     assert report["divergences"] == [] and report["frames"] == 420
     flight = report["flight"]
-    assert flight[0]["emission_rate"] == 0 and flight[-1]["emission_rate"] > 0
+    assert flight[-1]["emission_rate"] > flight[0]["emission_rate"] > 0, "more dust lower down"
     assert flight[-1]["altitude"] < flight[0]["altitude"]
     assert report["live_particles"]["max"] > 1000
     assert [Path(p).name for p in report["plots"]] == ["live_and_emission_vs_time.png",

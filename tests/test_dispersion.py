@@ -15,7 +15,7 @@ from cavesim.core.dispersion import (
 )
 from cavesim.core.fields import FieldGrid, save_field
 from cavesim.core.frame import FrameInput
-from cavesim.core.helicopter.rotor import KARMAN
+from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import WORDS_PER_TEXEL, draw_transform, random_words
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene

@@ -8,14 +8,9 @@ from scenes import SAND
 
 from cavesim.core.drivers.helicopter import HelicopterDriver
 from cavesim.core.errors import SceneError
+from cavesim.core.helicopter.downwash import downwash, friction_velocity, jet_peak
 from cavesim.core.helicopter.flight import Flight
-from cavesim.core.helicopter.rotor import (
-    downwash,
-    friction_velocity,
-    ground_effect,
-    induced_velocity,
-    saltation_factor,
-)
+from cavesim.core.helicopter.rotor import ground_effect, induced_velocity, saltation_factor
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.scene_frame import NOTHING_MOVES
@@ -47,7 +42,7 @@ def test_flow_goes_down_through_the_disk_and_out_along_the_ground():
 
 
 def test_wall_jet_decays_with_distance():
-    speeds = [flow([[r, 0.0, 0.1 * R + 0.05 * (r - R)]])[0, 0] for r in (1.5 * R, 3 * R, 6 * R)]
+    speeds = jet_peak(np.array([1.5, 3.0, 6.0]) * R, 12.0, 10.0, R)[0]
     assert speeds[0] > speeds[1] > speeds[2] > 0
 
 
@@ -58,20 +53,24 @@ def test_magnitude_scales_with_rotor_speed_and_ground_effect():
                                                            * HELI.disk_area)), rel=1e-3)
     heights = [4 * R, 2 * R, R, 0.5 * R]
     effects = [ground_effect(h, R) for h in heights]
-    assert effects == sorted(effects) and effects[-1] == pytest.approx(1 / (1 - 0.25))
-    assert induced_velocity(HELI, 1.0, 0.6 * R) > induced_velocity(HELI, 1.0, 3 * R)
+    assert effects == sorted(effects, reverse=True) and effects[-1] == pytest.approx(0.75)
+    assert induced_velocity(HELI, 1.0, 0.6 * R) < induced_velocity(HELI, 1.0, 3 * R)
     strong, weak = flow([[2 * R, 0, 1.0]], v_i=12.0)[0], flow([[2 * R, 0, 1.0]], v_i=6.0)[0]
     assert np.linalg.norm(strong) == pytest.approx(2 * np.linalg.norm(weak), rel=1e-9)
 
 
 def test_emission_grows_as_the_helicopter_comes_down():
+    """The wall jet's momentum is the thrust's wherever the rotor is (Poreh et al. 1967), so
+    dust rises from well up; it grows as the wake reaches the ground less spread."""
     factors = []
-    for height in (40.0, 25.0, 15.0, 10.0, 6.0):
+    for height in (100.0, 40.0, 15.0, 6.0, 3.0):
         v_i = induced_velocity(HELI, 1.0, height)
         factors.append(float(saltation_factor(HELI, friction_velocity(HELI, 1.3 * R,
                                                                       height, v_i))))
-    assert factors[0] == 0.0, "no dust from high up"
-    assert all(a < b for a, b in zip(factors[1:], factors[2:], strict=False)) and factors[-1] > 5
+    assert all(a < b for a, b in zip(factors, factors[1:], strict=False))
+    assert factors[-1] > 3 * factors[0] > 0
+    far_up = induced_velocity(HELI, 1.0, 300.0)
+    assert saltation_factor(HELI, friction_velocity(HELI, 1.3 * R, 300.0, far_up)) == 0.0
     assert saltation_factor(HELI, HELI.threshold_friction_velocity * 0.99) == 0.0
 
 
@@ -137,7 +136,7 @@ def test_scripted_timeline_is_deterministic_and_lands():
     assert altitudes[0] > 20 and min(altitudes) == pytest.approx(0.0, abs=0.5), "lands"
     assert altitudes[-1] > 5, "lifts off again"
     total_emission = [sum(frame.rotor.emission_factors) for frame in first]
-    assert total_emission[0] == 0 and max(total_emission) > 10
+    assert max(total_emission) > 2 * total_emission[0] > 0, "dust from up high, most down low"
 
 
 def small_brownout(capacity=6000):

@@ -34,7 +34,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cavesim.core.helicopter.rotor import KARMAN
+from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import WORDS_PER_TEXEL, moved_texel
 
 FlowSampler = Callable[[np.ndarray], np.ndarray]

@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from cavesim.core.helicopter.rotor import friction_velocity, induced_velocity, saltation_factor
+from cavesim.core.helicopter.downwash import friction_velocity
+from cavesim.core.helicopter.rotor import induced_velocity, saltation_factor
 from cavesim.core.limits import ROTOR_SPEED_RANGE
 from cavesim.core.scene.model import CollisionKind, Helicopter, Scene, WandKey
 from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame

@@ -25,13 +25,20 @@ INV_FACTORIAL_9 = _bits(0x3638EF1D)  # ETD2RK's phi3
 INV_FACTORIAL_10 = _bits(0x3493F27E)
 INV_FACTORIAL_11 = _bits(0x32D7322B)
 
-# rotor.glsl: the downwash model's shape constants (cavesim/core/helicopter/rotor.py)
-WAKE_FLOOR = _bits(0x3A83126F)  # 1e-3
-TURN_HEIGHT = _bits(0x3E99999A)  # 0.3
-JET_THICKNESS = _bits(0x3DCCCCCD)  # 0.1
-JET_GROWTH = _bits(0x3D4CCCCD)  # 0.05
-JET_DECAY = _bits(0x3F8CCCCD)  # 1.1
-UPWASH_HEIGHT = _bits(0x3F4CCCCD)  # 0.8
+# rotor.glsl: the downwash model's constants (their float64 values: cavesim/core/helicopter/
+# downwash.py)
+WAKE_SPREADING = _bits(0x3E0D4FDF)  # 0.138
+WALL_JET_GROWTH = _bits(0x3F0D4371)  # 2 sqrt(2 pi) 0.098 1.03 F
+WALL_JET_WIDTH_SQ = _bits(0x3C1D5A18)  # 0.098²
+FOUR_PROFILE_INTEGRAL = _bits(0x408B93F0)  # 4 F
+PROFILE_DECAY = _bits(0x40066666)  # 2.1
+PROFILE_SHAPE = _bits(0x40533333)  # 3.3
+PROFILE_INNER = _bits(0x4274CCCD)  # 61.2
+PROFILE_FLUX = _bits(0x3F986CE4)  # the profile's integral
+ONE_FIFTH = _bits(0x3E4CCCCD)  # 0.2
+TWO_FIFTHS = _bits(0x3ECCCCCD)  # 0.4
+WIDTH_POWER = _bits(0x3FE66666)  # 1.8
+HALF_WIDTH_POWER = _bits(0x3EE66666)  # 0.45
 
 # spawn.glsl
 TWO_PI = _bits(0x40C90FDB)

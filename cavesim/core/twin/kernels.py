@@ -15,7 +15,7 @@ import numpy as np
 
 from cavesim.core import dispersion
 from cavesim.core.fields import sample_field
-from cavesim.core.helicopter.rotor import downwash
+from cavesim.core.helicopter.downwash import downwash
 from cavesim.core.portable import dispersion as portable_dispersion
 from cavesim.core.portable import field as portable_field
 from cavesim.core.portable import ground as portable_ground
