@@ -1,6 +1,7 @@
 """The brownout demo's cloud, measured in its pictures: one continuous cloud around the
-helicopter that the wash's turbulence lifts, where separate puffs (README: the brownout
-demo, before and after) left gaps along the horizon and dust hugged the ground."""
+helicopter that the wash's turbulence lifts off the ground, where separate puffs (README:
+the brownout demo, before and after) left gaps along the horizon; without the walk the
+dust stays a carpet in the wall jet, below the horizon."""
 
 import dataclasses
 
@@ -46,7 +47,7 @@ def test_the_brownout_cloud_is_one_cloud_that_rises(ctx):
                           "azimuth": azimuth_cv(positions, hub),
                           "height": float(np.median(positions[:, 2]))}
     walk, still = measured["walk"], measured["still"]
-    assert walk["coverage"] > 0.9 and walk["variation"] < 0.35, walk  # no gaps, no puffs
+    assert walk["coverage"] > 0.9 and walk["variation"] < 0.5, walk  # no gaps, no puffs
     assert walk["azimuth"] < 0.15, walk  # a ring all round the rotor
-    assert walk["sky"] > 0.6, walk  # a cloud in the sky, not on the ground
-    assert walk["sky"] > still["sky"] + 0.25 and walk["height"] > 2 * still["height"], measured
+    assert still["coverage"] < 0.1 and still["sky"] < 0.05, still  # a carpet on the ground
+    assert walk["sky"] > still["sky"] + 0.15 and walk["height"] > 3 * still["height"], measured

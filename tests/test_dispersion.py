@@ -7,6 +7,7 @@ import pytest
 
 from cavesim.core.dispersion import (
     SHEAR_STEP,
+    TURBULENCE_FLOOR,
     draws,
     mixing_length,
     particle_diffusivity,
@@ -23,15 +24,18 @@ from cavesim.core.twin import TwinSystem
 
 SIZE = 64
 WORDS = random_words(5, SIZE)
-U_STAR, Z0 = 0.5, 1e-3
+U_STAR = 0.5
+ROUGH, SMOOTH = 0.1, 1e-3  # z0 in m
 TRACER = 1e9  # 1/s: a drag rate far above any shear here
 
 
-def log_law(points: np.ndarray) -> np.ndarray:
+def log_law(z0: float):
     """The neutral surface layer: u = (u*/kappa) ln(z/z0) along x."""
-    out = np.zeros_like(points)
-    out[:, 0] = U_STAR / KARMAN * np.log(np.maximum(points[:, 2], Z0) / Z0)
-    return out
+    def flow(points: np.ndarray) -> np.ndarray:
+        out = np.zeros_like(points)
+        out[:, 0] = U_STAR / KARMAN * np.log(np.maximum(points[:, 2], z0) / z0)
+        return out
+    return flow
 
 
 def test_draws_are_the_same_for_the_same_frame_and_unit_uniform():
@@ -54,11 +58,12 @@ def test_a_particles_draw_depends_only_on_its_index_and_the_frame():
 
 
 def test_mixing_length_diffusivity_is_kappa_u_star_z_in_the_surface_layer():
-    """K = l² |du/dz| with l = kappa z gives the textbook kappa u* z (Monin-Obukhov, neutral)."""
+    """K = l² |du/dz| with l = kappa z gives the textbook kappa u* z (Monin-Obukhov,
+    neutral) over rough ground, where a tenth of the speed stays below u*."""
     z = np.array([0.5, 1.0, 2.0, 4.0])
     p = np.stack([np.zeros_like(z), np.zeros_like(z), z], axis=1)
-    k, dk = particle_diffusivity(*shear_samples(log_law, p), z, np.full(len(z), TRACER),
-                                 longest=1e9)
+    k, dk = particle_diffusivity(*shear_samples(log_law(ROUGH), p), z,
+                                 np.full(len(z), TRACER), longest=1e9)
     np.testing.assert_allclose(k, KARMAN * U_STAR * z, rtol=5e-3)  # differences over 0.1 m
     np.testing.assert_allclose(dk, KARMAN * U_STAR, rtol=5e-3)
 
@@ -67,10 +72,24 @@ def test_heavy_grains_follow_the_eddies_in_part():
     """A grain relaxing at 1/s where the eddies turn over in 1/|du/dz| = 0.4 s and 1.6 s."""
     z = np.array([0.5, 2.0])
     p = np.stack([np.zeros(2), np.zeros(2), z], axis=1)
-    tracer, _ = particle_diffusivity(*shear_samples(log_law, p), z, np.full(2, TRACER), 1e9)
-    grain, _ = particle_diffusivity(*shear_samples(log_law, p), z, np.full(2, 1.0), 1e9)
+    samples = shear_samples(log_law(ROUGH), p)
+    tracer, _ = particle_diffusivity(*samples, z, np.full(2, TRACER), 1e9)
+    grain, _ = particle_diffusivity(*samples, z, np.full(2, 1.0), 1e9)
     shear = U_STAR / (KARMAN * z)
     np.testing.assert_allclose(grain / tracer, 1.0 / (1.0 + shear), rtol=1e-2)
+
+
+def test_the_turbulence_does_not_vanish_at_a_jets_velocity_maximum():
+    """At the peak of u = 8 (1 - (z - 1)²) the shear is zero, but not K: a tenth of the
+    speed times the mixing length (Launder & Rodi's wall jets)."""
+    def jet(points):
+        out = np.zeros_like(points)
+        out[:, 0] = 8.0 * (1.0 - (points[:, 2] - 1.0) ** 2)
+        return out
+    p = np.array([[0.0, 0.0, 1.0]])
+    k, _ = particle_diffusivity(*shear_samples(jet, p), np.ones(1), np.full(1, TRACER), 1.5)
+    assert k[0] == pytest.approx(mixing_length(np.ones(1), 1.5)[0] * TURBULENCE_FLOOR * 8.0,
+                                 rel=0.01)
 
 
 def test_the_mixing_length_is_capped_by_the_largest_eddies():
@@ -93,8 +112,8 @@ def test_the_drift_keeps_a_well_mixed_tracer_well_mixed():
         z = rng.uniform(0.0, top, n)
         for _ in range(300):
             p = np.stack([np.zeros(n), np.zeros(n), z], axis=1)
-            k, dk = particle_diffusivity(*shear_samples(log_law, p), z, np.full(n, TRACER),
-                                         1e9)
+            k, dk = particle_diffusivity(*shear_samples(log_law(SMOOTH), p), z,
+                                         np.full(n, TRACER), 1e9)
             xi = rng.uniform(-np.sqrt(3), np.sqrt(3), n)
             z = z + (dk if drift else 0.0) * h + np.sqrt(2 * k * h) * xi
             z = np.abs(z)
@@ -106,10 +125,11 @@ def test_the_drift_keeps_a_well_mixed_tracer_well_mixed():
 
 
 def couette_scene(tmp_path, shear: float, mixing: float):
-    """Fine dust in u = shear * z along x over a ground plane, with dispersion."""
+    """Fine dust in u = shear (z - 10) along x over a ground plane, with dispersion: still
+    at 10 m, so that the shear, not a tenth of the speed, sets the turbulence there."""
     z = np.linspace(0.0, 20.0, 11)
     velocity = np.zeros((11, 2, 2, 3), dtype=np.float32)
-    velocity[..., 0] = (shear * z)[:, None, None]
+    velocity[..., 0] = (shear * (z - 10.0))[:, None, None]
     save_field(tmp_path / "couette.npz", FieldGrid(velocity, (-1e3, -1e3, 0.0), (1e3, 1e3, 20.0)))
     return parse_scene({
         "simulation": {"capacity": 4000, "seed": 9, "integrator": "exponential",
@@ -130,7 +150,7 @@ def test_the_twin_spreads_tracers_at_sqrt_2_k_t(tmp_path):
     twin = TwinSystem(scene)
     start = np.zeros(4000, dtype=PARTICLE_DTYPE)
     start["pos"] = (0.0, 0.0, 10.0)
-    start["vel"] = (shear * 10.0, 0.0, 0.0)
+    start["vel"] = (0.0, 0.0, 0.0)
     start["lifetime"] = 1e6
     twin.write_particles(start)
     rng = np.random.default_rng(4)

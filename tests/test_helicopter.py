@@ -101,7 +101,8 @@ def test_dust_rises_only_with_the_sand_that_blasts_it():
 
 def test_sand_hops_stay_low_and_the_wash_lifts_the_dust():
     """Hovering over the ground (frames 600-720), 99% of the sand stays within 0.3 m while
-    the dispersed dust climbs metres high (float64 twin, rates cut to a quarter)."""
+    the turbulence lifts a tenth of the dust above 1.2 m, out of the wall jet's lowest
+    metre (float64 twin, rates cut to a quarter)."""
     data = load_scene_dict()
     data["simulation"]["capacity"] = 75000
     for e in data["emitter"]:
@@ -119,7 +120,7 @@ def test_sand_hops_stay_low_and_the_wash_lifts_the_dust():
     heights = np.concatenate(sand_heights)
     assert len(heights) > 5000 and np.percentile(heights, 99) < 0.3
     dust = twin.particles.pos[twin.particles.class_id == 1, 2]
-    assert np.percentile(dust, 90) > 3.0
+    assert np.percentile(dust, 90) > 1.2
 
 
 def fly(scene, seconds=15.0, dt=1 / 60):

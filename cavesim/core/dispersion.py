@@ -3,23 +3,27 @@ random texture so that every node draws the same numbers.
 
 The model, per particle at the start of each step of length h (twin of
 shaders/include/dispersion.glsl):
-  - the eddy diffusivity of Prandtl's mixing length, K = l² |du/dz| (Prandtl 1925), with
-    l = kappa z / (1 + kappa z / l_inf) growing from the ground (Blackadar 1962; z the
-    height above the ground, l_inf the scene's `mixing_length`) and the shear du/dz from
-    the flow itself by differences over SHEAR_STEP;
-  - the particle's share of it, K_p = w K with w = lambda / (lambda + |du/dz|): an eddy
-    turns over in about 1/|du/dz| (the mixing-length time scale), the particle's slip
-    relaxes at its drag rate lambda, and a grain slower than the eddies follows them only
-    in part (Tchen's ratio T_L / (T_L + tau), Hinze 1975, "Turbulence", sec. 5-6);
+  - the eddy diffusivity of Prandtl's mixing length, K = l sigma_w with the turbulent
+    velocity sigma_w = l |du/dz| (Prandtl 1925), and l = kappa z / (1 + kappa z / l_inf)
+    growing from the ground (Blackadar 1962; z the height above the ground, l_inf the
+    scene's `mixing_length`); the shear du/dz from the flow itself by differences over
+    SHEAR_STEP. Where the mean shear vanishes, at a wall jet's velocity maximum, the
+    turbulence does not: sigma_w is at least TURBULENCE_FLOOR |u| (without it K = 0 there
+    walls the dust in below the jet's peak);
+  - the particle's share of it, K_p = K lambda / (lambda + sigma_w / l): an eddy turns over
+    in about l / sigma_w (1/|du/dz| in the shear), the particle's slip relaxes at its drag
+    rate lambda, and a grain slower than the eddies follows them only in part (Tchen's
+    ratio T_L / (T_L + tau), Hinze 1975, "Turbulence", sec. 5-6);
   - the flow the particle sees over the step is u(p) + (dK_p/dz) z^ + sqrt(2 K_p / h) xi,
     with xi three independent draws of zero mean and unit variance.
 For fine dust (lambda h >> 1) this is the random displacement model
 dx = (u + grad K) dt + sqrt(2 K dt) xi (Legg & Raupach 1982; Wilson & Sawford 1996): its
 drift keeps a well-mixed tracer well mixed where K changes with height (horizontal
 gradients, on the rotor's scale, are left out). A heavy grain gets the same white noise
-through its drag: its long-time diffusivity is K_p, and its share w keeps saltating sand
-near the ground, where 1/|du/dz| is short. White in frame time: the velocity seen jumps
-every frame, and dispersion over times beyond the eddies' 1/|du/dz| is what it gets right.
+through its drag: its long-time diffusivity is K_p, and its share keeps saltating sand
+near the ground, where l / sigma_w is short. White in frame time: the velocity seen
+jumps every frame, and dispersion over times beyond the eddies' turnover is what it gets
+right.
 
 The draws: one 32-bit word per particle and frame, at the particle's index in the stream,
 the same on every node; word index & 3 of lattice texel index >> 2, moved by the frame's
@@ -43,6 +47,10 @@ SHEAR_STEP = 0.1  # m: the flow is sampled this far above and below a particle
 FIELD_BITS = 10  # bits of a word per draw
 FIELD_MASK = (1 << FIELD_BITS) - 1
 SQRT3 = np.sqrt(3.0)
+# sigma_w >= this × |u|: the turbulence does not vanish where the mean shear does (a wall
+# jet's rms vertical velocity stays about a tenth of the local speed through its velocity
+# maximum: Launder & Rodi 1983, Annu. Rev. Fluid Mech. 15, 429)
+TURBULENCE_FLOOR = 0.1
 
 
 def draws(random: np.ndarray, transform: np.ndarray, count: int, dtype=np.float64
@@ -78,8 +86,15 @@ def particle_diffusivity(below: np.ndarray, here: np.ndarray, above: np.ndarray,
     for lower, upper, z in ((below, here, height - SHEAR_STEP / 2),
                             (here, above, height + SHEAR_STEP / 2)):
         shear = np.linalg.norm(upper - lower, axis=1) / SHEAR_STEP
-        share = drag_rate / (drag_rate + shear)
-        shares.append(share * mixing_length(z, longest) ** 2 * shear)
+        speed = np.linalg.norm(0.5 * (lower + upper), axis=1)
+        length = mixing_length(z, longest)
+        sigma = np.maximum(length * shear, TURBULENCE_FLOOR * speed)
+        # K_p = l sigma lambda / (lambda + sigma / l), written without dividing by l = 0
+        relaxed = drag_rate * length
+        denominator = relaxed + sigma
+        with np.errstate(invalid="ignore", divide="ignore"):  # 0 / 0 in still air at z = 0
+            shares.append(np.where(denominator > 0,
+                                   length * sigma * relaxed / denominator, 0.0))
     low, high = shares
     return 0.5 * (low + high), (high - low) / SHEAR_STEP
 

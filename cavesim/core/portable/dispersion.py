@@ -10,7 +10,12 @@ import numpy as np
 
 from cavesim.core.portable.arithmetic import f_add, f_div, f_length, f_mul, f_sqrt, f_sub
 from cavesim.core.portable.builtins import glsl_max
-from cavesim.core.portable.constants import HALF_SHEAR_STEP, KARMAN, SHEAR_STEP
+from cavesim.core.portable.constants import (
+    HALF_SHEAR_STEP,
+    KARMAN,
+    SHEAR_STEP,
+    TURBULENCE_FLOOR,
+)
 
 ZERO, HALF, ONE, TWO = np.float32(0.0), np.float32(0.5), np.float32(1.0), np.float32(2.0)
 INVERSE_SHEAR_STEP = np.float32(10.0)
@@ -23,9 +28,14 @@ def mixing_length_at(z: np.ndarray, longest: np.float32) -> np.ndarray:
 
 def particle_diffusivity(lower, upper, z, rate, longest) -> np.ndarray:
     shear = f_mul(f_length(f_sub(upper, lower)), INVERSE_SHEAR_STEP)
-    share = f_div(rate, f_add(rate, shear))
+    speed = f_length(f_mul(HALF, f_add(lower, upper)))
     length = mixing_length_at(z, longest)
-    return f_mul(f_mul(share, f_mul(length, length)), shear)
+    sigma = glsl_max(f_mul(length, shear), f_mul(TURBULENCE_FLOOR, speed))
+    relaxed = f_mul(rate, length)
+    denominator = f_add(relaxed, sigma)
+    positive = denominator > ZERO
+    share = f_div(f_mul(f_mul(length, sigma), relaxed), np.where(positive, denominator, ONE))
+    return np.where(positive, share, ZERO)
 
 
 def turbulence(forces, p: np.ndarray, v: np.ndarray, ground: np.ndarray, longest: float,

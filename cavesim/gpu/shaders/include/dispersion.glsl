@@ -2,8 +2,8 @@
 // drawn from the shared random texture, so every node draws the same numbers. The model
 // and its sources: cavesim/core/dispersion.py (float64 twin); portable twin:
 // cavesim/core/portable/dispersion.py. Included by physics.glsl where HAS_DISPERSION.
-//   K = l^2 |du/dz|, l = kappa z / (1 + kappa z / l_inf)    (Prandtl; Blackadar)
-//   K_p = K lambda / (lambda + |du/dz|)                       (the particle's share)
+//   K = l sigma, sigma = max(l |du/dz|, 0.1 |u|), l = kappa z / (1 + kappa z / l_inf)
+//   K_p = K lambda / (lambda + sigma / l)                     (the particle's share)
 //   seen: (dK_p/dz) z^ + sqrt(2 K_p / h) xi
 #pragma once
 #include "arithmetic.glsl"
@@ -17,6 +17,7 @@ uniform float mixing_length;  // l_inf, m: the largest eddies
 #define SHEAR_STEP uintBitsToFloat(0x3DCCCCCDu)  // 0.1 m
 #define HALF_SHEAR_STEP uintBitsToFloat(0x3D4CCCCDu)  // 0.05 m
 #define SQRT_3 uintBitsToFloat(0x3FDDB3D7u)
+#define TURBULENCE_FLOOR uintBitsToFloat(0x3DCCCCCDu)  // 0.1: sigma >= this |u|
 const float INVERSE_SHEAR_STEP = 10.0;
 
 // xi of the particle at `index` in the stream: word index & 3 of lattice texel index >> 2
@@ -35,12 +36,19 @@ float mixing_length_at(float z) {
     return f_div(grown, f_add(1.0, f_div(grown, mixing_length)));
 }
 
-// K_p at height z from the flow at the two ends of a SHEAR_STEP
+// K_p at height z from the flow at the two ends of a SHEAR_STEP: l sigma lambda l /
+// (lambda l + sigma), which is K lambda / (lambda + sigma / l) without dividing by l = 0
 float particle_diffusivity(vec3 lower, vec3 upper, float z, float rate) {
     float shear = f_mul(f_length(f_sub(upper, lower)), INVERSE_SHEAR_STEP);
-    float share = f_div(rate, f_add(rate, shear));
+    float speed = f_length(f_mul(0.5, f_add(lower, upper)));
     float l = mixing_length_at(z);
-    return f_mul(f_mul(share, f_mul(l, l)), shear);
+    float sigma = max(f_mul(l, shear), f_mul(TURBULENCE_FLOOR, speed));
+    float relaxed = f_mul(rate, l);
+    float denominator = f_add(relaxed, sigma);
+    if (!(denominator > 0.0)) {
+        return 0.0;  // still air at the ground
+    }
+    return f_div(f_mul(f_mul(l, sigma), relaxed), denominator);
 }
 
 // What the particle at p with velocity v (class drag: inv_tau_p) sees besides u(p) over a
