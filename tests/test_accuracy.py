@@ -44,7 +44,8 @@ from cavesim.tools.numerics.order import MIN_FIT_POINTS, observed_order
 from cavesim.tools.numerics.reference import TOLERANCES, closed_form, twin_forces
 from cavesim.tools.numerics.report import OUTPUT_NAMES
 
-SMOOTH_CASES = ("uniform", "vortex")
+CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline", "downwash")
+SMOOTH_CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline")
 FLOAT32_FLOOR = 1e-4  # m: what float32 arithmetic may add to a GPU error over T = 1 s
 GPU_TO_TWIN_FACTOR = 2.0
 
@@ -118,13 +119,21 @@ def test_observed_order_matches_the_table(quick_run, case, method):
     assert summary.verdict == "ok"
 
 
-def test_only_rk4_is_capped_by_the_trilinear_grid(quick_run):
+def test_only_rk4_is_capped_by_the_trilinear_and_catmull_rom_grids(quick_run):
     result, _, _ = quick_run
-    capped = [s.integrator for s in result.summaries
+    capped = [(s.case, s.integrator, s.expected) for s in result.summaries
               if s.expected is not None and s.expected < s.order]
-    assert capped == ["rk4"]
-    assert [s.case for s in result.summaries if s.integrator == "rk4" and s.expected == 2] \
-        == ["vortex"]
+    assert capped == [("vortex", "rk4", 2), ("vortex_catmull_rom", "rk4", 3)]
+
+
+def test_rk4_order_rises_with_the_fields_smoothness(quick_run):
+    """Trilinear (C0), Catmull-Rom (C1), B-spline (C2): RK4 observes about 2, 3, 4."""
+    result, _, _ = quick_run
+    rk4 = next(m for m in METHODS if m.integrator is Integrator.RK4)
+    observed = [summary_of(result, case, rk4).observed
+                for case in ("vortex", "vortex_catmull_rom", "vortex_bspline")]
+    assert observed == sorted(observed)
+    assert observed == pytest.approx([2, 3, 4], abs=rk4.tolerance)
 
 
 @pytest.mark.parametrize("case", SMOOTH_CASES)
@@ -246,8 +255,11 @@ def test_the_reference_check_converges_and_bounds_the_reference(quick_run):
     computed = [c["name"] for c in result.report["cases"] if not c["closed_form"]]
     assert [a.case for a in result.reference_accuracy] == computed
     for accuracy in result.reference_accuracy:
-        # the reference is far more accurate than any error an order is fitted to
-        assert accuracy.bound < 1e-7 and accuracy.margin > 20, accuracy
+        # the reference is far more accurate than any error an order is fitted to: by 20x and
+        # more on the trilinear grid and in the downwash; RK4's errors on the cubic grids
+        # reach 1e-9 m at the quick run's finest dt, where the check (Dormand-Prince at 1e-12
+        # and how far it moved from 1e-11) resolves the reference to a few 1e-10 m only
+        assert accuracy.bound < 1e-7 and accuracy.margin > 5, accuracy
 
 
 def test_portable_arithmetic_costs_time_not_accuracy(quick_run):
@@ -274,16 +286,16 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert printed.count("Reference error at most") == len(result.reference_accuracy) > 0
     with (out / "accuracy.csv").open(newline="") as file:
         rows = list(csv.DictReader(file))
-    assert len(rows) == 3 * len(METHODS) * len(QUICK_DTS)
+    assert len(rows) == len(CASES) * len(METHODS) * len(QUICK_DTS)
     assert {r["dt_label"] for r in rows} == {"1/15", "1/30", "1/60", "1/120", "1/240"}
     report = json.loads((out / "accuracy.json").read_text())
     assert report["command"] == "accuracy" and report["particles"] == QUICK_PARTICLES
-    assert len(report["summary"]) == 3 * len(METHODS)
+    assert len(report["summary"]) == len(CASES) * len(METHODS)
     assert len(report["sweep"]) == len(report["cases"]) * len(TOLERANCES)
     assert report["final_time"] / report["tau"] >= 10
-    assert [c["name"] for c in report["cases"]] == ["uniform", "vortex", "downwash"]
+    assert [c["name"] for c in report["cases"]] == list(CASES)
     text = (out / "accuracy.md").read_text()
-    for heading in ("## uniform", "## vortex", "## downwash", "observed (f64)", "portable cost",
+    for heading in (*(f"## {case}" for case in CASES), "observed (f64)", "portable cost",
                     "evals per step", "GPU vel RMS (m/s)", "GPU cloud", "Reference check",
                     "Reference error at most", "= 10 tau"):
         assert heading in text

@@ -85,8 +85,10 @@ def test_the_tolerance_tells_integrators_apart(per_integrator):
     {"field": dict(VORTEX_FIELD, out_of_domain="zero")},
     {"field": dict(VORTEX_FIELD, sampling="hardware")},
     {"field": dict(VORTEX_FIELD, kind="uniform", params={"velocity": [2.0, -1.0, 0.5]})},
+    {"field": dict(VORTEX_FIELD, interpolation="catmull_rom")},
+    {"field": dict(VORTEX_FIELD, interpolation="bspline", out_of_domain="zero")},
 ], ids=["gravity", "gravity+damping", "drag", "ground-plane", "zero-outside", "hw-filter",
-        "uniform-flow"])
+        "uniform-flow", "catmull-rom", "bspline-zero-outside"])
 def test_each_force_matches_its_twin(ctx, features):
     for integrator in ("semi_implicit_euler", "rk4"):
         scene = make_scene(integrator=integrator, **features)
@@ -118,6 +120,18 @@ def test_dispersion_matches_its_twin(ctx, tmp_path):
             walks[integrator, mixing is not None] = gpu["pos"]
     spread = np.abs(walks["rk4", True] - walks["rk4", False]).mean()
     assert spread > 100 * ATOL, "the walk moved the particles"
+
+
+def test_the_tolerance_tells_interpolations_apart(ctx):
+    """Had the GPU sampled the grid trilinearly, the cubic cases above would have failed."""
+    states = {}
+    for interpolation in ("trilinear", "catmull_rom", "bspline"):
+        scene = make_scene(integrator="rk4", field=dict(VORTEX_FIELD, interpolation=interpolation))
+        states[interpolation] = run_both(ctx, scene)
+    for a, b in itertools.permutations(states, 2):
+        gpu_a, _ = states[a]
+        _, twin_b = states[b]
+        assert not np.allclose(gpu_a["pos"], twin_b.pos, rtol=RTOL, atol=ATOL), (a, b)
 
 
 def test_the_filter_weight_error_is_measured_on_this_context(ctx):

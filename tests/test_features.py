@@ -6,7 +6,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 import pytest
-from scenes import FOUNTAIN, make_scene, scene_dict
+from scenes import FOUNTAIN, VORTEX_FIELD, make_scene, scene_dict
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.scene import load_scene, parse_scene
@@ -14,6 +14,7 @@ from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.engine.programs import (
     COLLISION_IDS,
     INTEGRATOR_IDS,
+    INTERPOLATION_IDS,
     OUT_OF_DOMAIN_IDS,
     PARTICLE_UPDATE,
     SAMPLING_IDS,
@@ -126,6 +127,25 @@ def test_drag_laws_and_dispersion_compile_in_where_a_scene_has_them(ctx):
         uniforms(system.particle_program)
 
 
+@pytest.mark.parametrize("interpolation", ["trilinear", "catmull_rom", "bspline"])
+def test_only_a_cubic_interpolation_compiles_the_cubic_code(interpolation):
+    scene = make_scene(field={**VORTEX_FIELD, "interpolation": interpolation})
+    text = compiled_text(scene)
+    assert mentions(text, "cubic_flow") == (interpolation != "trilinear")
+    assert mentions(text, "c111") == (interpolation == "trilinear")
+    no_drag = compiled_text(make_scene(drag=False))
+    assert not mentions(no_drag, "cubic_flow") and not mentions(no_drag, "flow_field")
+
+
+def test_a_cubic_field_texture_holds_the_padded_texels(ctx):
+    scene = make_scene(field={**VORTEX_FIELD, "interpolation": "bspline"})
+    system = ParticleSystem(ctx, scene)
+    texture = system.resources["flow_field"]
+    nx, ny, nz = scene.field.resolution
+    assert texture.size == (nx + 2, ny + 2, nz + 2)
+    assert texture.read() == system.field_grid.texels.tobytes()
+
+
 def test_minimal_scene_allocates_no_field_ground_or_extra_uniforms(ctx):
     system = ParticleSystem(ctx, load_scene(SCENES / "minimal.toml"))
     assert set(system.resources) == {"particles_0", "particles_1", "emitters_0", "emitters_1",
@@ -156,7 +176,8 @@ def test_a_uniform_the_source_never_declares_is_an_error_not_skipped(ctx):
 
 @pytest.mark.parametrize(("prefix", "ids"), [
     ("INTEGRATOR_", INTEGRATOR_IDS), ("COLLISION_", COLLISION_IDS),
-    ("OUT_OF_DOMAIN_", OUT_OF_DOMAIN_IDS), ("SAMPLING_", SAMPLING_IDS)])
+    ("OUT_OF_DOMAIN_", OUT_OF_DOMAIN_IDS), ("SAMPLING_", SAMPLING_IDS),
+    ("INTERPOLATION_", INTERPOLATION_IDS)])
 def test_feature_ids_are_the_same_on_both_sides(prefix, ids):
     physics = (SHADER_ROOT / "include" / "physics.glsl").read_text()
     glsl = {name: int(value) for name, value

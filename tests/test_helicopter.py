@@ -187,6 +187,7 @@ def test_a_helicopter_step_needs_its_rotor_frame(ctx):
 @pytest.mark.parametrize(("change", "key"), [
     (lambda d: d.pop("helicopter"), "helicopter"),
     (lambda d: d["field"].update(resolution=[4, 4, 4]), "field.resolution"),
+    (lambda d: d["field"].update(interpolation="bspline"), "field.interpolation"),
     (lambda d: d["helicopter"]["timeline"][1].update(t=0.0), "helicopter.timeline[1].t"),
     (lambda d: d["emitter"][0].update(follow_helicopter="yes"), "emitter[0].follow_helicopter"),
     (lambda d: d["helicopter"].update(rotor_radius=-1.0), "helicopter.rotor_radius"),

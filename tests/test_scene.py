@@ -23,6 +23,7 @@ from cavesim.core.scene import (
     DragLaw,
     Emitter,
     Field,
+    FieldInterpolation,
     FieldKind,
     FieldSampling,
     Forces,
@@ -226,6 +227,7 @@ def test_defaults(tmp_path: Path) -> None:
     assert drag.forces.drag == Drag(AIR_VISCOSITY)
     assert drag.field is not None and drag.field.out_of_domain is OutOfDomain.CLAMP
     assert drag.field.sampling is FieldSampling.MANUAL
+    assert drag.field.interpolation is FieldInterpolation.TRILINEAR
 
 
 def test_downwash_params_defaults() -> None:
@@ -402,6 +404,10 @@ BAD: list[tuple[str, Mutation, tuple[str, ...]]] = [
      ("field.resolution", "[32.0, 32, 16]")),
     ("resolution-missing", _delete("field.resolution"), ("field.resolution", "missing")),
     ("out-of-domain", _set("field.out_of_domain", "wrap"), ("field.out_of_domain", "'wrap'")),
+    ("unknown-interpolation", _set("field.interpolation", "cubic"),
+     ("field.interpolation", "'cubic'", "'trilinear', 'catmull_rom', 'bspline'")),
+    ("hardware-sampling-with-a-cubic", _set("field.interpolation", "bspline"),
+     ("field.interpolation", "'bspline'", '"trilinear"', 'sampling = "hardware"')),
     ("friction-above-one", _set("collision.friction", 1.5), ("collision.friction", "1.5")),
     ("resilience-string", _set("collision.resilience", "0.4"), ("collision.resilience", "'0.4'")),
     ("heightfield-with-height", _set("collision.kind", "heightfield"),

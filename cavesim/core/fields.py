@@ -2,17 +2,20 @@
 
 Data flow: the scene loader gives a `Field`; `build_field` turns it into a `FieldGrid` once
 per scene (an analytic model evaluated at the nodes, or an .npz file checked at the door);
-the GL engine uploads `grid.velocity.tobytes()` as a 3-component 3D texture, and every frame
-the drag stage samples it. `sample_field` is the numpy twin of that shader lookup.
+the GL engine uploads `grid.texels.tobytes()` as a 3-component 3D texture (the nodes, or for
+a cubic interpolation the texels of `cavesim.core.interpolation`), and every frame the drag
+stage samples it. `sample_field` is the numpy twin of that shader lookup.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from cavesim.core._grids import (
     cells,
@@ -25,8 +28,9 @@ from cavesim.core._grids import (
 )
 from cavesim.core.errors import FieldError
 from cavesim.core.flows import MODELS
+from cavesim.core.interpolation import is_cubic, texels, weights
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
-from cavesim.core.scene.model import Field, FieldKind, OutOfDomain
+from cavesim.core.scene.model import Field, FieldInterpolation, FieldKind, OutOfDomain
 
 _BOX_RTOL = 1e-9
 
@@ -36,13 +40,16 @@ class FieldGrid:
     """Flow velocity (m/s) at the nodes of a regular grid whose corner nodes are the box corners.
 
     `velocity[k, j, i]` is the flow at box_min + (i, j, k) · (box_max − box_min) / (res − 1).
-    It is stored float32, C-contiguous and read-only, so `velocity.tobytes()` is the data of a
-    3D texture of size (nx, ny, nz) with 3 components.
+    It is stored float32, C-contiguous and read-only. `texels` is what `interpolation` samples
+    (`velocity` itself for trilinear), so `texels.tobytes()` is the data of a 3D texture of
+    size `texture_size` with 3 components.
     """
 
     velocity: np.ndarray  # (nz, ny, nx, 3)
     box_min: tuple[float, float, float]
     box_max: tuple[float, float, float]
+    interpolation: FieldInterpolation = FieldInterpolation.TRILINEAR
+    texels: np.ndarray = dataclasses.field(init=False, repr=False)  # + 2 per axis for a cubic
 
     def __post_init__(self) -> None:
         velocity = np.ascontiguousarray(self.velocity, dtype=np.float32).view()
@@ -51,14 +58,25 @@ class FieldGrid:
                              " with at least 2 nodes per axis")
         velocity.flags.writeable = False
         box_min, box_max = check_box(self.box_min, self.box_max, 3, "field")
+        interpolation = FieldInterpolation(self.interpolation)
+        grid_texels = texels(velocity, interpolation)  # `velocity` itself for trilinear
+        grid_texels.flags.writeable = False
         object.__setattr__(self, "velocity", velocity)
         object.__setattr__(self, "box_min", box_min)
         object.__setattr__(self, "box_max", box_max)
+        object.__setattr__(self, "interpolation", interpolation)
+        object.__setattr__(self, "texels", grid_texels)
 
     @property
     def resolution(self) -> tuple[int, int, int]:
         """Nodes per axis as (nx, ny, nz)."""
         nz, ny, nx, _ = self.velocity.shape
+        return nx, ny, nz
+
+    @property
+    def texture_size(self) -> tuple[int, int, int]:
+        """Texels per axis as (nx, ny, nz): the resolution, plus the ghosts of a cubic."""
+        nz, ny, nx, _ = self.texels.shape
         return nx, ny, nz
 
     @property
@@ -77,7 +95,7 @@ def build_field(field: Field) -> FieldGrid:
     if kind is FieldKind.FILE:
         if field.file is None:
             raise FieldError("field of kind 'file' names no file")
-        return _load_field_file(Path(field.file), box_min, box_max)
+        return _load_field_file(Path(field.file), box_min, box_max, field.interpolation)
     res = tuple(field.resolution)
     low, high = FIELD_RESOLUTION_RANGE
     in_range = (isinstance(n, int | np.integer) and low <= n <= high for n in res)
@@ -89,21 +107,25 @@ def build_field(field: Field) -> FieldGrid:
     y = np.linspace(box_min[1], box_max[1], ny)[None, :, None]
     z = np.linspace(box_min[2], box_max[2], nz)[:, None, None]
     velocity = MODELS[kind](x, y, z, field.params)  # float64, cast to float32 once below
-    return FieldGrid(velocity.astype(np.float32), box_min, box_max)
+    return FieldGrid(velocity.astype(np.float32), box_min, box_max, field.interpolation)
 
 
 def sample_field(grid: FieldGrid, points, out_of_domain: OutOfDomain,
                  dtype=np.float64) -> np.ndarray:
-    """Trilinear flow at world points (..., 3): the numpy twin of the shader's manual lookup.
+    """The grid's interpolated flow at world points (..., 3): the numpy twin of the shader's
+    manual lookup, with the grid's interpolation.
 
     Everything is computed in `dtype` (float64 reference, or float32 to mirror the GPU); box
     corners and points are rounded to `dtype` first. Per axis, with res the nodes on it:
       f  = (p − box_min) / (box_max − box_min) · (res − 1)   (left to right)
       f  = clamp(f, 0, res − 1)
       i0 = min(floor(f), res − 2),  t = f − i0
-    and with mix(a, b, t) = a·(1 − t) + b·t and c_zyx = velocity[i0z+z, i0y+y, i0x+x]:
+    TRILINEAR: with mix(a, b, t) = a·(1 − t) + b·t and c_zyx = velocity[i0z+z, i0y+y, i0x+x]:
       v = mix(mix(mix(c000, c001, tx), mix(c010, c011, tx), ty),
               mix(mix(c100, c101, tx), mix(c110, c111, tx), ty), tz).
+    CATMULL_ROM, BSPLINE: v = sum over a, b, c in 0..3 of
+      wz[c] · wy[b] · wx[a] · texels[i0z + c, i0y + b, i0x + a]
+    with the weights and texels of `cavesim.core.interpolation`.
     CLAMP: as above (outside the box, the flow of the nearest boundary point).
     ZERO: 0 where p lies outside the closed box on any axis, else as above.
     A point with a NaN coordinate gives NaN.
@@ -115,6 +137,15 @@ def sample_field(grid: FieldGrid, points, out_of_domain: OutOfDomain,
     flat = p.reshape(-1, 3)
     lo, hi = np.asarray(grid.box_min, dtype), np.asarray(grid.box_max, dtype)
     i0, t, _ = cells(flat, lo, hi, grid.resolution, dtype)
+    interpolate = _cubic if is_cubic(grid.interpolation) else _trilinear
+    out = interpolate(grid, i0, t, dtype)
+    if out_of_domain is OutOfDomain.ZERO:
+        out[((flat < lo) | (flat > hi)).any(axis=1)] = 0
+    out[np.isnan(flat).any(axis=1)] = np.nan
+    return out.reshape(p.shape)
+
+
+def _trilinear(grid: FieldGrid, i0: np.ndarray, t: np.ndarray, dtype) -> np.ndarray:
     (ix, iy, iz), (tx, ty, tz) = i0.T, (t[:, a, None] for a in range(3))
     velocity = grid.velocity
 
@@ -125,11 +156,16 @@ def sample_field(grid: FieldGrid, points, out_of_domain: OutOfDomain,
                 mix(corner(0, 1, 0), corner(0, 1, 1), tx), ty)
     far = mix(mix(corner(1, 0, 0), corner(1, 0, 1), tx),
                mix(corner(1, 1, 0), corner(1, 1, 1), tx), ty)
-    out = mix(near, far, tz)
-    if out_of_domain is OutOfDomain.ZERO:
-        out[((flat < lo) | (flat > hi)).any(axis=1)] = 0
-    out[np.isnan(flat).any(axis=1)] = np.nan
-    return out.reshape(p.shape)
+    return mix(near, far, tz)
+
+
+def _cubic(grid: FieldGrid, i0: np.ndarray, t: np.ndarray, dtype) -> np.ndarray:
+    """The 4 x 4 x 4 texels of each point's cell (texel i0 holds node i0 − 1), weighted."""
+    blocks = sliding_window_view(grid.texels, (4, 4, 4), axis=(0, 1, 2))  # a view, no copy
+    block = blocks[i0[:, 2], i0[:, 1], i0[:, 0]].reshape(-1, 3, 64).astype(dtype)
+    wx, wy, wz = (np.stack(weights(t[:, a], grid.interpolation), axis=1) for a in range(3))
+    weight = (wz[:, :, None, None] * wy[:, None, :, None] * wx[:, None, None, :]).reshape(-1, 64)
+    return np.matmul(block, weight[:, :, None])[:, :, 0]
 
 
 def save_field(path, grid: FieldGrid) -> None:
@@ -139,7 +175,8 @@ def save_field(path, grid: FieldGrid) -> None:
                  box_max=np.asarray(grid.box_max))
 
 
-def _load_field_file(path: Path, box_min, box_max) -> FieldGrid:
+def _load_field_file(path: Path, box_min, box_max,
+                     interpolation: FieldInterpolation) -> FieldGrid:
     arrays = read_npz(path, required=("velocity",), optional=("box_min", "box_max"))
     velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
                            FIELD_RESOLUTION_RANGE[1], components=3)
@@ -152,4 +189,4 @@ def _load_field_file(path: Path, box_min, box_max) -> FieldGrid:
                    for f, s, e in zip(file_corner, scene_corner, extents, strict=True)):
             raise FieldError(f"{path}: array {name!r} is {file_corner}, but the scene's field box "
                              f"has {name} = {scene_corner}; they must agree to 1e-9 relative")
-    return FieldGrid(velocity, box_min, box_max)
+    return FieldGrid(velocity, box_min, box_max, interpolation)

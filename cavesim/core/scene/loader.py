@@ -38,6 +38,7 @@ from cavesim.core.scene.model import (
     CollisionKind,
     Emitter,
     Field,
+    FieldInterpolation,
     FieldKind,
     FieldSampling,
     Forces,
@@ -177,7 +178,7 @@ def _field(t: Table) -> Field:
         given["file"] = t.get("file", required=True)
         given["resolution"] = _file_resolution(t, given["file"])
     elif kind is FieldKind.ROTOR:  # no grid: evaluated on the GPU from the frame's rotor
-        for key in ("file", "resolution"):
+        for key in ("file", "resolution", "interpolation"):
             t.forbid(key, 'not allowed with kind = "rotor": the flow has no grid')
         given["resolution"] = (2, 2, 2)
     else:
@@ -189,6 +190,10 @@ def _field(t: Table) -> Field:
                                                f" = {params.ground_height!r}: the rotor is "
                                                "above ground")
     field = t.build(params=asdict(params), **given)
+    if field.sampling is FieldSampling.HARDWARE \
+            and field.interpolation is not FieldInterpolation.TRILINEAR:
+        raise t.bad("interpolation", 'must be "trilinear" with sampling = "hardware": the '
+                                     'texture unit filters trilinearly; use sampling = "manual"')
     if not all(a < b for a, b in zip(field.box_min, field.box_max, strict=True)):
         raise t.bad("box_max", f"must be > {t.sub('box_min')} = {list(field.box_min)!r} on "
                                "every axis")

@@ -64,6 +64,14 @@ class FieldSampling(StrEnum):
     HARDWARE = "hardware"  # the texture unit's filtering: faster, vendor-dependent weights
 
 
+class FieldInterpolation(StrEnum):
+    """How a gridded flow is interpolated between its nodes (cavesim/core/interpolation.py)."""
+
+    TRILINEAR = "trilinear"  # C0, error O(h²): 8 texels; caps RK4 at order 2
+    CATMULL_ROM = "catmull_rom"  # C1, error O(h³): 64 texels; caps RK4 at order 3
+    BSPLINE = "bspline"  # C2, error O(h⁴), prefiltered cubic B-spline: 64 texels; RK4 keeps 4
+
+
 class FieldKind(StrEnum):
     UNIFORM = "uniform"
     VORTEX = "vortex"
@@ -172,6 +180,7 @@ class Field:
                           Rule(f"at most {MAX_FIELD_NODES} nodes in all", _few_field_nodes)]
     out_of_domain: OutOfDomain = OutOfDomain.CLAMP
     sampling: FieldSampling = FieldSampling.MANUAL
+    interpolation: FieldInterpolation = FieldInterpolation.TRILINEAR
     params: dict[str, object] = field(default_factory=dict)  # file.FIELD_PARAMS[kind] as a dict
     file: Path | None = None  # for FILE: .npz with array "velocity" (nz, ny, nx, 3)
 

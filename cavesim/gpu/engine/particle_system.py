@@ -106,7 +106,7 @@ class ParticleSystem:
         scene = self.scene
         if scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR:
             grid = build_field(scene.field)
-            texture = self.ctx.texture3d(grid.resolution, 3, grid.velocity.tobytes(), dtype="f4")
+            texture = self.ctx.texture3d(grid.texture_size, 3, grid.texels.tobytes(), dtype="f4")
             hardware = scene.field.sampling is FieldSampling.HARDWARE
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR) if hardware else (
                 moderngl.NEAREST, moderngl.NEAREST)

@@ -20,6 +20,7 @@ from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORD
 from cavesim.core.scene.model import (
     Arithmetic,
     CollisionKind,
+    FieldInterpolation,
     FieldKind,
     FieldSampling,
     Integrator,
@@ -40,6 +41,8 @@ INTEGRATOR_IDS = {
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
+INTERPOLATION_IDS = {FieldInterpolation.TRILINEAR: 0, FieldInterpolation.CATMULL_ROM: 1,
+                     FieldInterpolation.BSPLINE: 2}
 
 
 # The values each define can take (numbers: the extremes a scene may ask for).
@@ -53,6 +56,7 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "FIELD_OUT_OF_DOMAIN": tuple(OUT_OF_DOMAIN_IDS.values()),
     "FIELD_SAMPLING": tuple(SAMPLING_IDS.values()),
     "FIELD_IS_ROTOR": (0, 1),
+    "FIELD_INTERPOLATION": tuple(INTERPOLATION_IDS.values()),
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
 # Drag beyond Stokes and dispersion (with the random texture's size it reads), checked
@@ -118,6 +122,8 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "FIELD_OUT_OF_DOMAIN": OUT_OF_DOMAIN_IDS[field.out_of_domain] if field else 0,
         "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
         "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),
+        # trilinear for a rotor and with hardware sampling: the scene loader sees to it
+        "FIELD_INTERPOLATION": INTERPOLATION_IDS[field.interpolation] if field else 0,
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
         "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
         "HAS_DISPERSION": int(scene.forces.dispersion is not None),
@@ -162,25 +168,34 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
 
 
 def physics_variants() -> Iterator[dict[str, int]]:
-    """The particle pass's defines the gate checks. Native: every combination of
-    PHYSICS_FEATURES with the transport features off, and each transport combination with
-    every integrator, both flows and both grounds (all else on). Portable, whose inlined
-    arithmetic makes a program many times larger (the full product would take the reference
-    front-end minutes): every integrator with every feature on, and with each other feature
-    switched one at a time, which together hold every line and every #if of the portable
-    code. Hardware sampling is not among them: the scene loader refuses it."""
+    """The particle pass's defines the gate checks, each once, as `physics_defines` could
+    give them (`reachable`). Native: every combination of PHYSICS_FEATURES with the
+    transport features off, and each transport combination with every integrator, both
+    flows and both grounds (all else on). Portable, whose inlined arithmetic makes a
+    program many times larger (the full product would take the reference front-end
+    minutes): every integrator with every feature on (the flow from a B-spline grid), and
+    with each other feature switched one at a time, which together hold every line and every
+    #if of the portable code. Hardware sampling is not among them: the loader refuses it."""
+    seen = set()
+
+    def once(defines: dict[str, int]) -> Iterator[dict[str, int]]:
+        defines = reachable(defines)
+        if (key := tuple(sorted(defines.items()))) not in seen:
+            seen.add(key)
+            yield defines
+
     off = {name: values[0] for name, values in TRANSPORT_FEATURES.items()}
     on = {name: values[-1] for name, values in TRANSPORT_FEATURES.items()}
     native = {**PHYSICS_FEATURES, "ARITHMETIC": (ARITHMETIC_IDS[Arithmetic.NATIVE],)}
     for values in itertools.product(*native.values()):
-        yield {**dict(zip(native, values, strict=True)), **off}
+        yield from once({**dict(zip(native, values, strict=True)), **off})
     every_feature = {name: values[-1] for name, values in native.items()}
     for integrator, rotor, collision in itertools.product(
             PHYSICS_FEATURES["INTEGRATOR"], (0, 1), (1, 2)):
         for drag_law, dispersion in ((1, 0), (0, 1), (1, 1)):
-            yield {**every_feature, **on, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": rotor,
-                   "COLLISION": collision, "HAS_SCHILLER_NAUMANN": drag_law,
-                   "HAS_DISPERSION": dispersion}
+            yield from once({**every_feature, **on, "INTEGRATOR": integrator,
+                             "FIELD_IS_ROTOR": rotor, "COLLISION": collision,
+                             "HAS_SCHILLER_NAUMANN": drag_law, "HAS_DISPERSION": dispersion})
     fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
              "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
     features = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
@@ -188,18 +203,24 @@ def physics_variants() -> Iterator[dict[str, int]]:
                 if name not in (*fixed, "INTEGRATOR")}
     every_feature = {name: values[-1] for name, values in switched.items()}
     for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
-        base = {**every_feature, **fixed, "INTEGRATOR": integrator}
-        yield base
-        variants = {tuple(valid_transport({**base, name: value}).items())
-                    for name, values in switched.items() for value in values
-                    if value != base[name]}
-        yield from (dict(variant) for variant in sorted(variants))
+        base = {**every_feature, **fixed, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": 0}
+        yield from once(base)
+        for name, values in switched.items():
+            for value in values:
+                if value != base[name]:
+                    yield from once({**base, name: value})
 
 
-def valid_transport(defines: dict[str, int]) -> dict[str, int]:
-    """`defines` with the transport features the rest allows (physics.glsl's #errors):
-    both need drag, dispersion a ground."""
+def reachable(defines: dict[str, int]) -> dict[str, int]:
+    """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
+    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; drag laws
+    beyond Stokes and dispersion need drag, dispersion a ground too (physics.glsl's
+    #errors)."""
     out = dict(defines)
+    grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
+            and out["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
+    if not grid:
+        out["FIELD_INTERPOLATION"] = 0
     if not out["HAS_DRAG"]:
         out["HAS_SCHILLER_NAUMANN"] = out["HAS_DISPERSION"] = 0
     if out["COLLISION"] == COLLISION_IDS[None]:

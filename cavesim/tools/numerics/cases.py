@@ -3,6 +3,8 @@ the real loader), a fixed seeded particle set and the frame parameters of every 
 
   uniform   uniform flow + gravity + Stokes drag: a closed-form solution exists
   vortex    a Lamb-Oseen vortex sampled from its trilinear grid, + gravity
+  vortex_catmull_rom, vortex_bspline
+            the same vortex grid interpolated C1 (Catmull-Rom) and C2 (cubic B-spline)
   downwash  the helicopter scene's rotor downwash under a fixed rotor frame, + gravity
 
 One particle class with tau = 0.1 s, so a run lasts T = 10 tau: the particles forget how
@@ -29,6 +31,7 @@ from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import (
     AIR_VISCOSITY,
     Arithmetic,
+    FieldInterpolation,
     FieldSampling,
     Integrator,
     Scene,
@@ -52,6 +55,8 @@ GRAVITY = [0.0, 0.0, -9.81]
 LIFETIME = 1e9  # s: nobody dies
 HUB_HEIGHT = 8.0  # m above the ground, for the downwash case
 TRILINEAR_ORDER_LIMIT = 2  # see Case.order_limit
+CATMULL_ROM_ORDER_LIMIT = 3  # C1: the second derivative jumps at the faces
+BSPLINE_ORDER_LIMIT = 4  # C2: the third derivative jumps; no method here is above order 4
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,7 +71,8 @@ class Case:
     # The highest order the field lets any method show. A trilinear grid is only Lipschitz:
     # its gradient jumps at every cell face, a step across a face errs by O(h²) (a quadrature
     # of a kinked integrand), and a path crosses a fixed number of faces, so the global error
-    # is O(h²) whatever the method's order (RK4 on the analytic vortex shows 4).
+    # is O(h²) whatever the method's order (RK4 on the analytic vortex shows 4). Likewise a
+    # field that is C^k across the faces (a cubic interpolation) caps the order at k + 2.
     order_limit: int | None = None
     filtering: bool = False  # also run with hardware filtering and compare with manual
     cloud: bool = False  # also measure the concentration-field error (cloud.py)
@@ -132,6 +138,18 @@ def vortex_case(count: int) -> Case:
                 filtering=True)
 
 
+def smooth_vortex_case(count: int, interpolation: FieldInterpolation, order_limit: int) -> Case:
+    """The vortex case's grid and particles, interpolated by a cubic (cavesim.core.interpolation)
+    instead of trilinearly: RK4's observed order rises with the field's smoothness."""
+    vortex = vortex_case(count)
+    data = copy.deepcopy(vortex.data)
+    data["field"]["interpolation"] = interpolation.value
+    return dataclasses.replace(
+        vortex, name=f"vortex_{interpolation.value}", data=data, order_limit=order_limit,
+        description=f"{vortex.description}; the grid interpolated {interpolation.value}",
+        filtering=False)
+
+
 def downwash_case(helicopter_scene: Path, count: int) -> Case:
     """The scene file's rotor downwash (its helicopter, forces and field), without its
     emitters, ground and random walk (deterministic paths to measure), under a fixed rotor
@@ -165,5 +183,8 @@ def downwash_case(helicopter_scene: Path, count: int) -> Case:
 
 
 def build_cases(helicopter_scene: Path, count: int) -> list[Case]:
-    """The three cases with `count` particles each."""
-    return [uniform_case(count), vortex_case(count), downwash_case(helicopter_scene, count)]
+    """The five cases with `count` particles each."""
+    return [uniform_case(count), vortex_case(count),
+            smooth_vortex_case(count, FieldInterpolation.CATMULL_ROM, CATMULL_ROM_ORDER_LIMIT),
+            smooth_vortex_case(count, FieldInterpolation.BSPLINE, BSPLINE_ORDER_LIMIT),
+            downwash_case(helicopter_scene, count)]

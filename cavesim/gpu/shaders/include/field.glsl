@@ -1,9 +1,10 @@
 // Flow velocity from the scene's 3D field texture (compiled in only with Stokes drag).
 // Node (i, j, k) of the grid sits at field_box_min + (i, j, k) / field_index_scale.
-// MANUAL sampling is trilinear from texelFetch through arithmetic.glsl, the same bits on
-// every GPU in portable arithmetic (twin: cavesim/core/portable/field.py); HARDWARE uses
-// the texture unit (faster, but vendors differ in filter weights, so the scene loader
-// refuses it with portable arithmetic).
+// MANUAL sampling reads texels with texelFetch and interpolates through arithmetic.glsl,
+// the same bits on every GPU in portable arithmetic (twin: cavesim/core/portable/field.py):
+// trilinear (8 nodes), or with FIELD_INTERPOLATION a C1 Catmull-Rom or C2 cubic B-spline
+// (64 texels). HARDWARE uses the texture unit's trilinear filter (faster, but vendors differ
+// in filter weights, so the scene loader refuses it with portable arithmetic or a cubic).
 #pragma once
 #include "arithmetic.glsl"
 
@@ -11,8 +12,63 @@ uniform sampler3D flow_field;
 uniform vec3 field_box_min;
 uniform vec3 field_index_scale;  // (resolution - 1) / (box_max - box_min)
 
+#if FIELD_INTERPOLATION != INTERPOLATION_TRILINEAR
+// Smooth interpolation (cavesim/core/interpolation.py): 4 texels per axis, 64 in all, with
+// cubic weights of the fraction t. They are integer polynomials: the texels carry the cubic's
+// 1/2 (Catmull-Rom) or 1/6 (B-spline) per axis, so every constant here is exact.
+// w1 = (3t - A) t^2 + B and w2 = w1(1 - t).
+#if FIELD_INTERPOLATION == INTERPOLATION_BSPLINE
+#define CUBIC_A 6.0
+#define CUBIC_B 4.0
+#else
+#define CUBIC_A 5.0
+#define CUBIC_B 2.0
+#endif
+
+vec4 cubic_weights(float t) {
+    float s = f_sub(1.0, t);
+    float t2 = f_mul(t, t);
+    float s2 = f_mul(s, s);
+    float w1 = f_add(f_mul(f_sub(f_mul(3.0, t), CUBIC_A), t2), CUBIC_B);
+    float w2 = f_add(f_mul(f_sub(f_mul(3.0, s), CUBIC_A), s2), CUBIC_B);
+#if FIELD_INTERPOLATION == INTERPOLATION_BSPLINE
+    return vec4(f_mul(s2, s), w1, w2, f_mul(t2, t));  // Sigg & Hadwiger (GPU Gems 2, 20.2) x 6
+#else
+    return vec4(-f_mul(t, s2), w1, w2, -f_mul(s, t2));  // Keys (1981), a = -1/2, x 2
+#endif
+}
+
+// The 4 x 4 x 4 texels from i0, weighted along x, then y, then z, each sum from 0 in tap
+// order; texel i0 holds node i0 - 1 (one ghost texel beyond each end of every axis).
+// Loops, not written-out sums: RK4 inlines the flow four times, and in portable arithmetic
+// llvmpipe took about 100 s to compile the written-out form (the loops: about 3 s).
+vec3 cubic_flow(ivec3 i0, vec3 t) {
+    vec4 wx = cubic_weights(t.x);
+    vec4 wy = cubic_weights(t.y);
+    vec4 wz = cubic_weights(t.z);
+    vec3 flow = vec3(0.0);
+    for (int c = 0; c < 4; ++c) {
+        vec3 plane = vec3(0.0);
+        for (int b = 0; b < 4; ++b) {
+            vec3 row = vec3(0.0);
+            for (int a = 0; a < 4; ++a) {
+                vec3 texel = texelFetch(flow_field, i0 + ivec3(a, b, c), 0).xyz;
+                row = f_add(row, f_mul(wx[a], texel));
+            }
+            plane = f_add(plane, f_mul(wy[b], row));
+        }
+        flow = f_add(flow, f_mul(wz[c], plane));
+    }
+    return flow;
+}
+#endif
+
 vec3 flow_at(vec3 p) {
+#if FIELD_INTERPOLATION == INTERPOLATION_TRILINEAR
     ivec3 res = textureSize(flow_field, 0);
+#else
+    ivec3 res = textureSize(flow_field, 0) - 2;  // nodes: the texels less the ghosts
+#endif
     vec3 last = vec3(res - 1);
     vec3 f = f_mul(f_sub(p, field_box_min), field_index_scale);
 #if FIELD_OUT_OF_DOMAIN == OUT_OF_DOMAIN_ZERO
@@ -26,6 +82,9 @@ vec3 flow_at(vec3 p) {
 #else
     ivec3 i0 = min(ivec3(floor(f)), res - 2);
     vec3 t = f_sub(f, vec3(i0));
+#if FIELD_INTERPOLATION != INTERPOLATION_TRILINEAR
+    return cubic_flow(i0, t);
+#else
     vec3 c000 = texelFetch(flow_field, i0, 0).xyz;
     vec3 c100 = texelFetch(flow_field, i0 + ivec3(1, 0, 0), 0).xyz;
     vec3 c010 = texelFetch(flow_field, i0 + ivec3(0, 1, 0), 0).xyz;
@@ -39,5 +98,6 @@ vec3 flow_at(vec3 p) {
     vec3 c01 = f_mix(c001, c101, t.x);
     vec3 c11 = f_mix(c011, c111, t.x);
     return f_mix(f_mix(c00, c10, t.y), f_mix(c01, c11, t.y), t.z);
+#endif
 #endif
 }
