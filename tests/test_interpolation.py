@@ -100,7 +100,7 @@ def test_axis_maps_close_the_ends_as_keys_and_not_a_knot(n):
     nodes = np.arange(n, dtype=np.float64)
     quadratic, cubic = 0.5 * nodes**2 - nodes + 2, nodes**3 - 2 * nodes**2
     ghosts = axis_map(n, CATMULL_ROM) @ quadratic
-    if n >= 3:  # Keys (1981) eq. (25): the parabola through the three end nodes, continued
+    if n >= 3:  # Keys' boundary rule: the parabola through the three end nodes, continued
         assert ghosts[0] == pytest.approx(3 * quadratic[0] - 3 * quadratic[1] + quadratic[2])
         assert ghosts[-1] == pytest.approx(0.5 * n**2 - n + 2)
     else:

@@ -12,7 +12,8 @@ cell i0 are i0 … i0 + 3 on every axis, at the faces of the box as well:
 
   catmull_rom  the node values (Keys 1981, "Cubic convolution interpolation for digital image
                processing", IEEE TASSP 29(6), kernel a = −1/2) and one ghost node beyond each
-               end, Keys' eq. (25): g = 3 v0 − 3 v1 + v2 (the parabola through the end nodes).
+               end by Keys' boundary rule g = 3 v0 − 3 v1 + v2 (the parabola through the three
+               end nodes, continued).
                Interpolates the nodes, C1, error O(h³), reproduces quadratics.
   bspline      cubic B-spline coefficients c prefiltered so the spline interpolates the nodes
                (Unser 1999, "Splines: a perfect fit for signal and image processing", IEEE SPM
@@ -24,11 +25,11 @@ cell i0 are i0 … i0 + 3 on every axis, at the faces of the box as well:
                scene on the CPU, nothing per sample.
   On an axis of n < 4 nodes (3 for Catmull-Rom) the end condition falls back to the polynomial
   through all n nodes (a line for n = 2), so every rule reads: the m-th difference of the
-  first (last) m texels vanishes, m = min(n, 3 or 4).
+  first (last) m + 1 texels vanishes, m = min(n, 3 or 4).
 
 The weights are kept to integer polynomials (Catmull-Rom x2, B-spline x6, the factors of the
-cubic bases in Sigg & Hadwiger, GPU Gems 2 ch. 20, eq. 20.2); the texels carry the inverse
-of that factor per axis (1/8 and 1/216 in 3D), so a shader multiplies by exact constants only.
+cubic bases in Sigg & Hadwiger, GPU Gems 2 ch. 20); the texels carry the inverse of that
+factor per axis (1/8 and 1/216 in 3D), so a shader multiplies by exact constants only.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from __future__ import annotations
 import math
 import operator
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -43,15 +45,24 @@ from cavesim.core.scene.model import FieldInterpolation
 
 Arithmetic = Callable[[object, object], np.ndarray]
 
-# Per cubic: (the weights' factor per axis, the m-th-difference end rule's largest m, (a, b)
-# of the inner weights w1 = (3t − a) t² + b and w2 = (3s − a) s² + b with s = 1 − t).
+
+@dataclass(frozen=True)
+class _Cubic:
+    factor: int  # of the weights, per axis: they sum to it
+    end_order: int  # the end rule's m on an axis of at least m nodes
+    # the inner weights w1 = (3t − a) t² + b and w2 = (3s − a) s² + b, with s = 1 − t
+    a: int
+    b: int
+
+
 _CUBICS = {
-    FieldInterpolation.CATMULL_ROM: (2, 3, (5, 2)),
-    FieldInterpolation.BSPLINE: (6, 4, (6, 4)),
+    FieldInterpolation.CATMULL_ROM: _Cubic(factor=2, end_order=3, a=5, b=2),
+    FieldInterpolation.BSPLINE: _Cubic(factor=6, end_order=4, a=6, b=4),
 }
 
 
 def is_cubic(interpolation: FieldInterpolation) -> bool:
+    """Whether `interpolation` samples 4 x 4 x 4 texels (else 2 x 2 x 2 nodes, trilinear)."""
     return FieldInterpolation(interpolation) in _CUBICS
 
 
@@ -67,14 +78,12 @@ def texels(velocity: np.ndarray, interpolation: FieldInterpolation) -> np.ndarra
     for axis in range(3):
         padded = axis_map(out.shape[axis], interpolation)
         out = np.moveaxis(np.tensordot(padded, out, axes=(1, axis)), 0, axis)
-    scale = _CUBICS[interpolation][0] ** 3
-    return np.ascontiguousarray(out / scale, dtype=np.float32)
+    return np.ascontiguousarray(out / _CUBICS[interpolation].factor ** 3, dtype=np.float32)
 
 
 def axis_map(n: int, interpolation: FieldInterpolation) -> np.ndarray:
     """(n + 2, n): texels along one axis from its n node values (unscaled)."""
-    _, largest, _ = _CUBICS[interpolation]
-    order = min(n, largest)
+    order = min(n, _CUBICS[interpolation].end_order)
     end_rule = np.zeros(n + 2)
     end_rule[:order + 1] = [(-1) ** k * math.comb(order, k) for k in range(order + 1)]
     if interpolation is FieldInterpolation.CATMULL_ROM:
@@ -94,7 +103,7 @@ def weights(t: np.ndarray, interpolation: FieldInterpolation, add: Arithmetic = 
     """The four integer-polynomial weights of texels i0 … i0 + 3 at fractions t in [0, 1],
     in the shader's operation order (shaders/include/field.glsl cubic_weights) with the
     given arithmetic: numpy's operators, or the portable twin's f_add, f_sub, f_mul."""
-    _, _, (a, b) = _CUBICS[interpolation]
+    a, b = _CUBICS[interpolation].a, _CUBICS[interpolation].b
     s = sub(1, t)
     t2, s2 = mul(t, t), mul(s, s)
     inner = add(mul(sub(mul(3, t), a), t2), b), add(mul(sub(mul(3, s), a), s2), b)

@@ -32,7 +32,7 @@ vec4 cubic_weights(float t) {
     float w1 = f_add(f_mul(f_sub(f_mul(3.0, t), CUBIC_A), t2), CUBIC_B);
     float w2 = f_add(f_mul(f_sub(f_mul(3.0, s), CUBIC_A), s2), CUBIC_B);
 #if FIELD_INTERPOLATION == INTERPOLATION_BSPLINE
-    return vec4(f_mul(s2, s), w1, w2, f_mul(t2, t));  // Sigg & Hadwiger (GPU Gems 2, 20.2) x 6
+    return vec4(f_mul(s2, s), w1, w2, f_mul(t2, t));  // Sigg & Hadwiger (GPU Gems 2, ch. 20) x 6
 #else
     return vec4(-f_mul(t, s2), w1, w2, -f_mul(s, t2));  // Keys (1981), a = -1/2, x 2
 #endif
