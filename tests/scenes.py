@@ -28,8 +28,9 @@ FOUNTAIN = {
 
 def scene_dict(integrator="semi_implicit_euler", capacity=4000, emitters=(), drag=True,
                gravity=True, damping=None, collision=None, field=None, seed=7,
-               engine="gs_tf", arithmetic="native") -> dict:
-    """A scene dict: sand and dust in a vortex with the chosen features."""
+               engine="gs_tf", arithmetic="native", dispersion=None) -> dict:
+    """A scene dict: sand and dust in a vortex with the chosen features (`dispersion`: a
+    [forces.dispersion] table, which needs a collision)."""
     data = {
         "simulation": {"capacity": capacity, "seed": seed, "integrator": integrator,
                        "random_texture_size": 64, "engine": engine, "arithmetic": arithmetic},
@@ -46,6 +47,8 @@ def scene_dict(integrator="semi_implicit_euler", capacity=4000, emitters=(), dra
         data["field"] = copy.deepcopy(field or VORTEX_FIELD)
     if collision is not None:
         data["collision"] = collision
+    if dispersion is not None:
+        data["forces"]["dispersion"] = dispersion
     return data
 
 

@@ -6,10 +6,10 @@ from pathlib import Path
 import moderngl
 import numpy as np
 import pytest
-from scenes import FOUNTAIN, VORTEX_FIELD, make_scene
+from scenes import FOUNTAIN, VORTEX_FIELD, make_scene, scene_dict
 
 from cavesim.core.errors import ShaderError
-from cavesim.core.scene import load_scene
+from cavesim.core.scene import load_scene, parse_scene
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.engine.programs import (
     COLLISION_IDS,
@@ -30,6 +30,8 @@ FEATURE_CODE = {  # what each feature puts in the compiled particle pass
     "collision": ("friction", "resilience", "collide"),
     "heightfield": ("ground_height",),
     "exponential": ("exponential_weights",),
+    "schiller_naumann": ("reynolds_per_speed", "step_reynolds_per_speed"),
+    "dispersion": ("mixing_length", "random_texture", "turbulence_seen", "step_turbulence"),
 }
 
 
@@ -102,6 +104,27 @@ def test_full_scene_compiles_its_features(tmp_path):
     for feature in ("drag", "damping", "collision", "exponential"):
         for word in FEATURE_CODE[feature]:
             assert mentions(text, word), f"{feature}: {word!r} missing"
+
+
+def test_drag_laws_and_dispersion_compile_in_where_a_scene_has_them(ctx):
+    """The test scene's grains of 400 and 100 um get Schiller-Naumann (the loader's rule)
+    unless named Stokes; only a scene with [forces.dispersion] draws from the random
+    texture in its particle pass."""
+    plane = {"kind": "plane", "friction": 0.1, "resilience": 0.5}
+    data = scene_dict(collision=plane)
+    data["particle_class"] = [dict(c, drag="stokes") for c in data["particle_class"]]
+    stokes = parse_scene(data, name="stokes")
+    both = make_scene(collision=plane, dispersion={"mixing_length": 1.0})
+    assert {c.drag.value for c in both.particle_classes} == {"schiller_naumann"}
+    for scene, present in ((stokes, ()), (both, ("schiller_naumann", "dispersion"))):
+        text = compiled_text(scene)
+        for feature in ("schiller_naumann", "dispersion"):
+            for word in FEATURE_CODE[feature]:
+                assert mentions(text, word) == (feature in present), (feature, word)
+    system = ParticleSystem(ctx, both)  # no emitters: the texture is dispersion's
+    assert "random_texture" in system.resources
+    assert {"reynolds_per_speed", "mixing_length", "random_texture", "random_transform"} <= \
+        uniforms(system.particle_program)
 
 
 @pytest.mark.parametrize("interpolation", ["trilinear", "catmull_rom", "bspline"])

@@ -114,7 +114,7 @@ def uniform_forces(tau: float, count: int = 64, damping: float | None = None):
 def test_exponential_methods_are_exact_in_a_uniform_flow_at_any_stiffness(integrator, tau):
     """dv/dt = f - lambda v with f constant: v(t) = v_inf + (v0 - v_inf) e^(-lambda t)."""
     p0, v0, forces = uniform_forces(tau, damping=0.3)
-    f, lam = forces.linear_parts(p0)
+    f, lam, _ = forces.linear_parts(p0, v0)
     v_inf = f / lam
     p, v = run(integrator, p0, v0, forces, DT)
     t = round(T / DT) * DT

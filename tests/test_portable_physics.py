@@ -175,6 +175,20 @@ def test_each_integrator_has_the_portable_twins_bits(lockstep, terrain, integrat
     assert on_ground.mean() > 0.2, "the test needs particles on the ground"
 
 
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_drag_beyond_stokes_and_dispersion_have_the_portable_twins_bits(lockstep, terrain,
+                                                                          integrator):
+    """Schiller-Naumann sand and dust (the test scene's grains), dispersed over a height
+    field: the drag rate, the random walk's draws and its mixing-length diffusivity."""
+    data = scene_dict(integrator=integrator.value, damping=0.3, collision=terrain,
+                      emitters=[FOUNTAIN], arithmetic="portable",
+                      dispersion={"mixing_length": 0.7})
+    run = lockstep(parse_scene(data, name="transport"), particle_cloud(300))
+    assert run.twin.forces_for(np.zeros(1, np.uint32)).reynolds_per_speed is not None
+    for _ in range(SMALL_FRAMES):
+        run.step()
+
+
 def test_still_air_outside_the_field_has_the_portable_twins_bits(lockstep):
     data = scene_dict(integrator="rk2", emitters=[FOUNTAIN], arithmetic="portable")
     data["field"]["out_of_domain"] = "zero"

@@ -18,7 +18,9 @@ from cavesim.core.scene import (
     AIR_VISCOSITY,
     Collision,
     CollisionKind,
+    Dispersion,
     Drag,
+    DragLaw,
     Emitter,
     Field,
     FieldInterpolation,
@@ -49,6 +51,7 @@ random_texture_size = 64
 name = "sand"
 diameter = 150e-6
 density = 2650.0
+drag = "stokes"
 
 [[particle_class]]
 name = "dust"
@@ -79,6 +82,9 @@ gravity = [0.0, 0.0, -9.81]
 damping = 0.5
 [forces.drag]
 air_viscosity = 2e-5
+air_density = 1.2
+[forces.dispersion]
+mixing_length = 2.0
 
 [field]
 kind = "vortex"
@@ -107,7 +113,8 @@ FULL_EXPECTED = dict(
     seed=99,
     integrator=Integrator.RK4,
     random_texture_size=64,
-    particle_classes=(ParticleClass("sand", 150e-6, 2650.0), ParticleClass("dust", 1e-5, 2000.0)),
+    particle_classes=(ParticleClass("sand", 150e-6, 2650.0, DragLaw.STOKES),  # as named
+                      ParticleClass("dust", 1e-5, 2000.0, DragLaw.STOKES)),  # Re ~ 0.003
     emitters=(
         Emitter(name="a", position=(1.0, 2.5, 3.0), extent=(1.0, 2.0, 0.0), rate=500.0,
                 speed=2.0, speed_spread=0.5, direction=(0.0, 0.6, 0.8), spread_angle=20.0,
@@ -116,7 +123,8 @@ FULL_EXPECTED = dict(
                 speed=0.0, speed_spread=0.0, direction=(0.0, 0.0, 1.0), spread_angle=0.0,
                 lifetime=(1.0, 1.0), particle_class=0),
     ),
-    forces=Forces(gravity=(0.0, 0.0, -9.81), drag=Drag(2e-5), damping=0.5),
+    forces=Forces(gravity=(0.0, 0.0, -9.81), drag=Drag(2e-5, 1.2), damping=0.5,
+                  dispersion=Dispersion(2.0)),
     field=Field(kind=FieldKind.VORTEX, box_min=(-5.0, -5.0, 0.0), box_max=(5.0, 5.0, 5.0),
                 resolution=(32, 32, 16), out_of_domain=OutOfDomain.ZERO,
                 sampling=FieldSampling.HARDWARE,
@@ -405,6 +413,17 @@ BAD: list[tuple[str, Mutation, tuple[str, ...]]] = [
     ("heightfield-with-height", _set("collision.kind", "heightfield"),
      ("collision.height", "-0.5", "plane")),
     ("plane-with-file", _set("collision.file", "t.npz"), ("collision.file", "'t.npz'")),
+    ("drag-law-unknown", _set("particle_class.0.drag", "newton"),
+     ("particle_class[0].drag", "'newton'", "schiller_naumann")),
+    ("air-density-zero", _set("forces.drag.air_density", 0.0), ("forces.drag.air_density",)),
+    ("mixing-length-negative", _set("forces.dispersion.mixing_length", -1.0),
+     ("forces.dispersion.mixing_length", "-1.0")),
+    ("dispersion-without-drag", lambda d: (d["forces"].pop("drag"), d.pop("field")),
+     ("forces.dispersion", "forces.drag")),
+    ("dispersion-without-collision", _delete("collision"),
+     ("forces.dispersion", "[collision]", "height above the ground")),
+    ("dispersion-capacity-beyond-words", _set("simulation.capacity", 4 * 64**2 + 1),
+     ("simulation.capacity", "16385", "<= 16384", "random_texture_size")),
     ("too-many-classes", _copies("particle_class", MAX_PARTICLE_CLASSES + 1),
      ("particle_class", f"{MAX_PARTICLE_CLASSES + 1} [[particle_class]]", "at most 64")),
     ("too-many-emitters", _copies("emitter", MAX_EMITTERS + 1),

@@ -15,6 +15,7 @@ from cavesim.gpu.engine.programs import (
     BLOCK_UPDATE,
     PARTICLE_UPDATE,
     PHYSICS_FEATURES,
+    TRANSPORT_FEATURES,
 )
 from cavesim.gpu.render.programs import DUST
 from cavesim.gpu.shader_gate import (
@@ -92,7 +93,7 @@ class EndsWithLine(ProgramSpec):
 def test_the_gate_fails_a_program_that_ends_with_a_line_directive():
     spec = EndsWithLine(**{f.name: getattr(PARTICLE_UPDATE, f.name)
                            for f in dataclasses.fields(ProgramSpec)})
-    defines = dict.fromkeys(PHYSICS_FEATURES, 0) | {"CLASS_COUNT": 1}
+    defines = dict.fromkeys((*PHYSICS_FEATURES, *TRANSPORT_FEATURES), 0) | {"CLASS_COUNT": 1}
     build = Build(spec, tuple(sorted(defines.items())), "test")
     findings = check_sources([build])
     assert {f.stage for f in findings} == {"vertex", "geometry"}
@@ -131,7 +132,8 @@ def test_a_missing_validator_is_named_with_its_package():
 
 def test_uniform_components_count_each_array_element_as_a_vec4(ctx):
     # inv_tau[CLASS_COUNT] and dt: 64 elements + 1 float, each a vec4 slot
-    defines = dict.fromkeys(PHYSICS_FEATURES, 0) | {"HAS_DRAG": 1, "CLASS_COUNT": 64}
+    defines = dict.fromkeys((*PHYSICS_FEATURES, *TRANSPORT_FEATURES), 0) | {
+        "HAS_DRAG": 1, "CLASS_COUNT": 64}
     program = BLOCK_UPDATE.build(ctx, defines | BLOCK_DEFINES)
     try:
         assert uniform_components(program) >= 4 * 64 + 4

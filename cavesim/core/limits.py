@@ -26,6 +26,7 @@ MAX_FIELD_NODES = 2**22  # nodes of a field in all: a 64 MiB RGBA32F texture at 
 MAX_RATE = 1e9  # particles/s of one emitter
 MAX_LIFETIME = 3600.0  # s
 MAX_DIAMETER = 0.1  # m: beyond this Stokes drag on a "particle" is meaningless
+ROTOR_SPEED_RANGE = (0.0, 1.3)  # the wand's rotor speeds, fractions of hover (flight, drag)
 
 # --- the CAVE and its processes -----------------------------------------------------------
 NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,32}")  # session and wall names: safe in zenoh keys

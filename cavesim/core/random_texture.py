@@ -58,6 +58,15 @@ def lookup_coordinates(base: tuple[int, int], serial: np.ndarray, texel: int,
     moved by the frame's map, all modulo the texture size.
     """
     k = (np.asarray(serial, dtype=np.uint64) * 2 + texel) & 0xFFFFFFFF
+    return moved_texel(base, k, matrix, size)
+
+
+def moved_texel(base: tuple[int, int], k: np.ndarray, matrix: np.ndarray, size: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Texel coordinates of lattice index `k` (uint32 values) laid out row by row from
+    `base`, then moved by the frame's map, all modulo the texture size (`moved_texel` in
+    shaders/include/random.glsl)."""
+    k = np.asarray(k, dtype=np.uint64)
     x = (base[0] + k % size) % size
     y = (base[1] + k // size) % size
     m = matrix.astype(np.int64)

@@ -14,12 +14,12 @@ import numpy as np
 
 from cavesim.core.helicopter.downwash import friction_velocity
 from cavesim.core.helicopter.rotor import induced_velocity, saltation_factor
+from cavesim.core.limits import ROTOR_SPEED_RANGE
 from cavesim.core.scene.model import CollisionKind, Helicopter, Scene, WandKey
 from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame
 
 TILT_GAIN = 0.25 / 30.0  # rotor speed per degree of tilt
 WAND_LIMIT = 50.0  # m from the room's origin: farther is a tracker fault, not a gesture
-ROTOR_SPEED_RANGE = (0.0, 1.3)
 
 
 def ground_height(scene: Scene) -> float:

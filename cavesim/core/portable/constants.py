@@ -42,3 +42,14 @@ HALF_WIDTH_POWER = _bits(0x3EE66666)  # 0.45
 
 # spawn.glsl
 TWO_PI = _bits(0x40C90FDB)
+
+# physics.glsl: Schiller-Naumann's drag (cavesim/core/drag.py)
+SCHILLER_NAUMANN_COEFFICIENT = _bits(0x3E19999A)  # 0.15
+SCHILLER_NAUMANN_EXPONENT = _bits(0x3F2FDF3B)  # 0.687
+
+# dispersion.glsl (cavesim/core/dispersion.py)
+KARMAN = _bits(0x3ECCCCCD)  # 0.4
+SHEAR_STEP = _bits(0x3DCCCCCD)  # 0.1
+HALF_SHEAR_STEP = _bits(0x3D4CCCCD)  # 0.05
+SQRT_3 = _bits(0x3FDDB3D7)
+TURBULENCE_FLOOR = _bits(0x3DCCCCCD)  # 0.1

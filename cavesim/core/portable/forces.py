@@ -1,4 +1,4 @@
-"""Accelerations in portable arithmetic: `acceleration` and `linear_parts` of
+"""Accelerations in portable arithmetic: `acceleration`, `linear_parts` and `drag_rate` of
 shaders/include/physics.glsl, operation by operation in float32.
 
 Per-particle scalars (1/tau, lambda) are (N, 1) columns, so they scale (N, 3) vectors as a
@@ -12,37 +12,71 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.portable.arithmetic import f_add, f_mul, f_sub
+from cavesim.core.portable.arithmetic import f_add, f_length, f_mul, f_pow, f_sub
+from cavesim.core.portable.constants import (
+    SCHILLER_NAUMANN_COEFFICIENT,
+    SCHILLER_NAUMANN_EXPONENT,
+)
+
+ONE = np.float32(1.0)
 
 
 @dataclass(frozen=True)
 class PortableForces:
-    """a(p, v) = (u(p) - v) / tau + g - k v, each term present only if the scene has it."""
+    """a(p, v) = (u(p) + u_t - v) lambda + g - k v, each term present only if the scene has
+    it (cavesim.core.twin.forces.ForceModel says what each is)."""
 
     gravity: np.ndarray | None  # (3,) float32
     damping: np.float32 | None  # k, 1/s
     inv_tau: np.ndarray | None  # (N, 1) float32 per particle; None without drag
     flow: Callable[[np.ndarray], np.ndarray] | None  # u(p) for (N, 3); None without drag
+    reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
+    turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
+
+    def drag_rate(self, slip: np.ndarray) -> np.ndarray:
+        """lambda (N, 1) at the slip u - v (N, 3)."""
+        if self.reynolds_per_speed is None:
+            return self.inv_tau
+        reynolds = f_mul(f_length(slip)[:, None], self.reynolds_per_speed)
+        positive = reynolds > 0  # the shader's branch: Re = 0 (a Stokes class) or NaN
+        wake = f_mul(SCHILLER_NAUMANN_COEFFICIENT,
+                     f_pow(np.where(positive, reynolds, ONE), SCHILLER_NAUMANN_EXPONENT))
+        return np.where(positive, f_mul(self.inv_tau, f_add(ONE, wake)), self.inv_tau)
+
+    def seen_flow(self, u: np.ndarray) -> np.ndarray:
+        return u if self.turbulence is None else f_add(u, self.turbulence)
 
     def acceleration(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
         a = np.zeros_like(v)
         if self.flow is not None:
-            a = f_add(a, f_mul(f_sub(self.flow(p), v), self.inv_tau))
+            u = self.flow(p)
+            a = f_add(a, f_mul(f_sub(self.seen_flow(u), v), self.drag_rate(f_sub(u, v))))
         if self.gravity is not None:
             a = f_add(a, self.gravity)
         if self.damping is not None:
             a = f_sub(a, f_mul(self.damping, v))
         return a
 
-    def linear_parts(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f, lambda) of dv/dt = f - lambda v with the flow held at p; lambda is (N, 1)."""
-        f = np.zeros_like(p)
-        lam = np.zeros((len(p), 1), dtype=np.float32)
-        if self.flow is not None:
-            f = f_add(f, f_mul(self.flow(p), self.inv_tau))
-            lam = f_add(lam, self.inv_tau)
+    def _forcing(self, u: np.ndarray | None, drag: np.ndarray) -> np.ndarray:
+        f = np.zeros((len(drag), 3), dtype=np.float32)
+        if u is not None:
+            f = f_add(f, f_mul(self.seen_flow(u), drag))
         if self.gravity is not None:
             f = f_add(f, self.gravity)
-        if self.damping is not None:
-            lam = f_add(lam, self.damping)
-        return f, lam
+        return f
+
+    def forcing(self, p: np.ndarray, drag: np.ndarray) -> np.ndarray:
+        """`forcing_at` of physics.glsl: f at p for the drag rate `drag` (N, 1)."""
+        return self._forcing(None if self.flow is None else self.flow(p), drag)
+
+    def linear_parts(self, p: np.ndarray, v: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(f, lambda, lambda_d) of dv/dt = f - lambda v with the flow and the drag rate held
+        at (p, v); each (N, 1) but f."""
+        drag = np.zeros((len(p), 1), dtype=np.float32)
+        u = None
+        if self.flow is not None:
+            u = self.flow(p)
+            drag = self.drag_rate(f_sub(u, v))
+        lam = drag if self.damping is None else f_add(drag, self.damping)
+        return self._forcing(u, drag), lam, drag

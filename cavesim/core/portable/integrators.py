@@ -39,7 +39,7 @@ def explicit_euler(p, v, h, forces):
 
 def semi_implicit_euler(p, v, h, forces):
     """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
-    f, lam = forces.linear_parts(p)
+    f, lam, _ = forces.linear_parts(p, v)
     weight = f_div(h, f_add(ONE, f_mul(h, lam)))
     v = f_add(v, f_mul(weight, f_sub(f, f_mul(lam, v))))
     return f_add(p, f_mul(h, v)), v
@@ -119,7 +119,7 @@ def phi3_weight(x: np.ndarray, phi2: np.ndarray) -> np.ndarray:
 def exponential(p, v, h, forces):
     """Exponential Euler in increment form, order 1: r = f - lambda v,
     p += h (v + h phi2 r), v += h phi1 r."""
-    f, lam = forces.linear_parts(p)
+    f, lam, _ = forces.linear_parts(p, v)
     _, phi1, phi2 = exponential_weights(f_mul(lam, h))
     r = f_sub(f, f_mul(lam, v))
     p = f_add(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))))
@@ -128,14 +128,13 @@ def exponential(p, v, h, forces):
 
 def etd2rk(p, v, h, forces):
     """ETD2RK (Cox & Matthews 2002), order 2: the float64 twin's `etd2rk` derives it."""
-    f, lam = forces.linear_parts(p)
+    f, lam, drag = forces.linear_parts(p, v)
     x = f_mul(lam, h)
     _, phi1, phi2 = exponential_weights(x)
     phi3 = phi3_weight(x, phi2)
     r = f_sub(f, f_mul(lam, v))
     w = f_add(v, f_mul(f_mul(h, phi2), r))
-    fa, _ = forces.linear_parts(f_add(p, f_mul(h, w)))
-    d = f_sub(fa, f)
+    d = f_sub(forces.forcing(f_add(p, f_mul(h, w)), drag), f)
     p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))))
     return p, f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))))
 

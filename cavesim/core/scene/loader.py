@@ -10,6 +10,7 @@ from the model.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import zipfile
 from collections.abc import Mapping
@@ -28,6 +29,8 @@ from cavesim.core.limits import (
     MAX_FIELD_NODES,
     MAX_PARTICLE_CLASSES,
 )
+from cavesim.core.random_texture import WORDS_PER_TEXEL
+from cavesim.core.scene.drag_choice import chosen_law, flow_scales
 from cavesim.core.scene.file import FIELD_PARAMS, SceneFile
 from cavesim.core.scene.model import (
     Arithmetic,
@@ -38,7 +41,9 @@ from cavesim.core.scene.model import (
     FieldInterpolation,
     FieldKind,
     FieldSampling,
+    Forces,
     Helicopter,
+    ParticleClass,
     Scene,
 )
 
@@ -97,10 +102,44 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         needs_rotor.append("field.kind = 'rotor'")
     if needs_rotor and helicopter is None:
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
+    if forces.dispersion is not None:
+        _check_dispersion(top, forces, collision, sim)
+    classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
 
     return Scene(name=scene_name, source=source, **asdict(sim), particle_classes=classes,
                  emitters=emitters, forces=forces, field=field, collision=collision,
                  helicopter=helicopter)
+
+
+def _with_drag_law(particle: ParticleClass, forces: Forces, field: Field | None,
+                   helicopter: Helicopter | None) -> ParticleClass:
+    """The class with its drag law: the file's, else the one its Reynolds number asks for."""
+    if particle.drag is not None or forces.drag is None:
+        return particle
+    gravity = math.hypot(*forces.gravity) if forces.gravity is not None else 0.0
+    drag = forces.drag
+    law = chosen_law(particle, drag.kinematic_viscosity, drag.air_viscosity, gravity,
+                     flow_scales(field, helicopter))
+    return dataclasses.replace(particle, drag=law)
+
+
+def _check_dispersion(top: Table, forces: Forces, collision: Collision | None, sim) -> None:
+    """Dispersion acts through drag, grows its eddies from the ground, and draws one random
+    word per particle a frame, which must not repeat within a frame."""
+    table = top.table("forces").table("dispersion")
+    if forces.drag is None:
+        raise table.source.fail(f"{table.key} needs forces.drag: the random walk is in the "
+                                "flow each particle sees, which reaches it through drag")
+    if collision is None:
+        raise table.source.fail(f"{table.key} needs [collision]: the mixing length grows "
+                                "with the height above the ground")
+    words = WORDS_PER_TEXEL * sim.random_texture_size**2
+    if sim.capacity > words:
+        raise top.table("simulation").bad(
+            "capacity", f"must be <= {words} with forces.dispersion: one random word per "
+                        f"particle a frame, {WORDS_PER_TEXEL} per texel of the "
+                        f"{sim.random_texture_size}² random texture (raise "
+                        "simulation.random_texture_size)")
 
 
 def _emitter(t: Table, class_index: Mapping[str, int]) -> Emitter:

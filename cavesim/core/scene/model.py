@@ -26,6 +26,7 @@ from cavesim.core.limits import (
 Vec3 = tuple[float, float, float]
 
 AIR_VISCOSITY = 1.81e-5  # Pa·s, dry air at 15 °C
+AIR_DENSITY = 1.225  # kg/m³, dry air at 15 °C and sea level (ISA)
 
 
 class Integrator(StrEnum):
@@ -79,6 +80,13 @@ class FieldKind(StrEnum):
     ROTOR = "rotor"  # the scene's helicopter's downwash, evaluated on the GPU each frame
 
 
+class DragLaw(StrEnum):
+    """How drag grows with the particle Reynolds number Re = |u - v| d / nu (cavesim.core.drag)."""
+
+    STOKES = "stokes"  # C_D = 24/Re: linear in the slip, for Re well below 1
+    SCHILLER_NAUMANN = "schiller_naumann"  # C_D = 24/Re (1 + 0.15 Re^0.687), Re up to 800
+
+
 class CollisionKind(StrEnum):
     PLANE = "plane"
     HEIGHTFIELD = "heightfield"
@@ -89,6 +97,9 @@ class ParticleClass:
     name: str
     diameter: Annotated[float, Range(gt=0.0, le=MAX_DIAMETER)]  # m
     density: Annotated[float, Range(gt=0.0)]  # kg/m³
+    # None: the loader decides by the particle Reynolds number at the scene's speeds
+    # (cavesim.core.drag.chosen_law); a scene may name the law it wants
+    drag: DragLaw | None = None
 
     def relaxation_time(self, air_viscosity: float = AIR_VISCOSITY) -> float:
         """Stokes relaxation time τ = ρ d² / (18 μ) in seconds."""
@@ -132,7 +143,22 @@ class Emitter:
 
 @dataclass(frozen=True)
 class Drag:
-    air_viscosity: Annotated[float, Range(gt=0.0)] = AIR_VISCOSITY
+    air_viscosity: Annotated[float, Range(gt=0.0)] = AIR_VISCOSITY  # mu, Pa·s
+    air_density: Annotated[float, Range(gt=0.0, le=10.0)] = AIR_DENSITY  # kg/m³
+
+    @property
+    def kinematic_viscosity(self) -> float:
+        """nu = mu / rho_air in m²/s."""
+        return self.air_viscosity / self.air_density
+
+
+@dataclass(frozen=True)
+class Dispersion:
+    """[forces.dispersion]: turbulent dispersion, a random walk of the flow each particle
+    sees with the eddy diffusivity of Prandtl's mixing length (cavesim.core.dispersion)."""
+
+    # m: the largest eddies' size, Blackadar's l_inf of l = kappa z / (1 + kappa z / l_inf)
+    mixing_length: Annotated[float, Range(gt=0.0, le=1000.0)]
 
 
 @dataclass(frozen=True)
@@ -141,6 +167,7 @@ class Forces:
     drag: Drag | None = None  # None: no Stokes drag, and no field texture
     # linear damping rate k in a = -k v, 1/s
     damping: Annotated[float, Range(gt=0.0)] | None = None
+    dispersion: Dispersion | None = None  # None: no turbulent random walk compiled in
 
 
 @dataclass(frozen=True)
@@ -233,3 +260,11 @@ class Scene:
             return tuple(math.inf for _ in self.particle_classes)
         mu = self.forces.drag.air_viscosity
         return tuple(c.relaxation_time(mu) for c in self.particle_classes)
+
+    def reynolds_per_speed(self) -> tuple[float, ...]:
+        """d / nu of each Schiller-Naumann class (Re = this × |u - v|), 0 for Stokes ones."""
+        if self.forces.drag is None:
+            return tuple(0.0 for _ in self.particle_classes)
+        nu = self.forces.drag.kinematic_viscosity
+        return tuple(c.diameter / nu if c.drag is DragLaw.SCHILLER_NAUMANN else 0.0
+                     for c in self.particle_classes)

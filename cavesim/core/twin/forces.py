@@ -7,37 +7,67 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.core.drag import drag_factor
+
 FlowSampler = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
 class ForceModel:
-    """a(p, v) = (u(p) - v) / tau + g - k v, with each term present only if configured."""
+    """a(p, v) = (u(p) + u_t - v) lambda(|u(p) - v|) + g - k v, with each term present only
+    if configured: lambda = f(Re)/tau is the drag rate (f = 1 for Stokes particles,
+    Schiller-Naumann's 1 + 0.15 Re^0.687 with Re = |u - v| d/nu for the others) and u_t
+    the turbulence a particle sees over the step (cavesim.core.dispersion)."""
 
     gravity: np.ndarray | None  # (3,)
     damping: float | None  # k, 1/s
     inv_tau: np.ndarray | None  # (N, 1) per particle; None without drag
     flow: FlowSampler | None  # u(p) for points (N, 3); None without drag
+    reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
+    turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
+
+    def drag_rate(self, slip: np.ndarray) -> np.ndarray:
+        """lambda (N, 1) at the slip u - v (N, 3)."""
+        if self.reynolds_per_speed is None:
+            return self.inv_tau
+        speed = np.linalg.norm(slip, axis=1, keepdims=True)
+        return self.inv_tau * drag_factor(speed * self.reynolds_per_speed)
 
     def acceleration(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
         a = np.zeros_like(v)
         if self.flow is not None:
-            a += (self.flow(p) - v) * self.inv_tau
+            u = self.flow(p)
+            seen = u if self.turbulence is None else u + self.turbulence
+            a += (seen - v) * self.drag_rate(u - v)
         if self.gravity is not None:
             a += self.gravity
         if self.damping is not None:
             a -= self.damping * v
         return a
 
-    def linear_parts(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f, lambda) of dv/dt = f - lambda v with the flow held at p (exponential integrator)."""
-        f = np.zeros_like(p)
-        lam = np.zeros((len(p), 1), dtype=p.dtype)
-        if self.flow is not None:
-            f += self.flow(p) * self.inv_tau
-            lam += self.inv_tau
+    def _forcing(self, u: np.ndarray | None, drag: np.ndarray) -> np.ndarray:
+        if u is None:
+            f = np.zeros((len(drag), 3), dtype=drag.dtype)
+        else:
+            f = (u if self.turbulence is None else u + self.turbulence) * drag
         if self.gravity is not None:
-            f += self.gravity
-        if self.damping is not None:
-            lam += self.damping
-        return f, lam
+            f = f + self.gravity
+        return f
+
+    def forcing(self, p: np.ndarray, drag: np.ndarray) -> np.ndarray:
+        """f = (u(p) + u_t) lambda_d + g of dv/dt = f - lambda v for the drag rate lambda_d
+        (N, 1) held over the step (ETD2RK's second stage)."""
+        return self._forcing(None if self.flow is None else self.flow(p), drag)
+
+    def linear_parts(self, p: np.ndarray, v: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(f, lambda, lambda_d) of dv/dt = f - lambda v with the flow and the drag rate
+        lambda_d held at their values at (p, v) (the exponential integrators); lambda =
+        lambda_d + k, each (N, 1)."""
+        drag = np.zeros((len(p), 1), dtype=p.dtype)
+        u = None
+        if self.flow is not None:
+            u = self.flow(p)
+            drag = self.drag_rate(u - v)
+        lam = drag if self.damping is None else drag + self.damping
+        return self._forcing(u, drag), lam, drag

@@ -31,7 +31,7 @@ def explicit_euler(p, v, h, forces):
 
 def semi_implicit_euler(p, v, h, forces):
     """Semi-implicit Euler: drag implicit, the rest explicit, new velocity moves, order 1."""
-    f, lam = forces.linear_parts(p)
+    f, lam, _ = forces.linear_parts(p, v)
     v = v + (h / (1 + h * lam)) * (f - lam * v)  # = (v + h f) / (1 + h lambda), as an increment
     return p + h * v, v
 
@@ -112,7 +112,7 @@ def exponential(p, v, h, forces):
     any tau/h, order 1. In increment form (r is the acceleration at the start; e^-x never
     enters, so nothing cancels in 1 - e^-x at small h) with the position moved in one
     addition: float32 keeps its floor at every dt."""
-    f, lam = forces.linear_parts(p)
+    f, lam, _ = forces.linear_parts(p, v)
     _, phi1, phi2 = exponential_weights(lam * h)
     r = f - lam * v
     return p + h * (v + (h * phi2) * r), v + (h * phi1) * r
@@ -120,7 +120,9 @@ def exponential(p, v, h, forces):
 
 def etd2rk(p, v, h, forces):
     """ETD2RK of Cox & Matthews (2002), J. Comput. Phys. 176, 430-455, order 2, for
-    dv/dt = F(p) - lambda v, dp/dt = v, with F(p) = u(p)/tau + g and lambda = 1/tau + k.
+    dv/dt = F(p) - lambda v, dp/dt = v, with F(p) = (u(p) + u_t) lambda_d + g and lambda =
+    lambda_d + k, the drag rate lambda_d held at its value at the start (1/tau for Stokes
+    drag; Schiller-Naumann's from the slip there).
 
     The linear part, drag and dp/dt = v, is integrated exactly; F is interpolated linearly
     in time between its value at the start and at the exponential-Euler predicted position
@@ -135,14 +137,13 @@ def etd2rk(p, v, h, forces):
     explicitly); its stiff order is 2 (Hochbruck & Ostermann 2005, SIAM J. Numer. Anal. 43,
     1069-1090: the conditions b1 + b2 = phi1, b2 c2 = phi2 hold with c2 = 1).
     """
-    f, lam = forces.linear_parts(p)
+    f, lam, drag = forces.linear_parts(p, v)
     x = lam * h
     _, phi1, phi2 = exponential_weights(x)
     phi3 = phi3_weight(x, phi2)
     r = f - lam * v
     w = v + (h * phi2) * r
-    fa, _ = forces.linear_parts(p + h * w)
-    d = fa - f
+    d = forces.forcing(p + h * w, drag) - f
     return p + h * (w + (h * phi3) * d), v + h * (phi1 * r + phi2 * d)
 
 

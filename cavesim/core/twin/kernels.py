@@ -13,8 +13,10 @@ from functools import partial
 
 import numpy as np
 
+from cavesim.core import dispersion
 from cavesim.core.fields import sample_field
 from cavesim.core.helicopter.downwash import downwash
+from cavesim.core.portable import dispersion as portable_dispersion
 from cavesim.core.portable import field as portable_field
 from cavesim.core.portable import ground as portable_ground
 from cavesim.core.portable import rotor as portable_rotor
@@ -31,19 +33,24 @@ from cavesim.core.twin.integrators import INTEGRATORS
 class Kernels:
     dtype: type  # of positions and velocities
     integrators: Mapping[Integrator, Callable]  # (p, v, h, forces) -> (p, v)
-    forces: Callable  # (gravity, damping, inv_tau, flow) -> a model with acceleration(p, v)
+    # (gravity, damping, inv_tau, flow, reynolds_per_speed, turbulence) -> a model with
+    # acceleration(p, v), linear_parts(p, v), forcing(p, drag) and drag_rate(slip)
+    forces: Callable
     rotor_flow: Callable  # (p, hub, v_i, rotor_radius, ground_z) -> u(p)
     field_flow: Callable  # (grid, p, out_of_domain) -> u(p)
+    ground: Callable  # (collision, heights, xy) -> (height, normal)
     collide: Callable  # (p, v, collision, heights) -> (p, v)
+    turbulence: Callable  # (forces, p, v, ground, mixing_length, xi, h) -> u_t
     spawn: Callable  # (table, e, serials, random, transform, origin) -> records
 
 
 def reference_kernels(dtype) -> Kernels:
     """The twin's own arithmetic in `dtype`."""
     return Kernels(dtype, INTEGRATORS, ForceModel, partial(downwash, dtype=dtype),
-                   partial(sample_field, dtype=dtype), collision.collide,
-                   partial(emission.spawn, dtype=dtype))
+                   partial(sample_field, dtype=dtype), partial(collision.ground, dtype=dtype),
+                   collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype))
 
 
 PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PortableForces, portable_rotor.flow_at,
-                   portable_field.flow_at, portable_ground.collide, portable_spawn.spawn)
+                   portable_field.flow_at, portable_ground.ground_at, portable_ground.collide,
+                   portable_dispersion.turbulence, portable_spawn.spawn)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.core.dispersion import draws
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
 from cavesim.core.fields import FieldGrid, build_field
 from cavesim.core.frame import FrameInput
@@ -87,10 +88,12 @@ class TwinSystem:
         self.heights: HeightGrid | None = None
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
             self.heights = load_heightfield(scene.collision.file)
-        self.random = random_words(scene.seed, scene.random_texture_size) if len(self.table) \
-            else None
+        drawn = len(self.table) or scene.forces.dispersion is not None
+        self.random = random_words(scene.seed, scene.random_texture_size) if drawn else None
         taus = scene.relaxation_times() or (np.inf,)
         self.inv_tau = (1.0 / np.array(taus, dtype=np.float64)).astype(np.float32)
+        self.reynolds_per_speed = np.array(scene.reynolds_per_speed() or (0.0,),
+                                           dtype=np.float32)
         self.integrate = self.kernels.integrators[scene.integrator]
         self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
@@ -103,28 +106,31 @@ class TwinSystem:
     def write_particles(self, records: np.ndarray) -> None:
         self.particles = TwinParticles.from_records(records, self.dtype)
 
-    def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None
-                   ) -> ForceModel | PortableForces:
-        """The force model of particles of the given classes (in this frame's rotor wash)."""
+    def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None,
+                   turbulence: np.ndarray | None = None) -> ForceModel | PortableForces:
+        """The force model of particles of the given classes (in this frame's rotor wash,
+        seeing `turbulence` besides the flow)."""
         f = self.scene.forces
         dtype, kernels = self.dtype, self.kernels
         flow = None
-        inv_tau = None
+        inv_tau = reynolds = None
         if rotor is not None and f.drag is not None:
-            radius, ground = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
+            radius, ground_z = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
 
             def flow(p):
                 return kernels.rotor_flow(p, rotor.hub, float(rotor.induced_velocity), radius,
-                                          ground)
+                                          ground_z)
         elif self.field is not None:
             def flow(p):
                 return kernels.field_flow(self.field, p, self.scene.field.out_of_domain)
         if flow is not None:
             index = np.minimum(class_id, len(self.inv_tau) - 1)
             inv_tau = self.inv_tau[index].astype(dtype)[:, None]
+            if self.reynolds_per_speed.any():
+                reynolds = self.reynolds_per_speed[index].astype(dtype)[:, None]
         gravity = None if f.gravity is None else np.array(f.gravity, dtype=np.float32).astype(dtype)
         damping = None if f.damping is None else dtype(np.float32(f.damping))
-        return kernels.forces(gravity, damping, inv_tau, flow)
+        return kernels.forces(gravity, damping, inv_tau, flow, reynolds, turbulence)
 
     def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
         """Advance one frame exactly as the GPU does (survivors, then new particles)."""
@@ -132,14 +138,26 @@ class TwinSystem:
         q = self.particles
         age = q.age + np.float64(frame.dt)
         alive = age < q.lifetime.astype(np.float64)
-        pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt),
-                                  self.forces_for(q.class_id, rotor))
+        forces = self.forces_for(q.class_id, rotor)
+        if self.scene.forces.dispersion is not None:
+            forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces))
+        pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt), forces)
         if self.scene.collision is not None:
             pos, vel = self.kernels.collide(pos, vel, self.scene.collision, self.heights)
         alive &= sane(pos) & sane(vel)
         moved = TwinParticles(pos, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
+
+    def _turbulence(self, frame: FrameInput, forces: ForceModel | PortableForces
+                    ) -> np.ndarray:
+        """What each particle sees besides the flow this step (dispersion.glsl's twin)."""
+        q = self.particles
+        ground, _ = self.kernels.ground(self.scene.collision, self.heights, q.pos[:, :2])
+        xi = draws(self.random, frame.random_transform, len(q.age), self.dtype)
+        return self.kernels.turbulence(forces, q.pos, q.vel, ground,
+                                       self.scene.forces.dispersion.mixing_length, xi,
+                                       self.dtype(frame.dt))
 
     def _emit(self, frame: FrameInput, survivors: int, rotor) -> list[TwinParticles]:
         if not len(self.table):

@@ -79,6 +79,8 @@ class ParticleSystem:
         self.ground_grid: HeightGrid | None = None
         self._textures_for_physics()
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
+        if len(self.emitters) or scene.forces.dispersion is not None:
+            self._random_texture()
         self._emitter_buffers: list[moderngl.Buffer] = []
         self._emitter_update = self._build_emission() if len(self.emitters) else None
         if scene.engine is Engine.COMPUTE:
@@ -128,13 +130,16 @@ class ParticleSystem:
                 if (sampler := program.get(name, None)) is not None:
                     sampler.value = unit
 
-    def _build_emission(self) -> EmitterUpdate:
-        scene, count = self.scene, len(self.emitters)
-        size = scene.random_texture_size
-        random = self.ctx.texture((size, size), 4, random_words(scene.seed, size).tobytes(),
+    def _random_texture(self) -> None:
+        """The texture emission and dispersion draw from (determinism rule 2)."""
+        size = self.scene.random_texture_size
+        random = self.ctx.texture((size, size), 4, random_words(self.scene.seed, size).tobytes(),
                                   dtype="u4")
         random.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.resources["random_texture"] = random
+
+    def _build_emission(self) -> EmitterUpdate:
+        scene, count = self.scene, len(self.emitters)
         table = self.ctx.texture((count, TABLE_ROWS), 4, dtype="u4")
         table.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.resources["emitter_table"] = table
@@ -191,6 +196,8 @@ class ParticleSystem:
         write_uniforms(program, {"dt": frame.dt})
         if rotor is not None:
             write_uniforms(program, rotor_uniforms(rotor))
+        if self.scene.forces.dispersion is not None:  # its draws move with the frame's map
+            write_uniforms(program, {"random_transform": frame.random_transform.T})
         self._live = self._passes.advance(front, back, live, emission)
         self._current = back
 
@@ -211,11 +218,12 @@ class ParticleSystem:
         self.scene = dataclasses.replace(self.scene, seed=seed)
         self._tree = None
         self.emitters = EmitterTable.from_scene(self.scene)
+        if "random_texture" in self.resources:
+            size = self.scene.random_texture_size
+            self.resources["random_texture"].write(random_words(seed, size).tobytes())
         if not len(self.emitters):
             return
         self._emitter_update.table = self.emitters
-        size = self.scene.random_texture_size
-        self.resources["random_texture"].write(random_words(seed, size).tobytes())
         self._write_fixed_rows()
 
     def release(self) -> None:

@@ -59,6 +59,13 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "FIELD_INTERPOLATION": tuple(INTERPOLATION_IDS.values()),
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
+# Drag beyond Stokes and dispersion (with the random texture's size it reads), checked
+# by the gate in the variants `physics_variants` names, not in the full product
+TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
+    "HAS_SCHILLER_NAUMANN": (0, 1),
+    "HAS_DISPERSION": (0, 1),
+    "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
+}
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
     "ARITHMETIC": tuple(ARITHMETIC_IDS.values()),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
@@ -76,7 +83,7 @@ BLOCK_DEFINES = {"WORKGROUP_SIZE": BLOCK_WORKGROUP_SIZE}
 SCAN_DEFINES = {"SCAN_SIZE": SCAN_SIZE, "EMIT_BATCH": EMIT_BATCH}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
-                              tuple(PHYSICS_FEATURES), PARTICLE_VARYINGS)
+                              (*PHYSICS_FEATURES, *TRANSPORT_FEATURES), PARTICLE_VARYINGS)
 EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
                              tuple(EMISSION_FEATURES), ("out_state",))
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
@@ -96,7 +103,7 @@ CHECKSUM_PROGRAMS = (
 )
 # the compute path's four passes (cavesim/gpu/engine/compute.py)
 BLOCK_UPDATE = ProgramSpec("particles/update_blocks.glsl", ("compute",),
-                           (*PHYSICS_FEATURES, *BLOCK_DEFINES))
+                           (*PHYSICS_FEATURES, *TRANSPORT_FEATURES, *BLOCK_DEFINES))
 SCAN = ProgramSpec("particles/scan.glsl", ("compute",), tuple(SCAN_DEFINES))
 COMPACT = ProgramSpec("particles/compact.glsl", ("compute",), tuple(BLOCK_DEFINES))
 APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATURES))
@@ -118,6 +125,9 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         # trilinear for a rotor and with hardware sampling: the scene loader sees to it
         "FIELD_INTERPOLATION": INTERPOLATION_IDS[field.interpolation] if field else 0,
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
+        "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
+        "HAS_DISPERSION": int(scene.forces.dispersion is not None),
+        "RANDOM_SIZE": scene.random_texture_size,
     }
 
 
@@ -159,8 +169,10 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
 
 def physics_variants() -> Iterator[dict[str, int]]:
     """The particle pass's defines the gate checks, each once, as `physics_defines` could
-    give them (`reachable`). Native: every combination. Portable, whose inlined arithmetic
-    makes a program many times larger (the full product would take the reference front-end
+    give them (`reachable`). Native: every combination of PHYSICS_FEATURES with the
+    transport features off, and each transport combination with every integrator, both
+    flows and both grounds (all else on). Portable, whose inlined arithmetic makes a
+    program many times larger (the full product would take the reference front-end
     minutes): every integrator with every feature on (the flow from a B-spline grid), and
     with each other feature switched one at a time, which together hold every line and every
     #if of the portable code. Hardware sampling is not among them: the loader refuses it."""
@@ -168,16 +180,26 @@ def physics_variants() -> Iterator[dict[str, int]]:
 
     def once(defines: dict[str, int]) -> Iterator[dict[str, int]]:
         defines = reachable(defines)
-        if (key := tuple(defines.items())) not in seen:
+        if (key := tuple(sorted(defines.items()))) not in seen:
             seen.add(key)
             yield defines
 
+    off = {name: values[0] for name, values in TRANSPORT_FEATURES.items()}
+    on = {name: values[-1] for name, values in TRANSPORT_FEATURES.items()}
     native = {**PHYSICS_FEATURES, "ARITHMETIC": (ARITHMETIC_IDS[Arithmetic.NATIVE],)}
     for values in itertools.product(*native.values()):
-        yield from once(dict(zip(native, values, strict=True)))
+        yield from once({**dict(zip(native, values, strict=True)), **off})
+    every_feature = {name: values[-1] for name, values in native.items()}
+    for integrator, rotor, collision in itertools.product(
+            PHYSICS_FEATURES["INTEGRATOR"], (0, 1), (1, 2)):
+        for drag_law, dispersion in ((1, 0), (0, 1), (1, 1)):
+            yield from once({**every_feature, **on, "INTEGRATOR": integrator,
+                             "FIELD_IS_ROTOR": rotor, "COLLISION": collision,
+                             "HAS_SCHILLER_NAUMANN": drag_law, "HAS_DISPERSION": dispersion})
     fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
              "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
-    switched = {name: values for name, values in PHYSICS_FEATURES.items()
+    features = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
+    switched = {name: values for name, values in features.items()
                 if name not in (*fixed, "INTEGRATOR")}
     every_feature = {name: values[-1] for name, values in switched.items()}
     for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
@@ -191,10 +213,19 @@ def physics_variants() -> Iterator[dict[str, int]]:
 
 def reachable(defines: dict[str, int]) -> dict[str, int]:
     """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
-    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise."""
-    grid = (defines["HAS_DRAG"] and not defines["FIELD_IS_ROTOR"]
-            and defines["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
-    return defines if grid else {**defines, "FIELD_INTERPOLATION": 0}
+    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; drag laws
+    beyond Stokes and dispersion need drag, dispersion a ground too (physics.glsl's
+    #errors)."""
+    out = dict(defines)
+    grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
+            and out["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
+    if not grid:
+        out["FIELD_INTERPOLATION"] = 0
+    if not out["HAS_DRAG"]:
+        out["HAS_SCHILLER_NAUMANN"] = out["HAS_DISPERSION"] = 0
+    if out["COLLISION"] == COLLISION_IDS[None]:
+        out["HAS_DISPERSION"] = 0
+    return out
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:

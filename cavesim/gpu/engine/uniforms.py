@@ -27,6 +27,11 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
     if forces.drag is not None:
         values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
                                      dtype=np.float32)
+        if any(scene.reynolds_per_speed()):  # vec4[(CLASS_COUNT + 3) / 4]: four a vec4
+            per_class = np.array(scene.reynolds_per_speed(), dtype=np.float32)
+            values["reynolds_per_speed"] = np.pad(per_class, (0, -len(per_class) % 4))
+        if forces.dispersion is not None:
+            values["mixing_length"] = np.float32(forces.dispersion.mixing_length)
         if field is not None:  # a grid
             values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
             values["field_index_scale"] = field.index_scale

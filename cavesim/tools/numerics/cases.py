@@ -48,8 +48,9 @@ HELICOPTER_SCENE = "config/scenes/brownout.toml"  # the downwash case's default 
 
 TAU = 0.1  # s, Stokes relaxation time of the probe particles: T = 10 tau
 DENSITY = 1000.0  # kg/m³
-PROBE = {"name": "probe", "density": DENSITY,
-         "diameter": math.sqrt(18.0 * AIR_VISCOSITY * TAU / DENSITY)}  # tau = rho d² / (18 mu)
+# tau = rho d² / (18 mu); Stokes drag named, as the closed-form references assume it
+PROBE = {"name": "probe", "density": DENSITY, "drag": "stokes",
+         "diameter": math.sqrt(18.0 * AIR_VISCOSITY * TAU / DENSITY)}
 GRAVITY = [0.0, 0.0, -9.81]
 LIFETIME = 1e9  # s: nobody dies
 HUB_HEIGHT = 8.0  # m above the ground, for the downwash case
@@ -151,7 +152,8 @@ def smooth_vortex_case(count: int, interpolation: FieldInterpolation, order_limi
 
 def downwash_case(helicopter_scene: Path, count: int) -> Case:
     """The scene file's rotor downwash (its helicopter, forces and field), without its
-    emitters and ground, under a fixed rotor HUB_HEIGHT above the ground at full speed."""
+    emitters, ground and random walk (deterministic paths to measure), under a fixed rotor
+    HUB_HEIGHT above the ground at full speed."""
     data = read_toml(helicopter_scene, SceneError, "scene file")
     if "helicopter" not in data or data.get("field", {}).get("kind") != "rotor":
         raise SceneError(f"{helicopter_scene}: the downwash case needs a helicopter scene with "
@@ -159,6 +161,8 @@ def downwash_case(helicopter_scene: Path, count: int) -> Case:
                          f"{'present' if 'helicopter' in data else 'missing'} and field.kind = "
                          f"{data.get('field', {}).get('kind')!r}")
     data = {key: value for key, value in data.items() if key not in ("emitter", "collision")}
+    data["forces"] = {key: value for key, value in data["forces"].items()
+                      if key != "dispersion"}
     data["simulation"] = _simulation(count)
     data["particle_class"] = [dict(PROBE)]
     scene = parse_scene(data, helicopter_scene)

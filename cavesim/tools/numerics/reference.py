@@ -62,7 +62,7 @@ def closed_form(case: Case, t: float) -> Reference:
     where v_inf = f / lambda (= u + g tau without damping)."""
     p0 = case.particles["pos"].astype(np.float64)
     v0 = case.particles["vel"].astype(np.float64)
-    f, lam = twin_forces(case).linear_parts(p0)
+    f, lam, _ = twin_forces(case).linear_parts(p0, v0)  # Stokes: lambda does not depend on v0
     v_inf = f / lam
     decay = np.exp(-lam * t)
     grown = -np.expm1(-lam * t) / lam

@@ -4,6 +4,7 @@
 //   z:    particles it emits this frame
 //   w:    emission serial of its first particle this frame (wraps at 2^32)
 #pragma once
+#include "random.glsl"
 #include "arithmetic.glsl"
 
 uniform float dt;
@@ -55,24 +56,10 @@ vec3 emitter_center(int e) {
 }
 #endif
 
-uniform usampler2D random_texture;  // RGBA32UI, RANDOM_SIZE square, read with texelFetch only
-uniform mat3 random_transform;  // this frame's integer affine map of the texel lattice
-
-// Random word group `texel` (0 or 1) of the particle with emission `serial`; the
-// arithmetic is integer and wraps modulo 2^32, so it is exact on every GPU.
-// Twin: cavesim/random_texture.py lookup_coordinates.
+// Random word group `texel` (0 or 1) of the particle with emission `serial`.
+// Twin: cavesim/core/random_texture.py lookup_coordinates.
 uvec4 random_lookup(int e, uint serial, uint texel) {
-    const uint mask = uint(RANDOM_SIZE - 1);
-    uint k = 2u * serial + texel;
-    uvec2 base = emitter_random_base(e);
-    int x = int((base.x + (k & mask)) & mask);
-    int y = int((base.y + k / uint(RANDOM_SIZE)) & mask);
-    ivec3 col0 = ivec3(random_transform[0]);
-    ivec3 col1 = ivec3(random_transform[1]);
-    ivec3 col2 = ivec3(random_transform[2]);
-    int moved_x = (col0.x * x + col1.x * y + col2.x) & int(mask);
-    int moved_y = (col0.y * x + col1.y * y + col2.y) & int(mask);
-    return texelFetch(random_texture, ivec2(moved_x, moved_y), 0);
+    return random_texel(emitter_random_base(e), 2u * serial + texel);
 }
 
 // 24 random bits as an exact float in [0, 1): an integer below 2^24 times 2^-24 is exact

@@ -1,9 +1,10 @@
 // The forces on a particle and the integrators that advance it by one step. Each scene
-// compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING), one
-// INTEGRATOR and one COLLISION kind; cavesim/core/twin/ holds the float64 twin of every
-// line. Every float operation goes through arithmetic.glsl (f_add, f_mul, ...): plain
-// operators for ARITHMETIC_NATIVE, the same bits on every GPU for ARITHMETIC_PORTABLE,
-// mirrored operation by operation in float32 by cavesim/core/portable/.
+// compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING, with drag
+// HAS_SCHILLER_NAUMANN and HAS_DISPERSION), one INTEGRATOR and one COLLISION kind;
+// cavesim/core/twin/ holds the float64 twin of every line. Every float operation goes
+// through arithmetic.glsl (f_add, f_mul, ...): plain operators for ARITHMETIC_NATIVE,
+// the same bits on every GPU for ARITHMETIC_PORTABLE, mirrored operation by operation in
+// float32 by cavesim/core/portable/.
 #pragma once
 #include "arithmetic.glsl"
 
@@ -51,11 +52,65 @@ float inverse_relaxation_time(uint class_id) {
 }
 #endif
 
-// a = (u(p) - v) / tau + g - k v   (Kolb et al.: Stokes drag toward the flow texture)
+// Both act through drag; dispersion measures heights from the ground (the scene loader's
+// rules; programs.physics_defines and physics_variants keep to them)
+#if (HAS_SCHILLER_NAUMANN || HAS_DISPERSION) && !HAS_DRAG
+#error HAS_SCHILLER_NAUMANN and HAS_DISPERSION need HAS_DRAG
+#endif
+#if HAS_DISPERSION && COLLISION == COLLISION_NONE
+#error HAS_DISPERSION needs a COLLISION ground
+#endif
+
+// The particle being stepped, set by advance() before integrate() and read by each
+// acceleration() and linear_parts() of its step (the twin's ForceModel holds the same)
+#if HAS_SCHILLER_NAUMANN
+// d / nu per class (0: a Stokes class), four to a vec4: an array element takes a vec4's
+// room of the uniform storage, and a second per-class float array would overrun the
+// 512 components a GL 4.3 compute stage must offer at 64 classes
+uniform vec4 reynolds_per_speed[(CLASS_COUNT + 3) / 4];
+float step_reynolds_per_speed;  // Re = this * |u - v|
+#endif
+#if HAS_DISPERSION
+vec3 step_turbulence;  // dispersion.glsl: what the particle sees besides u(p) this step
+#endif
+
+#if HAS_DRAG
+// Schiller & Naumann: C_D = 24/Re (1 + 0.15 Re^0.687) (cavesim/core/drag.py), constants
+// as exact bits (cavesim/core/portable/constants.py)
+#define SCHILLER_NAUMANN_COEFFICIENT uintBitsToFloat(0x3E19999Au)  // 0.15
+#define SCHILLER_NAUMANN_EXPONENT uintBitsToFloat(0x3F2FDF3Bu)  // 0.687
+
+// lambda, the rate at which drag relaxes the slip u - v: 1/tau (Stokes), times
+// 1 + 0.15 Re^0.687 for a Schiller-Naumann class
+float drag_rate(vec3 slip, float inv_tau_p) {
+#if HAS_SCHILLER_NAUMANN
+    float reynolds = f_mul(f_length(slip), step_reynolds_per_speed);
+    if (reynolds > 0.0) {
+        float wake = f_mul(SCHILLER_NAUMANN_COEFFICIENT,
+                           f_pow(reynolds, SCHILLER_NAUMANN_EXPONENT));
+        return f_mul(inv_tau_p, f_add(1.0, wake));
+    }
+#endif
+    return inv_tau_p;
+}
+
+// The flow drag pulls toward: u(p), and with dispersion the turbulence seen this step
+vec3 seen_flow(vec3 u) {
+#if HAS_DISPERSION
+    return f_add(u, step_turbulence);
+#else
+    return u;
+#endif
+}
+#endif
+
+// a = (u(p) + u_t - v) lambda + g - k v   (Kolb et al.: drag toward the flow texture;
+// lambda = 1/tau for Stokes drag, from the slip u(p) - v for Schiller-Naumann's)
 vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
     vec3 a = vec3(0.0);
 #if HAS_DRAG
-    a = f_add(a, f_mul(f_sub(flow_at(p), v), inv_tau_p));
+    vec3 u = flow_at(p);
+    a = f_add(a, f_mul(f_sub(seen_flow(u), v), drag_rate(f_sub(u, v), inv_tau_p)));
 #endif
 #if HAS_GRAVITY
     a = f_add(a, gravity);
@@ -66,20 +121,43 @@ vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
     return a;
 }
 
-// a = f - lambda v: the forcing f = u(p)/tau + g and the linear rate lambda = 1/tau + k
-void linear_parts(vec3 p, float inv_tau_p, out vec3 f, out float lambda) {
-    f = vec3(0.0);
-    lambda = 0.0;
+// The forcing f = (u + u_t) lambda_d + g of dv/dt = f - lambda v where the flow is u, for
+// the drag rate lambda_d (u and lambda_d unused without drag)
+vec3 forcing(vec3 u, float drag) {
+    vec3 f = vec3(0.0);
 #if HAS_DRAG
-    f = f_add(f, f_mul(flow_at(p), inv_tau_p));
-    lambda = f_add(lambda, inv_tau_p);
+    f = f_add(f, f_mul(seen_flow(u), drag));
 #endif
 #if HAS_GRAVITY
     f = f_add(f, gravity);
 #endif
+    return f;
+}
+
+// ... at the point p
+vec3 forcing_at(vec3 p, float drag) {
+#if HAS_DRAG
+    return forcing(flow_at(p), drag);
+#else
+    return forcing(vec3(0.0), drag);
+#endif
+}
+
+// a = f - lambda v with the flow and the drag rate held at their values at (p, v): the
+// forcing f and lambda = lambda_d + k. Returns the drag rate lambda_d it held.
+float linear_parts(vec3 p, vec3 v, float inv_tau_p, out vec3 f, out float lambda) {
+    vec3 u = vec3(0.0);
+    float drag = 0.0;
+#if HAS_DRAG
+    u = flow_at(p);
+    drag = drag_rate(f_sub(u, v), inv_tau_p);
+#endif
+    f = forcing(u, drag);
+    lambda = drag;
 #if HAS_DAMPING
     lambda = f_add(lambda, damping);
 #endif
+    return drag;
 }
 
 #if INTEGRATOR == INTEGRATOR_EXPONENTIAL || INTEGRATOR == INTEGRATOR_ETD2RK
@@ -154,7 +232,7 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     // velocity moves the position. Stable for any tau: v' = v + h (f - lambda v) / (1 + h lambda)
     vec3 f;
     float lambda;
-    linear_parts(p, inv_tau_p, f, lambda);
+    linear_parts(p, v, inv_tau_p, f, lambda);
     float weight = f_div(h, f_add(1.0, f_mul(h, lambda)));
     v = f_add(v, f_mul(weight, f_sub(f, f_mul(lambda, v))));
     p = f_add(p, f_mul(h, v));
@@ -195,12 +273,12 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     p = f_add(p, f_mul(sixth_h, dp));
     v = f_add(v, f_mul(sixth_h, dv));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
-    // Exponential Euler: exact solution of dv/dt = f - lambda v with the flow held at its
-    // value at p: f = u(p)/tau + g, lambda = 1/tau + k. Stable for any step (stiff fine
+    // Exponential Euler: exact solution of dv/dt = f - lambda v with the flow and the drag
+    // rate held at their values at (p, v) (linear_parts). Stable for any step (stiff fine
     // dust). Increment form: r = f - lambda v, p += h (v + h phi2 r), v += h phi1 r.
     vec3 f;
     float lambda;
-    linear_parts(p, inv_tau_p, f, lambda);
+    linear_parts(p, v, inv_tau_p, f, lambda);
     float e, phi1, phi2;
     exponential_weights(f_mul(lambda, h), e, phi1, phi2);
     vec3 r = f_sub(f, f_mul(lambda, v));
@@ -214,17 +292,15 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     //   p' = p + h (v + h phi2 r + h phi3 d),  v' = v + h (phi1 r + phi2 d)
     vec3 f;
     float lambda;
-    linear_parts(p, inv_tau_p, f, lambda);
+    float drag = linear_parts(p, v, inv_tau_p, f, lambda);
     float x = f_mul(lambda, h);
     float e, phi1, phi2;
     exponential_weights(x, e, phi1, phi2);
     float phi3 = phi3_weight(x, phi2);
     vec3 r = f_sub(f, f_mul(lambda, v));
     vec3 w = f_add(v, f_mul(f_mul(h, phi2), r));
-    vec3 fa;
-    float lambda_a;  // lambda does not depend on the position
-    linear_parts(f_add(p, f_mul(h, w)), inv_tau_p, fa, lambda_a);
-    vec3 d = f_sub(fa, f);
+    // the drag rate held over the step (Schiller-Naumann's from the slip at its start)
+    vec3 d = f_sub(forcing_at(f_add(p, f_mul(h, w)), drag), f);
     p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))));
     v = f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))));
 #else
@@ -267,6 +343,10 @@ void collide(inout vec3 p, inout vec3 v) {
 }
 #endif
 
+#if HAS_DISPERSION
+#include "dispersion.glsl"
+#endif
+
 // Beyond this a state is lost to overflow; such a particle is dropped, never stored.
 const float RUNAWAY = 1e15;
 
@@ -281,20 +361,30 @@ bool finite(vec3 x) {
 // One step of one particle's motion. Returns false when the step ran away (an unstable
 // integrator, an absurd field): the particle pass drops it, so NaN or Inf never reach the
 // GPU state (a status, not a crash).
-bool advance(inout Particle q, float h) {
-    integrate(q.pos, q.vel, inverse_relaxation_time(q.class_id), h);
+// `index`: the particle's place in the stream, the same on every node (its random draws).
+bool advance(inout Particle q, float h, uint index) {
+    float inv_tau_p = inverse_relaxation_time(q.class_id);
+#if HAS_SCHILLER_NAUMANN
+    uint drag_class = min(q.class_id, uint(CLASS_COUNT - 1));
+    step_reynolds_per_speed = reynolds_per_speed[drag_class / 4u][drag_class % 4u];
+#endif
+#if HAS_DISPERSION
+    step_turbulence = turbulence_seen(q.pos, q.vel, inv_tau_p, index, h);
+#endif
+    integrate(q.pos, q.vel, inv_tau_p, h);
 #if COLLISION != COLLISION_NONE
     collide(q.pos, q.vel);
 #endif
     return finite(q.pos) && finite(q.vel);
 }
 
-// One frame of one particle, the arithmetic both engine paths' particle passes share
-// (GS/TF update.glsl, compute update_blocks.glsl): it ages by h and moves.
+// One frame of the particle at `index` in the stream, the arithmetic both engine paths'
+// particle passes share (GS/TF update.glsl, compute update_blocks.glsl): it ages by h
+// and moves.
 // Returns whether it lives on: not expired and not run away. The age's float64 add stays
 // outside arithmetic.glsl: portable only where the GPU rounds doubles as IEEE does.
-bool step_particle(inout Particle q, float h) {
+bool step_particle(inout Particle q, float h, uint index) {
     q.age += double(h);
-    bool sane = advance(q, h);
+    bool sane = advance(q, h, index);
     return q.age < double(q.lifetime) && sane;
 }

@@ -16,7 +16,7 @@ flat out uint alive;
 
 void main() {
     Particle q = unpack_particle(in_a, in_b, in_c);
-    alive = step_particle(q, dt) ? 1u : 0u;
+    alive = step_particle(q, dt, uint(gl_VertexID)) ? 1u : 0u;
     pack_particle(q, moved_a, moved_b, moved_c);
 }
 #endif

@@ -20,7 +20,7 @@ void main() {
     uint alive = 0u;
     for (uint k = 0u; k < n; ++k) {
         Particle q = load_front(first + k);
-        if (step_particle(q, dt)) {
+        if (step_particle(q, dt, first + k)) {
             store_front(first + k, q);
             alive |= 1u << k;
         }
