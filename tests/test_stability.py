@@ -7,15 +7,19 @@ import pytest
 
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Integrator
+from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.stability.extremes import run_extremes
 from cavesim.tools.stability.sweep import (
     DRAG_CASES,
+    SCHILLER_NAUMANN,
     STABILITY_LIMITS,
     STEPS,
+    STOKES,
     TAUS,
     DragCase,
     outcome_row,
     run_sweep,
+    sweep_scene,
 )
 
 
@@ -26,8 +30,8 @@ def sweep(gl_session):
 
 def test_every_stiff_outcome_matches_theory(sweep):
     assert len(sweep) == len(DRAG_CASES) * len(Integrator) * len(STEPS) * len(TAUS)
-    stokes = [r for r in sweep if r["drag"] == "stokes"]
-    assert len(stokes) == 238 + 34  # the seven older integrators' 238, and ETD2RK's
+    for drag in DRAG_CASES:  # the seven older integrators' 238, and ETD2RK's 34
+        assert sum(r["drag"] == drag.name for r in sweep) == 238 + 34
     disagreements = [r for r in sweep if not r["agrees"]]
     assert not disagreements, disagreements[:3]
     assert all(r["state_finite"] for r in sweep), "no NaN or Inf in the GPU state"
@@ -37,14 +41,57 @@ def test_every_stiff_outcome_matches_theory(sweep):
 def test_each_integrator_is_bounded_exactly_below_its_limit(sweep, integrator):
     limit = STABILITY_LIMITS[integrator]
     for row in (r for r in sweep if r["integrator"] == integrator.value):
-        assert (row["outcome"] == "bounded") == (row["stiffness"] < limit), row
+        if row["drag"] == STOKES.name:  # one stiffness: the limit is sharp
+            assert row["stiffness"] == row["stiffness_max"]
+            assert (row["outcome"] == "bounded") == (row["stiffness"] < limit), row
+        elif row["stiffness_max"] < limit:  # Schiller-Naumann: stable at every slip met
+            assert row["outcome"] == "bounded", row
+        elif row["stiffness"] > limit:  # not even the settled slip is stable
+            assert row["outcome"] == "divergent", row
     if math.isinf(limit):  # 1 µs dust at 60 Hz is dt/tau = 16,667: still bounded
         assert min(r["tau"] for r in sweep if r["outcome"] == "bounded"
                    and r["integrator"] == integrator.value) == pytest.approx(1e-6)
 
 
+def test_schiller_naumann_is_stiffer_than_stokes_with_the_slip(sweep):
+    """The Jacobian along the slip is (1 + 0.253 Re^0.687)/tau: the settled stiffness of
+    1 mm sand (tau = 10 s, settling Re ~ 390) is ~20x Stokes', and fine dust's Re ~ 0
+    leaves it at Stokes'."""
+    rows = {(r["drag"], r["integrator"], r["dt"], r["tau"]): r for r in sweep}
+    sand = rows[("schiller_naumann", "rk4", 1 / 60, TAUS[0])]
+    assert sand["stiffness"] / sand["dt_over_tau"] > 15
+    dust = rows[("schiller_naumann", "rk4", 1 / 60, TAUS[-1])]
+    assert dust["stiffness"] == pytest.approx(dust["dt_over_tau"], rel=1e-3)
+    assert all(r["stiffness_max"] >= r["stiffness"] >= r["dt_over_tau"] * (1 - 1e-12)
+               for r in sweep)
+
+
+def test_schiller_naumann_on_the_gpu_diverges_at_a_slip_stokes_survives(gl_session):
+    """Explicit Euler at dt/tau = 1.2: Stokes drag relaxes a 40 m/s slip (|1 - 1.2| < 1);
+    Schiller-Naumann's rate at that slip is ~7.5x larger (Re ~ 110), so the step
+    overshoots and grows: the GPU applies the drag of each particle's own slip."""
+    tau = 1 / 30 / 2.4
+    class_id = TAUS.index(tau)
+    speeds = {}
+    for drag in (STOKES, SCHILLER_NAUMANN):
+        system = ParticleSystem(gl_session, sweep_scene(Integrator.EXPLICIT_EULER, 4, drag))
+        start = np.zeros(4, dtype=PARTICLE_DTYPE)
+        start["vel"] = [[40.0, 0.0, 0.0], [0.0, 40.0, 0.0], [0.0, 0.0, 40.0], [-40.0, 0, 0]]
+        start["lifetime"] = 1e6
+        start["class_id"] = class_id
+        system.write_particles(start)
+        for _ in range(30):
+            system.step(FrameInput(1 / 60, np.eye(3, dtype=np.float32)))
+        end = system.read_particles()
+        speeds[drag.name] = (len(end), float(np.abs(end["vel"]).max(initial=0.0)))
+        system.release()
+    assert speeds["stokes"][0] == 4 and speeds["stokes"][1] < 5.0, speeds
+    assert speeds["schiller_naumann"][0] < 4 or speeds["schiller_naumann"][1] > 1e3, speeds
+
+
 def test_rk4_reaches_further_than_rk2(sweep):
-    at = {(r["integrator"], r["dt"]): r for r in sweep if 2.3 < r["dt_over_tau"] < 2.5}
+    at = {(r["integrator"], r["dt"]): r for r in sweep
+          if r["drag"] == STOKES.name and 2.3 < r["dt_over_tau"] < 2.5}
     for dt in STEPS:
         assert at[("rk4", dt)]["outcome"] == "bounded"
         assert at[("rk2", dt)]["outcome"] == "divergent"
@@ -55,10 +102,10 @@ def test_theory_reads_the_drag_laws_stiffness():
     h = dt lambda: the hook the slip-dependent laws plug into."""
     end = np.zeros(4, dtype=PARTICLE_DTYPE)  # four bounded particles of class 0
     tau = 1 / 60 / 1.5  # dt/tau = 1.5: Stokes drag is within explicit Euler's limit of 2
-    stokes = outcome_row(DRAG_CASES[0], Integrator.EXPLICIT_EULER, 1 / 60, 0, tau, end, 4)
+    stokes = outcome_row(STOKES, Integrator.EXPLICIT_EULER, 1 / 60, 0, tau, end, 4, 1.0)
     assert (stokes["stiffness"], stokes["theory"]) == (pytest.approx(1.5), "bounded")
-    faster = DragCase("twice", {}, lambda dt, tau: 2 * dt / tau)
-    row = outcome_row(faster, Integrator.EXPLICIT_EULER, 1 / 60, 0, tau, end, 4)
+    faster = DragCase("twice", jacobian_rate=lambda tau, slip: 2 / tau)
+    row = outcome_row(faster, Integrator.EXPLICIT_EULER, 1 / 60, 0, tau, end, 4, 1.0)
     assert (row["drag"], row["stiffness"], row["theory"]) == ("twice", pytest.approx(3.0),
                                                                "divergent")
     assert not row["agrees"]  # a bounded outcome there would disagree with theory
