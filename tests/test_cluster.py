@@ -14,6 +14,7 @@ from master_process import spawn_master
 from cavesim.nodes.check import CheckPlan, run_check
 from cavesim.nodes.faults import parse_fault
 from cavesim.nodes.launcher import LocalCluster
+from cavesim.tools.bench.resync import SCENE as RESYNC_SCENE
 from cavesim.tools.replay import replay
 
 ROOT = Path(__file__).parents[1]
@@ -24,30 +25,8 @@ WALLS = ("front", "left", "right")
 pytestmark = pytest.mark.slow
 
 
-# A million particles from the first frame on, living for the whole run.
-MILLION = """
-name = "million"
-[simulation]
-capacity = 1000000
-seed = 5
-integrator = "semi_implicit_euler"
-[[particle_class]]
-name = "grain"
-diameter = 1e-3
-density = 2000.0
-[[emitter]]
-name = "burst"
-position = [0.0, 0.0, 1.0]
-extent = [4.0, 4.0, 2.0]
-rate = 6e7
-speed = 1.0
-direction = [0.0, 0.0, 1.0]
-spread_angle = 90.0
-lifetime = [1000.0, 1000.0]
-particle_class = "grain"
-[forces]
-gravity = [0.0, 0.0, -9.81]
-"""
+# A million particles from the first frame on, living for the whole run: the resync bench's
+MILLION = RESYNC_SCENE.format(particles=1_000_000, rate=6e7)
 
 
 def check(tmp_path, faults, walls=WALLS, frames=150, session="t", scene=DUST_DEVIL, **options):
