@@ -122,7 +122,7 @@ class Summary:
     fit_dts: tuple[str, ...]
     exact: bool  # the method solves this case exactly
     forgets: bool  # its error dies with the transient here (methods.FORGETS_IN)
-    # "ok", "OFF", "exact", "NOT exact", "forgets", "KEEPS" or "-" (case not smooth)
+    # "ok", "OFF", "exact", "NOT exact", "forgets", "KEEPS" or "-" (case not held to an order)
     verdict: str
     twin_max_error: float  # m, largest twin RMS error over the dts
     evaluations: int  # field evaluations per particle and step
@@ -160,7 +160,7 @@ def summarize(case: Case, method: Method, rows: list[Row], report_dt: float) -> 
     finest = min(rows, key=lambda r: r.dt)
     exact, forgets = method.is_exact(case.name), method.forgets(case.name)
     twin_max_error = max(r.twin_rms for r in rows)
-    held = case.smooth and not exact and not forgets
+    held = case.held_to_order and not exact and not forgets
     expected = method.expected_order(case.order_limit) if held else None
     if exact:
         verdict = "exact" if twin_max_error < EXACT_TOLERANCE else "NOT exact"
