@@ -50,17 +50,24 @@ def verlet(p, v, h, forces):
     return p, v + (0.5 * h) * (a0 + a1)
 
 
+def runge_kutta_stages(p, v, h, a_rows, forces, kp=(), kv=()):
+    """The stages (kp, kv lists) of an explicit Runge-Kutta tableau's rows `a_rows`, after
+    the stages already given (an embedded pair's first stage, reused from the last step)."""
+    kp, kv = list(kp), list(kv)
+    for row in a_rows:
+        ps, vs = p, v
+        for coefficient, dp, dv in zip(row, kp, kv, strict=False):
+            if coefficient:
+                ps = ps + (coefficient * h) * dp
+                vs = vs + (coefficient * h) * dv
+        kp.append(vs)
+        kv.append(forces.acceleration(ps, vs))
+    return kp, kv
+
+
 def _explicit_runge_kutta(a_table, b_weights) -> Step:
     def step(p, v, h, forces):
-        kp, kv = [], []
-        for row in a_table:
-            ps, vs = p, v
-            for coefficient, dp, dv in zip(row, kp, kv, strict=False):
-                if coefficient:
-                    ps = ps + (coefficient * h) * dp
-                    vs = vs + (coefficient * h) * dv
-            kp.append(vs)
-            kv.append(forces.acceleration(ps, vs))
+        kp, kv = runge_kutta_stages(p, v, h, a_table, forces)
         dp = sum(w * k for w, k in zip(b_weights, kp, strict=True) if w)
         dv = sum(w * k for w, k in zip(b_weights, kv, strict=True) if w)
         return p + h * dp, v + h * dv

@@ -21,6 +21,7 @@ import numpy as np
 
 from cavesim.core.errors import CavesimError
 from cavesim.core.twin.forces import ForceModel
+from cavesim.core.twin.integrators import runge_kutta_stages
 
 DP54_C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0)
 DP54_A = (
@@ -67,16 +68,7 @@ def _rows(forces: ForceModel, rows: np.ndarray) -> ForceModel:
 
 def _stages(p, v, h, kp1, kv1, forces):
     """All seven stages of one step; h is (M, 1). Returns (kp, kv) lists."""
-    kp, kv = [kp1], [kv1]
-    for row in DP54_A[1:]:
-        ps, vs = p, v
-        for a, dp, dv in zip(row, kp, kv, strict=False):
-            if a:
-                ps = ps + (a * h) * dp
-                vs = vs + (a * h) * dv
-        kp.append(vs)
-        kv.append(forces.acceleration(ps, vs))
-    return kp, kv
+    return runge_kutta_stages(p, v, h, DP54_A[1:], forces, [kp1], [kv1])
 
 
 def _combine(y, h, ks, weights):
