@@ -39,7 +39,7 @@ def report_of(tmp_path, frame: int) -> dict:
 
 @pytest.mark.parametrize(("word", "bit", "field", "field_bit_"),
                          [(4, 7, "vel.y", 7), (6, 20, "age", 20), (7, 20, "age", 52),
-                          (9, 31, "class_id", 31)])
+                          (9, 31, "pos_low.z", 7)])
 def test_a_flipped_bit_is_named_by_record_field_and_bit(tmp_path, word, bit, field, field_bit_):
     record, link = run(tmp_path, {12: BitFlip(1234, word, bit)})
     (divergence,) = record.divergences

@@ -4,7 +4,7 @@ A record's fields come from its dtype (`records.py`), vectors split into compone
 (`pos.y`). Each difference gives both values and both bit patterns, their XOR (a single
 flipped bit shows as one set bit) and a distance: for floats the ULP distance, the
 difference of the bit patterns read as ordered integers (adjacent floats are 1 apart, +0
-and -0 are 0 apart); for unsigned integers the difference of the values.
+and -0 are 0 apart); for integers the difference of the values.
 """
 
 from __future__ import annotations
@@ -14,11 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-_KINDS = {("f", 4): "float32", ("f", 8): "float64", ("u", 4): "uint32", ("i", 4): "int32"}
+_KINDS = {("f", 4): "float32", ("f", 8): "float64", ("u", 4): "uint32", ("i", 4): "int32",
+          ("u", 1): "uint8", ("i", 1): "int8"}
 _COMPONENTS = "xyzw"
 DISTANCE_UNITS = {"float32": "ULP (ordered-int distance of the float32 bits)",
                   "float64": "ULP (ordered-int distance of the float64 bits)",
-                  "uint32": "integer difference", "int32": "integer difference"}
+                  **{kind: "integer difference" for kind in ("uint32", "int32", "uint8", "int8")}}
 
 
 @dataclass(frozen=True)
@@ -26,7 +27,7 @@ class Field:
     """One scalar of a record: `pos.y`, `age`, ..."""
 
     name: str
-    kind: str  # float32, float64, uint32, int32
+    kind: str  # float32, float64, uint32, int32, uint8, int8
     offset: int  # bytes into the record
     size: int  # bytes
 
@@ -69,9 +70,7 @@ class FieldDifference:
         a, b = self.bits
         if self.field.kind.startswith("float"):
             return abs(_ordered(a, self.field.size) - _ordered(b, self.field.size))
-        if self.field.kind == "int32":
-            return abs(_signed(a, 32) - _signed(b, 32))
-        return abs(a - b)
+        return abs(_value(self.field.kind, a) - _value(self.field.kind, b))
 
     def hex(self, bits: int) -> str:
         return f"0x{bits:0{self.field.size * 2}x}"
@@ -128,7 +127,7 @@ def _value(kind: str, bits: int) -> float | int:
         return float(np.uint32(bits).view(np.float32))
     if kind == "float64":
         return float(np.uint64(bits).view(np.float64))
-    return _signed(bits, 32) if kind == "int32" else bits
+    return _signed(bits, int(kind[3:])) if kind.startswith("int") else bits
 
 
 def _ordered(bits: int, size: int) -> int:

@@ -17,14 +17,16 @@ from cavesim.core.portable.constants import (
     SCHILLER_NAUMANN_COEFFICIENT,
     SCHILLER_NAUMANN_EXPONENT,
 )
+from cavesim.core.position import move
 
 ONE = np.float32(1.0)
 
 
-@dataclass(frozen=True)
+@dataclass
 class PortableForces:
     """a(p, v) = (u(p) + u_t - v) lambda + g - k v, each term present only if the scene has
-    it (cavesim.core.twin.forces.ForceModel says what each is)."""
+    it (cavesim.core.twin.forces.ForceModel says what each is); and the low part of the
+    positions being stepped, which `move` carries (physics.glsl's step_position_low)."""
 
     gravity: np.ndarray | None  # (3,) float32
     damping: np.float32 | None  # k, 1/s
@@ -32,6 +34,12 @@ class PortableForces:
     flow: Callable[[np.ndarray], np.ndarray] | None  # u(p) for (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
+    position_low: np.ndarray | None = None  # (N, 3) float32, set before a step
+
+    def move(self, p: np.ndarray, dp: np.ndarray) -> np.ndarray:
+        """position.glsl's move: p + position_low + dp as a new p and position_low."""
+        p, self.position_low = move(p, self.position_low, dp)
+        return p
 
     def drag_rate(self, slip: np.ndarray) -> np.ndarray:
         """lambda (N, 1) at the slip u - v (N, 3)."""

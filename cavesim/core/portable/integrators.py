@@ -2,8 +2,10 @@
 `phi3_weight` of shaders/include/physics.glsl, operation by operation in float32.
 
 Same signature as the float64 reference (cavesim/core/twin/integrators.py): (p, v, h,
-forces) -> (p, v), with `forces` a `PortableForces`. Where the shader branches per particle,
-both sides are computed here and the branch's own is selected.
+forces) -> (p, v), with `forces` a `PortableForces`, whose `move` adds the position's one
+increment a step to hi + low as physics.glsl's move does (cavesim/core/position.py). Where
+the shader branches per particle, both sides are computed here and the branch's own is
+selected.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ PHI3_SERIES_BELOW = np.float32(1.0)  # and phi3
 def explicit_euler(p, v, h, forces):
     """Explicit (forward) Euler, order 1."""
     a = forces.acceleration(p, v)
-    return f_add(p, f_mul(h, v)), f_add(v, f_mul(h, a))
+    return forces.move(p, f_mul(h, v)), f_add(v, f_mul(h, a))
 
 
 def semi_implicit_euler(p, v, h, forces):
@@ -42,21 +44,21 @@ def semi_implicit_euler(p, v, h, forces):
     f, lam, _ = forces.linear_parts(p, v)
     weight = f_div(h, f_add(ONE, f_mul(h, lam)))
     v = f_add(v, f_mul(weight, f_sub(f, f_mul(lam, v))))
-    return f_add(p, f_mul(h, v)), v
+    return forces.move(p, f_mul(h, v)), v
 
 
 def trapezoid(p, v, h, forces):
     """UberFlow eq. (1)-(2): Euler velocity, trapezoidal position, order 1."""
     half_h = f_mul(HALF, h)
     v1 = f_add(v, f_mul(h, forces.acceleration(p, v)))
-    return f_add(p, f_mul(half_h, f_add(v, v1))), v1
+    return forces.move(p, f_mul(half_h, f_add(v, v1))), v1
 
 
 def verlet(p, v, h, forces):
     """Velocity Verlet with an Euler-predicted velocity for the drag, order 2."""
     half_h = f_mul(HALF, h)
     a0 = forces.acceleration(p, v)
-    p = f_add(p, f_mul(h, f_add(v, f_mul(half_h, a0))))
+    p = forces.move(p, f_mul(h, f_add(v, f_mul(half_h, a0))))
     a1 = forces.acceleration(p, f_add(v, f_mul(h, a0)))
     return p, f_add(v, f_mul(half_h, f_add(a0, a1)))
 
@@ -67,7 +69,7 @@ def rk2(p, v, h, forces):
     a0 = forces.acceleration(p, v)
     pm = f_add(p, f_mul(half_h, v))
     vm = f_add(v, f_mul(half_h, a0))
-    return f_add(p, f_mul(h, vm)), f_add(v, f_mul(h, forces.acceleration(pm, vm)))
+    return forces.move(p, f_mul(h, vm)), f_add(v, f_mul(h, forces.acceleration(pm, vm)))
 
 
 def rk4(p, v, h, forces):
@@ -84,7 +86,7 @@ def rk4(p, v, h, forces):
     dp = f_add(f_add(f_add(k1p, f_mul(TWO, k2p)), f_mul(TWO, k3p)), k4p)
     dv = f_add(f_add(f_add(k1v, f_mul(TWO, k2v)), f_mul(TWO, k3v)), k4v)
     sixth_h = f_div(h, SIX)
-    return f_add(p, f_mul(sixth_h, dp)), f_add(v, f_mul(sixth_h, dv))
+    return forces.move(p, f_mul(sixth_h, dp)), f_add(v, f_mul(sixth_h, dv))
 
 
 def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -122,7 +124,7 @@ def exponential(p, v, h, forces):
     f, lam, _ = forces.linear_parts(p, v)
     _, phi1, phi2 = exponential_weights(f_mul(lam, h))
     r = f_sub(f, f_mul(lam, v))
-    p = f_add(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))))
+    p = forces.move(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))))
     return p, f_add(v, f_mul(f_mul(h, phi1), r))
 
 
@@ -135,7 +137,7 @@ def etd2rk(p, v, h, forces):
     r = f_sub(f, f_mul(lam, v))
     w = f_add(v, f_mul(f_mul(h, phi2), r))
     d = f_sub(forces.forcing(f_add(p, f_mul(h, w)), drag), f)
-    p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))))
+    p = forces.move(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))))
     return p, f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))))
 
 

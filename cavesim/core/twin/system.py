@@ -19,6 +19,7 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
 from cavesim.core.portable.forces import PortableForces
+from cavesim.core.position import low_code, low_part, split_position
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.core.scene.model import Arithmetic, CollisionKind, FieldKind, Scene
@@ -30,31 +31,42 @@ from cavesim.core.twin.kernels import PORTABLE, Kernels, reference_kernels
 
 @dataclass
 class TwinParticles:
-    pos: np.ndarray  # (N, 3) dtype
+    pos: np.ndarray  # (N, 3) dtype: hi, the record's float32 position (float64: all of it)
+    pos_low: np.ndarray  # (N, 3) float32: what pos leaves out, as the record keeps it
     vel: np.ndarray  # (N, 3) dtype
     age: np.ndarray  # (N,) float64, as on the GPU
     lifetime: np.ndarray  # (N,) float32
-    class_id: np.ndarray  # (N,) uint32
+    class_id: np.ndarray  # (N,) uint8
 
     @classmethod
     def from_records(cls, records: np.ndarray, dtype) -> TwinParticles:
-        return cls(records["pos"].astype(dtype), records["vel"].astype(dtype),
-                   records["age"].copy(), records["lifetime"].copy(), records["class_id"].copy())
+        return cls(records["pos"].astype(dtype), low_part(records["pos"], records["pos_low"]),
+                   records["vel"].astype(dtype), records["age"].copy(),
+                   records["lifetime"].copy(), records["class_id"].copy())
+
+    def position(self) -> np.ndarray:
+        """pos + pos_low in pos's dtype (exact in float64)."""
+        return self.pos + self.pos_low.astype(self.pos.dtype)
 
     def records(self) -> np.ndarray:
         out = np.zeros(len(self.age), dtype=PARTICLE_DTYPE)
-        out["pos"], out["vel"], out["age"] = self.pos, self.vel, self.age
+        if self.pos.dtype == np.float64:
+            out["pos"], out["pos_low"] = split_position(self.position())
+        else:
+            out["pos"], out["pos_low"] = self.pos, low_code(self.pos, self.pos_low)
+        out["vel"], out["age"] = self.vel, self.age
         out["lifetime"], out["class_id"] = self.lifetime, self.class_id
         return out
 
     def select(self, keep: np.ndarray) -> TwinParticles:
-        return TwinParticles(self.pos[keep], self.vel[keep], self.age[keep],
-                             self.lifetime[keep], self.class_id[keep])
+        return TwinParticles(*(getattr(self, name)[keep] for name in _FIELDS))
 
     @classmethod
     def concatenate(cls, parts: list[TwinParticles]) -> TwinParticles:
-        return cls(*(np.concatenate([getattr(p, name) for p in parts])
-                     for name in ("pos", "vel", "age", "lifetime", "class_id")))
+        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in _FIELDS))
+
+
+_FIELDS = ("pos", "pos_low", "vel", "age", "lifetime", "class_id")
 
 
 # as in physics.glsl, whose float32 bits it compares: a particle at or beyond it (or not
@@ -141,13 +153,33 @@ class TwinSystem:
         forces = self.forces_for(q.class_id, rotor)
         if self.scene.forces.dispersion is not None:
             forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces))
-        pos, vel = self.integrate(q.pos, q.vel, self.dtype(frame.dt), forces)
-        if self.scene.collision is not None:
-            pos, vel = self.kernels.collide(pos, vel, self.scene.collision, self.heights)
+        pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
         alive &= sane(pos) & sane(vel)
-        moved = TwinParticles(pos, vel, age, q.lifetime, q.class_id).select(alive)
+        moved = TwinParticles(pos, low, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
+
+    def _move(self, q: TwinParticles, h, forces: ForceModel | PortableForces
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pos, pos_low, vel) after one step and the bounce. The portable kernels keep the
+        position as the GPU does, hi + low (position.glsl: the forces' position_low is its
+        step_position_low; a bounce that sets z drops low.z; the record rounds low to its
+        byte); the reference moves its whole position in its own dtype."""
+        portable = isinstance(forces, PortableForces)
+        if portable:
+            forces.position_low = q.pos_low
+            start = q.pos
+        else:
+            start = q.position()
+        pos, vel = self.integrate(start, q.vel, h, forces)
+        low = forces.position_low if portable else np.zeros_like(q.pos_low)
+        if self.scene.collision is not None:
+            moved = pos
+            pos, vel = self.kernels.collide(pos, vel, self.scene.collision, self.heights)
+            low[:, 2] = np.where(pos[:, 2] != moved[:, 2], np.float32(0.0), low[:, 2])
+        if portable:
+            low = low_part(pos, low_code(pos, low))
+        return pos, low, vel
 
     def _turbulence(self, frame: FrameInput, forces: ForceModel | PortableForces
                     ) -> np.ndarray:

@@ -16,6 +16,7 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import CavesimError
+from cavesim.core.position import extended_position
 from cavesim.core.scene.model import Arithmetic, FieldSampling, Integrator
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
@@ -95,7 +96,7 @@ def _timed_run(ctx: moderngl.Context, system: ParticleSystem, case: Case, dt: fl
         seconds.append(time.perf_counter() - start)
     _check_count(system.live_count, case, f"GPU, dt={dt:.6g}")
     state = system.read_particles()
-    return Run(dt, steps, end_time(final_time, dt), state["pos"].astype(np.float64),
+    return Run(dt, steps, end_time(final_time, dt), extended_position(state),
                state["vel"].astype(np.float64), statistics.median(seconds))
 
 
@@ -110,7 +111,7 @@ def twin_runs(case: Case, integrator: Integrator, dts: tuple[float, ...],
         for _ in range(steps):
             twin.step(frame, case.frame)
         _check_count(twin.live_count, case, f"float64 twin, {integrator.value}, dt={dt:.6g}")
-        runs.append(Run(dt, steps, end_time(final_time, dt), twin.particles.pos.copy(),
+        runs.append(Run(dt, steps, end_time(final_time, dt), twin.particles.position(),
                         twin.particles.vel.copy()))
     return runs
 

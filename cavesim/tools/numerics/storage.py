@@ -11,15 +11,17 @@ the float64 twin and the same twin whose state is rounded to float32 after every
 form is as good as float32 allows when its float32 floor (RMS |GPU - twin|) is at the
 storage floor (README: the float32 floor).
 
-`compensated=True` stores the position as a float32 pair instead (hi + lo, lo the float32
-of what hi leaves out, as a Kahan-compensated position would keep it on the GPU): what a
-wider state would buy below the float32 storage floor.
+The position is stored as the particle record keeps it: float32 hi and a byte for what hi
+leaves out (cavesim/core/position.py, 32 significant bits); `low_part=False` stores it as
+one float32, as the record did before it had the low part.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from cavesim.core.position import extended_position, split_position
+from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin import INTEGRATORS, TwinSystem
 from cavesim.tools.numerics.cases import Case
@@ -27,10 +29,10 @@ from cavesim.tools.numerics.cases import Case
 
 def storage_floors(case: Case, integrator: Integrator, dts: tuple[float, ...],
                    final_time: float, round_velocity: bool = True,
-                   compensated: bool = False) -> list[float]:
-    """m: per dt, RMS |float64 run - float64 run stored in float32 every step| at final_time
-    (its position, as a float32 pair if `compensated`, and its velocity unless
-    `round_velocity` is False)."""
+                   low_part: bool = True) -> list[float]:
+    """m: per dt, RMS |float64 run - float64 run stored as the record keeps it every step| at
+    final_time (its position, as a float32 alone unless `low_part`, and its velocity in
+    float32 unless `round_velocity` is False)."""
     twin = TwinSystem(case.scene(integrator), np.float64)
     rotor = twin.rotor_inputs.read(case.frame) if twin.rotor_inputs is not None else None
     forces = twin.forces_for(case.particles["class_id"], rotor)
@@ -43,16 +45,17 @@ def storage_floors(case: Case, integrator: Integrator, dts: tuple[float, ...],
         for _ in range(round(final_time / dt)):
             exact_p, exact_v = step(exact_p, exact_v, h, forces)
             stored_p, stored_v = step(stored_p, stored_v, h, forces)
-            stored_p = stored_position(stored_p, compensated)
+            stored_p = stored_position(stored_p, low_part)
             if round_velocity:
                 stored_v = stored_v.astype(np.float32).astype(np.float64)
         floors.append(float(np.sqrt(np.mean(np.sum((exact_p - stored_p) ** 2, axis=1)))))
     return floors
 
 
-def stored_position(position: np.ndarray, compensated: bool) -> np.ndarray:
-    """The float64 position as float32 keeps it: one float32, or hi + lo (two float32)."""
-    high = position.astype(np.float32).astype(np.float64)
-    if not compensated:
-        return high
-    return high + (position - high).astype(np.float32).astype(np.float64)
+def stored_position(position: np.ndarray, low_part: bool) -> np.ndarray:
+    """The float64 position as the record keeps it: hi and its low part, or hi alone."""
+    if not low_part:
+        return position.astype(np.float32).astype(np.float64)
+    records = np.zeros(len(position), PARTICLE_DTYPE)
+    records["pos"], records["pos_low"] = split_position(position)
+    return extended_position(records)

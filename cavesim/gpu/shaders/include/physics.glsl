@@ -7,6 +7,7 @@
 // float32 by cavesim/core/portable/.
 #pragma once
 #include "arithmetic.glsl"
+#include "position.glsl"
 
 #define INTEGRATOR_EXPLICIT_EULER 0
 #define INTEGRATOR_SEMI_IMPLICIT_EULER 1
@@ -217,15 +218,16 @@ float phi3_weight(float x, float phi2) {
 }
 #endif
 
-// Every method moves the position in ONE addition of a whole increment (p += h * (...)),
-// and the implicit ones step the velocity by an increment of the acceleration r = f - lambda v
-// rather than by weights that decay it: a weight near 1 (e^-x, 1 / (1 + x)) rounded to float32
-// is the same relative error every step, a drift that grows as dt shrinks. So float32 adds only
-// the rounding of the stored state (README: the float32 floor).
+// Every method moves the position once a step, by one whole increment: p = move(p, h * (...))
+// adds it to the position's 32 bits exactly (position.glsl). The implicit ones step the
+// velocity by an increment of the acceleration r = f - lambda v rather than by weights that
+// decay it: a weight near 1 (e^-x, 1 / (1 + x)) rounded to float32 is the same relative error
+// every step, a drift that grows as dt shrinks. So the state's storage is all float32 adds
+// (README: the float32 floor).
 void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #if INTEGRATOR == INTEGRATOR_EXPLICIT_EULER
     vec3 a = acceleration(p, v, inv_tau_p);
-    p = f_add(p, f_mul(h, v));
+    p = move(p, f_mul(h, v));
     v = f_add(v, f_mul(h, a));
 #elif INTEGRATOR == INTEGRATOR_SEMI_IMPLICIT_EULER
     // linearly implicit in the stiff drag and damping, explicit in the rest; the new
@@ -235,18 +237,18 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     linear_parts(p, v, inv_tau_p, f, lambda);
     float weight = f_div(h, f_add(1.0, f_mul(h, lambda)));
     v = f_add(v, f_mul(weight, f_sub(f, f_mul(lambda, v))));
-    p = f_add(p, f_mul(h, v));
+    p = move(p, f_mul(h, v));
 #elif INTEGRATOR == INTEGRATOR_TRAPEZOID
     // UberFlow eq. (1)-(2): Euler velocity, position from the mean of old and new velocity
     float half_h = f_mul(0.5, h);
     vec3 v1 = f_add(v, f_mul(h, acceleration(p, v, inv_tau_p)));
-    p = f_add(p, f_mul(half_h, f_add(v, v1)));
+    p = move(p, f_mul(half_h, f_add(v, v1)));
     v = v1;
 #elif INTEGRATOR == INTEGRATOR_VERLET
     // velocity Verlet; the drag's velocity dependence is met with an Euler-predicted velocity
     float half_h = f_mul(0.5, h);
     vec3 a0 = acceleration(p, v, inv_tau_p);
-    p = f_add(p, f_mul(h, f_add(v, f_mul(half_h, a0))));
+    p = move(p, f_mul(h, f_add(v, f_mul(half_h, a0))));
     vec3 a1 = acceleration(p, f_add(v, f_mul(h, a0)), inv_tau_p);
     v = f_add(v, f_mul(half_h, f_add(a0, a1)));
 #elif INTEGRATOR == INTEGRATOR_RK2
@@ -255,7 +257,7 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     vec3 a0 = acceleration(p, v, inv_tau_p);
     vec3 pm = f_add(p, f_mul(half_h, v));
     vec3 vm = f_add(v, f_mul(half_h, a0));
-    p = f_add(p, f_mul(h, vm));
+    p = move(p, f_mul(h, vm));
     v = f_add(v, f_mul(h, acceleration(pm, vm, inv_tau_p)));
 #elif INTEGRATOR == INTEGRATOR_RK4
     float half_h = f_mul(0.5, h);
@@ -270,7 +272,7 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     vec3 dp = f_add(f_add(f_add(k1p, f_mul(2.0, k2p)), f_mul(2.0, k3p)), k4p);
     vec3 dv = f_add(f_add(f_add(k1v, f_mul(2.0, k2v)), f_mul(2.0, k3v)), k4v);
     float sixth_h = f_div(h, 6.0);
-    p = f_add(p, f_mul(sixth_h, dp));
+    p = move(p, f_mul(sixth_h, dp));
     v = f_add(v, f_mul(sixth_h, dv));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
     // Exponential Euler: exact solution of dv/dt = f - lambda v with the flow and the drag
@@ -282,7 +284,7 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     float e, phi1, phi2;
     exponential_weights(f_mul(lambda, h), e, phi1, phi2);
     vec3 r = f_sub(f, f_mul(lambda, v));
-    p = f_add(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))));
+    p = move(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))));
     v = f_add(v, f_mul(f_mul(h, phi1), r));
 #elif INTEGRATOR == INTEGRATOR_ETD2RK
     // ETD2RK (Cox & Matthews 2002), order 2 and stable for any step: the exponential step
@@ -301,7 +303,7 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     vec3 w = f_add(v, f_mul(f_mul(h, phi2), r));
     // the drag rate held over the step (Schiller-Naumann's from the slip at its start)
     vec3 d = f_sub(forcing_at(f_add(p, f_mul(h, w)), drag), f);
-    p = f_add(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))));
+    p = move(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))));
     v = f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))));
 #else
 #error unknown INTEGRATOR
@@ -333,6 +335,7 @@ void collide(inout vec3 p, inout vec3 v) {
         return;
     }
     p.z = height;
+    step_position_low.z = 0.0;
     float vn = f_dot(v, n);
     if (vn < 0.0) {
         vec3 v_normal = f_mul(vn, n);
@@ -371,10 +374,12 @@ bool advance(inout Particle q, float h, uint index) {
 #if HAS_DISPERSION
     step_turbulence = turbulence_seen(q.pos, q.vel, inv_tau_p, index, h);
 #endif
+    step_position_low = q.pos_low;
     integrate(q.pos, q.vel, inv_tau_p, h);
 #if COLLISION != COLLISION_NONE
     collide(q.pos, q.vel);
 #endif
+    q.pos_low = step_position_low;
     return finite(q.pos) && finite(q.vel);
 }
 

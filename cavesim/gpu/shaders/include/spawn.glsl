@@ -19,6 +19,7 @@ Particle spawn(int e, uint serial) {
     Particle q;
     vec3 in_box = f_sub(vec3(unit_float(r0.x), unit_float(r0.y), unit_float(r0.z)), vec3(0.5));
     q.pos = f_add(emitter_center(e), f_mul(in_box, emitter_extent(e)));
+    q.pos_low = vec3(0.0);
     // versine form: sqrt(1 - cos^2) would cancel in float32 for narrow cones
     float versine = f_mul(unit_float(r0.w), emitter_versine_spread(e));
     float cos_theta = f_sub(1.0, versine);
