@@ -51,8 +51,9 @@ NOTES = (
     f"deposited cloud-in-cell on {CLOUD_CELL:g} m cubes around the reference cloud, and "
     "the fraction of the cloud's mass misplaced against the reference's (half the L1 "
     "distance of the normalized densities; 0 = the same cloud, 1 = disjoint)",
-    "float32 floor = RMS |GPU - f64| at the finest dt: float32 arithmetic alone, where it "
-    "is largest",
+    "float32 floor = RMS |GPU - f64| at the finest dt, where it is largest: float32 "
+    "arithmetic and the stored state alone (the position kept to 32 bits, float32 and a "
+    "byte of what it leaves out; the velocity in float32)",
     "filtering = RMS |GPU with hardware filtering - GPU with manual trilinear| (vortex only: "
     "the uniform field is exact either way, the rotor flow has no texture); filter weights "
     "are the renderer's own (many GPUs use 8-bit fixed point), so it holds for this one only",
