@@ -48,7 +48,7 @@ def write_log(path: Path, frames: int = FRAMES) -> bytes:
 def test_a_whole_log_reads_back_every_frame(tmp_path):
     write_log(tmp_path / "frames.log")
     header, frames = read_frame_log(tmp_path / "frames.log")
-    assert header["version"] == 2 and frames.damage is None and len(frames) == FRAMES
+    assert header["version"] == 3 and frames.damage is None and len(frames) == FRAMES
     assert [(f.message.frame, f.digest, f.particles) for f in frames] == \
         [(k, f"{k:032x}", 100 * k) for k in range(1, FRAMES + 1)]
 

@@ -37,7 +37,7 @@ from cavesim.core.output import writing
 from cavesim.core.wire import FrameMessage, decode, encode
 
 FORMAT = "cavesim-frame-log"
-VERSION = 2
+VERSION = 3  # 3: digests of records that keep the position's low part (position.py)
 SYNC_SECONDS = 1.0  # most time between fsyncs: what a power loss may take
 TORN, CORRUPT = "torn", "corrupt"
 _U32 = struct.Struct("<I")  # a payload size or a CRC32
