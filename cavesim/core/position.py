@@ -14,7 +14,6 @@ import numpy as np
 
 from cavesim.core.portable.arithmetic import f_add, f_mul, f_sub
 
-LOW_STEPS = 256  # codes per float32 spacing of hi
 LOW_EXPONENT_MIN = 32  # hi's exponent field below which low is 0 (its unit is subnormal)
 
 
