@@ -20,9 +20,10 @@ from cavesim.tools.doctor.checks import check_windows, check_zenoh
 from cavesim.tools.doctor.verdict import judge
 
 DEVICE = {"index": 0, "kind": "software", "usable": True, "opened": True,
-          "renderer": "llvmpipe", "largest_capacity": 3_355_443, "problem": None, "fix": None}
+          "renderer": "llvmpipe", "largest_capacity": 3_355_443, "state_bytes": 134_217_720,
+          "problem": None, "fix": None}
 GPU = {**DEVICE, "index": 1, "kind": "hardware", "renderer": "NVIDIA H100",
-       "largest_capacity": 53_687_091}
+       "largest_capacity": 53_687_091, "state_bytes": 2_147_483_640}
 ZENOH = {"opened": True, "error": None, "connect": [], "peers": [], "routers": []}
 WINDOWS = {"can_open": True, "reason": None}
 
@@ -38,7 +39,9 @@ def test_a_usable_device_and_a_session_make_a_node_that_can_run():
     verdict = judge(findings([DEVICE, GPU]))
     assert verdict.ok and verdict.fix == "" and verdict.warnings == ()
     assert "0 (software, llvmpipe), 1 (hardware, NVIDIA H100)" in verdict.reason
-    assert "up to 53,687,091 particles per wall on device 1" in verdict.reason
+    assert "up to 53,687,091 particles per wall on device 1 (2.00 GiB per particle buffer)" \
+        in verdict.reason
+    assert (verdict.largest_capacity, verdict.state_bytes) == (53_687_091, 2_147_483_640)
 
 
 def test_no_egl_names_the_problem_and_its_fix():

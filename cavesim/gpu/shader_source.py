@@ -37,7 +37,9 @@ _DEFINE = re.compile(r"\s*#\s*define\s+(\w+)")
 _VERSION = re.compile(r"\s*#\s*version\b")
 _LINE_MARKER = re.compile(r"#line \d+ \d+")
 _CONDITIONAL_BRANCH = re.compile(r"\s*#\s*(else|elif|endif)\b")
-_LOCATION = re.compile(r"^(?P<prefix>(?:ERROR|WARNING): )?(?P<source>\d+):(?P<line>\d+)", re.M)
+# A compiler log's leading source and line: Mesa writes `K:LINE(COLUMN)`, NVIDIA `K(LINE)`
+_LOCATION = re.compile(r"^(?P<prefix>(?:ERROR|WARNING): )?(?P<source>\d+)"
+                       r"(?::(?P<line>\d+)|\((?P<paren_line>\d+)\))", re.M)
 _FAILED_STAGE = re.compile(r"^(vertex|geometry|fragment|compute)_shader$", re.M)
 
 
@@ -49,7 +51,8 @@ class ShaderSource:
     files: tuple[str, ...]
 
     def explain(self, log: str) -> str:
-        """Return a compiler log with each leading `K:LINE` replaced by `file.glsl:LINE`."""
+        """Return a compiler log with each leading `K:LINE` (Mesa) or `K(LINE)` (NVIDIA)
+        replaced by `file.glsl:LINE`."""
 
         # Mesa's parser resets the source number to 0 on every grammar rule (YYLLOC_DEFAULT);
         # only token-located messages (syntax, preprocessor, some semantic) keep it. So e.g.
@@ -59,7 +62,8 @@ class ShaderSource:
             source = int(match["source"])
             if source >= len(self.files):
                 return match[0]
-            return f"{match['prefix'] or ''}{self.files[source]}:{match['line']}"
+            line = match["line"] or match["paren_line"]
+            return f"{match['prefix'] or ''}{self.files[source]}:{line}"
 
         return _LOCATION.sub(name_file, log)
 

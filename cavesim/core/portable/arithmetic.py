@@ -291,7 +291,7 @@ def f_sin(x):
     x, special = _finite_or_zero(_float32(x))
     sin_r, cos_r, quadrant = _sin_cos_reduced(x)
     value = _select(quadrant & 1, cos_r, sin_r)
-    return _where_rare(special, _QUIET_NAN, _negate_where(quadrant >> 1 & 1, value))
+    return _quiet(_where_rare(special, _QUIET_NAN, _negate_where(quadrant >> 1 & 1, value)))
 
 
 @_quiet_floating_point
@@ -300,7 +300,7 @@ def f_cos(x):
     sin_r, cos_r, quadrant = _sin_cos_reduced(x)
     value = _select(quadrant & 1, sin_r, cos_r)
     negative = (quadrant + 1) >> 1 & 1  # quadrants 1 and 2
-    return _where_rare(special, _QUIET_NAN, _negate_where(negative, value))
+    return _quiet(_where_rare(special, _QUIET_NAN, _negate_where(negative, value)))
 
 
 @_quiet_floating_point

@@ -18,57 +18,67 @@ import moderngl
 
 from cavesim.core.errors import ContextError
 from cavesim.gpu.gl.denormals import flushing_denormals
-from cavesim.gpu.gl.devices import LIST_HINT, PACKAGE_HINT, find_device
+from cavesim.gpu.gl.devices import LIST_HINT, find_device
+from cavesim.gpu.gl.driver import REQUIRED_GL_VERSION, Driver, SystemDriver
+from cavesim.gpu.gl.vendors import vendor_of
 
-REQUIRED_GL_VERSION = 430  # compute shaders, SSBOs (GS + TF need 3.3); every program's #version
 DEVICE_VARIABLE = "GLCONTEXT_DEVICE_INDEX"  # glcontext lets it override device_index
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")  # CPU renderers a display may give
 
 
-def create_context(require: int = REQUIRED_GL_VERSION,
-                   device: int | None = None) -> moderngl.Context:
-    """Open a standalone EGL context of GL `require` or newer on EGL device `device`
-    (None: the default, device 0) with a tiny framebuffer bound."""
+def create_context(device: int | None = None, driver: Driver | None = None) -> moderngl.Context:
+    """Open a standalone EGL context of GL 4.3 core on EGL device `device` (None: the
+    default, device 0) with a tiny framebuffer bound; `driver`: this machine's by default."""
+    driver = driver or SystemDriver()
     try:
         index = _device_index(device)
-        egl_device, count = find_device(index)
+        egl_device, count = find_device(index, driver)
     except ContextError as e:
         raise ContextError(f"cannot open a headless OpenGL context: {e.problem}", e.fix) from e
+    fix = vendor_of(egl_device.extensions).fix
     try:
         # the driver's threads start now and keep this thread's denormal mode: see
         # cavesim.gpu.gl.denormals (compute dispatches must round as draws do)
         with flushing_denormals():
-            ctx = moderngl.create_standalone_context(backend="egl", require=require,
-                                                     device_index=index)
+            ctx = driver.open_context(index)
     except Exception as e:  # moderngl/glcontext raise plain Exception for a missing library
         message = " ".join(str(e).split())
         raise ContextError(f"cannot open a headless OpenGL context through EGL on device "
                            f"{index} ({egl_device.kind}, one of {count}): {message}",
-                           f"{PACKAGE_HINT}; {LIST_HINT}") from e
-    return _ready(ctx, require, f"EGL device {index}", egl_device.index, egl_device.kind)
+                           f"{fix}; {LIST_HINT}") from e
+    return _ready(ctx, f"EGL device {index}", egl_device.index, egl_device.kind,
+                  egl_device.extensions)
 
 
-def attach_context(require: int = REQUIRED_GL_VERSION) -> moderngl.Context:
-    """The context current on this thread (a window's, `cavesim.gpu.window`), made ready
-    like a headless one. Its GPU is the X display's; device 0 in reports."""
-    ctx = moderngl.create_context(require=require)
+def attach_context() -> moderngl.Context:
+    """The context current on this thread (a window's, `cavesim.gpu.window`, made with GL
+    4.3 core hints), made ready like a headless one. Its GPU is the X display's; device 0
+    in reports."""
+    ctx = moderngl.create_context(require=REQUIRED_GL_VERSION)
     software = any(name in ctx.info["GL_RENDERER"] for name in SOFTWARE_RENDERERS)
-    return _ready(ctx, require, f"the display {os.environ.get('DISPLAY')!r}", 0,
+    return _ready(ctx, f"the display {os.environ.get('DISPLAY')!r}", 0,
                   "software" if software else "hardware")
 
 
-def _ready(ctx: moderngl.Context, require: int, where: str, device: int,
-           kind: str) -> moderngl.Context:
-    """`ctx` checked for GL `require`, with a tiny framebuffer bound for transform feedback
-    and its device named for `gpu_of`."""
-    if ctx.version_code < require:
+def version_text(code: int) -> str:
+    """430 -> '4.3'."""
+    return f"{code // 100}.{code % 100 // 10}"
+
+
+def _ready(ctx: moderngl.Context, where: str, device: int, kind: str,
+           device_extensions: tuple[str, ...] = ()) -> moderngl.Context:
+    """`ctx` checked for GL 4.3, with a tiny framebuffer bound for transform feedback and
+    its device named for `gpu_of`."""
+    if ctx.version_code < REQUIRED_GL_VERSION:
         found = ctx.info.get("GL_VERSION")
+        fix = vendor_of(device_extensions, ctx.info).fix
         ctx.release()
-        raise ContextError(f"OpenGL {require // 100}.{require % 100 // 10} core is required, "
-                           f"{where} offers {found!r}", f"{PACKAGE_HINT} for Mesa's llvmpipe")
+        raise ContextError(f"OpenGL {version_text(REQUIRED_GL_VERSION)} core is required, "
+                           f"{where} offers {found!r}", fix)
     framebuffer = ctx.simple_framebuffer((1, 1))
     framebuffer.use()
-    ctx.extra = {"framebuffer": framebuffer, "device": device, "kind": kind}
+    ctx.extra = {"framebuffer": framebuffer, "device": device, "kind": kind,
+                 "extensions": device_extensions}
     return ctx
 
 

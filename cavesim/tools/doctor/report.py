@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
 
@@ -15,24 +16,39 @@ from rich.table import Table
 from cavesim.core.errors import ContextError
 from cavesim.core.output import check_written, writing
 from cavesim.core.wire.network import NetworkConfig
-from cavesim.gpu.gl.devices import VENDOR_VARIABLE, library_name, list_devices
+from cavesim.gpu.gl.devices import list_devices
+from cavesim.gpu.gl.driver import VENDOR_VARIABLE, Driver, SystemDriver, library_name
 from cavesim.tools.doctor.checks import check_windows, check_zenoh
 from cavesim.tools.doctor.probe import LIMITS, probe
 from cavesim.tools.doctor.verdict import Verdict, judge
 
 
-def gather(network: NetworkConfig) -> dict:
-    """Everything the doctor looks at, as JSON-ready values (the verdict comes after)."""
+def gather(network: NetworkConfig, driver: Driver | None = None,
+           probe_device: Callable[[int, tuple[str, ...]], dict] = probe) -> dict:
+    """Everything the doctor looks at, as JSON-ready values (the verdict comes after).
+    `driver` and `probe_device` stand in for this machine's in tests."""
     egl = {"library": library_name(), "vendor_files": os.environ.get(VENDOR_VARIABLE)}
     try:
-        listed = list_devices()
+        driver = driver or SystemDriver()
+        egl["client_extensions"] = driver.client_extensions()
+        listed = list_devices(driver)
     except ContextError as e:
         egl.update(problem=e.problem, fix=e.fix)
         listed = ()
-    return {"cavesim": metadata.version("cavesim"), "python": platform.python_version(),
+    return {"cavesim": cavesim_version(), "python": platform.python_version(),
             "host": platform.node(), "egl": egl,
-            "devices": [{**device.summary(), **probe(device.index)} for device in listed],
+            "devices": [{**device.summary(), **probe_device(device.index, device.extensions)}
+                        for device in listed],
             "zenoh": check_zenoh(network), "windows": check_windows()}
+
+
+def cavesim_version() -> str:
+    """The installed distribution's version, or where a source tree pip never installed
+    runs from."""
+    try:
+        return metadata.version("cavesim")
+    except metadata.PackageNotFoundError:
+        return f"source tree at {Path(__file__).resolve().parents[3]} (not installed)"
 
 
 def run_doctor(network: NetworkConfig, out: Path, console: Console) -> Verdict:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from cavesim.gpu.gl.devices import PACKAGE_HINT
+from cavesim.gpu.gl.driver import PACKAGE_HINT
 
 ZENOH_FIX = ("check --listen, --connect and --config: a port already in use, or an address "
              "that is not this host's")
@@ -17,6 +17,8 @@ class Verdict:
     reason: str  # one line
     fix: str = ""  # one line; empty when ok
     warnings: tuple[str, ...] = ()
+    largest_capacity: int = 0  # particles per wall on the best device; 0 when not ok
+    state_bytes: int = 0  # one particle buffer of that many particles
 
     def summary(self) -> dict:
         return {**asdict(self), "warnings": list(self.warnings)}
@@ -43,9 +45,17 @@ def judge(findings: dict) -> Verdict:
         return Verdict(False, f"the zenoh session does not open: {zenoh['error']}", ZENOH_FIX)
     best = max(usable, key=lambda d: d["largest_capacity"])
     indices = ", ".join(f"{d['index']} ({d['kind']}, {d['renderer']})" for d in usable)
+    size = binary_size(best["state_bytes"])
     return Verdict(True, f"this node can run cavesim on EGL device(s) {indices}; up to "
                          f"{best['largest_capacity']:,} particles per wall on device "
-                         f"{best['index']}", warnings=tuple(_warnings(findings, usable)))
+                         f"{best['index']} ({size} per particle buffer)",
+                   warnings=tuple(_warnings(findings, usable)),
+                   largest_capacity=best["largest_capacity"], state_bytes=best["state_bytes"])
+
+
+def binary_size(size: int) -> str:
+    """3_355_443 * 40 -> '128 MiB'; 2**31 -> '2.00 GiB'."""
+    return f"{size / 2**30:.2f} GiB" if size >= 2**30 else f"{size / 2**20:.0f} MiB"
 
 
 def _warnings(findings: dict, usable: list[dict]) -> list[str]:

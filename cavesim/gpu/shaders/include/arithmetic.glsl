@@ -503,7 +503,8 @@ float f_sin(float x) {
     int quadrant;
     arith_sin_cos_reduced(x, sin_r, cos_r, quadrant);
     float value = (quadrant & 1) == 0 ? sin_r : cos_r;
-    return quadrant >= 2 ? -value : value;
+    // |x| too large for the reduction makes inf - inf inside it: the hardware's own NaN
+    return arith_quiet(quadrant >= 2 ? -value : value);
 }
 
 // cos x; accurate for |x| <= 8192 (README.md), NaN for inf and NaN.
@@ -516,7 +517,8 @@ float f_cos(float x) {
     int quadrant;
     arith_sin_cos_reduced(x, sin_r, cos_r, quadrant);
     float value = (quadrant & 1) == 0 ? cos_r : sin_r;
-    return quadrant == 1 || quadrant == 2 ? -value : value;
+    // |x| too large for the reduction makes inf - inf inside it: the hardware's own NaN
+    return arith_quiet(quadrant == 1 || quadrant == 2 ? -value : value);
 }
 
 // --- vector forms, each one defined sequence ------------------------------------------
