@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Set up (if needed) with the test dependencies, lint, and run the whole test suite
-# (slow tests included). Extra arguments go to pytest.
+# (slow tests included), failing any test whose outside tool is missing rather than
+# skipping it. Extra arguments go to pytest.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 "$root/deploy/setup.sh" --test
 cd "$root"
 .venv/bin/ruff check cavesim tests
-exec .venv/bin/python -m pytest "$@"
+exec .venv/bin/python -m pytest --require-tools "$@"

@@ -4,6 +4,8 @@ import pytest
 
 from cavesim.gpu.gl.context import create_context
 
+pytest_plugins = ["requirements"]  # @pytest.mark.requires(...) and --require-tools
+
 
 @pytest.fixture(scope="session")
 def gl_session():

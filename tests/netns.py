@@ -29,10 +29,13 @@ def unavailable() -> str | None:
     if os.geteuid() != 0:
         return "network namespaces need root (CI runs the suite as root)"
     if shutil.which("ip") is None:
-        return "no `ip` command: install iproute2 (deploy/setup.sh --test does)"
-    probe = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True)
+        return "no `ip` command: install the Debian package iproute2"
+    # root in a container without CAP_SYS_ADMIN can list namespaces but not add one
+    name = f"{PREFIX}{os.getpid()}-probe"
+    probe = subprocess.run(["ip", "netns", "add", name], capture_output=True, text=True)
     if probe.returncode != 0:
-        return f"`ip netns` does not work here: {probe.stderr.strip()}"
+        return f"`ip netns add` does not work here: {probe.stderr.strip()}"
+    ip("netns", "delete", name)
     return None
 
 

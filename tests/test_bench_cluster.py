@@ -61,6 +61,7 @@ def test_barrier_figures_per_node_count(cluster_bench):
 
 
 @pytest.mark.slow
+@pytest.mark.requires("xvfb")
 def test_swap_skew_of_two_and_four_windows(cluster_bench):
     _, out, report = cluster_bench
     swap = report["swap"]
@@ -89,6 +90,7 @@ def test_lockstep_against_back_to_back(cluster_bench):
 
 
 @pytest.mark.slow
+@pytest.mark.requires("xvfb")
 def test_targets_are_judged_and_printed(cluster_bench):
     done, out, report = cluster_bench
     assert [(t["name"], t["nodes"]) for t in report["targets"]] == [

@@ -13,13 +13,13 @@ import time
 from pathlib import Path
 
 import pytest
+from requirements import CAVESIM
 
 from cavesim.core.limits import DEFAULT_MASTER_PORT
 from cavesim.nodes.launcher import free_port
 
 ROOT = Path(__file__).parents[1]
 LAUNCH = ROOT / "deploy" / "launch.sh"
-CAVESIM = ROOT / ".venv" / "bin" / "cavesim"
 MINIMAL = "config/scenes/minimal.toml"
 SSH = ["ssh", "-tt", "-o", "BatchMode=yes"]
 
@@ -202,6 +202,7 @@ def read_report(out: Path) -> dict:
 
 
 @pytest.mark.slow
+@pytest.mark.requires("venv")
 def test_a_local_run_writes_a_clean_report(tmp_path):
     out = tmp_path / "run"
     done = launch("--walls", "2", "--frames", "30", "--out", str(out), "--scene", MINIMAL,
@@ -227,6 +228,7 @@ def running(session: str) -> list[str]:
 
 
 @pytest.mark.slow
+@pytest.mark.requires("venv")
 def test_a_hosts_file_run_on_this_machine(tmp_path):
     out, session = tmp_path / "run", f"hosts{os.getpid()}"
     done = launch("--hosts", str(local_hosts(tmp_path)), "--frames", "30", "--out", str(out),
@@ -241,6 +243,7 @@ def test_a_hosts_file_run_on_this_machine(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.requires("venv")
 def test_ctrl_c_stops_the_master_and_every_node(tmp_path):
     out, session = tmp_path / "run", f"sigint{os.getpid()}"
     argv = [str(LAUNCH), "--hosts", str(local_hosts(tmp_path)), "--frames", "1000000",

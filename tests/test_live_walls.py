@@ -48,6 +48,7 @@ def live_run(folder: Path, scene: Path, walls: tuple[str, ...], frames: int, arg
 
 
 @pytest.mark.slow
+@pytest.mark.requires("xvfb")
 def test_a_window_shows_the_pixels_of_the_headless_render(xserver, ctx, tmp_path):  # noqa: F811
     cave = live_cave(tmp_path, ("front",), size=96)
     record = live_run(tmp_path, DUST_DEVIL, ("front",), 20, lambda wall: (
@@ -72,6 +73,7 @@ def test_a_window_shows_the_pixels_of_the_headless_render(xserver, ctx, tmp_path
 
 
 @pytest.mark.slow
+@pytest.mark.requires("xvfb")
 def test_four_windows_swap_only_after_every_wall_has_drawn(xserver, tmp_path):  # noqa: F811
     walls = ("front", "left", "right", "floor")
     cave = live_cave(tmp_path, walls)
@@ -86,6 +88,7 @@ def test_four_windows_swap_only_after_every_wall_has_drawn(xserver, tmp_path):  
 
 
 @pytest.mark.slow
+@pytest.mark.requires("xvfb", "xdotool")
 def test_closing_a_wall_window_stops_that_node_and_loses_the_wall(xserver, tmp_path):  # noqa: F811
     walls = ("front", "left", "right")
     cave = live_cave(tmp_path, walls)
@@ -102,6 +105,7 @@ def test_closing_a_wall_window_stops_that_node_and_loses_the_wall(xserver, tmp_p
 
 
 @pytest.mark.slow
+@pytest.mark.requires("xvfb", "xdotool")
 def test_the_preview_window_takes_keys_and_moves_the_head(xserver, tmp_path):  # noqa: F811
     cave = live_cave(tmp_path, ("front", "left", "right", "floor"))
 

@@ -17,7 +17,8 @@ network condition is a run of its own on a fresh network:
 Every run must end with exit status 0, no divergence, every frame 1..F in the frame log and
 all walls agreeing; the cut-off node must be found lost (liveliness) and rejoin by resync.
 The barrier figures (p50/p99/max per condition) are printed as a table and written to
-out/multihost.json. Needs root and `ip netns`; skipped otherwise (CI runs as root).
+out/multihost.json. Needs root, `ip netns` and .venv; skipped otherwise, failed with
+--require-tools (CI runs as root).
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
-from netns import Network, remove_stale, unavailable
+from netns import Network, remove_stale
+from requirements import CAVESIM
 
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.limits import DEFAULT_MASTER_PORT
@@ -41,7 +43,6 @@ from cavesim.core.wire.network import RUNTIME_THREADS
 
 ROOT = Path(__file__).parents[1]
 LAUNCH = ROOT / "deploy" / "launch.sh"
-CAVESIM = ROOT / ".venv" / "bin" / "cavesim"
 RELAY = ROOT / "tests" / "delay_relay.py"
 ZENOH_CONFIG = "config/zenoh/multihost.json5"
 SCENE = "config/scenes/minimal.toml"
@@ -105,9 +106,6 @@ def condition(request) -> Condition:
 @pytest.fixture
 def network(condition):
     """Four hosts on one switch, removed afterwards however the test ends."""
-    reason = unavailable()
-    if reason:
-        pytest.skip(reason)
     remove_stale()
     net = Network(("master", *WALLS), run_id(condition))
     try:
@@ -241,6 +239,7 @@ def test_launch_passes_the_zenoh_config_and_real_time_to_the_hosts(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.requires("netns", "venv")
 def test_cluster_on_network_hosts(network, condition, tmp_path):
     report, cut = run(network, condition, tmp_path)
     settings = {"delay_ms_each_way": condition.delay_ms, "packet_loss": condition.loss,

@@ -276,6 +276,7 @@ def probe_builds(repeats=(0, 8)):
             for f in FUNCTIONS for mode in ("native", "portable") for r in repeats]
 
 
+@pytest.mark.requires("glslang")
 def test_every_probe_passes_the_reference_front_end_in_both_modes():
     findings = check_sources(probe_builds())
     assert findings == [], "\n".join(map(str, findings[:5]))
@@ -300,6 +301,7 @@ def preprocessed(spec, defines, tmp_path):
             if line.strip() and not line.startswith("#line")]
 
 
+@pytest.mark.requires("glslang")
 def test_without_arithmetic_defined_the_mode_is_native(tmp_path):
     unset = preprocessed(PREPROCESS_ONLY, {"FUNCTION": 4, "REPEAT": 0}, tmp_path)
     native = preprocessed(ARITHMETIC_PROBE, probe_defines("f_div", "native"), tmp_path)

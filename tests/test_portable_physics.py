@@ -294,6 +294,7 @@ def intermediate_trees(sources: list[tuple[str, ShaderSource]], folder: Path) ->
     return {name: "\n".join(lines) for name, lines in trees.items()}
 
 
+@pytest.mark.requires("glslang")
 def test_portable_shaders_use_no_operation_the_spec_leaves_to_the_driver(tmp_path):
     trees = intermediate_trees(stages(portable_builds()), tmp_path)
     assert len(trees) > 3 * 8 * 9  # 9 variants of each integrator in 3 particle-pass stages
@@ -302,6 +303,7 @@ def test_portable_shaders_use_no_operation_the_spec_leaves_to_the_driver(tmp_pat
     assert not any(found.values()), {name: ops for name, ops in found.items() if ops}
 
 
+@pytest.mark.requires("glslang")
 def test_the_same_check_finds_them_in_native_arithmetic(tmp_path):
     spec, defines = portable_builds()[0]
     native = {**defines, "ARITHMETIC": ARITHMETIC_IDS[Arithmetic.NATIVE]}

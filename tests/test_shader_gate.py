@@ -71,6 +71,7 @@ def test_the_gate_covers_every_scene_and_every_feature_combination(builds):
 
 
 @pytest.mark.slow
+@pytest.mark.requires("glslang")
 def test_every_program_passes_the_reference_front_end_and_the_lint(builds):
     findings = check_sources(builds)
     assert findings == [], "\n".join(map(str, findings[:10]))
@@ -90,6 +91,7 @@ class EndsWithLine(ProgramSpec):
                 for stage, source in super().sources(defines).items()}
 
 
+@pytest.mark.requires("glslang")
 def test_the_gate_fails_a_program_that_ends_with_a_line_directive():
     spec = EndsWithLine(**{f.name: getattr(PARTICLE_UPDATE, f.name)
                            for f in dataclasses.fields(ProgramSpec)})
@@ -107,6 +109,7 @@ def test_lint_passes_what_the_assembler_writes():
     assert lint(ShaderSource("void main() {}\n  #  line 3 1\n\n", ("a.glsl",)))
 
 
+@pytest.mark.requires("glslang")
 def test_reference_front_end_errors_name_the_included_file_and_line():
     spec = ProgramSpec("gl/program.glsl", ("vertex", "fragment"), root=FIXTURES)
     (finding,) = check_sources([Build(spec, (), "test")])
@@ -114,6 +117,7 @@ def test_reference_front_end_errors_name_the_included_file_and_line():
     assert finding.message.startswith("ERROR: gl/broken_helper.glsl:3:")
 
 
+@pytest.mark.requires("glslang")
 def test_reference_front_end_catches_what_llvmpipe_lets_through(tmp_path, ctx):
     # an implicit uint -> int conversion: GLSL forbids it, glslang and NVIDIA reject it
     (tmp_path / "lax.glsl").write_text(

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import shutil
 import subprocess
 import time
 from contextlib import ExitStack
@@ -18,10 +17,9 @@ from cavesim.tools.xvfb import XServerError, virtual_display
 
 @pytest.fixture(scope="module")
 def xserver():
-    """An Xvfb display (":N") for the module's tests; DISPLAY names it while they run."""
-    if shutil.which("xdotool") is None:
-        pytest.fail("the window tests need xdotool: deploy/setup.sh --test installs the "
-                    "Debian packages xvfb and xdotool")
+    """An Xvfb display (":N") for the module's tests; DISPLAY names it while they run.
+    A test using it is marked `requires("xvfb")`, and `requires("xdotool")` as well when it
+    calls the functions below (tests/requirements.py)."""
     with ExitStack() as stack:
         try:
             display = stack.enter_context(virtual_display())
