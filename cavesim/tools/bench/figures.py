@@ -1,6 +1,7 @@
 """What one benchmark size measured (median seconds per path) and the targets it is held to.
 
 `TARGETS` is the one table the report and the tests both read, so they cannot drift apart.
+The numpy twin is timed only up to a size cap: above it its seconds, rate and ratio are None.
 """
 
 from __future__ import annotations
@@ -29,9 +30,8 @@ class SizeFigures:
     compute_update_s: float  # the compute particle pass alone (in place, survivor masks)
     checksum_s: float  # one ParticleSystem.checksum()
     copy_s: float  # ctx.copy_buffer of the live particle state: the memory-bandwidth bound
-    numpy_s: float  # one TwinSystem(float32).step
-    gpu_frames: int  # timed frames of each GL path (after the warm-up)
-    numpy_frames: int  # timed frames of the numpy twin
+    numpy_s: float | None  # one TwinSystem(float32).step; None: not timed at this size
+    frames: dict[str, int]  # timed frames per path (after the warm-up), 0 where not timed
     live_after: int  # live particles after the timed frames: all of them, nothing dies
 
     @property
@@ -56,9 +56,9 @@ class SizeFigures:
         return self.compute_update_s / self.copy_s
 
     @property
-    def gs_tf_vs_numpy(self) -> float:
+    def gs_tf_vs_numpy(self) -> float | None:
         """Speedup of the GS/TF frame over the numpy float32 twin's step."""
-        return self.numpy_s / self.gs_tf_frame_s
+        return None if self.numpy_s is None else self.numpy_s / self.gs_tf_frame_s
 
     @property
     def gs_tf_portable_cost(self) -> float:
@@ -75,20 +75,20 @@ class SizeFigures:
         """Checksum time as a share of the compute path's whole frame."""
         return self.checksum_s / self.compute_frame_s
 
-    def seconds(self, path: str) -> float:
+    def seconds(self, path: str) -> float | None:
         return getattr(self, f"{path}_s")
 
-    def particles_per_s(self, path: str) -> float:
-        return self.particles / self.seconds(path)
+    def particles_per_s(self, path: str) -> float | None:
+        seconds = self.seconds(path)
+        return None if seconds is None else self.particles / seconds
 
-    def ratio(self, name: str) -> float:
+    def ratio(self, name: str) -> float | None:
         return getattr(self, name)
 
     def to_json(self) -> dict[str, object]:
         return {
             "particles": self.particles,
-            "frames": {**dict.fromkeys(PATHS[:-1], self.gpu_frames),
-                       "numpy": self.numpy_frames},
+            "frames": {path: self.frames[path] for path in PATHS},
             "seconds": {path: self.seconds(path) for path in PATHS},
             "particles_per_s": {path: self.particles_per_s(path) for path in PATHS},
             "ratios": {name: self.ratio(name) for name in RATIOS},
@@ -109,11 +109,17 @@ class Target:
         return {">=": operator.ge, "<=": operator.le}[self.comparison](value, self.bound)
 
     def evaluate(self, sizes: list[SizeFigures]) -> dict[str, object]:
-        figures = judged_size(sizes, self.particles)
+        """Judged among the sizes that measured the ratio; `measured`, `met` and
+        `particles` are None where none did (the numpy twin above its cap)."""
+        target = {"name": self.ratio, "meaning": self.meaning, "comparison": self.comparison,
+                  "target": self.bound, "renderer": self.renderer}
+        measured = [figures for figures in sizes if figures.ratio(self.ratio) is not None]
+        if not measured:
+            return {**target, "measured": None, "met": None, "particles": None}
+        figures = judged_size(measured, self.particles)
         value = figures.ratio(self.ratio)
-        return {"name": self.ratio, "meaning": self.meaning, "comparison": self.comparison,
-                "target": self.bound, "measured": value, "met": self.met_by(value),
-                "particles": figures.particles, "renderer": self.renderer}
+        return {**target, "measured": value, "met": self.met_by(value),
+                "particles": figures.particles}
 
 
 # Issue 14's targets (and the earlier numpy and checksum ones), each at its reference size

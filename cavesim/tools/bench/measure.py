@@ -3,7 +3,9 @@
 GL calls are asynchronous, so every timed GL action ends waiting for the GPU (a checksum
 reads its sums back; the rest end in `ctx.finish()`). Each path gets warm-up frames, which
 absorb shader compilation and first-touch costs, then the median of the timed frames is
-kept. Both engine paths step the same particles with the same frames.
+kept: `BenchPlan.frames` of them, fewer (at least MIN_TIMED_FRAMES) once a path's timed
+frames have taken PATH_BUDGET_S, so that the largest sizes end in bounded time. Both
+engine paths step the same particles; the numpy twin is timed only up to a size cap.
 """
 
 from __future__ import annotations
@@ -27,10 +29,25 @@ from cavesim.tools.bench.workload import FRAME_DT, frame_inputs, preload
 
 WARMUP_FRAMES = 2
 NUMPY_WARMUP_FRAMES = 1
-GL_PATHS = 8  # timed per size on the GL context: 2 native and 2 portable frames, 2 updates,
-# checksum, copy
+PATH_BUDGET_S = 2.0  # timed seconds per path and size after which no frame is started
+MIN_TIMED_FRAMES = 3  # a median of fewer would be one frame's noise
+NUMPY_UP_TO = 1_000_000  # particles; beyond, the twin's step takes seconds (0.7 s at 1M, 2 cores)
 
-Tick = Callable[[str], None]  # called after every warm-up or timed frame, with the path name
+
+@dataclasses.dataclass(frozen=True)
+class BenchPlan:
+    frames: int  # timed frames per path at most
+    numpy_up_to: int = NUMPY_UP_TO  # the largest size at which the numpy twin is timed
+    path_budget_s: float = PATH_BUDGET_S
+
+
+@dataclasses.dataclass(frozen=True)
+class Timing:
+    seconds: float  # median of the timed frames
+    frames: int  # how many were timed
+
+
+Measured = Callable[[str, Timing | None], None]  # after each path of PATHS; None: not timed
 
 
 class BenchError(CavesimError, RuntimeError):
@@ -38,54 +55,49 @@ class BenchError(CavesimError, RuntimeError):
 
 
 def numpy_frames(frames: int) -> int:
-    """Timed frames of the numpy twin: fewer, it is slow at large sizes."""
+    """Timed frames of the numpy twin at most: fewer, it is slow at large sizes."""
     return max(2, frames // 3)
 
 
-def ticks_per_size(frames: int) -> int:
-    """How often `measure_size` calls its tick, for a progress bar."""
-    return GL_PATHS * (WARMUP_FRAMES + frames) + NUMPY_WARMUP_FRAMES + numpy_frames(frames)
-
-
-def median_seconds(action: Callable[[], object], warmup: int, frames: int,
-                   tick: Callable[[], None]) -> float:
-    """Median wall time of `frames` calls of `action` after `warmup` untimed ones."""
+def time_frames(action: Callable[[], object], warmup: int, frames: int,
+                budget_s: float) -> Timing:
+    """Median wall time of up to `frames` calls of `action` after `warmup` untimed ones; no
+    call is started once the timed ones took `budget_s`, past the first MIN_TIMED_FRAMES."""
     for _ in range(warmup):
         action()
-        tick()
-    times = []
-    for _ in range(frames):
+    least = min(frames, MIN_TIMED_FRAMES)
+    times: list[float] = []
+    while len(times) < frames and (len(times) < least or sum(times) < budget_s):
         start = time.perf_counter()
         action()
         times.append(time.perf_counter() - start)
-        tick()
-    return statistics.median(times)
+    return Timing(statistics.median(times), len(times))
 
 
-@dataclasses.dataclass(frozen=True)
-class _PathTimes:
-    frame: float
-    update: float
-    checksum: float
-    live_after: int
-
-
-def measure_size(ctx: moderngl.Context, scene: Scene, count: int, frames: int,
-                 tick: Tick) -> SizeFigures:
-    """Time every path on a full pool of `count` particles of `scene`."""
+def measure_size(ctx: moderngl.Context, scene: Scene, count: int, plan: BenchPlan,
+                 measured: Measured) -> SizeFigures:
+    """Time every path on a full pool of `count` particles of `scene`, handing each path's
+    timing to `measured` as soon as it is taken."""
     scene = dataclasses.replace(scene, capacity=count)
     records = preload(scene, count, _ground_grid(scene))
-    gs_tf = _engine_seconds(ctx, scene, Engine.GS_TF, records, frames, tick)
-    compute = _engine_seconds(ctx, scene, Engine.COMPUTE, records, frames, tick)
-    portable = [_portable_frame_seconds(ctx, scene, engine, records, frames, tick)
-                for engine in (Engine.GS_TF, Engine.COMPUTE)]
-    copy = _copy_seconds(ctx, records, frames, tick)
-    numpy_s = _numpy_twin_seconds(scene, records, frames, tick)
+    timings: dict[str, Timing | None] = {}
+
+    def keep(path: str, timing: Timing | None) -> None:
+        timings[path] = timing
+        measured(path, timing)
+
+    live_after = min(_time_engine(ctx, scene, engine, records, plan, keep)
+                     for engine in (Engine.GS_TF, Engine.COMPUTE))
+    for engine in (Engine.GS_TF, Engine.COMPUTE):
+        keep(f"{engine}_portable_frame", _time_portable_frame(ctx, scene, engine, records, plan))
+    keep("copy", _time_copy(ctx, records, plan))
+    numpy_timed = count <= plan.numpy_up_to
+    keep("numpy", _time_numpy_twin(scene, records, plan) if numpy_timed else None)
     if (error := ctx.error) != "GL_NO_ERROR":
         raise BenchError(f"GL reported {error} while benchmarking {count} particles")
-    return SizeFigures(count, gs_tf.frame, compute.frame, *portable, gs_tf.update,
-                       compute.update, gs_tf.checksum, copy, numpy_s, frames,
-                       numpy_frames(frames), min(gs_tf.live_after, compute.live_after))
+    seconds = {f"{path}_s": timing.seconds if timing else None for path, timing in timings.items()}
+    frames = {path: timing.frames if timing else 0 for path, timing in timings.items()}
+    return SizeFigures(count, **seconds, frames=frames, live_after=live_after)
 
 
 def _ground_grid(scene: Scene) -> HeightGrid | None:
@@ -96,67 +108,70 @@ def _ground_grid(scene: Scene) -> HeightGrid | None:
     return load_heightfield(collision.file)
 
 
-def _engine_seconds(ctx: moderngl.Context, scene: Scene, engine: Engine,
-                    records: np.ndarray, frames: int, tick: Tick) -> _PathTimes:
-    """One engine path: whole frames (step + checksum), then its particle pass alone."""
+def _time_engine(ctx: moderngl.Context, scene: Scene, engine: Engine, records: np.ndarray,
+                 plan: BenchPlan, keep: Measured) -> int:
+    """One engine path: whole frames, the checksum alone (GS/TF: it is the same on both),
+    then its particle pass alone; returns the live count after the frames."""
     system = ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
     try:
-        frame_s = _frame_seconds(system, scene, records, frames, lambda: tick(f"{engine} frame"))
+        keep(f"{engine}_frame", _time_whole_frames(system, scene, records, plan))
         live_after = system.live_count
-        checksum_s = median_seconds(system.checksum, WARMUP_FRAMES, frames,
-                                    lambda: tick("checksum")) if engine is Engine.GS_TF else 0.0
-        update_s = median_seconds(lambda: system.bench_particle_pass(np.float32(FRAME_DT)),
-                                  WARMUP_FRAMES, frames, lambda: tick(f"{engine} update"))
+        if engine is Engine.GS_TF:
+            keep("checksum", time_frames(system.checksum, WARMUP_FRAMES, plan.frames,
+                                         plan.path_budget_s))
+        keep(f"{engine}_update",
+             time_frames(lambda: system.bench_particle_pass(np.float32(FRAME_DT)),
+                         WARMUP_FRAMES, plan.frames, plan.path_budget_s))
     finally:
         system.release()
-    return _PathTimes(frame_s, update_s, checksum_s, live_after)
+    return live_after
 
 
-def _portable_frame_seconds(ctx: moderngl.Context, scene: Scene, engine: Engine,
-                            records: np.ndarray, frames: int, tick: Tick) -> float:
+def _time_portable_frame(ctx: moderngl.Context, scene: Scene, engine: Engine,
+                         records: np.ndarray, plan: BenchPlan) -> Timing:
     """Whole frames of one engine path with the scene's arithmetic portable."""
     portable = dataclasses.replace(scene, engine=engine, arithmetic=Arithmetic.PORTABLE)
     system = ParticleSystem(ctx, portable)
     try:
-        return _frame_seconds(system, scene, records, frames,
-                              lambda: tick(f"{engine} portable frame"))
+        return _time_whole_frames(system, scene, records, plan)
     finally:
         system.release()
 
 
-def _frame_seconds(system: ParticleSystem, scene: Scene, records: np.ndarray, frames: int,
-                   tick: Callable[[], None]) -> float:
-    """Median whole frame (step, then the checksum that waits for it) from `records`."""
+def _time_whole_frames(system: ParticleSystem, scene: Scene, records: np.ndarray,
+                       plan: BenchPlan) -> Timing:
+    """Whole frames (step, then the checksum that waits for it) from `records`."""
     system.write_particles(records)
-    inputs = iter(frame_inputs(scene, WARMUP_FRAMES + frames))
+    inputs = iter(frame_inputs(scene, WARMUP_FRAMES + plan.frames))
 
     def frame() -> None:
         system.step(*next(inputs))
         system.checksum()  # reads back: the frame is done
 
-    return median_seconds(frame, WARMUP_FRAMES, frames, tick)
+    return time_frames(frame, WARMUP_FRAMES, plan.frames, plan.path_budget_s)
 
 
-def _copy_seconds(ctx: moderngl.Context, records: np.ndarray, frames: int,
-                  tick: Tick) -> float:
+def _time_copy(ctx: moderngl.Context, records: np.ndarray, plan: BenchPlan) -> Timing:
     """The memory-bandwidth bound: one GPU-side copy of the particle state (read + write)."""
     size = max(len(records) * PARTICLE_BYTES, 4)
-    source, target = ctx.buffer(records.tobytes() or b"\0" * 4), ctx.buffer(reserve=size)
+    source = ctx.buffer(records if len(records) else b"\0" * 4)  # uploads without a copy
+    target = ctx.buffer(reserve=size)
 
     def copy() -> None:
         ctx.copy_buffer(target, source, size)
         ctx.finish()
 
     try:
-        return median_seconds(copy, WARMUP_FRAMES, frames, lambda: tick("copy bound"))
+        return time_frames(copy, WARMUP_FRAMES, plan.frames, plan.path_budget_s)
     finally:
         source.release()
         target.release()
 
 
-def _numpy_twin_seconds(scene: Scene, records: np.ndarray, frames: int, tick: Tick) -> float:
+def _time_numpy_twin(scene: Scene, records: np.ndarray, plan: BenchPlan) -> Timing:
     twin = TwinSystem(scene, dtype=np.float32)
     twin.write_particles(records)
-    inputs = iter(frame_inputs(scene, NUMPY_WARMUP_FRAMES + numpy_frames(frames)))
-    return median_seconds(lambda: twin.step(*next(inputs)), NUMPY_WARMUP_FRAMES,
-                          numpy_frames(frames), lambda: tick("numpy twin"))
+    frames = numpy_frames(plan.frames)
+    inputs = iter(frame_inputs(scene, NUMPY_WARMUP_FRAMES + frames))
+    return time_frames(lambda: twin.step(*next(inputs)), NUMPY_WARMUP_FRAMES, frames,
+                       plan.path_budget_s)

@@ -1,65 +1,120 @@
-"""`run_bench`: the typed entry of `cavesim bench`, from a scene to the written reports."""
+"""`run_bench`: the typed entry of `cavesim bench`, from a scene to the written reports.
+
+Each path is printed as soon as it is measured, and bench.json and bench.md are rewritten
+after each size, so that a long run shows how far it got and a stopped one (Ctrl-C,
+SIGTERM, an error) leaves the sizes it finished, saying how it ended.
+"""
 
 from __future__ import annotations
 
+import itertools
+import signal
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 import moderngl
 from rich.console import Console
 
+from cavesim.core.errors import OutputError
 from cavesim.core.scene.model import Scene
 from cavesim.gpu.engine.capacity import CapacityLimits, capacity_limits
 from cavesim.gpu.gl.context import create_context, describe
-from cavesim.tools.bench.display import progress_bar, show
-from cavesim.tools.bench.figures import SizeFigures
-from cavesim.tools.bench.measure import measure_size, ticks_per_size
-from cavesim.tools.bench.report import build_report, write_reports
+from cavesim.tools.bench.display import path_line, plan_line, progress_bar, say, show
+from cavesim.tools.bench.figures import PATHS, SizeFigures
+from cavesim.tools.bench.measure import BenchPlan, Timing, measure_size
+from cavesim.tools.bench.report import Ended, build_report, write_reports
 
 DEFAULT_SIZES = (1_000_000, 10_000_000)  # and the largest capacity the context allows
+QUICK_SIZES = (100_000, 1_000_000)  # `--quick`: each capped at the largest capacity
 
 
-def run_bench(scene: Scene, sizes: list[int] | None, frames: int, out_dir: Path,
-              console: Console, ctx: moderngl.Context | None = None) -> dict[str, object]:
+def run_bench(scene: Scene, sizes: list[int] | None, plan: BenchPlan, out_dir: Path,
+              console: Console, ctx: moderngl.Context | None = None,
+              quick: bool = False) -> dict[str, object]:
     """Measure each size, print the table and targets, write bench.json and bench.md.
 
     Without `sizes`: 1M, 10M and the largest capacity of the context, leaving out (and
-    naming) what it cannot hold. Opens (and releases) its own GL context unless one is
-    given; a size given that the context cannot hold is a CapacityError before anything is
-    measured. Returns the JSON report.
+    naming) what it cannot hold; with `quick`, QUICK_SIZES instead. Opens (and releases) its
+    own GL context unless one is given; a size given that the context cannot hold is a
+    CapacityError before anything is measured. Ctrl-C or SIGTERM while measuring ends the
+    run with the finished sizes, `ended` "interrupted"; an error writes them with its
+    message before it goes on. Returns the JSON report.
     """
     own_context = ctx is None
     ctx = create_context() if own_context else ctx
     try:
         limits = capacity_limits(ctx.info)
-        sizes, skipped = (sizes, []) if sizes else default_sizes(limits)
+        sizes, skipped = (sizes, []) if sizes else default_sizes(limits, quick)
         limits.check(max(sizes))
         gl = describe(ctx)
-        measured = _measure_all(ctx, scene, sizes, frames, console)
+        measured: list[SizeFigures] = []
+
+        def save(ended: str) -> tuple[dict[str, object], list[Path]]:
+            report = build_report(scene, gl, plan, measured, skipped, ended)
+            return report, write_reports(report, measured, out_dir)
+
+        say(console, plan_line(gl["renderer"], sizes, plan))
+        ended = _measure_all(ctx, scene, sizes, plan, console, measured, save)
     finally:
         if own_context:
             ctx.release()
-    report = build_report(scene, gl, frames, measured, skipped)
-    show(report, measured, console)
-    for path in write_reports(report, measured, out_dir):
-        console.print(f"wrote {path}", markup=False, highlight=False, soft_wrap=True)
+    report, paths = save(ended)
+    if measured:
+        show(report, measured, console)
+    for path in paths:
+        say(console, f"wrote {path}")
     return report
 
 
-def _measure_all(ctx: moderngl.Context, scene: Scene, sizes: list[int], frames: int,
-                 console: Console) -> list[SizeFigures]:
-    measured = []
-    with progress_bar(console) as progress:
-        task = progress.add_task("bench", total=len(sizes) * ticks_per_size(frames))
-        for count in sizes:
-            def tick(path: str, count: int = count) -> None:
-                progress.update(task, advance=1, description=f"{count:,} particles: {path}")
-            measured.append(measure_size(ctx, scene, count, frames, tick))
-    return measured
+def _measure_all(ctx: moderngl.Context, scene: Scene, sizes: list[int], plan: BenchPlan,
+                 console: Console, measured: list[SizeFigures],
+                 save: Callable[[str], object]) -> Ended:
+    """Measure into `measured`, saving after each size; how the measuring ended."""
+    started, total, done = time.monotonic(), len(sizes) * len(PATHS), itertools.count(1)
+    try:
+        with _sigterm_as_interrupt(), progress_bar(console) as progress:
+            task = progress.add_task("bench", total=total)
+            for count in sizes:
+                progress.update(task, description=f"{count:,} particles")
+
+                def show_path(path: str, timing: Timing | None, count: int = count) -> None:
+                    progress.advance(task)
+                    say(console, path_line(count, path, timing, plan, next(done), total,
+                                           time.monotonic() - started))
+
+                measured.append(measure_size(ctx, scene, count, plan, show_path))
+                save(Ended.RUNNING)
+    except KeyboardInterrupt:
+        return Ended.INTERRUPTED
+    except Exception as e:
+        with suppress(OutputError):  # the run's own error is the one to tell
+            save(" ".join(str(e).split()) or type(e).__name__)
+        raise
+    return Ended.COMPLETE
 
 
-def default_sizes(limits: CapacityLimits) -> tuple[list[int], list[dict]]:
-    """DEFAULT_SIZES that fit the context and its largest capacity; those left out, with why."""
+@contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM stops the measuring as Ctrl-C does, so that it too leaves the finished
+    sizes written and ends in one line."""
+    def interrupt(signum, frame) -> None:
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def default_sizes(limits: CapacityLimits, quick: bool = False) -> tuple[list[int], list[dict]]:
+    """DEFAULT_SIZES that fit the context and its largest capacity, and those left out, with
+    why; with `quick`, QUICK_SIZES each capped at the largest capacity, none left out."""
     largest, bound = limits.max_capacity, limits.binding
+    if quick:
+        return sorted({min(n, largest) for n in QUICK_SIZES}), []
     sizes = sorted({n for n in DEFAULT_SIZES if n <= largest} | {largest})
     skipped = [{"particles": n, "why": f"the largest capacity of {limits.driver} is "
                                       f"{largest:,} ({bound.name} = {bound.value} {bound.unit})"}

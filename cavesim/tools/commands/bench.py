@@ -5,6 +5,7 @@ memory of a long cluster run."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from rich.console import Console
@@ -13,11 +14,13 @@ from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import SceneError
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.tools.arguments import (
+    INTERRUPTED,
     MAX_WALLS,
     UsageError,
     cave_file,
     count_list,
     frame_count,
+    number_in,
     output_directory,
     output_folder,
     scene_file,
@@ -26,13 +29,16 @@ from cavesim.tools.arguments import (
 
 BENCH_SCENE = "config/scenes/bench.toml"
 BENCH_FRAMES = 10
+QUICK_FRAMES = 3  # `bench --quick`
 CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
 CLUSTER_FRAMES = 300
 SOAK_ONLY = ("walls", "sample_every")  # flags of --soak alone
+ENGINE_ONLY = ("quick", "numpy_up_to")  # flags of the engine bench alone
 # Parsing stops at the engine's addressing bound; the GL context's own limits are checked
 # before measuring (a CapacityError, exit 1: the same flags may fit another driver).
 particle_counts = count_list(MAX_PARTICLES, "particle counts")
 node_counts = count_list(MAX_WALLS, "node counts")
+particle_cap = number_in(int, 0, MAX_PARTICLES, "a particle count")
 
 
 def add(commands) -> None:
@@ -47,9 +53,18 @@ def add(commands) -> None:
                         help="comma-separated particle counts (default: 1000000, 10000000 and "
                              "the largest the GL context allows, leaving out what it cannot "
                              "hold)")
+    parser.add_argument("--quick", action="store_true",
+                        help=f"a one-minute answer on any GL (llvmpipe on 2 cores included): "
+                             f"100000 and 1000000 particles (each capped at the largest the "
+                             f"context allows), {QUICK_FRAMES} timed frames per path; not with "
+                             f"--sizes, --cluster, --resync or --soak")
+    parser.add_argument("--numpy-up-to", type=particle_cap, metavar="N",
+                        help="time the numpy twin only at sizes up to N particles (default: "
+                             "1000000; 0: never); above, its cells read 'not timed'")
     parser.add_argument("--frames", type=frame_count,
-                        help=f"timed frames per path after 2 warm-up frames (default: "
-                             f"{BENCH_FRAMES}); with --cluster: frames per run "
+                        help=f"timed frames per path after 2 warm-up frames, fewer (at least "
+                             f"3) once a path's took 2 s (default: {BENCH_FRAMES}, with "
+                             f"--quick {QUICK_FRAMES}); with --cluster: frames per run "
                              f"(default: {CLUSTER_FRAMES}); with --soak: frames of the run "
                              f"(default: 100000)")
     parser.add_argument("--out", type=output_folder, default=Path("out/bench"),
@@ -90,6 +105,10 @@ def bench(args: argparse.Namespace, console: Console) -> int:
     """`cavesim bench`: check the scene and the output directory, then `run_bench`
     (or, with --cluster, `bench_cluster`; with --resync, `bench_resync`; with --soak,
     `bench_soak`)."""
+    other = next((f"--{mode}" for mode in ("soak", "resync", "cluster")
+                  if getattr(args, mode)), None)
+    if other is not None:
+        _only_with_engine_bench(args, other)
     if args.soak:
         return bench_soak(args, console)
     _only_with_soak(args)
@@ -99,11 +118,24 @@ def bench(args: argparse.Namespace, console: Console) -> int:
         return bench_cluster(args, console)
     if args.nodes is not None:
         raise UsageError("cavesim bench: error: argument --nodes: only with --cluster")
-    from cavesim.tools.bench import run_bench  # GL loads only for the commands that use it
+    if args.quick and args.sizes is not None:
+        raise UsageError("cavesim bench: error: argument --quick: not with --sizes (it "
+                         "measures its own)")
+    # GL loads only for the commands that use it
+    from cavesim.tools.bench import run_bench
+    from cavesim.tools.bench.measure import NUMPY_UP_TO, BenchPlan
+    from cavesim.tools.bench.report import Ended
 
     scene = _bench_scene(args.scene or scene_file(BENCH_SCENE))
     output_directory(args.out, "bench")
-    run_bench(scene, args.sizes, args.frames or BENCH_FRAMES, args.out, console)
+    plan = BenchPlan(args.frames or (QUICK_FRAMES if args.quick else BENCH_FRAMES),
+                     NUMPY_UP_TO if args.numpy_up_to is None else args.numpy_up_to)
+    report = run_bench(scene, args.sizes, plan, args.out, console, quick=args.quick)
+    if report["ended"] == Ended.INTERRUPTED:
+        finished = len(report["sizes"])
+        print(f"cavesim bench: interrupted; {finished} finished size"
+              f"{'' if finished == 1 else 's'} in {args.out / 'bench.json'}", file=sys.stderr)
+        return INTERRUPTED
     return 0
 
 
@@ -139,6 +171,13 @@ def bench_resync(args: argparse.Namespace, console: Console) -> int:
     output_directory(args.out, "bench")
     run_resync_bench(sizes[0], args.out, console)
     return 0
+
+
+def _only_with_engine_bench(args: argparse.Namespace, mode: str) -> None:
+    for name in ENGINE_ONLY:
+        if getattr(args, name) not in (None, False):
+            flag = "--" + name.replace("_", "-")
+            raise UsageError(f"cavesim bench: error: argument {flag}: not with {mode}")
 
 
 def _only_with_soak(args: argparse.Namespace) -> None:
