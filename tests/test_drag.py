@@ -32,8 +32,8 @@ def test_air_is_dry_air_at_15_celsius():
     assert NU == pytest.approx(1.478e-5, rel=1e-3)
 
 
-def test_sand_settles_at_the_issues_speeds():
-    """150 um sand: 1.80 m/s under Stokes, 1.03 m/s under Schiller-Naumann (issue 16)."""
+def test_sand_settles_at_the_reviewed_speeds():
+    """150 um sand: 1.80 m/s under Stokes, 1.03 m/s under Schiller-Naumann (reviewed)."""
     stokes = terminal_speed(SAND, False, NU, MU, G)
     schiller = terminal_speed(SAND, True, NU, MU, G)
     assert stokes == pytest.approx(1.80, abs=0.005)

@@ -19,7 +19,7 @@ def frames(count, dt=1 / 60, seed=3, size=64):
 
 
 @pytest.mark.parametrize(("rate", "dt", "steps", "expected"), [
-    (12.5, 1 / 60, 600, 125),  # the example: 10 s at 60 Hz
+    (12.5, 1 / 60, 600, 125),  # 10 s at 60 Hz
     (1000.0, 1 / 60, 60, 1000),
     (0.5, 1 / 30, 300, 5),
     (7.0, 1 / 64, 640, 70),

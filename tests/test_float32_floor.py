@@ -23,7 +23,7 @@ from cavesim.tools.numerics.storage import storage_floors
 
 PARTICLES = 500
 FINEST = DTS[-2:]  # 1/480 and 1/960 s: where the floor is highest
-FLOOR_LIMIT = 5e-6  # m, issue 16
+FLOOR_LIMIT = 5e-6  # m: the floor required of every integrator
 # A float32 floor this close to the storage floor is at it. Native arithmetic may contract
 # a*b + c into one FMA (GLSL allows it without `precise`): llvmpipe, which does not, ends
 # within 1.3x; an NVIDIA H100 ends RK4 in the uniform flow at 1.58x (1/480 s).

@@ -1,5 +1,5 @@
 """The float64 integrators themselves (cavesim/core/twin/integrators.py): the phi functions,
-ETD2RK's order, exactness and stability, and the issue's figures on an analytic vortex.
+ETD2RK's order, exactness and stability, and a review's figures on an analytic vortex.
 
 The analytic vortex is the accuracy report's vortex case evaluated from its formula, not its
 trilinear grid (a grid caps every method at order 2): Lamb-Oseen, circulation 20 m²/s, core
@@ -61,18 +61,18 @@ def vortex(request):
     return tau, p, v, forces, reference
 
 
-# issue 16: RMS error at dt = 1/60 on the analytic vortex, exponential -> ETD2RK, float64
-ISSUE_FIGURES = {0.5: (5.6e-3, 3.2e-5), 1e-3: (2.1e-2, 7.7e-5)}
+# a review's RMS errors at dt = 1/60 on the analytic vortex, exponential -> ETD2RK, float64
+REVIEW_FIGURES = {0.5: (5.6e-3, 3.2e-5), 1e-3: (2.1e-2, 7.7e-5)}
 
 
-def test_etd2rk_reproduces_the_issues_figures_on_the_analytic_vortex(vortex):
+def test_etd2rk_reproduces_the_reviewed_figures_on_the_analytic_vortex(vortex):
     """Measured here, 500 particles: 4.57e-3 -> 3.20e-5 at tau = 0.5 s, 1.82e-2 -> 7.75e-5 at
-    1 ms (20,000: 4.93e-3 -> 3.22e-5 and 1.89e-2 -> 8.04e-5). The issue's ETD2RK figures
+    1 ms (20,000: 4.93e-3 -> 3.22e-5 and 1.89e-2 -> 8.04e-5). The review's ETD2RK figures
     within 15 %, its exponential ones within 20 % (its particle set is not known)."""
     tau, p, v, forces, reference = vortex
     exponential = rms(run(Integrator.EXPONENTIAL, p, v, forces, DT)[0], reference)
     etd2rk = rms(run(Integrator.ETD2RK, p, v, forces, DT)[0], reference)
-    issue_exponential, issue_etd2rk = ISSUE_FIGURES[tau]
+    issue_exponential, issue_etd2rk = REVIEW_FIGURES[tau]
     assert etd2rk == pytest.approx(issue_etd2rk, rel=0.15)
     assert exponential == pytest.approx(issue_exponential, rel=0.2)
     assert exponential / etd2rk > 100

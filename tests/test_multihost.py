@@ -1,4 +1,4 @@
-"""The cluster on separate network hosts, healthy and under a bad network (issue 7).
+"""The cluster on separate network hosts, healthy and under a bad network.
 
 A master host and three node hosts are network namespaces on one switch (tests/netns.py);
 deploy/launch.sh starts the cluster on them over Zenoh TCP with

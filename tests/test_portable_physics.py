@@ -5,7 +5,7 @@ particle or emitter stream goes through arithmetic.glsl's correctly rounded func
 cavesim/core/portable/ repeats each shader function operation by operation in numpy
 float32 (which rounds every operation correctly and never fuses). So the twin's streams,
 hashed by the checksum's numpy reference, must have the GPU's checksum every frame on both
-engine paths (issue 15, item 3): any other bits on another GPU are that GPU's error.
+engine paths: any other bits on another GPU are that GPU's error.
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Fixed-size records of a run of any length: what the master keeps per frame must not grow
-with the run (issue 13: per-frame lists took 2.4 GB over 8 h at 60 Hz).
+with the run (per-frame lists once took 2.4 GB over 8 h at 60 Hz).
 
 `LogHistogram` gives percentiles within a stated relative error, `DecimatedSeries` a
 per-frame series thinned to a fixed number of points, `FirstEntries` the first entries of

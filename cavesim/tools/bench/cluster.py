@@ -1,6 +1,6 @@
 """`cavesim bench --cluster`: what keeping the walls in lock-step costs, on loopback.
 
-Three figures, each held to the issue's target (benchmark figures, not timed tests):
+Three figures, each held to its target (benchmark figures, not timed tests):
 
 - the barrier round trip per frame with 2, 4 and 8 wall nodes of a tiny scene: the master's
   `barrier_ms` from the run's report.json (publish frame k -> every node's report of k in),
@@ -59,7 +59,7 @@ class ClusterTarget:
                 "target": self.bound, "measured": measured, "met": met, **where}
 
 
-# The issue's targets on loopback
+# The lock-step's targets on loopback
 TARGETS = (
     ClusterTarget("barrier_p99_ms", "<", 2.0, "barrier round trip per frame, 99th percentile"),
     ClusterTarget("swap_skew_p99_ms", "<", 1.0,

@@ -122,7 +122,7 @@ class Target:
                 "particles": figures.particles}
 
 
-# Issue 14's targets (and the earlier numpy and checksum ones), each at its reference size
+# The engine's targets (the compute path's, the numpy and checksum ones), each at its reference size
 TARGETS = (
     Target("compute_speedup", ">=", 3.0, "compute frame speedup over the GS/TF frame",
            1_000_000, "llvmpipe"),
