@@ -8,6 +8,7 @@ import subprocess
 import sys
 import types
 from importlib import metadata
+from pathlib import Path
 
 import pytest
 import zenoh
@@ -19,6 +20,7 @@ from cavesim.tools.doctor import probe as probing
 from cavesim.tools.doctor.checks import check_windows, check_zenoh
 from cavesim.tools.doctor.verdict import judge
 
+ROOT = Path(__file__).resolve().parents[1]
 DEVICE = {"index": 0, "kind": "software", "usable": True, "opened": True,
           "renderer": "llvmpipe", "largest_capacity": 3_355_443, "state_bytes": 134_217_720,
           "problem": None, "fix": None}
@@ -217,3 +219,13 @@ def test_doctor_refuses_an_output_it_cannot_write(tmp_path):
     assert result.returncode == 2 and result.stderr.count("\n") == 1
     assert f"argument --out: {str(tmp_path / 'file' / 'doctor.json')!r}: " \
            f"{str(tmp_path / 'file')!r} is a file, not a folder" in result.stderr
+
+
+def test_doctor_runs_from_a_source_tree_pip_never_installed(monkeypatch):
+    from cavesim.tools.doctor import report
+
+    def not_installed(name):
+        raise metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(report.metadata, "version", not_installed)
+    assert report.cavesim_version() == f"source tree at {ROOT} (not installed)"

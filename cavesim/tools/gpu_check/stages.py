@@ -55,6 +55,7 @@ def run_child(command: list[str], log: Path, deadline: float,
         try:
             for line in child.stdout:
                 out.write(line)
+                out.flush()  # the log is followed while the stage runs
                 last = line.strip() or last
                 on_line(line)
             code = child.wait()
