@@ -355,6 +355,9 @@ class ParticleSystem:
             self.ctx.copy_buffer(self._particle_buffers[1 - self._current],
                                  self._particle_buffers[self._current],
                                  size=live * PARTICLE_BYTES)
+            # the copy is done before any record is written over it: on an NVIDIA H100
+            # (driver 580) records written right after it were found overwritten by it
+            self.ctx.finish()
 
     def write_particle_chunk(self, first: int, data: bytes) -> None:
         """Stage whole records [first, ...) of the stream that `begin_load` announced."""
