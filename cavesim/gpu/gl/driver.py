@@ -14,6 +14,7 @@ import ctypes
 import ctypes.util
 import os
 from collections.abc import Sequence
+from functools import cached_property
 from typing import Protocol
 
 import moderngl
@@ -73,8 +74,13 @@ class SystemDriver:
         return tuple(handles[i] for i in range(count.value))
 
     def device_string(self, handle: object, name: int) -> str | None:
-        value = _QUERY_STRING(self._address("eglQueryDeviceStringEXT"))(handle, name)
+        value = self._query_string(handle, name)
         return value.decode(errors="replace") if value else None
+
+    @cached_property
+    def _query_string(self):
+        """eglQueryDeviceStringEXT, looked up once (after the listing checked its extension)."""
+        return _QUERY_STRING(self._address("eglQueryDeviceStringEXT"))
 
     def open_context(self, device_index: int) -> moderngl.Context:
         return moderngl.create_standalone_context(backend="egl", require=REQUIRED_GL_VERSION,

@@ -8,10 +8,9 @@ SIGTERM, an error) leaves the sizes it finished, saying how it ended.
 from __future__ import annotations
 
 import itertools
-import signal
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager, suppress
+from collections.abc import Callable
+from contextlib import suppress
 from pathlib import Path
 
 import moderngl
@@ -25,6 +24,7 @@ from cavesim.tools.bench.display import path_line, plan_line, progress_bar, say,
 from cavesim.tools.bench.figures import PATHS, SizeFigures
 from cavesim.tools.bench.measure import BenchPlan, Timing, measure_size
 from cavesim.tools.bench.report import Ended, build_report, write_reports
+from cavesim.tools.signals import sigterm_as_interrupt
 
 DEFAULT_SIZES = (1_000_000, 10_000_000)  # and the largest capacity the context allows
 QUICK_SIZES = (100_000, 1_000_000)  # `--quick`: each capped at the largest capacity
@@ -74,7 +74,7 @@ def _measure_all(ctx: moderngl.Context, scene: Scene, sizes: list[int], plan: Be
     """Measure into `measured`, saving after each size; how the measuring ended."""
     started, total, done = time.monotonic(), len(sizes) * len(PATHS), itertools.count(1)
     try:
-        with _sigterm_as_interrupt(), progress_bar(console) as progress:
+        with sigterm_as_interrupt(), progress_bar(console) as progress:
             task = progress.add_task("bench", total=total)
             for count in sizes:
                 progress.update(task, description=f"{count:,} particles")
@@ -93,20 +93,6 @@ def _measure_all(ctx: moderngl.Context, scene: Scene, sizes: list[int], plan: Be
             save(" ".join(str(e).split()) or type(e).__name__)
         raise
     return Ended.COMPLETE
-
-
-@contextmanager
-def _sigterm_as_interrupt() -> Iterator[None]:
-    """SIGTERM stops the measuring as Ctrl-C does, so that it too leaves the finished
-    sizes written and ends in one line."""
-    def interrupt(signum, frame) -> None:
-        raise KeyboardInterrupt
-
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def default_sizes(limits: CapacityLimits, quick: bool = False) -> tuple[list[int], list[dict]]:

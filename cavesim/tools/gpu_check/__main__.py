@@ -4,7 +4,6 @@ stage by stage, each line printed as it happens; exit 0 only when every stage pa
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import time
 from pathlib import Path
@@ -13,8 +12,7 @@ from cavesim.core.errors import CavesimError
 from cavesim.tools.arguments import INTERRUPTED, RUN_ERROR, USAGE_ERROR
 from cavesim.tools.gpu_check import stages as run
 from cavesim.tools.gpu_check.summary import lines, report, write
-
-SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast")
+from cavesim.tools.signals import sigterm_as_interrupt
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,17 +35,17 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return USAGE_ERROR
     args.out.mkdir(parents=True, exist_ok=True)
-    signal.signal(signal.SIGTERM, _interrupt)
     started, done, ended = time.monotonic(), [], "complete"
 
     def say(text: str) -> None:
         print(f"[{time.monotonic() - started:6.0f} s] {text}", flush=True)
 
     try:
-        for step in _steps(args, say):
-            stage = step()
-            done.append(stage)
-            say(f"{stage.name}: {stage.ended} in {stage.seconds:.0f} s  {stage.detail}")
+        with sigterm_as_interrupt():
+            for step in _steps(args, say):
+                stage = step()
+                done.append(stage)
+                say(f"{stage.name}: {stage.ended} in {stage.seconds:.0f} s  {stage.detail}")
     except KeyboardInterrupt:
         ended = "interrupted"
     except (CavesimError, OSError) as e:
@@ -63,22 +61,17 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _steps(args: argparse.Namespace, say: run.Say):
-    """The stages in order; the test tier follows the doctor's renderer unless given."""
+    """The stages in order; the whole suite where the doctor opened a hardware device,
+    its fast tier elsewhere or with --quick, unless --tests says."""
     doctor = run.doctor(args.out, say)
     yield lambda: doctor
-    software = any(name in renderer for renderer in doctor.figures.get("renderers", [])
-                   for name in SOFTWARE_RENDERERS)
-    tier = args.tests or ("fast" if args.quick or software
-                          or not doctor.figures.get("renderers") else "full")
+    kinds = doctor.figures.get("kinds", [])
+    tier = args.tests or ("full" if "hardware" in kinds and not args.quick else "fast")
     yield lambda: run.tests(args.out, tier, say)
     yield lambda: run.bench(args.out, say, args.quick)
     yield lambda: run.replays(args.out, say)
     yield lambda: run.demo(args.out, say, run.QUICK_DEMO_FRAMES if args.quick
                            else run.DEMO_FRAMES)
-
-
-def _interrupt(signum, frame) -> None:
-    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

@@ -90,7 +90,8 @@ def doctor(out: Path, say: Say) -> Stage:
         verdict = found.get("verdict", {})
         devices = [d for d in found.get("devices", []) if d.get("opened")]
         stage.figures = {"verdict": verdict, "renderers": [d["renderer"] for d in devices],
-                         "versions": [d["version"] for d in devices]}
+                         "versions": [d["version"] for d in devices],
+                         "kinds": [d["kind"] for d in devices]}
         stage.ended = _ended(code, verdict.get("ok"))
         stage.detail = verdict.get("reason") or last
 
