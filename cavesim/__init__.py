@@ -1,9 +1,12 @@
 """cavesim: a GPU particle simulation kept bit-identical across the walls of a CAVE.
 
-Four layers, each importing only the ones below it (tests/test_layers.py checks it):
+The library, three layers, each importing only the ones below it (tests/docs/test_layers.py
+checks it):
   core   (cavesim.core)  no GL: scenes, CAVE geometry, frame inputs, records, scene
-                         drivers, the clock, the wire, the float64 twin;
+                         drivers, the clock, the wire, the float64 and portable twins;
   gpu    (cavesim.gpu)   the OpenGL engine, its shaders, the wall renderer;
-  nodes  (cavesim.nodes) the processes: master, wall node, launcher, harness;
-  tools  (cavesim.tools) the command line, benchmarks, numerics, reports.
+  tools  (cavesim.tools) offline tools: engine benchmark, numerics, stability, doctor,
+                         frame-log replay, reports.
+The programs that make a CAVE (master, wall node, launcher, harness, tracker bridge, the
+`cavesim` command line) are the package `nodes`, built on this one.
 """

@@ -2,6 +2,6 @@
 
 import sys
 
-from cavesim.tools.cli import main
+from nodes.cli import main
 
 sys.exit(main())

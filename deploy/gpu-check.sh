@@ -15,4 +15,4 @@ else
     deploy/setup.sh --test
     python=.venv/bin/python
 fi
-exec "$python" -m cavesim.tools.gpu_check "$@"
+exec "$python" -m nodes.gpu_check "$@"

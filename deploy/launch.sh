@@ -55,7 +55,7 @@ set -euo pipefail
 
 root="$(cd "$(dirname "$0")/.." && pwd)"
 me="launch.sh"
-DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/test_launch.py checks it)
+DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/processes/test_launch.py checks it)
 
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \

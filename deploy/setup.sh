@@ -9,8 +9,8 @@ cd "$(dirname "$0")/.."
 
 # EGL dispatch, Mesa's EGL, llvmpipe; GL and GLX dispatch and Mesa's GLX for live windows
 GL_PACKAGES=(libegl1 libegl-mesa0 libgl1-mesa-dri libgl1 libglx-mesa0)
-# tests/test_multihost.py: `ip netns`, veth, packet loss; tests/test_shader_gate.py: the
-# Khronos reference GLSL front-end; tests/test_live_walls.py: an X server and a keyboard
+# tests/cluster/test_multihost.py: `ip netns`, veth, packet loss; tests/gpu/test_shader_gate.py: the
+# Khronos reference GLSL front-end; tests/windows/test_live_walls.py: an X server and a keyboard
 TEST_PACKAGES=(iproute2 iptables glslang-tools xvfb xdotool)
 
 packages=("${GL_PACKAGES[@]}")

@@ -6,5 +6,5 @@ set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 "$root/deploy/setup.sh" --test
 cd "$root"
-.venv/bin/ruff check cavesim tests
+.venv/bin/ruff check cavesim nodes tests
 exec .venv/bin/python -m pytest -n auto --require-tools "$@"

@@ -1,5 +1,5 @@
 """Drift between two copies of the particle state, for CAVEs whose GPUs cannot agree on bits
-(the mixed-hardware tolerance mode, `cavesim/nodes/tolerance.py`).
+(the mixed-hardware tolerance mode, `nodes/master/tolerance.py`).
 
 In that mode every node reads a deterministic sample of its live particle records after its
 step (`sample_indices`: evenly spaced, so nodes with the same live count read the same

@@ -148,7 +148,7 @@ def context_builds(builds: Iterable[Build]) -> list[Build]:
     """The builds the context step compiles: all but the particle passes in portable
     arithmetic. Their inlined arithmetic takes llvmpipe about 2 s a program; they declare no
     uniform of their own, the reference front-end validates every one, and
-    tests/test_portable_physics.py compiles and runs every integrator on both paths."""
+    tests/gpu/test_portable_physics.py compiles and runs every integrator on both paths."""
     return [build for build in builds if build.spec not in (PARTICLE_UPDATE, BLOCK_UPDATE)
             or dict(build.defines)["ARITHMETIC"] != PORTABLE]
 

@@ -8,8 +8,8 @@ branches on the scene kind and no node derives a value another way (determinism 
 
 from __future__ import annotations
 
-from cavesim.core.drivers.driver import DriverStep, FlightSample, SceneDriver
 from cavesim.core.drivers.helicopter import HelicopterDriver
+from cavesim.core.drivers.scene_driver import DriverStep, FlightSample, SceneDriver
 from cavesim.core.drivers.still import StillDriver
 from cavesim.core.scene.model import Scene
 from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame

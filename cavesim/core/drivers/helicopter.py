@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 
-from cavesim.core.drivers.driver import DriverStep, FlightSample
+from cavesim.core.drivers.scene_driver import DriverStep, FlightSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.helicopter.flight import (
     WAND_LIMIT,

@@ -9,7 +9,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from cavesim.core.drivers.driver import DriverStep
+from cavesim.core.drivers.scene_driver import DriverStep
 from cavesim.core.errors import ProtocolError
 from cavesim.core.scene_frame import HelicopterPose, SceneFrame, float32
 from cavesim.core.wire.messages import WandState

@@ -73,7 +73,7 @@ PROFILE_SHAPE = 3.3  # c
 PROFILE_INNER = PROFILE_RISE - PROFILE_DECAY + PROFILE_SHAPE  # b - a + c: makes f'(0) = 0
 PROFILE_FLUX = (1 / PROFILE_DECAY + PROFILE_SHAPE / PROFILE_DECAY**2
                 - 1 / PROFILE_RISE - PROFILE_INNER / PROFILE_RISE**2)  # integral of f
-PROFILE_PEAK = 1.0920453  # f_max, at eta = 0.17655 (tests/test_downwash.py checks both)
+PROFILE_PEAK = 1.0920453  # f_max, at eta = 0.17655 (tests/unit/test_downwash.py checks both)
 PROFILE_PEAK_HEIGHT = 0.17655
 PROFILE_INTEGRAL = PROFILE_FLUX / PROFILE_PEAK  # integral of u/u_max over eta
 

@@ -1,6 +1,6 @@
 """The downwash's outwash measured as experimenters measure a wall jet, beside the published
-radial wall-jet correlations it is validated against (tests/test_downwash.py holds the
-tolerances; cavesim/tools/reports/outwash.py plots them).
+radial wall-jet correlations it is validated against (tests/unit/test_downwash.py holds the
+tolerances; cavesim/tools/reports/outwash_figure.py plots them).
 
 No digitised rotor outwash measurements were at hand (Fradenburgh 1960, Silva & Riser 2011
 and Tanner et al. 2015 publish theirs as figures); the references are correlations fitted

@@ -2,7 +2,7 @@
 
 A GLSL compiler may round a literal such as 0.3 or 1.0 / 6.0 its own way, so the shaders
 write these as `#define NAME uintBitsToFloat(0x...u)`; here are the same bits under the
-same names (tests/test_portable_physics.py holds the two sides together).
+same names (tests/gpu/test_portable_physics.py holds the two sides together).
 """
 
 from __future__ import annotations

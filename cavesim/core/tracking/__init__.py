@@ -2,7 +2,7 @@
 
 DTrack2's ASCII datagrams are parsed and checked (`dtrack`), mapped from DTrack's room and
 bodies into the CAVE's room (`mapping`, read from a TOML file) and kept from datagram to
-datagram (`state`); `cavesim.nodes.tracker` is the process that receives and publishes.
+datagram (`state`); `nodes.tracker.bridge` is the process that receives and publishes.
 """
 
 from cavesim.core.tracking.dtrack import Body, Datagram, Flystick, parse_datagram

@@ -2,7 +2,7 @@
 messages."""
 
 from cavesim.core.wire.credentials import Credentials
-from cavesim.core.wire.keys import SessionKeys
+from cavesim.core.wire.key_expressions import SessionKeys
 from cavesim.core.wire.messages import (
     BlockQuery,
     BlockReply,

@@ -33,7 +33,7 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire.credentials import MASTER_SIGNATURE_BYTES, Credentials
-from cavesim.core.wire.keys import check_name
+from cavesim.core.wire.key_expressions import check_name
 
 MAGIC = b"CVSM"
 VERSION = 6  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,

@@ -20,7 +20,7 @@ import zenoh
 from cavesim.core.errors import ClusterError
 from cavesim.core.limits import DEFAULT_MASTER_PORT
 from cavesim.core.wire.credentials import Credentials, read_credentials
-from cavesim.core.wire.keys import check_name
+from cavesim.core.wire.key_expressions import check_name
 
 # Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
 # its default single tx thread that froze the healthy peers' traffic when a wall's link

@@ -14,7 +14,7 @@ what the one before wrote (a storage barrier between them):
      the records at or past the capacity dropped.
 The order is the one transform feedback writes, and no step uses an unordered atomic
 (DESIGN, determinism rule 3), so both paths hold the same bytes on one driver
-(tests/test_engine_paths.py). The dispatches run with denormals flushed, as llvmpipe's
+(tests/gpu/test_engine_paths.py). The dispatches run with denormals flushed, as llvmpipe's
 draws run (`cavesim.gpu.gl.denormals`); a driver on which they still differ is named in
 the log when the path is built. Dispatch sizes come from what the host knows: the previous
 live count and the emission's bound. The counts stay on the GPU; the host reads the live

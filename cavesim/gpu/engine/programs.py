@@ -31,7 +31,7 @@ from cavesim.gpu.shader_source import ProgramSpec
 
 # Feature ids as the shaders spell them (#define INTEGRATOR_RK4 5 ... in
 # shaders/include/physics.glsl, ARITHMETIC_PORTABLE in arithmetic.glsl);
-# tests/test_features.py and tests/test_portable_physics.py hold the two sides together.
+# tests/gpu/test_features.py and tests/gpu/test_portable_physics.py hold the two sides together.
 ARITHMETIC_IDS = {Arithmetic.NATIVE: 0, Arithmetic.PORTABLE: 1}
 INTEGRATOR_IDS = {
     Integrator.EXPLICIT_EULER: 0, Integrator.SEMI_IMPLICIT_EULER: 1, Integrator.TRAPEZOID: 2,

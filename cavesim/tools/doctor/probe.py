@@ -18,8 +18,8 @@ from collections.abc import Callable
 import moderngl
 import numpy as np
 
-from cavesim.core.digest.reference import reference_checksum
 from cavesim.core.digest.shape import WORKGROUP_SIZE
+from cavesim.core.digest.twin import reference_checksum
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.errors import ContextError, ShaderError
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_BYTES, PARTICLE_WORDS

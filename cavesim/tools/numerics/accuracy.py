@@ -54,7 +54,7 @@ from cavesim.tools.numerics.runs import (
     gpu_runs,
     twin_runs,
 )
-from cavesim.tools.numerics.sweep import (
+from cavesim.tools.numerics.tolerance_sweep import (
     ReferenceAccuracy,
     SweepRow,
     reference_accuracy,

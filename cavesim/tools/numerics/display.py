@@ -11,7 +11,7 @@ from rich.table import Table
 
 from cavesim.tools.numerics.report import HEADERS, reference_sentence, table_rows
 from cavesim.tools.numerics.results import Summary
-from cavesim.tools.numerics.sweep import ReferenceAccuracy, SweepRow
+from cavesim.tools.numerics.tolerance_sweep import ReferenceAccuracy, SweepRow
 
 TERMINAL_HEADERS = ("integrator", "expected", "observed (f64)", "verdict", "evals per step",
                     "GPU RMS (m)", "GPU vel RMS (m/s)", "float32 floor (m)", "GPU ms/step",

@@ -23,7 +23,7 @@ from cavesim.tools.numerics.cloud import CLOUD_CELL
 from cavesim.tools.numerics.methods import FIELD_EVALUATIONS, FORGOTTEN_TOLERANCE, METHODS
 from cavesim.tools.numerics.reference import REFINEMENT, TOLERANCES
 from cavesim.tools.numerics.results import Row, Summary, dt_label
-from cavesim.tools.numerics.sweep import ReferenceAccuracy, SweepRow
+from cavesim.tools.numerics.tolerance_sweep import ReferenceAccuracy, SweepRow
 
 HEADERS = ("integrator", "order", "expected", "observed (f64)", "fit over", "verdict",
            "evals per step", "GPU RMS (m)", "GPU max (m)", "f64 RMS (m)", "GPU vel RMS (m/s)",

@@ -1,1 +1,0 @@
-"""The subcommands of `cavesim`, one module per group; `cavesim.tools.cli` registers them."""

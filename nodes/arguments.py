@@ -1,0 +1,188 @@
+"""What every `cavesim` command shares at its edge: argument types with one-line errors,
+the output folder made before any work, logging, and the network flags."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import tempfile
+from pathlib import Path
+
+from cavesim.core.wire.key_expressions import check_name
+from cavesim.core.wire.network import network_from_arguments, read_key
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+USAGE_ERROR, RUN_ERROR, INTERRUPTED = 2, 1, 130
+CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
+MAX_WALLS = 64
+
+
+class UsageError(Exception):
+    """Bad command-line input; the message is the whole line to print."""
+
+
+def number_in(parse: type, low: float, high: float, what: str):
+    """An argparse type: one number parsed by `parse` in [low, high], named `what`."""
+
+    def check(text: str):
+        try:
+            value = parse(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"expected {what} in [{low}, {high}], got {text!r}")
+        return value
+
+    return check
+
+
+def count_list(high: int, what: str):
+    """An argparse type: comma-separated whole numbers, each in 1..high."""
+    one = number_in(int, 1, high, what)
+
+    def check(text: str) -> list[int]:
+        try:
+            return [one(part) for part in text.split(",")]
+        except argparse.ArgumentTypeError as e:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated {what}, each 1..{high}, got {text!r}") from e
+
+    return check
+
+
+frame_count = number_in(int, 1, 10**9, "a whole number of frames")
+seconds = number_in(float, 1e-3, 3600.0, "seconds")
+wall_count = number_in(int, 1, MAX_WALLS, "a number of walls")
+
+
+def existing_file(what: str):
+    """An argparse type: an existing `what` file, relative to the current directory, else
+    to the repository."""
+
+    def check(text: str) -> Path:
+        path = Path(text)
+        for candidate in (path, REPO_ROOT / path):
+            if candidate.is_file():
+                return candidate
+        raise argparse.ArgumentTypeError(
+            f"no {what} file {text!r} in the current directory or in {REPO_ROOT}; "
+            f"give the path of a {what} .toml file")
+
+    return check
+
+
+scene_file = existing_file("scene")
+cave_file = existing_file("CAVE")
+
+
+def wall_list(text: str) -> tuple[str, ...]:
+    """An argparse type: unique comma-separated wall names."""
+    try:
+        walls = tuple(check_name("wall", name) for name in text.split(","))
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected comma-separated wall names: {e}") from e
+    if len(set(walls)) != len(walls):
+        raise argparse.ArgumentTypeError(f"wall names must be unique, got {text!r}")
+    return walls
+
+
+def wall_names(count: int) -> tuple[str, ...]:
+    """Names of `count` walls: the CAVE's own names first, then wall7, wall8, ..."""
+    return tuple(CAVE_WALL_NAMES[i] if i < len(CAVE_WALL_NAMES) else f"wall{i + 1}"
+                 for i in range(count))
+
+
+def output_folder(text: str) -> Path:
+    """An argparse type: an output folder (--out), refused at once if it is a file; the
+    command makes it (`output_directory`) once its other flags are checked."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(_is_a_file(path))
+    return path
+
+
+def output_path(text: str) -> Path:
+    """An argparse type: an output file (--report), refused at once if it is a folder or
+    its folder is a file."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{str(path)!r} is a folder; give the path of a file")
+    folder = next((p for p in path.parents if p.exists()), None)
+    if folder is not None and not folder.is_dir():
+        raise argparse.ArgumentTypeError(f"{str(path)!r}: {str(folder)!r} is a file, not a "
+                                         f"folder; give a path in a folder")
+    return path
+
+
+def output_directory(path: Path, command: str, flag: str = "--out") -> Path:
+    """Make the output directory and try a file in it before any work, so a bad one costs
+    no run."""
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"cavesim {command}: error: argument {flag}: {_is_a_file(path)}")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as e:
+        raise UsageError(f"cavesim {command}: error: argument {flag}: cannot write in directory "
+                         f"{str(path)!r}: {e.strerror or e}; give a writable directory") from e
+    return path
+
+
+def output_file(path: Path, command: str, flag: str) -> Path:
+    """`output_directory` for a file's folder; a path that is a directory is refused."""
+    try:
+        output_path(str(path))
+    except argparse.ArgumentTypeError as e:
+        raise UsageError(f"cavesim {command}: error: argument {flag}: {e}") from e
+    output_directory(path.parent, command, flag)
+    return path
+
+
+def _is_a_file(path: Path) -> str:
+    return f"{str(path)!r} is a file; give a folder (a new one is made)"
+
+
+def network_and_key(args: argparse.Namespace, command: str):
+    """The zenoh settings and the session's key from the network flags (UsageError)."""
+    try:
+        return network_from_arguments(args), read_key(args.key_file)
+    except ValueError as e:
+        raise UsageError(f"cavesim {command}: error: {e}") from e
+
+
+def master_credentials(path: Path | None, command: str):
+    """The master's credentials from its --key-file (None without one), checked by
+    `signing_key` (UsageError)."""
+    try:
+        return signing_key(read_key(path), path, command)
+    except ValueError as e:
+        raise UsageError(f"cavesim {command}: error: {e}") from e
+
+
+def signing_key(credentials, path: Path | None, command: str):
+    """`credentials` if they are a master.key (or None), since only the master signs frames
+    and commands; else UsageError naming the file."""
+    if credentials is not None and not credentials.can_sign_as_master:
+        raise UsageError(f"cavesim {command}: error: argument --key-file: {path} holds no "
+                         f"master signing key (it is a session.key); the master needs the "
+                         f"master.key made with it by `cavesim keys`")
+    return credentials
+
+
+def lost_walls_code(lost, on_loss: str | None, command: str) -> int:
+    """The exit code of a run that ended with the walls `lost` out of the lock-step: 0 when
+    none was, or when `--on-loss continue` was asked for explicitly; else RUN_ERROR with the
+    one line that says so."""
+    if not lost or on_loss == "continue":
+        return 0
+    print(f"cavesim {command}: error: wall(s) {', '.join(lost)} lost for good: the run ended "
+          f"without them (see the report's losses); give --on-loss continue to accept that",
+          file=sys.stderr)
+    return RUN_ERROR
+
+
+def configure_logging(verbose: bool) -> None:
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, stream=sys.stderr,
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")

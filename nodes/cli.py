@@ -1,0 +1,80 @@
+"""The `cavesim` command line: it owns every subcommand; argument parsing only, each
+subcommand's module (`nodes.commands`) checks its flags and calls a typed function.
+
+Bad input ends with a one-line error naming the flag, its value and what is allowed
+(exit code 2); an error while running exits with 1; neither prints a traceback. A bug
+ends with one line too; its traceback goes only to a log (stderr not a terminal) or where
+CAVESIM_TRACEBACK is set.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from collections.abc import Sequence
+from typing import NoReturn
+
+from rich.console import Console
+
+from cavesim.core.errors import CavesimError
+from nodes.arguments import INTERRUPTED, RUN_ERROR, USAGE_ERROR, UsageError
+from nodes.commands import (
+    bench,
+    check,
+    cluster,
+    doctor,
+    keys,
+    numerics,
+    replay,
+    run,
+    tracker,
+)
+
+TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
+PIPED_WIDTH = 120  # columns of output that is not a terminal
+SUBCOMMANDS = (bench.add, numerics.add_accuracy, numerics.add_stability, doctor.add, run.add,
+               cluster.add_master, cluster.add_node, replay.add, check.add, tracker.add, keys.add)
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> NoReturn:  # argparse would print the usage and exit
+        raise UsageError(f"{self.prog}: error: {message}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="cavesim", description=__doc__.splitlines()[0])
+    commands = parser.add_subparsers(dest="command", required=True, metavar="command")
+    for add in SUBCOMMANDS:
+        add(commands)
+    return parser
+
+
+def _console() -> Console:
+    console = Console()
+    if not console.is_terminal:  # a log or a pipe: rich would squeeze wide tables into 80
+        console.width = max(console.width, PIPED_WIDTH)
+    return console
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one `cavesim` command; return its exit code."""
+    try:
+        args = build_parser().parse_args(argv)
+        return args.handler(args, _console())
+    except UsageError as e:
+        print(e, file=sys.stderr)
+        return USAGE_ERROR
+    except KeyboardInterrupt:  # a second Ctrl-C while a command was already stopping
+        print("cavesim: interrupted", file=sys.stderr)
+        return INTERRUPTED
+    except CavesimError as e:
+        print(f"cavesim: error: {e}", file=sys.stderr)
+        return RUN_ERROR
+    except Exception as e:  # a bug: one line for a person, the traceback for a log
+        if os.environ.get(TRACEBACK_VARIABLE) or not sys.stderr.isatty():
+            traceback.print_exc()
+        print(f"cavesim: error: internal error, {type(e).__name__}: {e} (a bug; set "
+              f"{TRACEBACK_VARIABLE}=1 for the traceback)", file=sys.stderr)
+        return RUN_ERROR

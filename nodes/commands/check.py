@@ -1,0 +1,87 @@
+"""`cavesim check`: the consistency harness; inject faults, prove each is detected and
+healed."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from rich.progress import Progress
+
+from cavesim.core.output import check_written, writing
+from cavesim.core.wire.network import session_name
+from nodes.arguments import (
+    RUN_ERROR,
+    UsageError,
+    configure_logging,
+    frame_count,
+    output_directory,
+    output_folder,
+    scene_file,
+    seconds,
+    wall_count,
+    wall_names,
+)
+from nodes.commands.cluster import fault
+from nodes.faults import KINDS
+from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
+
+CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faults show at once
+
+
+def add(commands) -> None:
+    parser = commands.add_parser("check", help="consistency harness: inject faults, prove "
+                                               "each is detected and healed")
+    parser.add_argument("--walls", type=wall_count, default=3)
+    parser.add_argument("--scene", type=scene_file, default=CHECK_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=300)
+    parser.add_argument("--inject", type=fault, action="append", default=[],
+                        metavar="KIND@FRAME[:NODE]",
+                        help=f"{', '.join(KINDS)} (repeatable)")
+    parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
+    parser.add_argument("--on-loss", choices=LOSS_POLICIES, default="continue")
+    parser.add_argument("--check-every", type=frame_count, default=1)
+    parser.add_argument("--resync", choices=RESYNC_MODES, default="delta",
+                        help="how a diverged node loads the healthy state: a delta of the "
+                             "differing blocks first (default), or the full snapshot")
+    parser.add_argument("--out", type=output_folder, default=Path("out/check"))
+    parser.add_argument("--session", default="check", type=session_name)
+    parser.set_defaults(handler=check)
+
+
+def check(args: argparse.Namespace, console) -> int:
+    from nodes.check.findings import check_passed
+    from nodes.check.harness import CheckPlan, master_kill_frame, run_check
+    from nodes.check.table import check_table
+
+    walls = wall_names(args.walls)
+    for f in args.inject:
+        if f.node is not None and f.node not in walls:
+            raise UsageError(f"cavesim check: error: argument --inject: node {f.node!r} of "
+                             f"{f} is not one of the walls {', '.join(walls)}")
+        if f.frame > args.frames:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
+                             f"last frame {args.frames}")
+    try:
+        master_kill_frame(tuple(args.inject))
+    except ValueError as e:
+        raise UsageError(f"cavesim check: error: argument --inject: {e}") from e
+    if any(f.kind == "master-kill" and f.frame < 2 for f in args.inject):
+        raise UsageError("cavesim check: error: argument --inject: master-kill needs FRAME "
+                         ">= 2 (a master that ran at least one frame)")
+    output_directory(args.out, "check")
+    configure_logging(False)
+    plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
+                     args.session, args.barrier_timeout, on_loss=args.on_loss,
+                     check_every=args.check_every, resync=args.resync)
+    with Progress(console=console) as progress:
+        task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
+        report = run_check(plan, lambda k, live: progress.update(task, completed=k))
+    path = args.out / "check.json"
+    with writing(path):
+        path.write_text(json.dumps(report, indent=2) + "\n")
+    console.print(check_table(report))
+    check_written(path)
+    console.print(f"wrote {path}")
+    return 0 if check_passed(report, bool(args.inject)) else RUN_ERROR

@@ -1,0 +1,203 @@
+"""`cavesim master` and `cavesim node`: one process each, for a cluster of several hosts
+(`deploy/launch.sh`, the systemd unit); flags in, typed configs out."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+
+from cavesim.core.limits import GPU_RANGE
+from cavesim.core.scene.model import Engine
+from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
+from cavesim.core.wire.network import add_network_arguments
+from cavesim.core.wire.snapshot import CHUNK_PARTICLES
+from nodes.arguments import (
+    INTERRUPTED,
+    UsageError,
+    cave_file,
+    configure_logging,
+    frame_count,
+    lost_walls_code,
+    network_and_key,
+    number_in,
+    output_file,
+    output_folder,
+    output_path,
+    scene_file,
+    seconds,
+    signing_key,
+    wall_list,
+)
+from nodes.faults import parse_fault
+from nodes.lockstep import LOSS_POLICIES, MASTER_LOSS_POLICIES, RESYNC_MODES
+from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
+from nodes.mixed_hardware import node_sample_from, tolerance_from
+
+DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
+log = logging.getLogger("cavesim")
+
+
+def fault(text: str):
+    try:
+        return parse_fault(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
+
+
+def add_master(commands) -> None:
+    parser = commands.add_parser("master", help="the clock, the barrier and divergence handling")
+    parser.add_argument("--walls", type=wall_list, required=True, help="e.g. front,left,floor")
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--frames", type=frame_count, default=600)
+    parser.add_argument("--barrier-timeout", type=seconds, default=2.0)
+    parser.add_argument("--join-timeout", type=seconds, default=60.0)
+    parser.add_argument("--on-loss", choices=LOSS_POLICIES,
+                        help="a wall lost (gone, or silent past --evict-after): continue "
+                             "without it, or pause the barrier until it is back (at most "
+                             "--max-pause). Default: continue, but the run then exits 1 when a "
+                             "wall is lost for good; give --on-loss continue to accept that")
+    parser.add_argument("--evict-after", type=seconds, default=10.0,
+                        help="seconds a member may stay silent in the barrier before it is "
+                             "evicted (--on-loss continue; default 10)")
+    parser.add_argument("--max-pause", type=seconds, default=300.0,
+                        help="seconds the barrier holds for a silent member under --on-loss "
+                             "pause before the run ends (default 300)")
+    parser.add_argument("--check-every", type=frame_count, default=1,
+                        help="compare checksums every K frames (default: every frame)")
+    parser.add_argument("--clock-seed", type=int, default=0)
+    parser.add_argument("--dt", type=number_in(float, 1e-4, 0.1, "seconds"), default=1 / 60,
+                        help="the fixed time step (default 1/60 s)")
+    parser.add_argument("--realtime", action="store_true",
+                        help="pace frames by the wall clock (accumulator, fixed dt)")
+    parser.add_argument("--max-frame-time", type=number_in(float, 1e-3, 10.0, "seconds"),
+                        default=0.1, help="real time: most wall time one tick may count")
+    parser.add_argument("--max-substeps", type=number_in(int, 1, 100, "frames"), default=4,
+                        help="real time: most frames sent back to back to catch up")
+    parser.add_argument("--report", type=output_path, help="write the run's JSON report here "
+                        "(divergence forensics go beside it, into divergences/)")
+    parser.add_argument("--frame-log", type=output_path, help="record every frame's inputs here")
+    parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
+    parser.add_argument("--verbose", action="store_true")
+    add_mixed_hardware_arguments(parser, master=True)
+    add_network_arguments(parser)
+    parser.set_defaults(handler=master)
+
+
+def master(args: argparse.Namespace, console) -> int:
+    from nodes.master.process import MasterConfig
+    from nodes.master.process import main as run_master
+    from nodes.master.report_file import ReportFile
+
+    configure_logging(args.verbose)
+    network, credentials = network_and_key(args, "master")
+    signing_key(credentials, args.key_file, "master")
+    tolerance = tolerance_from(args, args.walls, "master")
+    for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
+        if path is not None:
+            output_file(path, "master", flag)
+    config = MasterConfig(args.walls, args.scene, args.frames, args.session, network,
+                          credentials, barrier_timeout=args.barrier_timeout,
+                          join_timeout=args.join_timeout, on_loss=args.on_loss or "continue",
+                          evict_after=args.evict_after, max_pause=args.max_pause,
+                          check_every=args.check_every, tolerance=tolerance,
+                          clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
+                          realtime=args.realtime, max_frame_time=args.max_frame_time,
+                          max_substeps=args.max_substeps,
+                          forensics=args.report.parent if args.report else None)
+
+    def progress(k: int, live: int) -> None:
+        if args.progress:
+            print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
+
+    if args.report is None:
+        record = run_master(config, progress)
+    else:
+        with ReportFile(args.report) as report:
+            record = run_master(config, progress, report.checkpoint)
+            report.finish(record.summary(), record.interrupted)
+    if record.interrupted:
+        return INTERRUPTED
+    return lost_walls_code(record.final.lost if record.final else (), args.on_loss, "master")
+
+
+def add_node(commands) -> None:
+    parser = commands.add_parser("node", help="one wall: a GL context stepping in lock-step")
+    parser.add_argument("--wall", type=lambda t: wall_list(t)[0], required=True)
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--inject", type=fault, action="append", default=[],
+                        help="fault to inject into this node, KIND@FRAME (testing)")
+    parser.add_argument("--slow-delay", type=seconds, default=1.5)
+    parser.add_argument("--cave", type=cave_file, help="CAVE geometry (.toml) to draw the wall of")
+    parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
+                        help="draw the wall every K frames (0: never)")
+    parser.add_argument("--images", type=output_folder, help="folder for <wall>/frame_<k>.png")
+    parser.add_argument("--stereo", action="store_true", help="draw a left and a right eye")
+    parser.add_argument("--gpu", type=number_in(int, *GPU_RANGE, "an EGL device index"),
+                        help="EGL device to compute on (default: device 0; `cavesim doctor` "
+                             "lists them)")
+    parser.add_argument("--engine", type=Engine, choices=list(Engine),
+                        help="particle engine path, instead of the scene's [simulation] "
+                             "engine: gs_tf (geometry shader + transform feedback) or compute")
+    parser.add_argument("--snapshot-chunk", type=number_in(int, 1, MAX_CHUNK_PARTICLES,
+                                                           "particles"),
+                        default=CHUNK_PARTICLES,
+                        help=f"particles per reply of a snapshot this node sends "
+                             f"(default: {CHUNK_PARTICLES}, 4 MiB)")
+    parser.add_argument("--display", action="store_true",
+                        help="show the wall live in a window, as the CAVE file's "
+                             "[wall.display] says (needs --cave and an X display)")
+    parser.add_argument("--preview", action="store_true",
+                        help="show every wall of --cave unfolded in one desktop window; "
+                             "keys, mouse and gamepad move the head and fly the wand")
+    parser.add_argument("--preview-scale", type=number_in(float, 0.05, 2.0, "a scale"),
+                        default=0.5, help="walls' size in the preview (default 0.5)")
+    parser.add_argument("--on-master-loss", choices=MASTER_LOSS_POLICIES, default="wait",
+                        help="when the master's liveliness goes away: wait --master-wait "
+                             "seconds for a new master (default), or exit 1")
+    parser.add_argument("--master-wait", type=seconds, default=60.0,
+                        help="seconds to wait for a master's welcome, or for a new master "
+                             "(default 60); then the node exits 1")
+    parser.add_argument("--resync", choices=RESYNC_MODES, default="delta",
+                        help="how a RESYNC loads the healthy state: fetch only the records "
+                             "under the differing blocks of the checksum tree, falling back "
+                             "to the full snapshot (delta, default), or the full snapshot")
+    parser.add_argument("--verbose", action="store_true")
+    add_mixed_hardware_arguments(parser, master=False)
+    add_network_arguments(parser)
+    parser.set_defaults(handler=node)
+
+
+def node(args: argparse.Namespace, console) -> int:
+    from nodes.wall.process import NodeConfig
+    from nodes.wall.process import main as run_node
+
+    configure_logging(args.verbose)
+    network, credentials = network_and_key(args, "node")
+    if credentials is not None and credentials.can_sign_as_master:
+        log.warning("node %s: --key-file %s is the master's own key; give nodes the "
+                    "session.key, so that no node can sign as the master", args.wall,
+                    args.key_file)
+    if args.render_every and (args.cave is None or args.images is None):
+        raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
+                         "and --images too")
+    if args.display and args.preview:
+        raise UsageError("cavesim node: error: argument --preview: not with --display (a node "
+                         "shows its wall or the whole CAVE)")
+    if (args.display or args.preview) and args.cave is None:
+        raise UsageError("cavesim node: error: argument --display/--preview: a window needs "
+                         "--cave FILE (the wall's geometry and its [wall.display])")
+    if (args.display or args.preview) and args.gpu is not None:
+        raise UsageError("cavesim node: error: argument --gpu: a window computes on its X "
+                         "display's GPU; choose the display ([wall.display] x_display)")
+    config = NodeConfig(wall=args.wall, scene=args.scene, session=args.session,
+                        network=network, credentials=credentials, faults=tuple(args.inject),
+                        slow_delay=args.slow_delay, cave=args.cave,
+                        render_every=args.render_every, images=args.images,
+                        stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu,
+                        engine=args.engine,
+                        display=args.display, preview=args.preview,
+                        preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
+                        master_wait=args.master_wait, resync=args.resync,
+                        drift_sample=node_sample_from(args, "node"))
+    return run_node(config)

@@ -1,0 +1,263 @@
+"""`cavesim run`: the master and one node per wall on this machine, with a progress bar.
+
+Each wall computes on the EGL device its plan gives it (`nodes.launch.gpus`); the summary names
+the GPU every wall reported. report.json is kept current while the master runs (a crash
+leaves the last checkpoint) and written whole at the end, with the pictures and plots.
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from cavesim.core.cave import DEFAULT_CAVE
+from cavesim.core.errors import CaveError, ContextError, SceneError
+from cavesim.core.output import check_written, writing
+from cavesim.core.scene.model import Engine
+from cavesim.core.wire.credentials import Credentials
+from cavesim.core.wire.network import session_name
+from cavesim.tools.reports.run_tables import demo_table, forensic_lines, gpu_table, summary_table
+from nodes.arguments import (
+    INTERRUPTED,
+    UsageError,
+    cave_file,
+    frame_count,
+    lost_walls_code,
+    master_credentials,
+    number_in,
+    output_directory,
+    output_folder,
+    scene_file,
+    wall_count,
+    wall_names,
+)
+from nodes.launch.cluster import ClusterPlan, run_cluster
+from nodes.lockstep import LOSS_POLICIES
+from nodes.master.process import MasterConfig
+from nodes.master.report_file import ReportFile
+from nodes.master.tolerance import Tolerance
+from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
+from nodes.mixed_hardware import node_arguments, tolerance_from
+
+DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
+PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
+
+
+@dataclass(frozen=True)
+class RunPlan:
+    walls: tuple[str, ...]
+    scene: Path
+    frames: int
+    out: Path
+    session: str = "run"
+    credentials: Credentials | None = None  # the master's (master.key); nodes get session.key
+    on_loss: str = "continue"  # a wall lost: go on without it, or "pause" the barrier
+    cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
+    render_every: int = 0
+    stereo: bool = False
+    gpus: Mapping[str, int] = field(default_factory=dict)  # wall -> EGL device (else default)
+    display: bool = False  # every wall live in its window ([wall.display] of the CAVE)
+    preview: bool = False  # a member "preview" shows the CAVE unfolded in a desktop window
+    engine: Engine | None = None  # every wall's particle engine path (None: the scene's)
+    tolerance: Tolerance | None = None  # the mixed-hardware mode (None: bit-exact)
+
+    @property
+    def members(self) -> tuple[str, ...]:
+        """The walls in lock-step: the CAVE's, and the preview when there is one."""
+        return (*self.walls, PREVIEW) if self.preview else self.walls
+
+    @property
+    def draws(self) -> bool:
+        return self.cave is not None and self.render_every > 0
+
+    def node_args(self, wall: str) -> tuple[str, ...]:
+        """The flags of `wall`'s node beyond the cluster's own: its engine path, drawing, its
+        GPU, its window."""
+        engine = () if self.engine is None else ("--engine", str(self.engine))
+        if wall == PREVIEW:
+            return ("--preview", "--cave", str(self.cave), *engine)
+        if self.display:
+            return ("--display", "--cave", str(self.cave), "--render-every",
+                    str(self.render_every), "--images", str(self.out / "walls"), *engine)
+        gpu = ("--gpu", str(self.gpus[wall])) if wall in self.gpus else ()
+        if not self.draws:
+            return (*gpu, *engine)
+        return ("--cave", str(self.cave), "--render-every", str(self.render_every),
+                "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()),
+                *gpu, *engine)
+
+    def cluster(self) -> ClusterPlan:
+        master = MasterConfig(self.members, self.scene, self.frames, self.session,
+                              credentials=self.credentials, on_loss=self.on_loss,
+                              tolerance=self.tolerance, frame_log=self.out / "frames.log",
+                              forensics=self.out)
+        drawing = frozenset(self.members) if self.draws or self.display \
+            else frozenset({PREVIEW} & set(self.members))
+        mixed = node_arguments(self.tolerance)
+        return ClusterPlan(master, self.out,
+                           {wall: (*self.node_args(wall), *mixed) for wall in self.members},
+                           drawing)
+
+
+def run_walls(plan: RunPlan, console: Console) -> dict:
+    """Run the cluster to the end (or Ctrl-C), keeping report.json current; write and
+    return its final content."""
+    plan.out.mkdir(parents=True, exist_ok=True)
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
+    with ReportFile(plan.out / "report.json") as report_file:
+        with Progress(*columns, console=console, transient=False) as progress:
+            task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
+            record = run_cluster(plan.cluster(), lambda k, live: progress.update(
+                task, completed=k, live=live), checkpoint=report_file.checkpoint)
+        if record.interrupted:
+            console.print("[yellow]interrupted: the cluster was stopped")
+        report = record.summary()
+        with writing(plan.out):
+            if plan.draws:
+                report["images"] = assemble_images(plan, console)
+            report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+        report_file.finish(report, record.interrupted)
+    frame_log, logs = plan.out / "frames.log", plan.out / "logs"
+    check_written(report_file.path, frame_log, logs)
+    console.print(summary_table(report))
+    for line in forensic_lines(report):
+        console.print(line, markup=False, highlight=False, soft_wrap=True)
+    console.print(gpu_table(report))
+    if report.get("flight"):
+        console.print(demo_table(report))
+    console.print(f"wrote {report_file.path}, {frame_log}, logs in {logs}")
+    return report
+
+
+def assemble_images(plan: RunPlan, console: Console) -> dict:
+    """Unfolded-CAVE composites of every saved frame, and an animation of the run."""
+    from cavesim.core.cave.geometry import load_cave
+    from cavesim.gpu.render.animation import write_animation
+    from cavesim.gpu.render.composite import compose_run
+
+    composites = compose_run(load_cave(plan.cave), plan.out / "walls",
+                             plan.out / "composites")
+    images = {"walls": str(plan.out / "walls"), "composites": len(composites)}
+    if composites:
+        images["animation"] = str(write_animation(composites, plan.out / "run.gif"))
+        images["last_composite"] = str(composites[-1])
+        check_written(images["animation"], *composites)
+        console.print(f"wrote {len(composites)} composites and {images['animation']}")
+    return images
+
+
+def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
+    """The brownout demo's plots of a helicopter run (none for other scenes)."""
+    if not report.get("flight"):
+        return []
+    from cavesim.tools.reports.demo import write_demo_plots  # matplotlib: only when there is a plot
+
+    paths = write_demo_plots(report, out)
+    check_written(*paths)
+    console.print(f"wrote {len(paths)} plots in {out / 'plots'}")
+    return paths
+
+
+def add(commands) -> None:
+    parser = commands.add_parser("run", help="master + one node per wall on this machine")
+    walls = parser.add_mutually_exclusive_group()
+    walls.add_argument("--cave", type=cave_file, default=DEFAULT_CAVE,
+                       help=f"CAVE geometry whose walls are drawn (default: {DEFAULT_CAVE})")
+    walls.add_argument("--walls", type=wall_count, help="N undrawn walls instead of a CAVE")
+    parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
+                        help="each wall writes its picture every K frames (default 10; 0: never)")
+    parser.add_argument("--stereo", action="store_true")
+    parser.add_argument("--display", action="store_true",
+                        help="every wall live in its own window, as the CAVE file's "
+                             "[wall.display] says, swap-locked (needs an X display)")
+    parser.add_argument("--preview", action="store_true",
+                        help="one desktop window with every wall unfolded, live; its keys, "
+                             "mouse and gamepad move the head and fly the wand")
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--engine", type=Engine, choices=list(Engine),
+                        help="every wall's particle engine path, instead of the scene's "
+                             "[simulation] engine: gs_tf (geometry shader + transform "
+                             "feedback, the default) or compute (compute shaders, same bytes)")
+    parser.add_argument("--frames", type=frame_count,
+                        help="default: the scene's wand timeline to its end, else 600")
+    parser.add_argument("--out", type=output_folder, default=Path("out"))
+    parser.add_argument("--session", default="run", type=session_name)
+    parser.add_argument("--on-loss", choices=LOSS_POLICIES,
+                        help="a wall lost (its node gone, or silent 10 s in the barrier): "
+                             "continue without it, or pause until it is back (at most 300 s). "
+                             "Default: continue, but the run then exits 1 when a wall is lost "
+                             "for good; give --on-loss continue to accept that")
+    parser.add_argument("--key-file", type=Path,
+                        help="the session's master.key (`cavesim keys`): every message signed; "
+                             "the nodes get OUT/session.key")
+    add_mixed_hardware_arguments(parser, master=True)
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace, console) -> int:
+    credentials = master_credentials(args.key_file, "run")
+    scene, cave = _checked_files(args)  # before anything is started
+    walls = wall_names(args.walls) if args.walls else cave.names
+    if (args.display or args.preview) and args.walls:
+        raise UsageError("cavesim run: error: argument --display/--preview: windows show the "
+                         "walls of a CAVE; use --cave, not --walls")
+    if PREVIEW in walls:
+        raise UsageError(f"cavesim run: error: argument --cave: a wall may not be called "
+                         f"{PREVIEW!r} (the preview's name)")
+    tolerance = tolerance_from(args, walls, "run")
+    gpus = {} if args.display else _gpus(args, walls, cave)
+    output_directory(args.out, "run")
+    frames = args.frames or default_frames(scene)
+    plan = RunPlan(walls, args.scene, frames, args.out, args.session, credentials,
+                   on_loss=args.on_loss or "continue",
+                   cave=None if args.walls else args.cave, render_every=args.render_every,
+                   stereo=args.stereo, gpus=gpus, display=args.display,
+                   preview=args.preview, engine=args.engine, tolerance=tolerance)
+    report = run_walls(plan, console)
+    if report["interrupted"]:
+        return INTERRUPTED
+    return lost_walls_code(report["final"].get("lost", ()), args.on_loss, "run")
+
+
+def default_frames(scene, dt: float = 1 / 60) -> int:
+    """Frames to play a scene's wand timeline to its end (600 without a timeline)."""
+    helicopter = scene.helicopter
+    if helicopter is None or not helicopter.timeline:
+        return 600
+    return round(helicopter.timeline[-1].t / dt)
+
+
+def _checked_files(args: argparse.Namespace):
+    """The run's scene and CAVE (None with --walls), checked before any process starts."""
+    from cavesim.core.cave.geometry import load_cave
+    from cavesim.core.scene import load_scene
+
+    try:
+        scene = load_scene(args.scene)
+    except SceneError as e:
+        raise UsageError(f"cavesim run: error: argument --scene: {e}") from e
+    if args.walls:
+        return scene, None
+    try:
+        return scene, load_cave(args.cave)
+    except CaveError as e:
+        raise UsageError(f"cavesim run: error: argument --cave: {e}") from e
+
+
+def _gpus(args: argparse.Namespace, walls: tuple[str, ...], cave) -> dict[str, int]:
+    """Each wall's EGL device: the CAVE file's `gpu`, else spread over this machine's GPUs."""
+    from cavesim.gpu.gl.devices import list_devices
+    from nodes.launch.gpus import spread_walls
+
+    pinned = {} if cave is None else {w.name: w.gpu for w in cave.walls if w.gpu is not None}
+    devices = list_devices()  # no EGL at all: its error says what to install
+    try:
+        return spread_walls(walls, pinned, devices)
+    except ContextError as e:
+        raise UsageError(f"cavesim run: error: argument --cave: {args.cave}: {e}") from e

@@ -1,0 +1,83 @@
+"""A whole cluster on this machine: one node process per wall and the master in this
+process, for `cavesim run`, `cavesim check` and `cavesim bench --cluster` alike. With
+credentials, the nodes get OUT/session.key: the secret and the master's public key, never the
+master's signing key.
+
+The master runs here so that a caller can act between frames (the consistency harness
+kills, restarts and forges) and gets the run's `RunRecord` itself; a node process that
+exits while the run needs it ends the run at once with that node's own error line. The
+master logs into OUT/logs/master.log beside the nodes' logs, not onto the terminal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from cavesim.core.wire.credentials import SESSION_FILE, write_member_key
+from cavesim.core.wire.network import NetworkConfig
+from nodes.launch.launcher import LocalCluster
+from nodes.master.link import open_master_link
+from nodes.master.process import MasterConfig, run_master
+from nodes.master.run_record import RunRecord
+
+
+@dataclass(frozen=True)
+class ClusterPlan:
+    master: MasterConfig  # walls, scene, frames, session, credentials, timing (network: here)
+    out: Path  # logs/<wall>.log of the node processes, session.key for them
+    node_args: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # per wall
+    drawing: frozenset[str] = frozenset()  # walls whose nodes draw pictures
+
+
+def run_cluster(plan: ClusterPlan,
+                progress: Callable[[int, int], None] = lambda k, live: None,
+                before_frame: Callable[[LocalCluster, int], None] | None = None,
+                checkpoint: Callable[[RunRecord], None] | None = None) -> RunRecord:
+    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node;
+    `checkpoint` gets the record after every frame."""
+    with started_cluster(plan) as (cluster, config), open_master_link(config) as link, \
+            cluster.watch(link.events):
+        hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
+        return run_master(config, link, progress, hook, checkpoint)
+
+
+@contextmanager
+def started_cluster(plan: ClusterPlan) -> Iterator[tuple[LocalCluster, MasterConfig]]:
+    """The plan's node processes, started (and stopped at the end), and the master's config
+    with the endpoint they connect to; the master's log goes to OUT/logs/master.log."""
+    config = plan.master
+    key_file = None if config.credentials is None else \
+        write_member_key(plan.out / SESSION_FILE, config.credentials)
+    with LocalCluster(config.scene, plan.out, config.session, key_file=key_file,
+                      expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
+        for wall in config.walls:
+            cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
+        config = dataclasses.replace(config, network=NetworkConfig(
+            listen=(cluster.master_endpoint,)))
+        with _master_log(cluster.log_path("master")):
+            yield cluster, config
+
+
+@contextmanager
+def _master_log(path: Path) -> Iterator[None]:
+    """cavesim's log records of this process go to `path` (INFO and up), not the terminal."""
+    logger = logging.getLogger("cavesim")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handler = logging.FileHandler(path)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(name)s %(levelname)s %(message)s"))
+    saved = logger.level, logger.propagate
+    logger.setLevel(logging.INFO)
+    logger.propagate = False
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        handler.close()
+        logger.setLevel(saved[0])
+        logger.propagate = saved[1]

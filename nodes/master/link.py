@@ -1,0 +1,213 @@
+"""The master's side of the wire over Zenoh: typed events in, messages out.
+
+Zenoh callbacks decode and check on Zenoh's threads, so nothing unchecked is ever queued: a
+message must carry this run's id (`run_id`, drawn by the master), come from the wall its
+key names, and a report may only be of a frame already sent. Refusals are counted (and
+logged at a bounded rate), never queued; a wall whose every message fails its signature, or
+that refuses the master's signed queries, is named with a hint about --key-file. The event
+queue is bounded: when the master falls that far behind, further events are dropped and
+counted (the barrier asks again). Only the latest tracking message is kept. The master's
+liveliness token tells the nodes it is there; liveliness of the session's walls becomes
+WallUp/WallDown.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import zenoh
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.wire import (
+    BlockReply,
+    BlockRequest,
+    ControlMessage,
+    Credentials,
+    DisplayMessage,
+    FrameMessage,
+    InfoMessage,
+    InfoRequest,
+    ReportMessage,
+    SessionKeys,
+    TrackingMessage,
+    decode_envelope,
+    encode,
+)
+from cavesim.core.wire.guards import KeyMismatch
+from cavesim.core.wire.messages import Message, new_run_id
+from cavesim.core.wire.network import lockstep_publisher, open_session
+from cavesim.core.wire.rejects import RejectCounter
+from nodes.blocks import BlockAsker
+from nodes.master.events import Described, Displayed, Event, Reported, WallDown, WallUp
+
+log = logging.getLogger("cavesim.master")
+INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
+EVENT_QUEUE = 4096  # events the master's loop may fall behind by
+
+
+class ZenohMasterLink:
+    def __init__(self, session: zenoh.Session, name: str, credentials: Credentials | None,
+                 walls: tuple[str, ...], run_id: int) -> None:
+        self.session, self.name, self.credentials, self.walls = session, name, credentials, walls
+        self.run_id = run_id
+        self.keys = SessionKeys(name)
+        self.events: queue.Queue[Event] = queue.Queue(maxsize=EVENT_QUEUE)
+        self.rejects = RejectCounter("master")
+        self.mismatch = KeyMismatch("master")
+        self.dropped = 0  # events the full queue could not take
+        self.tracking: TrackingMessage | None = None  # the latest; the master samples it
+        self.last_sent = 0  # the newest frame sent: a report of a later one is refused
+        self._lock = threading.Lock()
+        self._frames = lockstep_publisher(session, self.keys.frame)
+        self._control = lockstep_publisher(session, self.keys.control)
+        self._declarations = [
+            session.declare_subscriber(self.keys.report(), self._on_report),
+            session.declare_subscriber(self.keys.display(), self._on_display),
+            session.declare_subscriber(self.keys.tracking, self._on_tracking),
+            session.liveliness().declare_subscriber(self.keys.alive(), self._on_alive,
+                                                    history=True),
+            session.liveliness().declare_token(self.keys.master_alive),
+        ]
+
+    def send(self, message: FrameMessage | ControlMessage) -> None:
+        if isinstance(message, FrameMessage):
+            self.last_sent = max(self.last_sent, message.frame)
+            publisher = self._frames
+        else:
+            publisher = self._control
+        publisher.put(self._seal(message))
+
+    def ask_info(self, wall: str) -> None:
+        """Ask `wall` which GPU it computes on and for its nonce; the answer is an event."""
+        self.session.get(self.keys.info(wall), lambda reply: self._on_info(wall, reply),
+                         timeout=INFO_TIMEOUT, payload=self._seal(InfoRequest(0, wall)))
+
+    def ask_blocks(self, wall: str, request: BlockRequest) -> BlockReply | None:
+        """`wall`'s reply to a block request about its state (desync forensics), checked and
+        of this run; None when it refused or did not answer in time (BLOCK_SECONDS)."""
+        asker = BlockAsker(self.session, self.keys.blocks(wall), self._seal,
+                           self._open_reply, self.rejects)
+        reply = asker(request)
+        if reply is None:
+            log.warning("%s did not answer a %s block question: %s", wall, request.query.name,
+                        asker.refusal or "no reply in time")
+        return reply
+
+    def sender_hint(self, wall: str) -> str | None:
+        """Why `wall` may not be heard: its messages fail their signature (else None)."""
+        return self.mismatch.hint(f"wall {wall}")
+
+    def close(self) -> None:
+        for declaration in reversed(self._declarations):
+            declaration.undeclare()
+
+    def _seal(self, message) -> bytes:
+        return encode(message, self.name, self.credentials, self.run_id)
+
+    def _open_reply(self, data: bytes) -> Message:
+        """A reply to one of our queries, checked: of this run."""
+        envelope = decode_envelope(data, self.name, self.credentials)
+        if envelope.run_id != self.run_id:
+            raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
+        return envelope.message
+
+    # -- zenoh callbacks: decode, check, enqueue ------------------------------------------
+
+    def _post(self, event: Event) -> None:
+        try:
+            self.events.put_nowait(event)
+        except queue.Full:
+            with self._lock:
+                self.dropped += 1
+
+    def _on_alive(self, sample: zenoh.Sample) -> None:
+        wall = self.keys.node_of(sample.key_expr)
+        if wall in self.walls:
+            up = sample.kind == zenoh.SampleKind.PUT
+            self._post(WallUp(wall) if up else WallDown(wall))
+
+    def _on_report(self, sample: zenoh.Sample) -> None:
+        report = self._from_wall(sample, ReportMessage, "report")
+        if report is None:
+            return
+        if report.frame > self.last_sent:
+            self._reject(ProtocolError("unsent-frame", f"a report of frame {report.frame}; "
+                                                       f"the newest frame sent is "
+                                                       f"{self.last_sent}"), sample)
+            return
+        self._post(Reported(report))
+
+    def _on_display(self, sample: zenoh.Sample) -> None:
+        if (message := self._from_wall(sample, DisplayMessage, "display")) is not None:
+            self._post(Displayed(message))
+
+    def _on_info(self, wall: str, reply: zenoh.Reply) -> None:
+        if reply.ok is None:  # the wall's refusal (our signature failed there), or a timeout
+            reason = reply.err.payload.to_string()
+            log.info("the info query to %s got no answer: %s", wall, reason)
+            if hint := self.mismatch.note(f"wall {wall}", reason):
+                log.error("master: %s", hint)
+            return
+        if (info := self._from_wall(reply.ok, InfoMessage, "info")) is not None:
+            self._post(Described(info))
+
+    def _on_tracking(self, sample: zenoh.Sample) -> None:
+        try:
+            message = decode_envelope(sample.payload.to_bytes(), self.name,
+                                      self.credentials).message
+        except ProtocolError as e:
+            self._reject(e, sample)
+            return
+        if isinstance(message, TrackingMessage):
+            self.tracking = message
+        else:
+            self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
+                                                     f"tracking key"), sample)
+
+    def _from_wall(self, sample: zenoh.Sample, expected: type, key: str):
+        """The message if it is an `expected` of this run from the wall its key names."""
+        sender = self.keys.node_of(sample.key_expr)
+        if sender not in self.walls:
+            self._reject(ProtocolError("unknown-wall", f"{sender!r} is not a wall of this "
+                                                       f"run"), sample)
+            return None
+        try:
+            envelope = decode_envelope(sample.payload.to_bytes(), self.name, self.credentials)
+        except ProtocolError as e:
+            self._reject(e, sample, f"wall {sender}")
+            return None
+        self.mismatch.note(f"wall {sender}", None)
+        message = envelope.message
+        if envelope.run_id != self.run_id:
+            self._reject(ProtocolError("wrong-run", f"run {envelope.run_id:#018x}, this run "
+                                                    f"is {self.run_id:#018x}"), sample)
+        elif not isinstance(message, expected) or message.node != sender:
+            self._reject(ProtocolError("unexpected", f"{type(message).__name__} from "
+                                                     f"{sender!r} on a {key} key"), sample)
+        else:
+            return message
+        return None
+
+    def _reject(self, error: ProtocolError, sample: zenoh.Sample,
+                sender: str | None = None) -> None:
+        self.rejects.reject(error, str(sample.key_expr))
+        if sender is not None and (hint := self.mismatch.note(sender, error.reason)):
+            log.error("master: %s", hint)
+
+
+@contextmanager
+def open_master_link(config, run_id: int | None = None) -> Iterator[ZenohMasterLink]:
+    """A Zenoh session with the master's declarations, for the length of one run (a new
+    run id unless one is given)."""
+    run_id = run_id or new_run_id()
+    with open_session(config.network) as session:
+        link = ZenohMasterLink(session, config.session, config.credentials, config.walls,
+                               run_id)
+        try:
+            yield link
+        finally:
+            link.close()

@@ -1,0 +1,1 @@
+"""The tracker-bridge process (`cavesim tracker`): DTrack2 datagrams in, head and wand out."""

@@ -1,0 +1,3 @@
+"""The wall-node process (`process.py`): one GL context stepped in lock-step, what reaches it
+(inbox), how it resyncs (snapshots, delta), what it shows (painter, screen, preview
+controls) and the drift sample it reports in the mixed-hardware mode."""

@@ -1,0 +1,221 @@
+"""The lock-step cluster as processes on loopback: faults, soak, replay, shutdown, sessions."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from master_process import spawn_master
+
+from cavesim.tools.log_replay import replay
+from nodes.check.harness import CheckPlan, run_check
+from nodes.cluster_bench.resync import SCENE as RESYNC_SCENE
+from nodes.faults import parse_fault
+from nodes.launch.launcher import LocalCluster
+
+ROOT = Path(__file__).parents[2]
+DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"
+MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
+WALLS = ("front", "left", "right")
+
+pytestmark = pytest.mark.slow
+
+
+# A million particles from the first frame on, living for the whole run: the resync bench's
+MILLION = RESYNC_SCENE.format(particles=1_000_000, rate=6e7)
+
+
+def check(tmp_path, faults, walls=WALLS, frames=150, session="t", scene=DUST_DEVIL, **options):
+    plan = CheckPlan(walls, scene, frames, tuple(map(parse_fault, faults)), tmp_path,
+                     session=f"{session}{os.getpid()}", **options)
+    return run_check(plan)
+
+
+def assert_each_fault_caught(report, faults):
+    by_fault = {o["fault"]: o for o in report["faults"]}
+    for spec in faults:
+        outcome = by_fault[spec]
+        assert outcome["detected_frame"] == int(spec.split("@")[1].split(":")[0]), outcome
+        if outcome["node"]:
+            assert outcome["named"] == [outcome["node"]], outcome
+        assert outcome["healed"], outcome
+    assert report["final"]["agree"] and report["final"]["all_walls_in"]
+
+
+def test_state_faults_are_named_by_majority_and_resynced(tmp_path):
+    faults = ["bitflip@20:left", "stale@40:right", "drop@60:front", "seed@1:right"]
+    report = check(tmp_path, faults)
+    assert_each_fault_caught(report, faults)
+    assert report["divergences"] == 3  # bitflip, stale, seed; a drop only stalls
+
+
+def test_process_faults_are_detected_and_healed(tmp_path):
+    faults = ["kill@20:left", "slow@60:right", "rogue@70"]
+    report = check(tmp_path, faults, walls=("front", "left", "right", "floor"), frames=200)
+    assert_each_fault_caught(report, faults)
+    assert report["divergences"] == 0
+    assert sum(report["rogue_messages_sent"].values()) == 4
+    assert sum(report["run"]["rejected_messages"]["nodes"].values()) >= 4 * 3
+
+
+def test_attacks_and_a_killed_master_are_refused_and_survived(tmp_path):
+    """Forged snapshots and a query flood at a resync, the master killed mid-run and a new
+    master taking the nodes over, then the killed run's captured traffic (and an earlier
+    run's, a member's and unsent reports) replayed into the new run."""
+    faults = ["snapshot-forgery@20:left", "bitflip@30:right", "master-kill@40",
+              "replay-attack@70"]
+    report = check(tmp_path, faults, frames=100)
+    assert_each_fault_caught(report, faults)
+    forgery, _, kill, replay = report["faults"]
+    assert set(forgery["detection"]["forged_snapshots_served"]) >= {"old-snapshot"}
+    assert forgery["detection"]["refused_by_node"] >= 1
+    assert report["killed_run"]["frames"] == 39 and kill["detection"]["frames_before"] == 39
+    assert kill["detection"]["nodes_that_noticed"] == list(WALLS)
+    assert kill["detection"]["nodes_in_the_new_run"] == list(WALLS)
+    assert kill["detection"]["killed_run"] != kill["detection"]["new_run"]
+    assert report["frames"] == 100 and report["run"]["frames"] == 61
+    refused = replay["detection"]["refused_by_master"]
+    assert refused.get("wrong-run", 0) >= 1 and refused.get("unsent-frame", 0) >= 1
+    assert replay["detection"]["refused_by_nodes"] >= 3 * 3  # earlier run's, member's
+    assert report["divergences"] == 0 and report["final"]["agree"]  # in the new run
+
+
+def test_a_flood_of_junk_and_queries_is_counted_and_costs_no_memory_and_little_log(tmp_path):
+    report = check(tmp_path, ["flood@20"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["flood@20"])
+    (flood,) = report["faults"]
+    figures = flood["detection"]
+    assert figures["refused_by_nodes"] >= 200_000 * len(WALLS)  # each one counted
+    for wall in WALLS:
+        before, after = (figures[when] for when in ("before", "after"))
+        assert after["rss_mb"][wall] - before["rss_mb"][wall] < 20  # the queues are bounded
+        assert after["log_bytes"][wall] - before["log_bytes"][wall] < 20_000  # rate-limited
+    assert report["run"]["losses"] == [] and report["final"]["agree"]
+
+
+def test_two_nodes_name_both_on_a_divergence(tmp_path):
+    report = check(tmp_path, ["bitflip@10:left"], walls=("front", "left"), frames=40)
+    (divergence,) = report["run"]["divergences"]
+    assert divergence["nodes"] == ["front", "left"]
+    assert report["final"]["agree"]
+
+
+def test_a_million_particle_snapshot_streams_in_chunks_and_heals(tmp_path):
+    scene = tmp_path / "million.toml"
+    scene.write_text(MILLION)
+    report = check(tmp_path, ["bitflip@3:left"], walls=("front", "left"), frames=5,
+                   session="big", scene=scene, barrier_timeout=20.0, snapshot_chunk=25_000,
+                   resync="full")
+    (resync,) = report["run"]["resyncs"]
+    assert (resync["node"], resync["source"], resync["frame"], resync["ok"]) == \
+        ("left", "front", 3, True)
+    assert report["final"]["agree"] and report["final"]["all_walls_in"]
+    assert report["run"]["live_particles"]["max"] == 1_000_000
+    log = (tmp_path / "logs" / "left.log").read_text()
+    assert "resynced to frame 3 from front: 1000000 particles in 40 chunks" in log
+
+
+def test_pause_policy_holds_the_barrier_until_the_lost_node_is_back(tmp_path):
+    report = check(tmp_path, ["kill@15:left"], frames=60, on_loss="pause")
+    assert_each_fault_caught(report, ["kill@15:left"])
+    run = report["run"]
+    assert run["joins"] == [], "under pause the node never left the membership"
+    assert any(s["frame"] == 15 and "left" in s["nodes"] for s in run["stalls"])
+    (resync,) = run["resyncs"]
+    assert resync["frame"] == 15 and resync["ok"]
+
+
+def test_checking_every_k_frames_finds_the_divergence_at_the_next_check(tmp_path):
+    report = check(tmp_path, ["bitflip@12:left"], frames=40, check_every=5)
+    (divergence,) = report["run"]["divergences"]
+    assert divergence["frame"] == 15 and divergence["nodes"] == ["left"]
+    assert report["final"]["agree"]
+    forensics = json.loads((tmp_path / divergence["forensics"]["file"]).read_text())
+    (stream,) = forensics["streams"]
+    since = {(r["first_differing_frame"], r["first_differing_frame_exact"])
+             for r in stream["records"]}
+    assert since == {(12, True)}, forensics  # the history rings tell when it began
+
+
+def test_a_bitflip_is_localised_to_its_particle_field_and_bit_and_healed_by_delta(tmp_path):
+    report = check(tmp_path, ["bitflip@20:left"], frames=25)
+    assert_each_fault_caught(report, ["bitflip@20:left"])
+    (outcome,) = report["faults"]
+    assert outcome["localisation"]["exact"] and report["all_localised"], outcome
+    expected = outcome["localisation"]["expected"]
+    line = (f"frame 20: left differs from front in particle {expected['record']} "
+            f"{expected['field']}: ")
+    assert line in (tmp_path / "logs" / "master.log").read_text()
+    assert "resynced to frame 20 from front: by delta, " in \
+        (tmp_path / "logs" / "left.log").read_text()
+
+
+def test_healthy_soak_of_1000_frames_has_no_divergence_and_replays(tmp_path, ctx):
+    report = check(tmp_path, [], frames=1000, session="soak")
+    run = report["run"]
+    assert run["frames"] == 1000 and run["divergences"] == [] and run["resyncs"] == []
+    assert run["live_particles"]["max"] > 50_000
+    assert report["final"]["agree"] and report["final"]["all_walls_in"]
+    result = replay(tmp_path / "frames.log", DUST_DEVIL, ctx=ctx)
+    assert result.frames == 1000 and result.equal, result.mismatches[:3]
+
+
+def test_ctrl_c_stops_every_process_and_still_writes_the_report(tmp_path):
+    command = [sys.executable, "-m", "cavesim", "run", "--walls", "2", "--frames", "100000",
+               "--scene", str(MINIMAL), "--out", str(tmp_path), "--session", f"c{os.getpid()}"]
+    # SIGINT at its default, as a terminal's Ctrl-C finds it (a test runner started in the
+    # background passes SIGINT on ignored, and Python then never raises KeyboardInterrupt)
+    run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           start_new_session=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.monotonic() + 60
+    while not (tmp_path / "frames.log").exists() or (tmp_path / "frames.log").stat().st_size < 2000:
+        assert time.monotonic() < deadline and run.poll() is None, run.stdout.read()
+        time.sleep(0.1)
+    os.kill(run.pid, signal.SIGINT)
+    assert run.wait(timeout=60) == 130
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["interrupted"] and 0 < report["frames"] < 100000
+    assert report["divergences"] == []
+    leftovers = subprocess.run(["pgrep", "-f", f"--session c{os.getpid()}"],
+                               capture_output=True, text=True).stdout
+    assert leftovers == ""
+
+
+def test_sessions_with_different_prefixes_never_interfere(tmp_path):
+    """Two clusters on one zenoh mesh: each runs clean, neither sees the other's messages."""
+    first = LocalCluster(MINIMAL, tmp_path / "a", f"a{os.getpid()}")
+    second = LocalCluster(MINIMAL, tmp_path / "b", f"b{os.getpid()}")
+    with first, second:
+        for cluster in (first, second):
+            for wall in ("front", "left"):
+                cluster.start_node(wall)
+        masters = [spawn_master(first, ("front", "left"), 300),
+                   spawn_master(second, ("front", "left"), 300,
+                                       ("--connect", first.master_endpoint))]
+        for master in masters:
+            master.stdout.read()
+            assert master.wait(timeout=120) == 0
+    for out in (tmp_path / "a", tmp_path / "b"):
+        report = json.loads((out / "report.json").read_text())
+        assert report["frames"] == 300 and report["divergences"] == []
+        assert not report["rejected_messages"]["master"]
+        assert not any(report["rejected_messages"]["nodes"].values())
+
+
+@pytest.mark.parametrize(("cores", "nodes", "threads"), [(2, 4, "0"), (2, 2, "0"), (16, 4, "4"),
+                                                         (16, 8, "2"), (16, 9, "0")])
+def test_a_node_that_never_draws_gets_its_share_of_llvmpipes_threads(monkeypatch, tmp_path,
+                                                                   cores, nodes, threads):
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
+    monkeypatch.delenv("LP_NUM_THREADS", raising=False)
+    cluster = LocalCluster(MINIMAL, tmp_path, "t", expected_nodes=nodes,
+                           drawing=frozenset({"front"}))
+    assert cluster.node_environment("left")["LP_NUM_THREADS"] == threads
+    assert "LP_NUM_THREADS" not in cluster.node_environment("front")  # it draws: Mesa's own
+    monkeypatch.setenv("LP_NUM_THREADS", "3")  # the user's setting wins
+    assert cluster.node_environment("left")["LP_NUM_THREADS"] == "3"

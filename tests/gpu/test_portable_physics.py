@@ -1,0 +1,358 @@
+"""Portable arithmetic: the GPU and its float32 numpy twin give the same bits, every frame.
+
+With `[simulation] arithmetic = "portable"` every float operation whose result enters the
+particle or emitter stream goes through arithmetic.glsl's correctly rounded functions, and
+cavesim/core/portable/ repeats each shader function operation by operation in numpy
+float32 (which rounds every operation correctly and never fuses). So the twin's streams,
+hashed by the checksum's numpy reference, must have the GPU's checksum every frame on both
+engine paths: any other bits on another GPU are that GPU's error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import subprocess
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scenes import FOUNTAIN, particle_cloud, scene_dict
+
+from cavesim.core.digest.shape import StateChecksum
+from cavesim.core.digest.twin import reference_checksum
+from cavesim.core.drivers import driver_for
+from cavesim.core.frame import FrameInput
+from cavesim.core.heightfield import HeightGrid, save_heightfield
+from cavesim.core.portable import constants
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.record_diff import differences
+from cavesim.core.scene import Arithmetic, Engine, Integrator, Scene, parse_scene
+from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.kernels import PORTABLE
+from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.engine.programs import (
+    ARITHMETIC_IDS,
+    emission_defines,
+    feature_combinations,
+    physics_defines,
+)
+from cavesim.gpu.shader_source import SHADER_ROOT, ProgramSpec, ShaderSource
+
+SCENES = Path(__file__).parents[2] / "config" / "scenes"
+DT = 1 / 60
+DEMO_FRAMES = 500
+SMALL_FRAMES = 100
+PORTABLE_ID = ARITHMETIC_IDS[Arithmetic.PORTABLE]
+
+
+def portable_scene(path: Path) -> Scene:
+    """The scene file at `path` with `[simulation] arithmetic = "portable"`."""
+    with open(path, "rb") as f:
+        data = tomllib.load(f)
+    data["simulation"]["arithmetic"] = "portable"
+    return parse_scene(data, path, path.stem)
+
+
+def twin_checksum(twin: TwinSystem) -> StateChecksum:
+    return reference_checksum(twin.particles.records().view(np.uint32),
+                              twin.emitters.view(np.uint32), twin.scene.seed)
+
+
+class Lockstep:
+    """One scene in portable arithmetic on the twin and on both GPU engine paths, stepped
+    with the master's inputs (its driver's frames as a node decodes them, a random texture
+    transform per frame); every frame each GPU checksum must be the twin's."""
+
+    def __init__(self, ctx, scene: Scene, start: np.ndarray | None = None) -> None:
+        self.twin = TwinSystem(scene)
+        assert self.twin.kernels is PORTABLE
+        self.gpus = {engine: ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
+                     for engine in Engine}
+        self.driver = driver_for(scene)
+        self.rng = np.random.Generator(np.random.PCG64(0))
+        self.size = scene.random_texture_size
+        self.frames = 0
+        self.counts: list[int] = []
+        if start is not None:
+            for system in (self.twin, *self.gpus.values()):
+                system.write_particles(start)
+
+    def step(self) -> None:
+        self.frames += 1
+        step = self.driver.advance(self.frames * DT, DT, None)
+        scene_frame = self.driver.decode(self.driver.encode(step.frame))
+        inputs = FrameInput(DT, draw_transform(self.rng, self.size))
+        self.twin.step(inputs, scene_frame)
+        expected = twin_checksum(self.twin)
+        for engine, gpu in self.gpus.items():
+            gpu.step(inputs, scene_frame)
+            if gpu.checksum() != expected:
+                pytest.fail(f"frame {self.frames}, {engine.value} path: "
+                            f"{first_difference(gpu, self.twin)}")
+        self.counts.append(expected.particles)
+
+    def release(self) -> None:
+        for gpu in self.gpus.values():
+            gpu.release()
+
+
+@pytest.fixture
+def lockstep(ctx):
+    made: list[Lockstep] = []
+
+    def make(scene: Scene, start: np.ndarray | None = None) -> Lockstep:
+        made.append(Lockstep(ctx, scene, start))
+        return made[-1]
+
+    yield make
+    for each in made:
+        each.release()
+
+
+def first_difference(gpu: ParticleSystem, twin: TwinSystem) -> str:
+    """Where the GPU's streams first differ from the twin's: record, field, both values."""
+    for stream, ours, theirs in (("particle", gpu.read_particles(), twin.particles.records()),
+                                 ("emitter", gpu.read_emitters(), twin.emitters)):
+        common = min(len(ours), len(theirs))
+        bytes_ours, bytes_theirs = (x[:common].view(np.uint8).reshape(common, -1)
+                                    for x in (ours, theirs))
+        differing = np.flatnonzero((bytes_ours != bytes_theirs).any(axis=1))
+        if len(differing):
+            first = differing[0]
+            found = differences(ours.dtype, differing[:1], ours[first:first + 1].tobytes(),
+                                theirs[first:first + 1].tobytes())[0]
+            (gpu_bits, twin_bits), (gpu_value, twin_value) = found.bits, found.values
+            return (f"{stream} record {first} of {common} first differs in "
+                    f"{found.field.name}: GPU {found.shown(gpu_value)} ({found.hex(gpu_bits)}),"
+                    f" twin {found.shown(twin_value)} ({found.hex(twin_bits)}), "
+                    f"{found.distance} apart; {len(differing)} records differ")
+        if len(ours) != len(theirs):
+            return f"{len(ours)} {stream} records on the GPU, {len(theirs)} in the twin"
+    return "the streams are equal, but not their checksums"
+
+
+# -- the CI test: the demos, 500 frames, both engine paths -------------------------------
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["brownout", "dust_devil"])
+def test_the_demos_have_the_portable_twins_checksum_every_frame(lockstep, name):
+    run = lockstep(portable_scene(SCENES / f"{name}.toml"))
+    for _ in range(DEMO_FRAMES):
+        run.step()
+    assert max(run.counts) > 5000, "the run must raise a cloud to mean anything"
+
+
+# -- every integrator, every force, a height field ------------------------------------
+
+
+@pytest.fixture(scope="module")
+def terrain(tmp_path_factory) -> dict:
+    """A height-field [collision] table: a tilted, rippled ground under the vortex."""
+    x = np.linspace(-4, 4, 33)
+    y = np.linspace(-4, 4, 25)
+    height = 0.3 + 0.15 * np.sin(x)[None, :] * np.cos(0.7 * y)[:, None] + 0.05 * x[None, :]
+    path = tmp_path_factory.mktemp("terrain") / "terrain.npz"
+    save_heightfield(path, HeightGrid(height.astype(np.float32), (-4.0, -4.0), (4.0, 4.0)))
+    return {"kind": "heightfield", "friction": 0.2, "resilience": 0.6,
+            "friction_min_speed": 0.05, "file": str(path)}
+
+
+def every_feature(integrator: Integrator, collision: dict) -> Scene:
+    """Drag toward the gridded vortex, gravity, damping, the ground, a fountain."""
+    return parse_scene(scene_dict(integrator=integrator.value, damping=0.3, collision=collision,
+                                  emitters=[FOUNTAIN], arithmetic="portable"), name="portable")
+
+
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_each_integrator_has_the_portable_twins_bits(lockstep, terrain, integrator):
+    run = lockstep(every_feature(integrator, terrain), particle_cloud(400))
+    for _ in range(SMALL_FRAMES):
+        run.step()
+    on_ground = run.twin.particles.pos[:, 2] < 0.7
+    assert on_ground.mean() > 0.2, "the test needs particles on the ground"
+
+
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_drag_beyond_stokes_and_dispersion_have_the_portable_twins_bits(lockstep, terrain,
+                                                                          integrator):
+    """Schiller-Naumann sand and dust (the test scene's grains), dispersed over a height
+    field: the drag rate, the random walk's draws and its mixing-length diffusivity."""
+    data = scene_dict(integrator=integrator.value, damping=0.3, collision=terrain,
+                      emitters=[FOUNTAIN], arithmetic="portable",
+                      dispersion={"mixing_length": 0.7})
+    run = lockstep(parse_scene(data, name="transport"), particle_cloud(300))
+    assert run.twin.forces_for(np.zeros(1, np.uint32)).reynolds_per_speed is not None
+    for _ in range(SMALL_FRAMES):
+        run.step()
+
+
+def test_still_air_outside_the_field_has_the_portable_twins_bits(lockstep):
+    data = scene_dict(integrator="rk2", emitters=[FOUNTAIN], arithmetic="portable")
+    data["field"]["out_of_domain"] = "zero"
+    data["field"]["box_max"] = [4.0, 4.0, 1.5]  # the fountain throws particles out of the top
+    run = lockstep(parse_scene(data, name="zero"), particle_cloud(400))
+    for _ in range(SMALL_FRAMES):
+        run.step()
+    assert (run.twin.particles.pos[:, 2] > 1.5).any()
+
+
+@pytest.mark.parametrize(("interpolation", "out_of_domain"),
+                         [("catmull_rom", "zero"), ("bspline", "clamp")])
+def test_smooth_fields_have_the_portable_twins_bits(lockstep, interpolation, out_of_domain):
+    """The cubic interpolants' 64 texels and weights, by RK4 four times a step; the fountain
+    throws particles through the top of the box, across every boundary cell."""
+    data = scene_dict(integrator="rk4", emitters=[FOUNTAIN], arithmetic="portable")
+    data["field"].update(interpolation=interpolation, out_of_domain=out_of_domain,
+                         box_max=[4.0, 4.0, 1.5])
+    run = lockstep(parse_scene(data, name=interpolation), particle_cloud(400))
+    for _ in range(SMALL_FRAMES):
+        run.step()
+    assert (run.twin.particles.pos[:, 2] > 1.5).any()
+
+
+def test_the_portable_twin_stays_close_to_the_float64_reference(terrain):
+    """The portable kernels mirror the shaders, not the physics: held against the float64
+    twin, a mirror of a wrong shader line would show."""
+    for integrator in (Integrator.EXPONENTIAL, Integrator.RK4):
+        scene = every_feature(integrator, terrain)
+        portable, reference = TwinSystem(scene), TwinSystem(scene, np.float64)
+        for system in (portable, reference):
+            system.write_particles(particle_cloud(400))
+        for k in range(60):
+            frame = FrameInput(DT, draw_transform(np.random.default_rng(k), 64))
+            portable.step(frame)
+            reference.step(frame)
+        np.testing.assert_array_equal(portable.particles.age, reference.particles.age)
+        for name in ("pos", "vel"):
+            np.testing.assert_allclose(getattr(portable.particles, name),
+                                       getattr(reference.particles, name), rtol=1e-4, atol=1e-3)
+
+
+def test_portable_arithmetic_gives_other_bits_than_native_here(ctx):
+    """A portable scene compiled natively would give this driver's own bits: they differ
+    from the portable ones (exp, division), so the bit-exact tests would catch it."""
+    states = []
+    for arithmetic in Arithmetic:
+        scene = parse_scene(scene_dict(integrator="exponential", emitters=[FOUNTAIN],
+                                       arithmetic=arithmetic.value), name=arithmetic.value)
+        gpu = ParticleSystem(ctx, scene)
+        gpu.write_particles(particle_cloud(400))
+        for _ in range(10):
+            gpu.step(FrameInput(DT, np.eye(3)))
+        states.append(gpu.read_particles())
+        gpu.release()
+    native, portable = states
+    assert len(native) == len(portable)
+    assert native.tobytes() != portable.tobytes()
+    np.testing.assert_allclose(native["pos"], portable["pos"], rtol=1e-5, atol=1e-5)
+
+
+# -- what the portable shaders may contain ------------------------------------------------
+
+# glslang's names, in its intermediate tree, for the operations whose precision the GLSL
+# specification leaves to the driver: float division and the transcendental built-ins.
+FORBIDDEN = re.compile(
+    r"^\d+:\d+ +((?:divide|divide second child into first child) \([^)]*\bfloat\)|"
+    r"(?:exp|exp2|log|log2|pow|sqrt|inverse sqrt|sine|cosine|tangent|arc \w+|hyp\. \w+|"
+    r"length|normalize|distance|dot-product|mix|fma) \()", re.M)
+
+
+def portable_builds() -> list[tuple[ProgramSpec, dict[str, int]]]:
+    """The particle and emission programs in portable arithmetic that the shader gate checks:
+    variants that together hold every line."""
+    return [(spec, defines) for spec, defines in feature_combinations()
+            if defines.get("ARITHMETIC") == PORTABLE_ID]
+
+
+def stages(builds: list[tuple[ProgramSpec, dict[str, int]]]) -> list[tuple[str, ShaderSource]]:
+    return [(f"{spec.name} {stage} {defines}", source) for spec, defines in builds
+            for stage, source in spec.sources(defines).items()]
+
+
+def intermediate_trees(sources: list[tuple[str, ShaderSource]], folder: Path) -> dict[str, str]:
+    """glslangValidator's intermediate tree (-i) of each stage, by its name."""
+    extensions = {"VERTEX_SHADER": "vert", "GEOMETRY_SHADER": "geom", "COMPUTE_SHADER": "comp"}
+    paths = {}
+    for number, (name, source) in enumerate(sources):
+        stage = next(e for macro, e in extensions.items() if f"#define {macro}\n" in source.text)
+        path = folder / f"{number:03d}.{stage}"
+        path.write_text(source.text)
+        paths[str(path)] = name
+    result = subprocess.run(["glslangValidator", "-i", *paths], capture_output=True, text=True,
+                            check=False)
+    assert result.returncode == 0, result.stdout[-2000:]
+    trees: dict[str, list[str]] = {}
+    current: list[str] = []
+    for line in result.stdout.splitlines():
+        if line in paths:
+            current = trees.setdefault(paths[line], [])
+        else:
+            current.append(line)
+    return {name: "\n".join(lines) for name, lines in trees.items()}
+
+
+@pytest.mark.requires("glslang")
+def test_portable_shaders_use_no_operation_the_spec_leaves_to_the_driver(tmp_path):
+    trees = intermediate_trees(stages(portable_builds()), tmp_path)
+    assert len(trees) > 3 * 8 * 9  # 9 variants of each integrator in 3 particle-pass stages
+    found = {name: sorted({m[1] for m in FORBIDDEN.finditer(tree)})
+             for name, tree in trees.items()}
+    assert not any(found.values()), {name: ops for name, ops in found.items() if ops}
+
+
+@pytest.mark.requires("glslang")
+def test_the_same_check_finds_them_in_native_arithmetic(tmp_path):
+    spec, defines = portable_builds()[0]
+    native = {**defines, "ARITHMETIC": ARITHMETIC_IDS[Arithmetic.NATIVE]}
+    trees = intermediate_trees(stages([(spec, native)])[:1], tmp_path)
+    (tree,) = trees.values()
+    found = {m[1].split(" (")[0] for m in FORBIDDEN.finditer(tree)}
+    assert {"exp", "divide", "length", "dot-product", "sqrt"} <= found
+
+
+def test_a_portable_scene_makes_every_stream_program_and_the_twin_portable():
+    scene = every_feature(Integrator.RK4, {"kind": "plane", "friction": 0.1, "resilience": 0.5})
+    assert physics_defines(scene)["ARITHMETIC"] == PORTABLE_ID
+    assert emission_defines(scene)["ARITHMETIC"] == PORTABLE_ID
+    native = dataclasses.replace(scene, arithmetic=Arithmetic.NATIVE)
+    assert physics_defines(native)["ARITHMETIC"] == ARITHMETIC_IDS[Arithmetic.NATIVE]
+    assert TwinSystem(native).dtype is np.float64 and TwinSystem(scene).dtype is np.float32
+
+
+def test_the_arithmetic_ids_are_the_same_on_both_sides():
+    text = (SHADER_ROOT / "include" / "arithmetic.glsl").read_text()
+    glsl = {name: int(value) for name, value in re.findall(r"#define ARITHMETIC_(\w+) (\d+)",
+                                                            text)}
+    assert glsl == {key.name: value for key, value in ARITHMETIC_IDS.items()}
+
+
+def test_the_shaders_exact_constants_have_the_twins_bits():
+    pattern = re.compile(r"#define (\w+) uintBitsToFloat\(0x([0-9A-Fa-f]{8})u\)")
+    glsl = {}
+    for path in (SHADER_ROOT / "include").glob("*.glsl"):
+        if path.name != "arithmetic.glsl":  # its own constants have its own twin's test
+            glsl |= {name: int(bits, 16) for name, bits in pattern.findall(path.read_text())}
+    python = {name: int(np.float32(value).view(np.uint32)) for name, value
+              in vars(constants).items() if name.isupper()}
+    assert glsl == python
+
+
+def test_a_lockstep_mismatch_names_the_record_and_field(ctx):
+    scene = every_feature(Integrator.EXPLICIT_EULER, {"kind": "plane", "friction": 0.1,
+                                                      "resilience": 0.5})
+    gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
+    records = particle_cloud(5)
+    gpu.write_particles(records)
+    changed = records.copy()
+    changed["vel"][3, 1] = np.nextafter(changed["vel"][3, 1], np.float32(np.inf))
+    twin.write_particles(changed)
+    message = first_difference(gpu, twin)
+    twin.write_particles(records[:4])
+    shorter = first_difference(gpu, twin)
+    gpu.release()
+    assert message.startswith("particle record 3 of 5 first differs in vel.y: GPU ")
+    assert message.endswith(", 1 apart; 1 records differ")
+    assert shorter == "5 particle records on the GPU, 4 in the twin"

@@ -1,0 +1,175 @@
+"""A node's inbox without a network: what it lets through to the main thread and what it
+refuses, counted by reason (nodes/wall/inbox.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from cavesim.core.frame import FrameInput
+from cavesim.core.wire import (
+    BlockQuery,
+    BlockRequest,
+    Command,
+    ControlMessage,
+    FrameMessage,
+    InfoRequest,
+    SessionKeys,
+    StateRequest,
+    encode,
+)
+from cavesim.core.wire.credentials import generate
+from nodes.wall.inbox import (
+    BLOCK_BURST,
+    QUEUE,
+    STATE_BURST,
+    BlocksQuery,
+    FromMaster,
+    NodeInbox,
+    NodeView,
+    StateQuery,
+)
+
+SESSION, RUN, OTHER_RUN, NONCE = "inbox", 0xABC, 0xDEF, 77
+MASTER = generate()
+MEMBER = MASTER.for_members()
+KEYS = SessionKeys(SESSION)
+
+
+class Payload:
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+class Sample:
+    def __init__(self, key: str, data: bytes) -> None:
+        self.key_expr, self.payload = key, Payload(data)
+
+
+class Query(Sample):
+    def __init__(self, key: str, data: bytes | None) -> None:
+        super().__init__(key, data or b"")
+        self.payload = None if data is None else Payload(data)
+        self.dropped, self.errors = False, []
+
+    def drop(self) -> None:
+        self.dropped = True
+
+    def reply_err(self, text: str) -> None:
+        self.errors.append(text)
+
+
+def frame(k: int, run: int = RUN, credentials=MASTER) -> Sample:
+    return Sample(KEYS.frame, encode(FrameMessage(k, FrameInput(1 / 60, np.eye(3))), SESSION,
+                                     credentials, run))
+
+
+def control(message: ControlMessage, run: int = RUN) -> Sample:
+    return Sample(KEYS.control, encode(message, SESSION, MASTER, run))
+
+
+@pytest.fixture
+def inbox() -> NodeInbox:
+    return NodeInbox(SESSION, MEMBER, NodeView("front", NONCE, run_id=RUN, done=10))
+
+
+def delivered(inbox: NodeInbox) -> list:
+    events = []
+    while (event := inbox.get(0)) is not None:
+        events.append(event)
+    return events
+
+
+def test_the_next_frames_of_the_run_pass_and_older_or_foreign_ones_are_refused(inbox):
+    for sample in (frame(11), frame(12), frame(9), frame(11, OTHER_RUN)):
+        inbox._on_frame(sample)
+    assert [e.message.frame for e in delivered(inbox)] == [11, 12]
+    assert inbox.rejects.counts == {"stale-frame": 1, "wrong-run": 1}
+
+
+def test_a_command_older_than_the_newest_frame_is_a_replay(inbox):
+    inbox._on_frame(frame(12))
+    resync = ControlMessage(11, Command.RESYNC, "front", "left", "a" * 32)
+    inbox._on_control(control(resync))
+    inbox._on_control(control(ControlMessage(12, Command.RESYNC, "front", "left", "a" * 32)))
+    inbox._on_control(control(ControlMessage(12, Command.STOP), OTHER_RUN))
+    commands = [e.message for e in delivered(inbox) if isinstance(e.message, ControlMessage)]
+    assert [(c.command, c.frame) for c in commands] == [(Command.RESYNC, 12)]
+    assert inbox.rejects.counts == {"stale-command": 1, "wrong-run": 1}
+
+
+def test_only_a_welcome_naming_our_nonce_admits_us_whatever_its_run(inbox):
+    inbox._on_control(control(ControlMessage(0, Command.WELCOME, "front", nonce=NONCE + 1)))
+    inbox._on_control(control(ControlMessage(0, Command.WELCOME, "left", nonce=NONCE)))
+    inbox._on_control(control(ControlMessage(0, Command.WELCOME, "front", nonce=NONCE),
+                              OTHER_RUN))
+    (welcome,) = delivered(inbox)
+    assert isinstance(welcome, FromMaster) and welcome.run_id == OTHER_RUN
+    assert inbox.rejects.counts == {"stale-welcome": 1}
+
+
+def test_a_member_cannot_send_a_frame_or_a_command(inbox):
+    from nodes.check.rogue import member_signed
+
+    inbox._on_frame(Sample(KEYS.frame, member_signed(FrameMessage(11, FrameInput(
+        1 / 60, np.eye(3))), SESSION, MEMBER.secret, RUN)))
+    inbox._on_control(Sample(KEYS.control, member_signed(ControlMessage(11, Command.STOP),
+                                                         SESSION, MEMBER.secret, RUN)))
+    assert not delivered(inbox) and inbox.rejects.counts == {"not-from-master": 2}
+
+
+def test_state_queries_need_the_key_the_run_and_this_wall_and_are_rate_limited(inbox):
+    request = StateRequest(10, "front", "b" * 32)
+    unsigned = Query(KEYS.state("front"), encode(request, SESSION))
+    foreign = Query(KEYS.state("front"), encode(request, SESSION, MEMBER, OTHER_RUN))
+    for query in (unsigned, foreign, Query(KEYS.state("front"), None)):
+        inbox._on_state_query(query)
+        assert query.dropped
+    signed = [Query(KEYS.state("front"), encode(request, SESSION, MEMBER, RUN))
+              for _ in range(STATE_BURST + 3)]
+    for query in signed:
+        inbox._on_state_query(query)
+    served = [e for e in delivered(inbox) if isinstance(e, StateQuery)]
+    assert len(served) == STATE_BURST and all(q.dropped for q in signed[STATE_BURST:])
+    assert inbox.rejects.counts == {"unsigned": 2, "wrong-run": 1, "rate-limited": 3}
+    assert not unsigned.errors  # only the master's info query is told why
+
+
+def test_block_queries_need_the_key_the_run_and_this_wall_and_are_rate_limited(inbox):
+    request = BlockRequest(10, "front", "b" * 32, BlockQuery.TREE, 2)
+    unsigned = Query(KEYS.blocks("front"), encode(request, SESSION))
+    foreign = Query(KEYS.blocks("front"), encode(request, SESSION, MEMBER, OTHER_RUN))
+    other_wall = Query(KEYS.blocks("front"), encode(BlockRequest(
+        10, "left", "b" * 32, BlockQuery.TREE, 2), SESSION, MEMBER, RUN))
+    state = Query(KEYS.blocks("front"), encode(StateRequest(10, "front", "b" * 32), SESSION,
+                                               MEMBER, RUN))
+    for query in (unsigned, foreign, other_wall, state):
+        inbox._on_blocks_query(query)
+        assert query.dropped
+    signed = [Query(KEYS.blocks("front"), encode(request, SESSION, MEMBER, RUN))
+              for _ in range(BLOCK_BURST + 2)]
+    for query in signed:
+        inbox._on_blocks_query(query)
+    served = [e for e in delivered(inbox) if isinstance(e, BlocksQuery)]
+    assert len(served) == BLOCK_BURST and served[0].request == request
+    assert inbox.rejects.counts == {"unsigned": 1, "wrong-run": 2, "unexpected": 1,
+                                    "rate-limited": 2}
+
+
+def test_an_info_query_whose_signature_fails_is_told_why(inbox):
+    stranger = generate()
+    query = Query(KEYS.info("front"), encode(InfoRequest(0, "front"), SESSION, stranger, RUN))
+    inbox._on_info_query(query)
+    assert query.dropped and query.errors == ["bad-signature"]
+
+
+def test_queries_are_dropped_and_counted_when_the_queue_is_full(inbox):
+    for k in range(11, 11 + QUEUE):
+        inbox._on_frame(frame(k))  # the master's frames fill the queue (never dropped)
+    query = Query(KEYS.info("front"), encode(InfoRequest(0, "front"), SESSION, MASTER, RUN))
+    inbox._on_info_query(query)
+    assert query.dropped and inbox.dropped == {"InfoQuery": 1}
+    assert len(delivered(inbox)) == QUEUE

@@ -1,0 +1,123 @@
+"""Live walls under a real X server (Xvfb, Mesa, GLFW): a window shows the headless
+render's pixels, four windows swap together, closing one loses that wall, and the preview
+window's keys move the head as a tracker would."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from xserver import close_window, hold_key, window_id, xserver  # noqa: F401  (a fixture)
+
+from cavesim.core.cave.desktop import desktop_cave_file
+from cavesim.core.cave.geometry import load_cave
+from cavesim.core.cave.projection import eye_positions
+from cavesim.core.drivers import driver_for
+from cavesim.core.framelog import read_frame_log
+from cavesim.core.scene import load_scene
+from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.render.wall_renderer import WallRenderer
+from nodes.launch.cluster import ClusterPlan, run_cluster
+from nodes.master.process import MasterConfig
+
+ROOT = Path(__file__).parents[2]
+MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
+DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"
+FLEX4 = ROOT / "config" / "cave" / "flex4.toml"
+
+
+def live_cave(folder: Path, walls: tuple[str, ...], size: int = 64) -> Path:
+    """A CAVE file whose flex4 walls open side by side as `size`-pixel windows, no vsync."""
+    path = folder / "live.toml"
+    path.write_text(desktop_cave_file(load_cave(FLEX4), walls, size))
+    return path
+
+
+def live_run(folder: Path, scene: Path, walls: tuple[str, ...], frames: int, args,
+             before_frame=None, preview: bool = False):
+    """Run a cluster whose walls show live with `args`; the master's RunRecord."""
+    members = (*walls, "preview") if preview else walls
+    config = MasterConfig(members, scene, frames, f"live{os.getpid()}{folder.name[-6:]}",
+                          barrier_timeout=5.0, frame_log=folder / "frames.log")
+    node_args = {wall: args(wall) for wall in members}
+    return run_cluster(ClusterPlan(config, folder, node_args=node_args),
+                       before_frame=before_frame)
+
+
+@pytest.mark.slow
+@pytest.mark.requires("xvfb")
+def test_a_window_shows_the_pixels_of_the_headless_render(xserver, ctx, tmp_path):  # noqa: F811
+    cave = live_cave(tmp_path, ("front",), size=96)
+    record = live_run(tmp_path, DUST_DEVIL, ("front",), 20, lambda wall: (
+        "--display", "--cave", str(cave), "--render-every", "10", "--images",
+        str(tmp_path / "walls")))
+    assert record.frames == 20 and record.swaps.summary()["frames"] >= 19
+    shown = np.asarray(Image.open(tmp_path / "walls" / "front" / "frame_000020.png"))
+
+    scene = load_scene(DUST_DEVIL)  # the same frame, drawn headless in this process
+    system, driver = ParticleSystem(ctx, scene), driver_for(scene)
+    for logged in read_frame_log(tmp_path / "frames.log")[1]:
+        system.step(logged.message.inputs, driver.decode(logged.message.params))
+        if logged.message.frame == 20:
+            message = logged.message
+            break
+    renderer = WallRenderer(ctx, system, load_cave(cave).wall("front"))
+    (eye,) = eye_positions(message.head.position, message.head.orientation).values()
+    headless = renderer.render(eye, driver.decode(message.params).helicopter)
+    assert shown.shape == headless.shape == (96, 96, 3)
+    assert np.array_equal(shown, headless), f"{(shown != headless).any(axis=2).sum()} pixels"
+    assert headless.std() > 5  # a picture, not a blank
+
+
+@pytest.mark.slow
+@pytest.mark.requires("xvfb")
+def test_four_windows_swap_only_after_every_wall_has_drawn(xserver, tmp_path):  # noqa: F811
+    walls = ("front", "left", "right", "floor")
+    cave = live_cave(tmp_path, walls)
+    record = live_run(tmp_path, MINIMAL, walls, 40, lambda wall: (
+        "--display", "--cave", str(cave)))
+    swap = record.summary()["swap"]
+    print(f"\nfour windows under Xvfb (llvmpipe): swap skew p50 {swap['skew_ms']['p50']} ms, "
+          f"p99 {swap['skew_ms']['p99']} ms over {swap['frames']} frames")
+    assert swap["walls"] == sorted(walls) and swap["frames"] >= 39
+    assert swap["order_violations"] == 0 and swap["stalls"] == []
+    assert not record.divergences and record.final.agree and record.final.all_walls_in
+
+
+@pytest.mark.slow
+@pytest.mark.requires("xvfb", "xdotool")
+def test_closing_a_wall_window_stops_that_node_and_loses_the_wall(xserver, tmp_path):  # noqa: F811
+    walls = ("front", "left", "right")
+    cave = live_cave(tmp_path, walls)
+
+    def close_left(cluster, k):
+        if k == 10:
+            close_window(window_id("cavesim left"))
+
+    record = live_run(tmp_path, MINIMAL, walls, 60, lambda wall: (
+        "--display", "--cave", str(cave)), before_frame=close_left)
+    assert record.frames == 60 and [loss.node for loss in record.losses] == ["left"]
+    assert record.final.members == ("front", "right") and record.final.agree
+    assert "the window was closed; leaving" in (tmp_path / "logs" / "left.log").read_text()
+
+
+@pytest.mark.slow
+@pytest.mark.requires("xvfb", "xdotool")
+def test_the_preview_window_takes_keys_and_moves_the_head(xserver, tmp_path):  # noqa: F811
+    cave = live_cave(tmp_path, ("front", "left", "right", "floor"))
+
+    def press_up(cluster, k):
+        if k == 5:
+            hold_key(window_id("cavesim preview"), "Up", 1.0)  # forward, 1 m/s
+
+    record = live_run(tmp_path, MINIMAL, ("front",), 40, lambda wall: (
+        ("--preview", "--cave", str(cave)) if wall == "preview" else ()),
+        before_frame=press_up, preview=True)
+    assert record.frames == 40 and record.final.agree
+    heads = [logged.message.head.position for logged
+             in read_frame_log(tmp_path / "frames.log")[1]]
+    assert abs(heads[3][1]) < 1e-6  # the script's sway moves the head sideways only
+    assert max(y for _, y, _ in heads[6:]) > 0.5  # the tracked head went forward
