@@ -60,7 +60,7 @@ from cavesim.core.wire import (
     encode,
 )
 from cavesim.core.wire.messages import Message, Phase, Status
-from cavesim.core.wire.network import NetworkConfig, lockstep_publisher, open_session
+from cavesim.core.wire.network import NetworkSettings, lockstep_publisher, open_session
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
@@ -101,7 +101,7 @@ class NodeConfig:
     wall: str
     scene: Path
     session: str = "default"
-    network: NetworkConfig = NetworkConfig()
+    network: NetworkSettings = NetworkSettings()
     credentials: Credentials | None = None  # session.key: checks the master's signature
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY

@@ -10,7 +10,6 @@ from pathlib import Path
 from rich.progress import Progress
 
 from cavesim.core.output import check_written, writing
-from cavesim.core.wire.network import session_name
 from cavesim.nodes.faults import KINDS
 from cavesim.nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 from cavesim.tools.arguments import (
@@ -22,6 +21,7 @@ from cavesim.tools.arguments import (
     output_folder,
     scene_file,
     seconds,
+    session_name,
     wall_count,
     wall_names,
 )

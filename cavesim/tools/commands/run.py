@@ -20,7 +20,6 @@ from cavesim.core.errors import CaveError, ContextError, SceneError
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
-from cavesim.core.wire.network import session_name
 from cavesim.nodes.cluster import ClusterPlan, run_cluster
 from cavesim.nodes.lockstep import LOSS_POLICIES
 from cavesim.nodes.master import MasterConfig
@@ -37,6 +36,7 @@ from cavesim.tools.arguments import (
     output_directory,
     output_folder,
     scene_file,
+    session_name,
     wall_count,
     wall_names,
 )
