@@ -31,7 +31,7 @@ from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import SessionKeys, decode, encode
 from cavesim.core.wire.credentials import Credentials, read_credentials, write_key_files
-from cavesim.core.wire.messages import HEADER
+from cavesim.core.wire.envelope import HEADER
 from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.nodes.launcher import LocalCluster

@@ -51,8 +51,8 @@ from cavesim.core.wire import (
     ReportMessage,
     TrackingMessage,
 )
-from cavesim.core.wire.messages import Status
 from cavesim.core.wire.network import NetworkSettings
+from cavesim.core.wire.payloads.from_nodes import Status
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
 from cavesim.nodes import lockstep

@@ -37,15 +37,9 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.messages import (
-    HEADER,
-    SIGNED,
-    Message,
-    SnapshotChunk,
-    SnapshotHeader,
-    new_run_id,
-)
+from cavesim.core.wire.envelope import HEADER, SIGNED, Message, new_run_id
 from cavesim.core.wire.network import NetworkSettings, open_session
+from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
 
 log = logging.getLogger("cavesim.rogue")
 FORGERIES = ("old", "misfit", "corrupt")  # the snapshots a forger serves

@@ -9,7 +9,7 @@ import logging
 
 from cavesim.core.limits import GPU_RANGE
 from cavesim.core.scene.model import Engine
-from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
+from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from cavesim.nodes.faults import parse_fault
 from cavesim.nodes.lockstep import LOSS_POLICIES, MASTER_LOSS_POLICIES, RESYNC_MODES
