@@ -9,8 +9,10 @@ import sys
 import tempfile
 from pathlib import Path
 
+from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.core.wire.credentials import Credentials, read_credentials
 from cavesim.core.wire.key_expressions import check_name
-from cavesim.core.wire.network import network_from_arguments, read_key
+from cavesim.core.wire.network import NetworkSettings, zenoh_config
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 USAGE_ERROR, RUN_ERROR, INTERRUPTED = 2, 1, 130
@@ -144,10 +146,53 @@ def _is_a_file(path: Path) -> str:
     return f"{str(path)!r} is a file; give a folder (a new one is made)"
 
 
+def session_name(text: str) -> str:
+    """An argparse type: a session name (1-32 letters, digits, '_' or '-')."""
+    try:
+        return check_name("session", text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
+
+
+def add_network_arguments(parser: argparse.ArgumentParser) -> None:
+    """The network flags every cavesim process takes."""
+    group = parser.add_argument_group("network (zenoh)")
+    group.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
+                       help=f"endpoint to listen on, e.g. tcp/127.0.0.1:{DEFAULT_MASTER_PORT} "
+                            "(repeatable)")
+    group.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
+                       help=f"endpoint to connect to, e.g. tcp/10.0.0.1:{DEFAULT_MASTER_PORT} "
+                            "(repeatable)")
+    group.add_argument("--config", type=Path, dest="zenoh_config", metavar="FILE",
+                       help="zenoh JSON5 config file (see config/zenoh/)")
+    group.add_argument("--session", default="default", type=session_name,
+                       help="session name: the key prefix")
+    group.add_argument("--key-file", type=Path, metavar="FILE",
+                       help="the session's keys from `cavesim keys`: master.key for the "
+                            "master, session.key for nodes and trackers")
+
+
+def network_settings(args: argparse.Namespace) -> NetworkSettings:
+    """The network flags' settings, checked: a config file that zenoh cannot read is
+    refused here, before anything starts (ValueError, one line)."""
+    settings = NetworkSettings(tuple(args.listen), tuple(args.connect), args.zenoh_config)
+    try:
+        zenoh_config(settings)
+    except ValueError as e:
+        raise ValueError(f"--config {e}") from e
+    return settings
+
+
+def read_key(path: Path | None) -> Credentials | None:
+    """The session's credentials from a --key-file (None without one); ValueError names the
+    file and what is wrong."""
+    return None if path is None else read_credentials(path)
+
+
 def network_and_key(args: argparse.Namespace, command: str):
     """The zenoh settings and the session's key from the network flags (UsageError)."""
     try:
-        return network_from_arguments(args), read_key(args.key_file)
+        return network_settings(args), read_key(args.key_file)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e
 

@@ -23,13 +23,13 @@ import zenoh
 from cavesim.core.digest.history import HistoryEntry
 from cavesim.core.digest.shape import ITEM_WORDS, plan
 from cavesim.core.errors import ProtocolError, StateError
-from cavesim.core.wire.messages import (
+from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.payloads.state_transfer import (
     MAX_BLOCK_BYTES,
     BlockQuery,
     BlockReply,
     BlockRequest,
     HistoryFrame,
-    Message,
 )
 from cavesim.core.wire.rejects import RejectCounter
 

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from cavesim.core.wire import ReportMessage
-from cavesim.core.wire.messages import Status
+from cavesim.core.wire.payloads.from_nodes import Status
 
 LOSS_POLICIES = ("continue", "pause")  # drop a lost member and go on, or wait for it
 MASTER_LOSS_POLICIES = ("wait", "exit")  # a node whose master is gone: wait for a new one, or exit

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from cavesim.core.record_diff import field_bit
@@ -68,84 +69,137 @@ def _in_plan_frames(fault: Fault, record: RunRecord, harness,
     return {**outcome, **shifted, "fault": str(fault), "frame": fault.frame}
 
 
+@dataclass(frozen=True)
+class Evidence:
+    """What a run's record shows of one fault: when the master noticed it (None: never),
+    whom it named, when the node was whole again (None: never); for the attacks, what was
+    refused (`detection`) and what became of the run (`outcome`); for a bitflip, whether the
+    forensics named its particle, field and bit (`localisation`)."""
+
+    detected: int | None = None
+    named: list[str] = dataclasses.field(default_factory=list)
+    healed_at: int | None = None
+    detection: dict = dataclasses.field(default_factory=dict)
+    outcome: str = ""
+    localisation: dict | None = None
+
+
 def _outcome(fault: Fault, record: RunRecord, harness,
              killed: RunRecord | None, out: Path) -> dict:
-    """When the master noticed `fault`, whom it named, and when the node was whole again;
-    for the attacks, what was refused (`detection`) and what became of the run (`outcome`);
-    for a bitflip, whether the forensics named its particle, field and bit (`localisation`)."""
-    detected, named, healed_at, detection, outcome = None, [], None, {}, ""
-    localisation = None
-    node_rejected = sum(record.node_rejected.values())
-    if fault.kind in ("bitflip", "seed", "stale", "jitter", "shove"):
-        hit = next((d for d in record.divergences
-                    if d.frame >= fault.frame and fault.node in d.nodes), None)
-        if hit:
-            detected, named = hit.frame, list(hit.nodes)
-            healed_at = _resynced(record, fault.node, hit.frame)
-        if fault.kind == "bitflip":
-            localisation = localised(fault, hit, _live_at(record, fault.frame), out)
-    elif fault.kind in ("drop", "slow"):
-        hit = next((s for s in record.stalls
-                    if s.frame == fault.frame and fault.node in s.nodes), None)
-        if hit:
-            detected, named = hit.frame, sorted(hit.nodes)
-            healed_at = fault.frame if record.frames > fault.frame else None
-    elif fault.kind == "kill":
-        hit = next((loss for loss in record.losses
-                    if loss.node == fault.node and loss.frame >= fault.frame - 1), None)
-        if hit:
-            detected, named = hit.frame, [fault.node]
-            healed_at = next((j.frame for j in record.joins
-                              if j.node == fault.node and j.frame >= hit.frame),
-                             _resynced(record, fault.node, hit.frame))
-    elif fault.kind in ("rogue", "replay-attack"):
-        detection = {"sent": dict(harness.rogue.sent), "refused_by_nodes": node_rejected,
-                     "refused_by_master": dict(record.master_rejected)}
-        if node_rejected:
-            detected, healed_at = fault.frame, fault.frame
-        outcome = (f"{record.frames} frames ran to the end with "
-                   f"{record.divergences.total} divergence(s): no replayed or forged message "
-                   f"was stepped or obeyed")
-    elif fault.kind == "snapshot-forgery":
-        forged = {k: n for k, n in harness.rogue.sent.items() if k.endswith("-snapshot")}
-        rejected = record.node_rejected.get(fault.node, 0)
-        detection = {"forged_snapshots_served": forged, "refused_by_node": rejected}
-        hit = next((d for d in record.divergences
-                    if d.frame >= fault.frame and fault.node in d.nodes), None)
-        if hit and rejected:
-            detected, named = hit.frame, [fault.node]
-            healed_at = _resynced(record, fault.node, hit.frame)
-        outcome = (f"{fault.node} loaded only the state the master named"
-                   if healed_at is not None else f"{fault.node} was not healed")
-    elif fault.kind == "flood":
-        detection = {**harness.flood, "refused_by_nodes": node_rejected}
-        if node_rejected >= FLOOD_MESSAGES:
-            detected = fault.frame
-        if not record.losses and record.frames:
-            healed_at = fault.frame
-        outcome = (f"{FLOOD_MESSAGES:,} junk messages and {FLOOD_QUERIES:,} unsigned state "
-                   f"queries in {harness.flood.get('seconds')} s: counted, logged at a bounded "
-                   f"rate, no node lost")
-    elif fault.kind == "master-kill":
-        rejoined = list(record.final.members) if record.final else []
-        detection = {"killed_run": f"{killed.run_id:016x}", "frames_before": killed.frames,
-                     "nodes_that_noticed": harness.noticed, "new_run": f"{record.run_id:016x}",
-                     "nodes_in_the_new_run": rejoined}
-        if len(harness.noticed) == len(record.walls):
-            detected, named = fault.frame, list(harness.noticed)
-        if set(rejoined) == set(record.walls) and record.frames:
-            healed_at = fault.frame
-        outcome = (f"a new master took the {len(rejoined)} nodes over from the scene's start "
-                   f"and ran {record.frames} more frames")
+    """`fault`'s entry in check.json, from the evidence its kind leaves (`EVIDENCE`)."""
+    found = EVIDENCE[fault.kind](fault, record, harness, killed, out)
     result = {"fault": str(fault), "kind": fault.kind, "frame": fault.frame,
-              "node": fault.node, "detected_frame": detected, "named": named,
-              "healed_frame": healed_at,
-              "healed": healed_at is not None and record.agreed_at_the_end()}
-    if detection:
-        result |= {"detection": detection, "outcome": outcome}
-    if localisation is not None:
-        result["localisation"] = localisation
+              "node": fault.node, "detected_frame": found.detected, "named": found.named,
+              "healed_frame": found.healed_at,
+              "healed": found.healed_at is not None and record.agreed_at_the_end()}
+    if found.detection:
+        result |= {"detection": found.detection, "outcome": found.outcome}
+    if found.localisation is not None:
+        result["localisation"] = found.localisation
     return result
+
+
+def _divergence(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A node that computes something else: the first divergence naming it, healed by its
+    resync; a bitflip must also be localised."""
+    hit = _first_divergence(record, fault)
+    localisation = localised(fault, hit, _live_at(record, fault.frame), out) \
+        if fault.kind == "bitflip" else None
+    if hit is None:
+        return Evidence(localisation=localisation)
+    return Evidence(hit.frame, list(hit.nodes), _resynced(record, fault.node, hit.frame),
+                    localisation=localisation)
+
+
+def _stall(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A node that misses the barrier: the stall of that frame naming it, healed once the
+    run went past the frame."""
+    hit = next((s for s in record.stalls
+                if s.frame == fault.frame and fault.node in s.nodes), None)
+    if hit is None:
+        return Evidence()
+    return Evidence(hit.frame, sorted(hit.nodes),
+                    fault.frame if record.frames > fault.frame else None)
+
+
+def _loss(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A killed node: its loss, healed when it joined again (or else was resynced)."""
+    hit = next((loss for loss in record.losses
+                if loss.node == fault.node and loss.frame >= fault.frame - 1), None)
+    if hit is None:
+        return Evidence()
+    rejoined = next((j.frame for j in record.joins
+                     if j.node == fault.node and j.frame >= hit.frame),
+                    _resynced(record, fault.node, hit.frame))
+    return Evidence(hit.frame, [fault.node], rejoined)
+
+
+def _attack(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """Junk or replayed messages: detected and healed when the nodes refused some."""
+    refused = sum(record.node_rejected.values())
+    at = fault.frame if refused else None
+    return Evidence(at, healed_at=at, detection={
+        "sent": dict(harness.rogue.sent), "refused_by_nodes": refused,
+        "refused_by_master": dict(record.master_rejected)},
+        outcome=f"{record.frames} frames ran to the end with {record.divergences.total} "
+                f"divergence(s): no replayed or forged message was stepped or obeyed")
+
+
+def _forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """Forged snapshots served to a diverged node: detected when it refused them, healed by
+    a resync to the state the master named."""
+    forged = {k: n for k, n in harness.rogue.sent.items() if k.endswith("-snapshot")}
+    refused = record.node_rejected.get(fault.node, 0)
+    detection = {"forged_snapshots_served": forged, "refused_by_node": refused}
+    hit = _first_divergence(record, fault)
+    if not (hit and refused):
+        return Evidence(detection=detection, outcome=f"{fault.node} was not healed")
+    healed_at = _resynced(record, fault.node, hit.frame)
+    return Evidence(hit.frame, [fault.node], healed_at, detection,
+                    f"{fault.node} loaded only the state the master named"
+                    if healed_at is not None else f"{fault.node} was not healed")
+
+
+def _flood(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A flood: detected when the nodes counted every junk message, healed when no node
+    was lost."""
+    refused = sum(record.node_rejected.values())
+    return Evidence(
+        fault.frame if refused >= FLOOD_MESSAGES else None,
+        healed_at=fault.frame if not record.losses and record.frames else None,
+        detection={**harness.flood, "refused_by_nodes": refused},
+        outcome=f"{FLOOD_MESSAGES:,} junk messages and {FLOOD_QUERIES:,} unsigned state "
+                f"queries in {harness.flood.get('seconds')} s: counted, logged at a bounded "
+                f"rate, no node lost")
+
+
+def _master_kill(fault: Fault, record: RunRecord, harness, killed: RunRecord,
+                 out: Path) -> Evidence:
+    """A killed master: detected when every node noticed, healed when a new master ran
+    with all of them."""
+    rejoined = list(record.final.members) if record.final else []
+    everyone_noticed = len(harness.noticed) == len(record.walls)
+    return Evidence(
+        fault.frame if everyone_noticed else None,
+        list(harness.noticed) if everyone_noticed else [],
+        fault.frame if set(rejoined) == set(record.walls) and record.frames else None,
+        {"killed_run": f"{killed.run_id:016x}", "frames_before": killed.frames,
+         "nodes_that_noticed": harness.noticed, "new_run": f"{record.run_id:016x}",
+         "nodes_in_the_new_run": rejoined},
+        f"a new master took the {len(rejoined)} nodes over from the scene's start and ran "
+        f"{record.frames} more frames")
+
+
+EVIDENCE = {  # fault kind -> where the run's record shows it
+    "bitflip": _divergence, "seed": _divergence, "stale": _divergence,
+    "jitter": _divergence, "shove": _divergence,
+    "drop": _stall, "slow": _stall,
+    "kill": _loss,
+    "rogue": _attack, "replay-attack": _attack,
+    "snapshot-forgery": _forgery,
+    "flood": _flood,
+    "master-kill": _master_kill,
+}
 
 
 def localised(fault: Fault, divergence: Divergence | None, live: int | None,
@@ -194,3 +248,8 @@ def _live_at(record: RunRecord, frame: int) -> int | None:
 def _resynced(record: RunRecord, node: str, frame: int) -> int | None:
     return next((r.frame for r in record.resyncs
                  if r.node == node and r.frame >= frame and r.ok), None)
+
+
+def _first_divergence(record: RunRecord, fault: Fault) -> Divergence | None:
+    return next((d for d in record.divergences
+                 if d.frame >= fault.frame and fault.node in d.nodes), None)

@@ -37,15 +37,9 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.messages import (
-    HEADER,
-    SIGNED,
-    Message,
-    SnapshotChunk,
-    SnapshotHeader,
-    new_run_id,
-)
-from cavesim.core.wire.network import NetworkConfig, open_session
+from cavesim.core.wire.envelope import HEADER, SIGNED, Message, new_run_id
+from cavesim.core.wire.network import NetworkSettings, open_session
+from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
 
 log = logging.getLogger("cavesim.rogue")
 FORGERIES = ("old", "misfit", "corrupt")  # the snapshots a forger serves
@@ -72,7 +66,7 @@ class RoguePeer:
     def __init__(self, endpoint: str, session: str, walls: tuple[str, ...]) -> None:
         self.name, self.walls = session, walls
         self.keys = SessionKeys(session)
-        self.zenoh = open_session(NetworkConfig(connect=(endpoint,)))
+        self.zenoh = open_session(NetworkSettings(connect=(endpoint,)))
         # key kind ("frame", "control", "report") -> (key, bytes) as they were sent
         self.captured: dict[str, list[tuple[str, bytes]]] = defaultdict(list)
         self.sent: Counter[str] = Counter()  # what it sent, by what it was
@@ -185,7 +179,7 @@ class RoguePeer:
         """One forger per kind of FORGERIES, each a peer of its own (a resyncing node
         follows one replier at a time), answering every wall's state queries."""
         for forgery in FORGERIES:
-            forger = open_session(NetworkConfig(connect=(endpoint,)))
+            forger = open_session(NetworkSettings(connect=(endpoint,)))
             self._forgers.append(forger)
             self._declarations.append(forger.declare_queryable(
                 self.keys.state(), lambda query, forgery=forgery: self._forge(

@@ -10,7 +10,6 @@ from pathlib import Path
 from rich.progress import Progress
 
 from cavesim.core.output import check_written, writing
-from cavesim.core.wire.network import session_name
 from nodes.arguments import (
     RUN_ERROR,
     UsageError,
@@ -20,6 +19,7 @@ from nodes.arguments import (
     output_folder,
     scene_file,
     seconds,
+    session_name,
     wall_count,
     wall_names,
 )

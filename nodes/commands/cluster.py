@@ -9,12 +9,12 @@ import logging
 
 from cavesim.core.limits import GPU_RANGE
 from cavesim.core.scene.model import Engine
-from cavesim.core.wire.messages import MAX_CHUNK_PARTICLES
-from cavesim.core.wire.network import add_network_arguments
+from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from nodes.arguments import (
     INTERRUPTED,
     UsageError,
+    add_network_arguments,
     cave_file,
     configure_logging,
     frame_count,

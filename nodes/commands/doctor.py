@@ -8,9 +8,9 @@ from pathlib import Path
 
 from rich.console import Console
 
-from cavesim.core.wire.network import add_network_arguments
 from nodes.arguments import (
     RUN_ERROR,
+    add_network_arguments,
     network_and_key,
     output_file,
     output_path,

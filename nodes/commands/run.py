@@ -20,7 +20,6 @@ from cavesim.core.errors import CaveError, ContextError, SceneError
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
-from cavesim.core.wire.network import session_name
 from cavesim.tools.reports.run_tables import demo_table, forensic_lines, gpu_table, summary_table
 from nodes.arguments import (
     INTERRUPTED,
@@ -33,6 +32,7 @@ from nodes.arguments import (
     output_directory,
     output_folder,
     scene_file,
+    session_name,
     wall_count,
     wall_names,
 )

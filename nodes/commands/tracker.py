@@ -8,9 +8,9 @@ import json
 
 from cavesim.core.errors import TrackerError
 from cavesim.core.output import writing
-from cavesim.core.wire.network import add_network_arguments
 from nodes.arguments import (
     UsageError,
+    add_network_arguments,
     configure_logging,
     existing_file,
     network_and_key,

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cavesim.core.wire.credentials import SESSION_FILE, write_member_key
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings
 from nodes.launch.launcher import LocalCluster
 from nodes.master.link import open_master_link
 from nodes.master.process import MasterConfig, run_master
@@ -57,7 +57,7 @@ def started_cluster(plan: ClusterPlan) -> Iterator[tuple[LocalCluster, MasterCon
                       expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
         for wall in config.walls:
             cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
-        config = dataclasses.replace(config, network=NetworkConfig(
+        config = dataclasses.replace(config, network=NetworkSettings(
             listen=(cluster.master_endpoint,)))
         with _master_log(cluster.log_path("master")):
             yield cluster, config

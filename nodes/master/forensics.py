@@ -47,7 +47,12 @@ from cavesim.core.errors import CavesimError
 from cavesim.core.output import writing
 from cavesim.core.record_diff import FieldDifference, differences
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
-from cavesim.core.wire.messages import MAX_BLOCK_INDICES, BlockQuery, BlockReply, BlockRequest
+from cavesim.core.wire.payloads.state_transfer import (
+    MAX_BLOCK_INDICES,
+    BlockQuery,
+    BlockReply,
+    BlockRequest,
+)
 
 MAX_EXAMINED = 16  # differing blocks per stream followed down to their records
 MAX_REPORTED = 64  # differing records written per stream (the rest are counted)

@@ -37,8 +37,8 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
+from cavesim.core.wire.envelope import Message, new_run_id
 from cavesim.core.wire.guards import KeyMismatch
-from cavesim.core.wire.messages import Message, new_run_id
 from cavesim.core.wire.network import lockstep_publisher, open_session
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import BlockAsker

@@ -52,8 +52,8 @@ from cavesim.core.wire import (
     ReportMessage,
     TrackingMessage,
 )
-from cavesim.core.wire.messages import Status
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings
+from cavesim.core.wire.payloads.from_nodes import Status
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
 from nodes import lockstep
@@ -91,7 +91,7 @@ class MasterConfig:
     scene: Path
     frames: int
     session: str = "default"
-    network: NetworkConfig = NetworkConfig()
+    network: NetworkSettings = NetworkSettings()
     credentials: Credentials | None = None  # master.key: signs frames and commands
     dt: float = 1 / 60
     clock_seed: int = 0

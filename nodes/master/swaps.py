@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 from cavesim.core.bounded import FirstEntries, LogHistogram
 from cavesim.core.wire import DisplayMessage
-from cavesim.core.wire.messages import Phase
+from cavesim.core.wire.payloads.from_nodes import Phase
 
 WINDOW = 120  # frames a late DRAWN or SWAPPED of a finished frame is kept
 

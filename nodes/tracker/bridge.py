@@ -23,7 +23,7 @@ from cavesim.core.errors import ProtocolError, TrackerError
 from cavesim.core.tracking import TrackerMapping, TrackingState, parse_datagram
 from cavesim.core.tracking.dtrack import MAX_DATAGRAM
 from cavesim.core.wire import Credentials, SessionKeys, TrackingMessage, encode
-from cavesim.core.wire.network import NetworkConfig, open_session
+from cavesim.core.wire.network import NetworkSettings, open_session
 
 log = logging.getLogger("cavesim.tracker")
 POLL = 0.2  # s a receive waits at most, so that Ctrl-C and `stop` are noticed
@@ -36,7 +36,7 @@ class TrackerConfig:
     mapping: TrackerMapping
     bind: str  # address of this host to receive on (0.0.0.0: all)
     session: str = "default"
-    network: NetworkConfig = NetworkConfig()
+    network: NetworkSettings = NetworkSettings()
     credentials: Credentials | None = None  # session.key
     max_rate: float = 0.0  # messages per second at most; 0: one per datagram
 

@@ -33,7 +33,12 @@ from cavesim.core.digest.shape import (
 )
 from cavesim.core.errors import StateError
 from cavesim.core.records import EMITTER_DTYPE
-from cavesim.core.wire.messages import MAX_BLOCK_INDICES, BlockQuery, BlockReply, BlockRequest
+from cavesim.core.wire.payloads.state_transfer import (
+    MAX_BLOCK_INDICES,
+    BlockQuery,
+    BlockReply,
+    BlockRequest,
+)
 from cavesim.gpu.engine import ParticleSystem
 
 DELTA_SHARE = 0.25  # of the blocks: beyond it the full snapshot is about as cheap

@@ -59,8 +59,9 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.messages import Message, Phase, Status
-from cavesim.core.wire.network import NetworkConfig, lockstep_publisher, open_session
+from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.network import NetworkSettings, lockstep_publisher, open_session
+from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
@@ -101,7 +102,7 @@ class NodeConfig:
     wall: str
     scene: Path
     session: str = "default"
-    network: NetworkConfig = NetworkConfig()
+    network: NetworkSettings = NetworkSettings()
     credentials: Credentials | None = None  # session.key: checks the master's signature
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY

@@ -20,7 +20,7 @@ from cavesim.core.cave.projection import eye_positions
 from cavesim.core.output import writing
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import FrameMessage
-from cavesim.core.wire.messages import Phase
+from cavesim.core.wire.payloads.from_nodes import Phase
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render.composite import compose
 from cavesim.gpu.render.unfold import slots_of

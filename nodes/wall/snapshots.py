@@ -15,7 +15,8 @@ from collections.abc import Callable
 import zenoh
 
 from cavesim.core.errors import ProtocolError, StateError
-from cavesim.core.wire.messages import Message, SnapshotChunk, SnapshotHeader, StateRequest
+from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import (
     CHUNK_PARTICLES,

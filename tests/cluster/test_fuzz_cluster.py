@@ -30,9 +30,9 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import SessionKeys, decode, encode
-from cavesim.core.wire.credentials import Credentials, write_key_files
-from cavesim.core.wire.messages import HEADER
-from cavesim.core.wire.network import NetworkConfig, read_key
+from cavesim.core.wire.credentials import Credentials, read_credentials, write_key_files
+from cavesim.core.wire.envelope import HEADER
+from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.launch.launcher import LocalCluster
 
@@ -208,7 +208,7 @@ def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     with LocalCluster(SCENE, tmp_path, session_name, key_file=session_key) as cluster:
         master = spawn_master(cluster, WALLS, frames=FRAMES, extra=("--barrier-timeout", "1"),
                               key_file=master_key)
-        config = NetworkConfig(connect=(cluster.master_endpoint,)).zenoh_config()
+        config = zenoh_config(NetworkSettings(connect=(cluster.master_endpoint,)))
         # retry the master's endpoint often: it listens a moment after its process starts
         config.insert_json5("connect/retry", '{"period_init_ms": 50, "period_max_ms": 200}')
         with zenoh.open(config) as session:
@@ -246,7 +246,7 @@ def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     rejected = report["rejected_messages"]
     to_nodes = sum(1 for where, _ in sent if where in (keys.frame, keys.control))
     assert to_nodes > 0 and rejected["nodes"] == dict.fromkeys(WALLS, to_nodes)
-    master_expected = expected_master_rejects(sent, keys, read_key(session_key))
+    master_expected = expected_master_rejects(sent, keys, read_credentials(session_key))
     assert sum(master_expected.values()) > 0 and rejected["master"] == master_expected
 
     assert replay(ctx, tmp_path / "frames.log") == FRAMES

@@ -24,7 +24,6 @@ from cavesim.core.wire import ReportMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.reports.run_tables import mode_rows
 from nodes import cli
-from nodes.wall import drift_sample as node_drift
 from nodes.commands.run import RunPlan
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.tolerance import (
@@ -35,6 +34,7 @@ from nodes.master.tolerance import (
     judge,
 )
 from nodes.mixed_hardware import node_sample_from, tolerance_from
+from nodes.wall import drift_sample as node_drift
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")

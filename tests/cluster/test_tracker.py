@@ -24,7 +24,7 @@ from cavesim.core.tracking import Target, Tracked, TrackerMapping, TrackingState
 from cavesim.core.tracking.dtrack import MAX_DATAGRAM
 from cavesim.core.wire import HeadState, SessionKeys, TrackingMessage, WandState, decode
 from cavesim.core.wire.credentials import read_credentials, write_key_files
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from nodes.launch.launcher import free_port
 from nodes.tracker.bridge import Bridge, open_dtrack_socket
 
@@ -176,7 +176,7 @@ def test_recorded_datagrams_reach_a_subscriber_as_signed_tracking_messages(tmp_p
                       # a terminal's Ctrl-C finds it, however this test runner was started
                       preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     received: queue.Queue[TrackingMessage] = queue.Queue()
-    with zenoh.open(NetworkConfig(connect=(endpoint,)).zenoh_config()) as listener, \
+    with zenoh.open(zenoh_config(NetworkSettings(connect=(endpoint,)))) as listener, \
             socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as dtrack:
         subscriber = listener.declare_subscriber(SessionKeys(session).tracking, lambda sample:
                                                  received.put(decode(sample.payload.to_bytes(),

@@ -11,7 +11,7 @@ from master_process import spawn_master
 
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.wire import HeadState, SessionKeys, TrackingMessage, WandState, encode
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from nodes.launch.launcher import LocalCluster, free_port
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
@@ -22,9 +22,9 @@ TRACKED = HeadState((0.5, -0.25, 1.5), (0.0, 0.0, 0.0, 1.0))
 def test_tracked_head_and_wand_travel_in_the_frames(tmp_path):
     session = f"track{os.getpid()}"
     tracker_endpoint = f"tcp/127.0.0.1:{free_port()}"
-    network = NetworkConfig(listen=(tracker_endpoint,))
+    network = NetworkSettings(listen=(tracker_endpoint,))
     with LocalCluster(MINIMAL, tmp_path, session) as cluster, \
-            zenoh.open(network.zenoh_config()) as tracker:
+            zenoh.open(zenoh_config(network)) as tracker:
         cluster.start_node("front")  # the master connects to the tracker as it starts
         master = spawn_master(cluster, ("front",), 300, ("--connect", tracker_endpoint))
         tracking = encode(TrackingMessage(0, TRACKED, WandState(buttons=3)), session)

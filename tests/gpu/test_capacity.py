@@ -15,7 +15,9 @@ from cavesim.core.errors import CapacityError
 from cavesim.core.framelog import FrameLogWriter, read_frame_log
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
-from cavesim.core.wire.messages import FrameMessage, ReportMessage, decode, encode
+from cavesim.core.wire.envelope import decode, encode
+from cavesim.core.wire.payloads.from_master import FrameMessage
+from cavesim.core.wire.payloads.from_nodes import ReportMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.engine.capacity import capacity_limits
 

@@ -17,7 +17,7 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire import BlockQuery, BlockRequest
 from cavesim.core.wire.credentials import generate
-from cavesim.core.wire.messages import decode, decode_envelope, encode
+from cavesim.core.wire.envelope import decode, decode_envelope, encode
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.blocks import BlockAsker, answer, check_reply, serve_blocks

@@ -14,7 +14,7 @@ import pytest
 from driver_doubles import RecordedDriver, load_profile, profile_names
 
 from cavesim.core.errors import ContextError
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings
 from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
@@ -117,7 +117,7 @@ def test_the_vendor_is_known_before_and_after_a_context_opens(profile):
 
 def test_the_doctor_reaches_the_right_verdict(profile):
     driver = RecordedDriver(profile)
-    findings = gather(NetworkConfig(listen=("tcp/127.0.0.1:0",)), driver,
+    findings = gather(NetworkSettings(listen=("tcp/127.0.0.1:0",)), driver,
                       lambda index, extensions: examine(index, driver, recorded_smoke))
     verdict = judge(findings)
     assert verdict.ok and verdict.reason == profile["expect"]["verdict"]
@@ -131,7 +131,7 @@ def test_the_doctor_names_a_device_that_cannot_run_and_its_fix(profile):
     for device in old["contexts"]:
         device["asked"]["430"] = {**device["asked"]["430"], "version_code": 330}
     driver = RecordedDriver(old)
-    verdict = judge(gather(NetworkConfig(listen=("tcp/127.0.0.1:0",)), driver,
+    verdict = judge(gather(NetworkSettings(listen=("tcp/127.0.0.1:0",)), driver,
                            lambda index, extensions: examine(index, driver, recorded_smoke)))
     assert not verdict.ok and verdict.reason.startswith("no EGL device can run cavesim: ")
     assert verdict.fix == vendor_fix(profile["expect"]["vendor"])

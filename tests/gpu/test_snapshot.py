@@ -13,13 +13,8 @@ from scenes import FOUNTAIN, make_scene
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import generate
-from cavesim.core.wire.messages import (
-    SnapshotChunk,
-    SnapshotHeader,
-    StateRequest,
-    decode,
-    encode,
-)
+from cavesim.core.wire.envelope import decode, encode
+from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem

@@ -14,7 +14,7 @@ import pytest
 import zenoh
 
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from cavesim.gpu.gl.devices import list_devices
 from cavesim.tools.doctor import probe as probing
 from cavesim.tools.doctor.checks import check_windows, check_zenoh
@@ -114,7 +114,7 @@ def test_the_session_check_reports_a_port_in_use_in_one_line():
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         endpoint = f"tcp/127.0.0.1:{taken.getsockname()[1]}"
-        found = check_zenoh(NetworkConfig(listen=(endpoint,)))
+        found = check_zenoh(NetworkSettings(listen=(endpoint,)))
     assert not found["opened"] and found["listen"] == [endpoint]
     assert "Address already in use" in found["error"]
     assert ".rs:" not in found["error"] and "\n" not in found["error"]
@@ -124,8 +124,8 @@ def test_the_session_check_reaches_a_peer_it_is_told_to_connect_to():
     with socket.socket() as probe_port:
         probe_port.bind(("127.0.0.1", 0))
         endpoint = f"tcp/127.0.0.1:{probe_port.getsockname()[1]}"
-    with zenoh.open(NetworkConfig(listen=(endpoint,)).zenoh_config()) as peer:
-        found = check_zenoh(NetworkConfig(connect=(endpoint,)))
+    with zenoh.open(zenoh_config(NetworkSettings(listen=(endpoint,)))) as peer:
+        found = check_zenoh(NetworkSettings(connect=(endpoint,)))
         assert found["opened"] and found["peers"] == [str(peer.info.zid())]
     assert found["version"] == metadata.version("eclipse-zenoh") and found["mode"] == "peer"
 

@@ -17,23 +17,20 @@ from cavesim.core.drift import SAMPLE_DTYPE, DriftSample
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import ED25519_BYTES, SECRET_BYTES, of_master
-from cavesim.core.wire.messages import (
-    MAX_CHUNK_PARTICLES,
-    MAX_PARAMS,
+from cavesim.core.wire.payloads.from_master import MAX_PARAMS, Command, ControlMessage, FrameMessage
+from cavesim.core.wire.payloads.from_nodes import (
     MAX_TEXT,
-    Command,
-    ControlMessage,
     DisplayMessage,
-    FrameMessage,
-    HeadState,
     InfoMessage,
     Phase,
     ReportMessage,
+    Status,
+)
+from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
+from cavesim.core.wire.payloads.state_transfer import (
+    MAX_CHUNK_PARTICLES,
     SnapshotChunk,
     SnapshotHeader,
-    Status,
-    TrackingMessage,
-    WandState,
 )
 from cavesim.gpu.engine import EMITTER_DTYPE, FrameInput
 

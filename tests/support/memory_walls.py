@@ -37,7 +37,8 @@ from cavesim.core.wire import (
     InfoMessage,
     ReportMessage,
 )
-from cavesim.core.wire.messages import Phase, Status, decode, encode
+from cavesim.core.wire.envelope import decode, encode
+from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import answer, check_reply
 from nodes.faults import BitFlip

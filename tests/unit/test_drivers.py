@@ -12,7 +12,7 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.helicopter.flight import WAND_LIMIT, pitch_quaternion
 from cavesim.core.scene import load_scene
 from cavesim.core.scene_frame import MESH_HUB_HEIGHT, NOTHING_MOVES, HelicopterPose
-from cavesim.core.wire.messages import WandState
+from cavesim.core.wire.payloads.poses import WandState
 
 BROWNOUT = load_scene("config/scenes/brownout.toml")
 MINIMAL = load_scene("config/scenes/minimal.toml")

@@ -14,8 +14,8 @@ from cavesim.core.record_diff import differences, field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire import BlockQuery
 from cavesim.tools.reports.run_tables import forensic_lines
-from nodes.check.findings import check_passed, check_report
-from nodes.faults import BitFlip, Fault, bitflip_target
+from nodes.check.findings import EVIDENCE, check_passed, check_report
+from nodes.faults import KINDS, BitFlip, Fault, bitflip_target
 from nodes.master.process import MasterConfig, run_master
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
@@ -122,6 +122,10 @@ def test_differences_give_values_bits_and_ulp_distances():
     assert found[(11, "age")]["xor"] == "0x8000000000000000"
     assert (found[(10, "class_id")]["distance"], found[(10, "class_id")]["distance_unit"]) == \
         (4, "integer difference")
+
+
+def test_the_check_knows_where_each_fault_kind_leaves_its_evidence():
+    assert set(EVIDENCE) == set(KINDS)
 
 
 def checked(tmp_path, record, fault) -> dict:

@@ -16,7 +16,7 @@ from cavesim.core.wire import (
     FrameMessage,
     ReportMessage,
 )
-from cavesim.core.wire.messages import Phase, Status
+from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from nodes import lockstep
 from nodes.lockstep import Membership
 from nodes.master.events import ProcessEnded

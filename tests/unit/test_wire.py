@@ -39,39 +39,36 @@ from hypothesis import strategies as st
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
-from cavesim.core.wire import messages as wire
+from cavesim.core.wire import envelope
 from cavesim.core.wire.credentials import Credentials, generate, of_master
-from cavesim.core.wire.messages import (
+from cavesim.core.wire.envelope import VERSION, Kind, decode, decode_envelope, encode, session_id
+from cavesim.core.wire.payloads.from_master import (
+    MAX_PARAMS,
+    Command,
+    ControlMessage,
+    FrameMessage,
+    InfoRequest,
+)
+from cavesim.core.wire.payloads.from_nodes import (
+    MAX_TEXT,
+    DisplayMessage,
+    InfoMessage,
+    Phase,
+    ReportMessage,
+    Status,
+)
+from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
+from cavesim.core.wire.payloads.state_transfer import (
     MAX_BLOCK_BYTES,
     MAX_BLOCK_INDICES,
     MAX_CHUNK_PARTICLES,
-    MAX_PARAMS,
-    MAX_TEXT,
-    VERSION,
     BlockQuery,
     BlockReply,
     BlockRequest,
-    Command,
-    ControlMessage,
-    DisplayMessage,
-    FrameMessage,
-    HeadState,
     HistoryFrame,
-    InfoMessage,
-    InfoRequest,
-    Kind,
-    Phase,
-    ReportMessage,
     SnapshotChunk,
     SnapshotHeader,
     StateRequest,
-    Status,
-    TrackingMessage,
-    WandState,
-    decode,
-    decode_envelope,
-    encode,
-    session_id,
 )
 from cavesim.gpu.engine import EMITTER_DTYPE, FrameInput
 
@@ -431,7 +428,7 @@ def test_kind_command_and_status_numbers_are_fixed():
         "INFO": 7, "DISPLAY": 8, "INFO_REQUEST": 9, "STATE_REQUEST": 10, "BLOCK_REQUEST": 11,
         "BLOCK_REPLY": 12}
     assert {q.name: q.value for q in BlockQuery} == {"TREE": 1, "HISTORY": 2, "RECORDS": 3}
-    assert wire.MASTER_KINDS == MASTER_KINDS
+    assert envelope.MASTER_KINDS == MASTER_KINDS
     assert {c.name: c.value for c in Command} == {"RESYNC": 1, "STOP": 2, "SWAP": 3,
                                                   "WELCOME": 4}
     assert {s.name: s.value for s in Status} == {"STEPPED": 0, "RESYNCED": 1, "REPEATED": 2,
@@ -807,8 +804,10 @@ def test_each_crafted_input_is_rejected_for_its_reason(data, credentials, reason
 
 
 def test_every_reason_decode_raises_has_a_crafted_case():
-    """A new ProtocolError reason in messages.py needs a case in REJECTIONS."""
-    source = Path(wire.__file__).read_text()
+    """A new ProtocolError reason in the envelope or a payload needs a case in REJECTIONS."""
+    wire = Path(envelope.__file__).parent
+    source = "".join(path.read_text() for path in [wire / "envelope.py",
+                                                   *(wire / "payloads").glob("*.py")])
     raised = set(re.findall(r'ProtocolError\(\s*"([a-z-]+)"', source))
     assert raised == {case[3] for case in REJECTIONS}
 

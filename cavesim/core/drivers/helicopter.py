@@ -24,7 +24,7 @@ from cavesim.core.helicopter.flight import (
 )
 from cavesim.core.scene.model import Scene
 from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame, float32
-from cavesim.core.wire.messages import WandState
+from cavesim.core.wire.payloads.poses import WandState
 
 log = logging.getLogger("cavesim.helicopter")
 FIXED_PARAMS = 7  # hub (3), yaw, rotor angle, induced velocity, rotor speed; then factors

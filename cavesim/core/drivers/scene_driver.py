@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 from cavesim.core.scene_frame import SceneFrame
-from cavesim.core.wire.messages import WandState
+from cavesim.core.wire.payloads.poses import WandState
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from cavesim.core.drivers.scene_driver import DriverStep
 from cavesim.core.errors import ProtocolError
 from cavesim.core.scene_frame import HelicopterPose, SceneFrame, float32
-from cavesim.core.wire.messages import WandState
+from cavesim.core.wire.payloads.poses import WandState
 
 POSE_PARAMS = 5  # x, y, z, yaw, rotor angle
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from cavesim.core.tracking.dtrack import Body, Datagram, Flystick
 from cavesim.core.tracking.mapping import Target, Tracked, TrackerMapping
-from cavesim.core.wire.messages import HeadState, TrackingMessage, WandState
+from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
 
 WAND_AXES = 4  # controllers a WandState carries; a Flystick's further ones are dropped
 

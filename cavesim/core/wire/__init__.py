@@ -1,29 +1,24 @@
-"""The wire between master and wall nodes: key expressions, credentials and binary
-messages."""
+"""The wire between master and wall nodes: key expressions, credentials, and binary
+messages (the envelope around every message, and the payloads in it)."""
 
 from cavesim.core.wire.credentials import Credentials
+from cavesim.core.wire.envelope import Envelope, decode, decode_envelope, encode
 from cavesim.core.wire.key_expressions import SessionKeys
-from cavesim.core.wire.messages import (
+from cavesim.core.wire.payloads.from_master import (
+    Command,
+    ControlMessage,
+    FrameMessage,
+    InfoRequest,
+)
+from cavesim.core.wire.payloads.from_nodes import DisplayMessage, InfoMessage, ReportMessage
+from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
+from cavesim.core.wire.payloads.state_transfer import (
     BlockQuery,
     BlockReply,
     BlockRequest,
-    Command,
-    ControlMessage,
-    DisplayMessage,
-    Envelope,
-    FrameMessage,
-    HeadState,
-    InfoMessage,
-    InfoRequest,
-    ReportMessage,
     SnapshotChunk,
     SnapshotHeader,
     StateRequest,
-    TrackingMessage,
-    WandState,
-    decode,
-    decode_envelope,
-    encode,
 )
 
 __all__ = ["BlockQuery", "BlockReply", "BlockRequest", "Command", "ControlMessage",

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 
 from cavesim.core.errors import ProtocolError
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.wire.messages import SnapshotChunk, SnapshotHeader
+from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
 
 CHUNK_PARTICLES = 4 * 2**20 // PARTICLE_BYTES  # 104,857 particles: a 4 MiB reply
 TRANSFER_BASE = 10.0  # s: reaching the source and its first reply

@@ -9,15 +9,15 @@ import threading
 from importlib import metadata
 
 from cavesim.core.errors import ClusterError
-from cavesim.core.wire.network import NetworkConfig, open_session, zenoh_message
+from cavesim.core.wire.network import NetworkSettings, open_session, zenoh_config, zenoh_message
 
 ZENOH_DEADLINE = 5.0  # s to open the session and, with endpoints to connect to, reach one
 
 
-def check_zenoh(network: NetworkConfig, deadline: float = ZENOH_DEADLINE) -> dict:
+def check_zenoh(network: NetworkSettings, deadline: float = ZENOH_DEADLINE) -> dict:
     """zenoh-python's version, the mode and endpoints this node would use, and whether a
     session opens within `deadline` s (with its id, and the peers and routers it reached)."""
-    config = network.zenoh_config()
+    config = zenoh_config(network)
     mode = json.loads(config.get_json("mode")) or "peer"
     found = {"version": metadata.version("eclipse-zenoh"), "mode": mode,
              "listen": _for_mode(config.get_json("listen/endpoints"), mode),

@@ -15,7 +15,7 @@ from rich.table import Table
 
 from cavesim.core.errors import ContextError
 from cavesim.core.output import check_written, writing
-from cavesim.core.wire.network import NetworkConfig
+from cavesim.core.wire.network import NetworkSettings
 from cavesim.gpu.gl.devices import list_devices
 from cavesim.gpu.gl.driver import VENDOR_VARIABLE, Driver, SystemDriver, library_name
 from cavesim.tools.doctor.checks import check_windows, check_zenoh
@@ -23,7 +23,7 @@ from cavesim.tools.doctor.probe import LIMITS, probe
 from cavesim.tools.doctor.verdict import Verdict, judge
 
 
-def gather(network: NetworkConfig, driver: Driver | None = None,
+def gather(network: NetworkSettings, driver: Driver | None = None,
            probe_device: Callable[[int, tuple[str, ...]], dict] = probe) -> dict:
     """Everything the doctor looks at, as JSON-ready values (the verdict comes after).
     `driver` and `probe_device` stand in for this machine's in tests."""
@@ -51,7 +51,7 @@ def cavesim_version() -> str:
         return f"source tree at {Path(__file__).resolve().parents[3]} (not installed)"
 
 
-def run_doctor(network: NetworkConfig, out: Path, console: Console) -> Verdict:
+def run_doctor(network: NetworkSettings, out: Path, console: Console) -> Verdict:
     """Examine this node, write `out` (doctor.json), print the tables; the verdict."""
     findings = gather(network)
     verdict = judge(findings)

@@ -20,7 +20,8 @@ from cavesim.core.helicopter.flight import clamp_wand
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Integrator, parse_scene
 from cavesim.core.wire import HeadState, TrackingMessage, WandState, decode, encode
-from cavesim.core.wire.messages import _TRACKING, HEADER, MAGIC, VERSION, Kind, session_id
+from cavesim.core.wire.envelope import HEADER, MAGIC, VERSION, Kind, session_id
+from cavesim.core.wire.payloads.poses import TRACKING
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 IDENTITY = np.eye(3, dtype=np.float32)
@@ -116,7 +117,7 @@ def bad_dt() -> list[dict]:
 def bad_wand() -> list[dict]:
     rows = []
     for name, value in (("NaN wand", math.nan), ("infinite wand", math.inf)):
-        body = _TRACKING.pack(0, 0, 1.7, 0, 0, 0, 1, value, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0)
+        body = TRACKING.pack(0, 0, 1.7, 0, 0, 0, 1, value, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0)
         data = HEADER.pack(MAGIC, VERSION, Kind.TRACKING, 0, 0, session_id("s"), 0, 0,
                            len(body)) + body
         try:

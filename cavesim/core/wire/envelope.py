@@ -1,0 +1,206 @@
+"""The envelope around every message between master and wall nodes: the header, the
+signatures, and the table of payload kinds (their layouts are in `payloads/`).
+
+Every message: a 36-byte header (magic, version, kind, flags, session id, run id, frame
+number, payload length) and the payload; in a session with credentials
+(`credentials.py`), the master's own kinds (frames, commands, info requests) then carry
+the master's Ed25519 signature, and every message ends with an HMAC-SHA256 of all that
+under the session's secret. The run id is the master's, drawn when its run starts: a
+message of another run (a replay) is refused by its receiver. A node's state never
+travels in one message: a snapshot is a header and chunks (see snapshot.py); blocks of
+the checksum's tree and single records travel in bounded block replies. `decode`
+checks everything before trusting anything and raises `ProtocolError` with a short reason
+the receivers count; it never returns a half-checked message.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import hmac
+import secrets
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import NamedTuple
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.wire.credentials import MASTER_SIGNATURE_BYTES, Credentials
+from cavesim.core.wire.payloads import from_master, from_nodes, poses, state_transfer
+from cavesim.core.wire.payloads.from_master import ControlMessage, FrameMessage, InfoRequest
+from cavesim.core.wire.payloads.from_nodes import DisplayMessage, InfoMessage, ReportMessage
+from cavesim.core.wire.payloads.poses import TrackingMessage
+from cavesim.core.wire.payloads.state_transfer import (
+    BlockReply,
+    BlockRequest,
+    SnapshotChunk,
+    SnapshotHeader,
+    StateRequest,
+)
+
+MAGIC = b"CVSM"
+VERSION = 6  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+# a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
+# take part in the swap barrier; 4: a run id in the header, the master's signature, requests
+# (block requests and replies came later as new kinds, which an older build refuses as such);
+# 5: a report may end in a drift sample (the mixed-hardware tolerance mode); 6: a particle
+# record's last word carries the position's low part beside the class (a snapshot or block
+# reply, which an older build would read as a class)
+HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
+SIGNATURE_BYTES = 32
+SIGNED, MASTER_SIGNED = 0x01, 0x02
+
+
+class Kind(IntEnum):
+    FRAME = 1
+    REPORT = 2
+    CONTROL = 3
+    SNAPSHOT = 4
+    TRACKING = 5
+    CHUNK = 6
+    INFO = 7
+    DISPLAY = 8
+    INFO_REQUEST = 9
+    STATE_REQUEST = 10
+    BLOCK_REQUEST = 11
+    BLOCK_REPLY = 12
+
+
+MASTER_KINDS = frozenset({Kind.FRAME, Kind.CONTROL, Kind.INFO_REQUEST})  # the master signs
+
+
+class PayloadFormat(NamedTuple):
+    """A kind's message, and the functions that write and read its payload."""
+
+    message: type
+    write: Callable[[Message], bytes]
+    read: Callable[[int, bytes], Message]  # (the header's frame, the payload)
+
+
+Message = (FrameMessage | ReportMessage | ControlMessage | SnapshotHeader | SnapshotChunk
+           | TrackingMessage | InfoMessage | DisplayMessage | InfoRequest | StateRequest
+           | BlockRequest | BlockReply)
+_PAYLOADS = {
+    Kind.FRAME: PayloadFormat(
+        FrameMessage, from_master.write_frame, from_master.read_frame),
+    Kind.REPORT: PayloadFormat(
+        ReportMessage, from_nodes.write_report, from_nodes.read_report),
+    Kind.CONTROL: PayloadFormat(
+        ControlMessage, from_master.write_control, from_master.read_control),
+    Kind.SNAPSHOT: PayloadFormat(
+        SnapshotHeader, state_transfer.write_snapshot, state_transfer.read_snapshot),
+    Kind.TRACKING: PayloadFormat(
+        TrackingMessage, poses.write_tracking, poses.read_tracking),
+    Kind.CHUNK: PayloadFormat(
+        SnapshotChunk, state_transfer.write_chunk, state_transfer.read_chunk),
+    Kind.INFO: PayloadFormat(
+        InfoMessage, from_nodes.write_info, from_nodes.read_info),
+    Kind.DISPLAY: PayloadFormat(
+        DisplayMessage, from_nodes.write_display, from_nodes.read_display),
+    Kind.INFO_REQUEST: PayloadFormat(
+        InfoRequest, from_master.write_info_request, from_master.read_info_request),
+    Kind.STATE_REQUEST: PayloadFormat(
+        StateRequest, state_transfer.write_state_request, state_transfer.read_state_request),
+    Kind.BLOCK_REQUEST: PayloadFormat(
+        BlockRequest, state_transfer.write_block_request, state_transfer.read_block_request),
+    Kind.BLOCK_REPLY: PayloadFormat(
+        BlockReply, state_transfer.write_block_reply, state_transfer.read_block_reply),
+}
+_KINDS = {payload.message: kind for kind, payload in _PAYLOADS.items()}
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """A checked message and what its header said of it."""
+
+    message: Message
+    run_id: int  # the run it belongs to (0: none, e.g. a tracker's)
+    from_master: bool  # it carries the master's valid signature
+
+
+def new_run_id() -> int:
+    """A run's id: 64 random bits (never 0, which means "no run")."""
+    return secrets.randbits(64) or 1
+
+
+def session_id(session: str) -> int:
+    """64-bit id of a session name, carried in every header."""
+    return int.from_bytes(hashlib.blake2b(session.encode(), digest_size=8).digest(), "little")
+
+
+def encode(message: Message, session: str, credentials: Credentials | None = None,
+           run_id: int = 0) -> bytes:
+    """The message's bytes: with credentials, signed (and a master kind signed by the
+    master, whose credentials must hold the signing key)."""
+    if not 0 <= message.frame < 2**64 or not 0 <= run_id < 2**64:
+        raise ValueError(f"frame and run id must be in [0, 2**64), got {message.frame} and "
+                         f"{run_id}")
+    kind = _KINDS[type(message)]
+    payload = _PAYLOADS[kind].write(message)
+    by_master = credentials is not None and kind in MASTER_KINDS
+    flags = (SIGNED | (MASTER_SIGNED if by_master else 0)) if credentials is not None else 0
+    data = HEADER.pack(MAGIC, VERSION, kind, flags, 0, session_id(session), run_id,
+                       message.frame, len(payload)) + payload
+    if credentials is None:
+        return data
+    if by_master:
+        data += credentials.sign_as_master(data)
+    return data + _signature(credentials.secret, data)
+
+
+def decode(data: bytes, session: str, credentials: Credentials | None = None) -> Message:
+    """Check and parse one message of `session`; ProtocolError names what is wrong."""
+    return decode_envelope(data, session, credentials).message
+
+
+def decode_envelope(data: bytes, session: str,
+                    credentials: Credentials | None = None) -> Envelope:
+    """Check and parse one message of `session`, keeping its run id; ProtocolError names
+    what is wrong. With credentials, every message must carry the session's HMAC and the
+    master's kinds the master's signature."""
+    data = bytes(data)
+    if len(data) < HEADER.size:
+        raise ProtocolError("truncated", f"{len(data)} bytes, a header alone is {HEADER.size}")
+    magic, version, kind, flags, reserved, sid, run_id, frame, length = HEADER.unpack_from(data)
+    if magic != MAGIC:
+        raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
+    if version != VERSION:
+        raise ProtocolError("bad-version", f"version {version}, this build speaks {VERSION}")
+    if kind not in Kind.__members__.values():
+        raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
+    if sid != session_id(session):
+        raise ProtocolError("wrong-session", f"session id {sid:#x} is not {session!r}'s")
+    if flags & ~(SIGNED | MASTER_SIGNED) or reserved or flags == MASTER_SIGNED \
+            or flags & MASTER_SIGNED and kind not in MASTER_KINDS:
+        raise ProtocolError("bad-flags", f"flags {flags:#x} and reserved byte {reserved:#x}; "
+                                         f"allowed: 0, {SIGNED:#x}, {SIGNED | MASTER_SIGNED:#x}"
+                                         f" (the second for the master's kinds), reserved 0")
+    trailer = (SIGNATURE_BYTES if flags & SIGNED else 0) \
+        + (MASTER_SIGNATURE_BYTES if flags & MASTER_SIGNED else 0)
+    if len(data) != HEADER.size + length + trailer:
+        raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces "
+                                          f"{HEADER.size + length + trailer}")
+    body = data[:HEADER.size + length]
+    from_master = False
+    if credentials is not None:
+        if not flags & SIGNED:
+            raise ProtocolError("unsigned", "the session requires an HMAC and none is attached")
+        signed, signature = data[:-SIGNATURE_BYTES], data[-SIGNATURE_BYTES:]
+        if not hmac.compare_digest(signature, _signature(credentials.secret, signed)):
+            raise ProtocolError("bad-signature", "the HMAC does not match the session's key")
+        if flags & MASTER_SIGNED:
+            if not credentials.is_masters(body, signed[len(body):]):
+                raise ProtocolError("bad-master-signature", "the master's signature does not "
+                                                            "match the session's master key")
+            from_master = True
+        if kind in MASTER_KINDS and not from_master:
+            raise ProtocolError("not-from-master", f"a {Kind(kind).name.lower()} message "
+                                                   f"without the master's signature")
+    elif flags:
+        raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
+    payload = data[HEADER.size:HEADER.size + length]
+    return Envelope(_PAYLOADS[Kind(kind)].read(frame, payload), run_id, from_master)
+
+
+def _signature(secret: bytes, data: bytes) -> bytes:
+    return hmac.new(secret, data, hashlib.sha256).digest()

@@ -1,0 +1,126 @@
+"""What only the master sends, under its own signature: a frame's inputs, a command
+(resync, stop, swap, welcome), and its question to a node about its GPU."""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.frame import FrameInput
+from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
+from cavesim.core.wire.payloads.poses import HeadState, WandState
+
+MAX_PARAMS = 32
+_FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
+_CONTROL_TAIL = struct.Struct("<16sQ")  # the named state's digest (RESYNC), nonce (WELCOME)
+
+
+class Command(IntEnum):
+    RESYNC = 1  # target loads `source`'s state of the frame, whose checksum is `digest`
+    STOP = 2  # every node ends cleanly
+    SWAP = 3  # every swap-locked wall has drawn the frame: show it
+    WELCOME = 4  # target joins this run (the header's run id); `nonce` is its own, fresh
+
+
+@dataclass(frozen=True)
+class FrameMessage:
+    frame: int
+    inputs: FrameInput
+    wand: WandState = WandState()
+    params: tuple[float, ...] = ()  # the scene's time-varying parameters
+    head: HeadState = HeadState()  # tracked or scripted, sampled once by the master
+
+
+@dataclass(frozen=True)
+class ControlMessage:
+    frame: int
+    command: Command
+    target: str = ""
+    source: str = ""
+    digest: str = ""  # RESYNC: the checksum of the state to load (32 hex digits)
+    nonce: int = 0  # WELCOME: the nonce the target last sent in its info
+
+
+@dataclass(frozen=True)
+class InfoRequest:
+    """The master's question to a node: which GPU do you compute on, and your nonce?"""
+
+    frame: int
+    node: str
+
+
+def write_frame(m: FrameMessage) -> bytes:
+    if len(m.params) > MAX_PARAMS:
+        raise ValueError(f"at most {MAX_PARAMS} scene parameters, got {len(m.params)}")
+    w, h = m.wand, m.head
+    values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes,
+                       *m.params], dtype=np.float64)
+    if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
+        raise ValueError(f"head, wand and scene parameters must be finite float32 values, "
+                         f"got {h}, {w} and {m.params}")
+    dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
+    body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *h.position,
+                       *h.orientation, *w.position, *w.orientation, w.buttons, *w.axes,
+                       len(m.params))
+    return body + np.asarray(m.params, dtype="<f4").tobytes()
+
+
+def read_frame(frame: int, payload: bytes) -> FrameMessage:
+    if len(payload) < _FRAME.size:
+        raise ProtocolError("bad-payload", f"frame payload of {len(payload)} bytes is too short")
+    values = _FRAME.unpack_from(payload)
+    count = values[-1]
+    if count > MAX_PARAMS or len(payload) != _FRAME.size + 4 * count:
+        raise ProtocolError("bad-payload", f"frame announces {count} parameters in a payload "
+                                           f"of {len(payload)} bytes (at most {MAX_PARAMS})")
+    dt = np.array([values[0]], dtype=np.uint32).view(np.float32)[0]
+    matrix = np.array(values[1:10], dtype=np.float32).reshape(3, 3)
+    head, wand, buttons, axes = values[10:17], values[17:24], values[24], values[25:29]
+    params = np.frombuffer(payload, dtype="<f4", offset=_FRAME.size, count=count)
+    if not all(math.isfinite(v) for v in (*head, *wand, *axes, *params.tolist())):
+        raise ProtocolError("bad-value", "head, wand and scene parameters must be finite")
+    try:
+        inputs = FrameInput(dt, matrix)
+    except ValueError as e:
+        raise ProtocolError("bad-value", str(e)) from e
+    return FrameMessage(frame, inputs, WandState(wand[:3], wand[3:], buttons, axes),
+                        tuple(params.tolist()), HeadState(head[:3], head[3:]))
+
+
+def write_control(m: ControlMessage) -> bytes:
+    digest = digest_bytes(m.digest) if m.digest else bytes(16)
+    if m.digest and not any(digest):
+        raise ValueError("a control message cannot name the all-zero digest (it means none)")
+    if not 0 <= m.nonce < 2**64:
+        raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
+    return bytes([m.command]) + name_bytes(m.target, True) + name_bytes(
+        m.source, True) + _CONTROL_TAIL.pack(digest, m.nonce)
+
+
+def read_control(frame: int, payload: bytes) -> ControlMessage:
+    if not payload or payload[0] not in Command.__members__.values():
+        raise ProtocolError("bad-payload", "control message without a known command")
+    target, rest = read_name(payload[1:], optional=True)
+    source, rest = read_name(rest, optional=True)
+    if len(rest) != _CONTROL_TAIL.size:
+        raise ProtocolError("bad-payload", f"control message ends in {len(rest)} bytes, "
+                                           f"expected {_CONTROL_TAIL.size}")
+    digest, nonce = _CONTROL_TAIL.unpack(rest)
+    return ControlMessage(frame, Command(payload[0]), target, source,
+                          digest.hex() if any(digest) else "", nonce)
+
+
+def write_info_request(m: InfoRequest) -> bytes:
+    return name_bytes(m.node)
+
+
+def read_info_request(frame: int, payload: bytes) -> InfoRequest:
+    node, rest = read_name(payload)
+    if rest:
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info request")
+    return InfoRequest(frame, node)

@@ -1,0 +1,57 @@
+"""The tracked head and wand: their states, which every frame carries, and the tracking
+message a tracker (or a script, or a keyboard bridge) sends the master."""
+
+from __future__ import annotations
+
+import math
+import struct
+from dataclasses import dataclass
+
+import numpy as np
+
+from cavesim.core.errors import ProtocolError
+
+TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
+
+
+@dataclass(frozen=True)
+class WandState:
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # quaternion xyzw
+    buttons: int = 0
+    axes: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class HeadState:
+    position: tuple[float, float, float] = (0.0, 0.0, 1.7)  # room metres, eyes' midpoint
+    orientation: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)  # quaternion xyzw
+
+
+@dataclass(frozen=True)
+class TrackingMessage:
+    """A tracker's (or a script's, or a keyboard bridge's) latest head and wand state."""
+
+    frame: int  # the sender's own counter; the master ignores it
+    head: HeadState
+    wand: WandState
+
+
+def write_tracking(m: TrackingMessage) -> bytes:
+    h, w = m.head, m.wand
+    values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes])
+    if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
+        raise ValueError(f"tracking values must be finite float32 values, got {h} and {w}")
+    return TRACKING.pack(*h.position, *h.orientation, *w.position, *w.orientation, w.buttons,
+                         *w.axes)
+
+
+def read_tracking(frame: int, payload: bytes) -> TrackingMessage:
+    if len(payload) != TRACKING.size:
+        raise ProtocolError("bad-payload", f"tracking payload of {len(payload)} bytes, "
+                                           f"expected {TRACKING.size}")
+    v = TRACKING.unpack(payload)
+    if not all(math.isfinite(x) for x in (*v[:14], *v[15:])):
+        raise ProtocolError("bad-value", "head and wand values must be finite")
+    return TrackingMessage(frame, HeadState(v[0:3], v[3:7]), WandState(v[7:10], v[10:14], v[14],
+                                                                         v[15:19]))
