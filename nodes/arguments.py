@@ -13,8 +13,10 @@ from cavesim.core.limits import DEFAULT_MASTER_PORT
 from cavesim.core.wire.credentials import Credentials, read_credentials
 from cavesim.core.wire.key_expressions import check_name
 from cavesim.core.wire.network import NetworkSettings, zenoh_config
+from nodes.faults import Fault, parse_fault
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
+DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 USAGE_ERROR, RUN_ERROR, INTERRUPTED = 2, 1, 130
 CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
 MAX_WALLS = 64
@@ -76,6 +78,14 @@ def existing_file(what: str):
 
 scene_file = existing_file("scene")
 cave_file = existing_file("CAVE")
+
+
+def fault_spec(text: str) -> Fault:
+    """A fault to inject, `KIND@FRAME[:NODE]` (`nodes/faults.py`)."""
+    try:
+        return parse_fault(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
 
 
 def wall_list(text: str) -> tuple[str, ...]:

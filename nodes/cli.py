@@ -23,9 +23,10 @@ from nodes.arguments import INTERRUPTED, RUN_ERROR, USAGE_ERROR, UsageError
 from nodes.commands import (
     bench,
     check,
-    cluster,
     doctor,
     keys,
+    master,
+    node,
     numerics,
     replay,
     run,
@@ -35,7 +36,7 @@ from nodes.commands import (
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
 SUBCOMMANDS = (bench.add, numerics.add_accuracy, numerics.add_stability, doctor.add, run.add,
-               cluster.add_master, cluster.add_node, replay.add, check.add, tracker.add, keys.add)
+               master.add, node.add, replay.add, check.add, tracker.add, keys.add)
 
 
 class _Parser(argparse.ArgumentParser):

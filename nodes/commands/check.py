@@ -14,6 +14,7 @@ from nodes.arguments import (
     RUN_ERROR,
     UsageError,
     configure_logging,
+    fault_spec,
     frame_count,
     output_directory,
     output_folder,
@@ -23,7 +24,6 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
-from nodes.commands.cluster import fault
 from nodes.faults import KINDS
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 
@@ -36,7 +36,7 @@ def add(commands) -> None:
     parser.add_argument("--walls", type=wall_count, default=3)
     parser.add_argument("--scene", type=scene_file, default=CHECK_SCENE)
     parser.add_argument("--frames", type=frame_count, default=300)
-    parser.add_argument("--inject", type=fault, action="append", default=[],
+    parser.add_argument("--inject", type=fault_spec, action="append", default=[],
                         metavar="KIND@FRAME[:NODE]",
                         help=f"{', '.join(KINDS)} (repeatable)")
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)

@@ -22,6 +22,7 @@ from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
 from cavesim.tools.reports.run_tables import demo_table, forensic_lines, gpu_table, summary_table
 from nodes.arguments import (
+    DEFAULT_SCENE,
     INTERRUPTED,
     UsageError,
     cave_file,
@@ -44,7 +45,6 @@ from nodes.master.tolerance import Tolerance
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_arguments, tolerance_from
 
-DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
 
