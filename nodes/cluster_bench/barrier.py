@@ -4,7 +4,7 @@ Three figures, each held to its target (benchmark figures, not timed tests):
 
 - the barrier round trip per frame with 2, 4 and 8 wall nodes of a tiny scene: the master's
   `barrier_ms` from the run's report.json (publish frame k -> every node's report of k in),
-  beside the CPU every process spent per frame (`cluster_runs.CpuMeter`);
+  beside the CPU every process spent per frame (`metered_run.CpuMeter`);
 - the swap barrier's skew with 2 and 4 walls live in windows (`swap.py`);
 - the lock-step cost: a 4-wall cluster's frames per second against the same four
   simulations stepped back to back in one process on one GL context,
