@@ -30,14 +30,37 @@ AIR_DENSITY = 1.225  # kg/m³, dry air at 15 °C and sea level (ISA)
 
 
 class Integrator(StrEnum):
-    EXPLICIT_EULER = "explicit_euler"
-    SEMI_IMPLICIT_EULER = "semi_implicit_euler"
-    TRAPEZOID = "trapezoid"
-    VERLET = "verlet"
-    RK2 = "rk2"
-    RK4 = "rk4"
-    EXPONENTIAL = "exponential"
-    ETD2RK = "etd2rk"
+    """The integrators, one row each: everything a new one adds besides its code.
+
+    Its code is `integrate`'s branch in shaders/include/physics.glsl and a step function of
+    the row's name in cavesim/core/twin/integrators.py and cavesim/core/portable/integrators.py.
+    """
+
+    gpu_id: int  # physics.glsl's #define INTEGRATOR_<NAME>: the INTEGRATOR define's value
+    order: int  # theoretical order of accuracy
+    field_evaluations: int  # flow samples per particle and step (a test counts the twin's)
+    stability_limit: float  # the largest dt/tau at which linear drag stays bounded
+
+    def __new__(cls, name: str, gpu_id: int, order: int, field_evaluations: int,
+                stability_limit: float) -> Integrator:
+        member = str.__new__(cls, name)
+        member._value_ = name
+        member.gpu_id = gpu_id
+        member.order = order
+        member.field_evaluations = field_evaluations
+        member.stability_limit = stability_limit
+        return member
+
+    # (name in a scene file, GPU id, order, field evaluations, stability limit)
+    EXPLICIT_EULER = "explicit_euler", 0, 1, 1, 2.0
+    SEMI_IMPLICIT_EULER = "semi_implicit_euler", 1, 1, 1, math.inf  # implicit in the drag
+    TRAPEZOID = "trapezoid", 2, 1, 1, 2.0  # its velocity is Euler's
+    VERLET = "verlet", 3, 2, 2, 2.0
+    RK2 = "rk2", 4, 2, 2, 2.0
+    RK4 = "rk4", 5, 4, 4, 2.785
+    EXPONENTIAL = "exponential", 6, 1, 1, math.inf  # the drag is solved exactly
+    # evaluated at the start and at the exponential step's predicted position
+    ETD2RK = "etd2rk", 7, 2, 2, math.inf
 
 
 class Engine(StrEnum):
