@@ -20,7 +20,9 @@ from cavesim.core.limits import (
     MAX_DIAMETER,
     MAX_FIELD_NODES,
     MAX_LIFETIME,
+    MAX_PARTICLES,
     MAX_RATE,
+    RANDOM_TEXTURE_SIZE_RANGE,
 )
 
 Vec3 = tuple[float, float, float]
@@ -142,6 +144,10 @@ def _few_field_nodes(resolution: tuple[int, int, int]) -> bool:
     return math.prod(resolution) <= MAX_FIELD_NODES
 
 
+def _power_of_two(n: int) -> bool:
+    return n & (n - 1) == 0
+
+
 @dataclass(frozen=True, kw_only=True)
 class Emitter:
     name: str
@@ -260,22 +266,34 @@ class Helicopter:
 
 
 @dataclass(frozen=True)
-class Scene:
+class Simulation:
+    """[simulation]: how the world is run; a `Scene` is these settings and the world."""
+
+    capacity: Annotated[int, Range(ge=0, le=MAX_PARTICLES)]  # hard cap of live particles
+    seed: Annotated[int, Range(ge=0, lt=2**63)]  # seeds the random texture (numpy PCG64)
+    # ETD2RK: stable at any dt/tau (a scene cannot know its dt: the master's clock sets it
+    # per frame), exact where the exponential step is and second order elsewhere
+    integrator: Integrator = Integrator.ETD2RK
+    # edge of the square random texture
+    random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
+                                   Rule("a power of two", _power_of_two)] = 256
+    engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
+    # "portable": every GPU computes the same bits, at a cost (README: portable arithmetic)
+    arithmetic: Arithmetic = Arithmetic.NATIVE
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scene(Simulation):
+    """One simulated world: its [simulation] settings and everything it holds."""
+
     name: str
     source: Path | None  # the TOML file it came from, for error messages
-    # the file's [simulation]: see `cavesim.core.scene.file.Simulation`
-    capacity: int
-    seed: int
-    integrator: Integrator
-    random_texture_size: int
     particle_classes: tuple[ParticleClass, ...]
     emitters: tuple[Emitter, ...]
     forces: Forces
     field: Field | None  # required exactly when forces.drag is set
     collision: Collision | None
     helicopter: Helicopter | None = None
-    engine: Engine = Engine.GS_TF  # a run may choose another (`cavesim run --engine`)
-    arithmetic: Arithmetic = Arithmetic.NATIVE
 
     def relaxation_times(self) -> tuple[float, ...]:
         """τ of each particle class (inf when the scene has no drag)."""
