@@ -13,7 +13,6 @@ from cavesim.core.scene import load_scene, parse_scene
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.engine.programs import (
     COLLISION_IDS,
-    INTEGRATOR_IDS,
     INTERPOLATION_IDS,
     OUT_OF_DOMAIN_IDS,
     PARTICLE_UPDATE,
@@ -175,7 +174,7 @@ def test_a_uniform_the_source_never_declares_is_an_error_not_skipped(ctx):
 
 
 @pytest.mark.parametrize(("prefix", "ids"), [
-    ("INTEGRATOR_", INTEGRATOR_IDS), ("COLLISION_", COLLISION_IDS),
+    ("COLLISION_", COLLISION_IDS),
     ("OUT_OF_DOMAIN_", OUT_OF_DOMAIN_IDS), ("SAMPLING_", SAMPLING_IDS),
     ("INTERPOLATION_", INTERPOLATION_IDS)])
 def test_feature_ids_are_the_same_on_both_sides(prefix, ids):

@@ -8,7 +8,7 @@ import pytest
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
-from cavesim.core.scene import Arithmetic
+from cavesim.core.scene import Arithmetic, Integrator
 from cavesim.gpu.engine.programs import (
     ARITHMETIC_IDS,
     BLOCK_DEFINES,
@@ -48,16 +48,17 @@ def test_the_gate_covers_every_scene_and_every_feature_combination(builds):
     combinations = 1
     for name, values in PHYSICS_FEATURES.items():
         combinations *= len(values) if name not in ("ARITHMETIC", "FIELD_INTERPOLATION") else 1
-    assert combinations >= 2 * 2 * 2 * 3 * 8 * 2 * 2 * 2 * 2
+    assert combinations >= 2 * 2 * 2 * 3 * len(Integrator) * 2 * 2 * 2 * 2
     # the product, and the two cubic interpolations where they are compiled in: with drag
     # from a grid sampled by hand, 1/8 of it; plus the scenes' own class counts
     assert len(native) >= combinations * (1 + 2 / 8)
     cubic = [d for b in native if (d := dict(b.defines))["FIELD_INTERPOLATION"]]
     assert all(d["HAS_DRAG"] and not d["FIELD_IS_ROTOR"] and not d["FIELD_SAMPLING"]
                for d in cubic)
-    assert {dict(b.defines)["INTEGRATOR"] for b in native} == set(range(8))
+    gpu_ids = {i.gpu_id for i in Integrator}
+    assert {dict(b.defines)["INTEGRATOR"] for b in native} == gpu_ids
     # portable: each integrator with every other feature at each of its values
-    for integrator in range(8):
+    for integrator in gpu_ids:
         for name, values in PHYSICS_FEATURES.items():
             if name not in ("ARITHMETIC", "FIELD_SAMPLING", "INTEGRATOR"):
                 seen = {d[name] for d in portable if d["INTEGRATOR"] == integrator}

@@ -12,7 +12,6 @@ from cavesim.tools.stability.extremes import run_extremes
 from cavesim.tools.stability.sweep import (
     DRAG_CASES,
     SCHILLER_NAUMANN,
-    STABILITY_LIMITS,
     STEPS,
     STOKES,
     TAUS,
@@ -39,7 +38,7 @@ def test_every_stiff_outcome_matches_theory(sweep):
 
 @pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
 def test_each_integrator_is_bounded_exactly_below_its_limit(sweep, integrator):
-    limit = STABILITY_LIMITS[integrator]
+    limit = integrator.stability_limit
     for row in (r for r in sweep if r["integrator"] == integrator.value):
         if row["drag"] == STOKES.name:  # one stiffness: the limit is sharp
             assert row["stiffness"] == row["stiffness_max"]

@@ -141,13 +141,5 @@ def etd2rk(p, v, h, forces):
     return p, f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))))
 
 
-INTEGRATORS: dict[Integrator, Callable] = {
-    Integrator.EXPLICIT_EULER: explicit_euler,
-    Integrator.SEMI_IMPLICIT_EULER: semi_implicit_euler,
-    Integrator.TRAPEZOID: trapezoid,
-    Integrator.VERLET: verlet,
-    Integrator.RK2: rk2,
-    Integrator.RK4: rk4,
-    Integrator.EXPONENTIAL: exponential,
-    Integrator.ETD2RK: etd2rk,
-}
+# Each integrator's step is the function above named as its scene file names it.
+INTEGRATORS: dict[Integrator, Callable] = {i: globals()[i.value] for i in Integrator}

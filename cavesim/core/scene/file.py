@@ -1,8 +1,8 @@
-"""The tables of a scene file that the engine never sees as such: the top level, its
-[simulation], and the [field.params] of each field kind.
+"""The tables of a scene file that the engine never sees as such: the top level and the
+[field.params] of each field kind.
 
-`loader.parse_scene` reads a file through `SceneFile` and flattens it into a `Scene`; the
-other tables are the ones in `model.py`.
+`loader.parse_scene` reads a file through `SceneFile` and builds a `Scene` from it; the
+other tables are the ones in `model.py` ([simulation] is the `Simulation` a `Scene` extends).
 """
 
 from __future__ import annotations
@@ -10,42 +10,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated
 
-from cavesim.core._schema import Range, Rule
-from cavesim.core.limits import MAX_PARTICLES, RANDOM_TEXTURE_SIZE_RANGE
+from cavesim.core._schema import Range
 from cavesim.core.scene.model import (
-    Arithmetic,
     Collision,
     Emitter,
-    Engine,
     Field,
     FieldKind,
     Forces,
     Helicopter,
-    Integrator,
     ParticleClass,
+    Simulation,
     Vec3,
 )
-
-
-def _power_of_two(n: int) -> bool:
-    return n & (n - 1) == 0
-
-
-@dataclass(frozen=True)
-class Simulation:
-    """[simulation]: `Scene` holds its values."""
-
-    capacity: Annotated[int, Range(ge=0, le=MAX_PARTICLES)]  # hard cap of live particles
-    seed: Annotated[int, Range(ge=0, lt=2**63)]  # seeds the random texture (numpy PCG64)
-    # ETD2RK: stable at any dt/tau (a scene cannot know its dt: the master's clock sets it
-    # per frame), exact where the exponential step is and second order elsewhere
-    integrator: Integrator = Integrator.ETD2RK
-    # edge of the square random texture
-    random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
-                                   Rule("a power of two", _power_of_two)] = 256
-    engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
-    # "portable": every GPU computes the same bits, at a cost (README: portable arithmetic)
-    arithmetic: Arithmetic = Arithmetic.NATIVE
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -20,7 +20,9 @@ from cavesim.core.limits import (
     MAX_DIAMETER,
     MAX_FIELD_NODES,
     MAX_LIFETIME,
+    MAX_PARTICLES,
     MAX_RATE,
+    RANDOM_TEXTURE_SIZE_RANGE,
 )
 
 Vec3 = tuple[float, float, float]
@@ -30,14 +32,37 @@ AIR_DENSITY = 1.225  # kg/m³, dry air at 15 °C and sea level (ISA)
 
 
 class Integrator(StrEnum):
-    EXPLICIT_EULER = "explicit_euler"
-    SEMI_IMPLICIT_EULER = "semi_implicit_euler"
-    TRAPEZOID = "trapezoid"
-    VERLET = "verlet"
-    RK2 = "rk2"
-    RK4 = "rk4"
-    EXPONENTIAL = "exponential"
-    ETD2RK = "etd2rk"
+    """The integrators, one row each: everything a new one adds besides its code.
+
+    Its code is `integrate`'s branch in shaders/include/physics.glsl and a step function of
+    the row's name in cavesim/core/twin/integrators.py and cavesim/core/portable/integrators.py.
+    """
+
+    gpu_id: int  # physics.glsl's #define INTEGRATOR_<NAME>: the INTEGRATOR define's value
+    order: int  # theoretical order of accuracy
+    field_evaluations: int  # flow samples per particle and step (a test counts the twin's)
+    stability_limit: float  # the largest dt/tau at which linear drag stays bounded
+
+    def __new__(cls, name: str, gpu_id: int, order: int, field_evaluations: int,
+                stability_limit: float) -> Integrator:
+        member = str.__new__(cls, name)
+        member._value_ = name
+        member.gpu_id = gpu_id
+        member.order = order
+        member.field_evaluations = field_evaluations
+        member.stability_limit = stability_limit
+        return member
+
+    # (name in a scene file, GPU id, order, field evaluations, stability limit)
+    EXPLICIT_EULER = "explicit_euler", 0, 1, 1, 2.0
+    SEMI_IMPLICIT_EULER = "semi_implicit_euler", 1, 1, 1, math.inf  # implicit in the drag
+    TRAPEZOID = "trapezoid", 2, 1, 1, 2.0  # its velocity is Euler's
+    VERLET = "verlet", 3, 2, 2, 2.0
+    RK2 = "rk2", 4, 2, 2, 2.0
+    RK4 = "rk4", 5, 4, 4, 2.785
+    EXPONENTIAL = "exponential", 6, 1, 1, math.inf  # the drag is solved exactly
+    # evaluated at the start and at the exponential step's predicted position
+    ETD2RK = "etd2rk", 7, 2, 2, math.inf
 
 
 class Engine(StrEnum):
@@ -117,6 +142,10 @@ def _ordered(pair: tuple[float, float]) -> bool:
 
 def _few_field_nodes(resolution: tuple[int, int, int]) -> bool:
     return math.prod(resolution) <= MAX_FIELD_NODES
+
+
+def _power_of_two(n: int) -> bool:
+    return n & (n - 1) == 0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -237,22 +266,34 @@ class Helicopter:
 
 
 @dataclass(frozen=True)
-class Scene:
+class Simulation:
+    """[simulation]: how the world is run; a `Scene` is these settings and the world."""
+
+    capacity: Annotated[int, Range(ge=0, le=MAX_PARTICLES)]  # hard cap of live particles
+    seed: Annotated[int, Range(ge=0, lt=2**63)]  # seeds the random texture (numpy PCG64)
+    # ETD2RK: stable at any dt/tau (a scene cannot know its dt: the master's clock sets it
+    # per frame), exact where the exponential step is and second order elsewhere
+    integrator: Integrator = Integrator.ETD2RK
+    # edge of the square random texture
+    random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
+                                   Rule("a power of two", _power_of_two)] = 256
+    engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
+    # "portable": every GPU computes the same bits, at a cost (README: portable arithmetic)
+    arithmetic: Arithmetic = Arithmetic.NATIVE
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scene(Simulation):
+    """One simulated world: its [simulation] settings and everything it holds."""
+
     name: str
     source: Path | None  # the TOML file it came from, for error messages
-    # the file's [simulation]: see `cavesim.core.scene.file.Simulation`
-    capacity: int
-    seed: int
-    integrator: Integrator
-    random_texture_size: int
     particle_classes: tuple[ParticleClass, ...]
     emitters: tuple[Emitter, ...]
     forces: Forces
     field: Field | None  # required exactly when forces.drag is set
     collision: Collision | None
     helicopter: Helicopter | None = None
-    engine: Engine = Engine.GS_TF  # a run may choose another (`cavesim run --engine`)
-    arithmetic: Arithmetic = Arithmetic.NATIVE
 
     def relaxation_times(self) -> tuple[float, ...]:
         """τ of each particle class (inf when the scene has no drag)."""

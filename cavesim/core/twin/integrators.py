@@ -1,7 +1,7 @@
 """One step of each integrator: (p, v, h, forces) -> (p, v).
 
 Twin of `integrate` in shaders/include/physics.glsl; `INTEGRATORS` maps the scene's
-choice to the function, and `ORDERS` gives each method's theoretical order of accuracy.
+choice to the function of its name (the `Integrator` table holds the rest of each method).
 """
 
 from __future__ import annotations
@@ -154,24 +154,5 @@ def etd2rk(p, v, h, forces):
     return p + h * (w + (h * phi3) * d), v + h * (phi1 * r + phi2 * d)
 
 
-INTEGRATORS: dict[Integrator, Step] = {
-    Integrator.EXPLICIT_EULER: explicit_euler,
-    Integrator.SEMI_IMPLICIT_EULER: semi_implicit_euler,
-    Integrator.TRAPEZOID: trapezoid,
-    Integrator.VERLET: verlet,
-    Integrator.RK2: rk2,
-    Integrator.RK4: rk4,
-    Integrator.EXPONENTIAL: exponential,
-    Integrator.ETD2RK: etd2rk,
-}
-
-ORDERS: dict[Integrator, int] = {
-    Integrator.EXPLICIT_EULER: 1,
-    Integrator.SEMI_IMPLICIT_EULER: 1,
-    Integrator.TRAPEZOID: 1,
-    Integrator.VERLET: 2,
-    Integrator.RK2: 2,
-    Integrator.RK4: 4,
-    Integrator.EXPONENTIAL: 1,
-    Integrator.ETD2RK: 2,
-}
+# Each integrator's step is the function above named as its scene file names it.
+INTEGRATORS: dict[Integrator, Step] = {i: globals()[i.value] for i in Integrator}

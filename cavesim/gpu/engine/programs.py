@@ -29,15 +29,11 @@ from cavesim.core.scene.model import (
 )
 from cavesim.gpu.shader_source import ProgramSpec
 
-# Feature ids as the shaders spell them (#define INTEGRATOR_RK4 5 ... in
-# shaders/include/physics.glsl, ARITHMETIC_PORTABLE in arithmetic.glsl);
-# tests/gpu/test_features.py and tests/gpu/test_portable_physics.py hold the two sides together.
+# Feature ids as the shaders spell them (#define COLLISION_PLANE 1 ... in
+# shaders/include/physics.glsl, ARITHMETIC_PORTABLE in arithmetic.glsl); tests/gpu/test_features.py
+# and tests/gpu/test_portable_physics.py hold the two sides together. An integrator's id is its
+# `Integrator.gpu_id` (tests/unit/test_integrator_table.py).
 ARITHMETIC_IDS = {Arithmetic.NATIVE: 0, Arithmetic.PORTABLE: 1}
-INTEGRATOR_IDS = {
-    Integrator.EXPLICIT_EULER: 0, Integrator.SEMI_IMPLICIT_EULER: 1, Integrator.TRAPEZOID: 2,
-    Integrator.VERLET: 3, Integrator.RK2: 4, Integrator.RK4: 5, Integrator.EXPONENTIAL: 6,
-    Integrator.ETD2RK: 7,
-}
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
 SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
@@ -52,7 +48,7 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "HAS_DRAG": (0, 1),
     "HAS_DAMPING": (0, 1),
     "COLLISION": tuple(COLLISION_IDS.values()),
-    "INTEGRATOR": tuple(INTEGRATOR_IDS.values()),
+    "INTEGRATOR": tuple(i.gpu_id for i in Integrator),
     "FIELD_OUT_OF_DOMAIN": tuple(OUT_OF_DOMAIN_IDS.values()),
     "FIELD_SAMPLING": tuple(SAMPLING_IDS.values()),
     "FIELD_IS_ROTOR": (0, 1),
@@ -118,7 +114,7 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "HAS_DRAG": int(scene.forces.drag is not None),
         "HAS_DAMPING": int(scene.forces.damping is not None),
         "COLLISION": COLLISION_IDS[scene.collision.kind if scene.collision else None],
-        "INTEGRATOR": INTEGRATOR_IDS[scene.integrator],
+        "INTEGRATOR": scene.integrator.gpu_id,
         "FIELD_OUT_OF_DOMAIN": OUT_OF_DOMAIN_IDS[field.out_of_domain] if field else 0,
         "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
         "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),

@@ -1,10 +1,9 @@
 """The one table the accuracy tests and the error-versus-cost report both read.
 
-Per integrator: its theoretical order (from `cavesim.core.twin.integrators.ORDERS`, the twin's
-own statement), the tolerance on the observed order, the field evaluations one step takes
-(the cost that does not depend on the hardware), and the cases it solves exactly. A
-case may cap the order any method can show (see `cases.Case.order_limit`); what the tests
-hold each method to is `expected_order`.
+Per integrator: its theoretical order and the field evaluations one step takes (the cost
+that does not depend on the hardware), both from its `Integrator` row, the tolerance on the
+observed order, and the cases it solves exactly. A case may cap the order any method can
+show (see `cases.Case.order_limit`); what the tests hold each method to is `expected_order`.
 """
 
 from __future__ import annotations
@@ -12,32 +11,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from cavesim.core.scene.model import Integrator
-from cavesim.core.twin.integrators import ORDERS
 
 ORDER_TOLERANCE = 0.3  # |observed - expected| allowed where the solution is smooth
 EXACT_TOLERANCE = 1e-9  # m: RMS float64 error of a method in a case it solves exactly
 FORGOTTEN_TOLERANCE = 1e-3  # m: RMS float64 error left of a transient after 10 tau (below)
 
-# Flow samples per particle and step (a trilinear fetch or a rotor evaluation): a test
-# counts them in the twin's step, so this column cannot drift from the code.
-FIELD_EVALUATIONS: dict[Integrator, int] = {
-    Integrator.EXPLICIT_EULER: 1,
-    Integrator.SEMI_IMPLICIT_EULER: 1,
-    Integrator.TRAPEZOID: 1,
-    Integrator.VERLET: 2,
-    Integrator.RK2: 2,
-    Integrator.RK4: 4,
-    Integrator.EXPONENTIAL: 1,
-    Integrator.ETD2RK: 2,  # at the start and at the exponential step's predicted position
-}
-
 
 @dataclass(frozen=True)
 class Method:
     integrator: Integrator
-    order: int  # theoretical order of accuracy
     tolerance: float  # on the observed order
-    evaluations: int  # field evaluations per particle and step
     exact_in: frozenset[str] = frozenset()  # names of cases it solves exactly (error ~ round-off)
     forgets_in: frozenset[str] = frozenset()  # cases where its error dies with the transient
 
@@ -47,6 +30,16 @@ class Method:
     @property
     def name(self) -> str:
         return self.integrator.value
+
+    @property
+    def order(self) -> int:
+        """Theoretical order of accuracy."""
+        return self.integrator.order
+
+    @property
+    def evaluations(self) -> int:
+        """Field evaluations per particle and step."""
+        return self.integrator.field_evaluations
 
     def is_exact(self, case_name: str) -> bool:
         return case_name in self.exact_in
@@ -73,7 +66,6 @@ FORGETS_IN = {Integrator.EXPLICIT_EULER: frozenset({"uniform"}),
               Integrator.SEMI_IMPLICIT_EULER: frozenset({"uniform"})}
 
 METHODS: tuple[Method, ...] = tuple(
-    Method(i, ORDERS[i], ORDER_TOLERANCE, FIELD_EVALUATIONS[i],
-           EXACT_IN.get(i, frozenset()), FORGETS_IN.get(i, frozenset()))
+    Method(i, ORDER_TOLERANCE, EXACT_IN.get(i, frozenset()), FORGETS_IN.get(i, frozenset()))
     for i in Integrator)
 

@@ -20,7 +20,7 @@ from cavesim.core.scene.model import Integrator
 from cavesim.tools.numerics import order as order_rule
 from cavesim.tools.numerics.cases import REPORT_DT, TAU, Case
 from cavesim.tools.numerics.cloud import CLOUD_CELL
-from cavesim.tools.numerics.methods import FIELD_EVALUATIONS, FORGOTTEN_TOLERANCE, METHODS
+from cavesim.tools.numerics.methods import FORGOTTEN_TOLERANCE, METHODS
 from cavesim.tools.numerics.reference import REFINEMENT, TOLERANCES
 from cavesim.tools.numerics.results import Row, Summary, dt_label
 from cavesim.tools.numerics.tolerance_sweep import ReferenceAccuracy, SweepRow
@@ -149,7 +149,7 @@ def _reference_text(case: Case, dts: tuple[float, ...], final_time: float) -> st
     step = min(dts) / REFINEMENT
     steps = max(1, round(final_time / step))
     return (f"float64 twin RK4, step {dt_label(step)} s ({steps:,} steps, "
-            f"{steps * FIELD_EVALUATIONS[Integrator.RK4]:,} field evaluations per particle)")
+            f"{steps * Integrator.RK4.field_evaluations:,} field evaluations per particle)")
 
 
 def build_report(cases: list[Case], dts: tuple[float, ...], final_time: float,

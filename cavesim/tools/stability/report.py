@@ -15,7 +15,6 @@ from cavesim.core.scene import Integrator  # noqa: E402
 from cavesim.tools.stability.extremes import run_extremes  # noqa: E402
 from cavesim.tools.stability.sweep import (  # noqa: E402
     DRAG_CASES,
-    STABILITY_LIMITS,
     STEPS,
     run_sweep,
 )
@@ -32,7 +31,7 @@ def run_stability(ctx, out_dir: Path, frames: int = 120) -> dict:
         "sweep_agrees_with_theory": all(r["agrees"] for r in sweep),
         "extremes": extremes,
         "nan_free": all(r["state_finite"] for r in sweep + extremes),
-        "limits": {i.value: STABILITY_LIMITS[i] for i in Integrator},
+        "limits": {i.value: i.stability_limit for i in Integrator},
     }
     (out_dir / "stability.json").write_text(json.dumps(report, indent=2, default=str) + "\n")
     (out_dir / "stability.md").write_text(markdown(report))
@@ -57,7 +56,7 @@ def markdown(report: dict) -> str:
                         and r["integrator"] == integrator.value and r["dt"] == dt]
                 bounded = [r for r in rows if r["outcome"] == "bounded"]
                 divergent = [r for r in rows if r["outcome"] == "divergent"]
-                limit = STABILITY_LIMITS[integrator]
+                limit = integrator.stability_limit
                 largest = max(bounded, key=lambda r: r["stiffness"], default=None)
                 smallest = min(divergent, key=lambda r: r["stiffness"], default=None)
                 lines.append(f"| {drag.name} | {integrator.value} | 1/{round(1 / dt)} | "
@@ -94,7 +93,7 @@ def plot(sweep: list[dict], path: Path) -> None:
                     alpha=0.5)
         ax.scatter(row["stiffness"], y, c=colour, s=18, marker="o" if row["agrees"] else "x")
     for k, (_, integrator) in enumerate(lines):
-        limit = STABILITY_LIMITS[integrator]
+        limit = integrator.stability_limit
         if np.isfinite(limit):
             ax.plot([limit, limit], [k - 0.35, k + 0.35], c="k", lw=1.5)
     ax.set_xscale("log")

@@ -1,0 +1,64 @@
+"""The `Integrator` table is the one place an integrator is declared: every row is complete,
+the shaders and both twins follow it, and no other module keeps a list of its own."""
+
+import re
+from pathlib import Path
+
+import pytest
+
+from cavesim.core.portable import integrators as portable_integrators
+from cavesim.core.scene.model import Integrator
+from cavesim.core.twin import integrators as twin_integrators
+from cavesim.gpu.shader_source import SHADER_ROOT
+
+PACKAGE = Path(__file__).parents[2] / "cavesim"
+PHYSICS = (SHADER_ROOT / "include" / "physics.glsl").read_text()
+
+
+def integrate_branches() -> list[str]:
+    """The integrators `integrate` in physics.glsl has a branch for, in order."""
+    body = PHYSICS[PHYSICS.index("void integrate("):]
+    body = body[:body.index("\n}\n")]
+    return re.findall(r"^#(?:el)?if INTEGRATOR == INTEGRATOR_(\w+)$", body, re.MULTILINE)
+
+
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_every_row_is_complete(integrator):
+    assert type(integrator.gpu_id) is int and integrator.gpu_id >= 0
+    assert type(integrator.order) is int and integrator.order >= 1
+    assert type(integrator.field_evaluations) is int and integrator.field_evaluations >= 1
+    assert isinstance(integrator.stability_limit, float) and integrator.stability_limit > 0
+    assert integrator.value == integrator.name.lower()
+
+
+def test_the_gpu_ids_are_distinct_and_the_shaders_own():
+    ids = [i.gpu_id for i in Integrator]
+    assert len(set(ids)) == len(ids)
+    glsl = {name: int(value) for name, value
+            in re.findall(r"#define INTEGRATOR_(\w+) (\d+)", PHYSICS)}
+    assert glsl == {i.name: i.gpu_id for i in Integrator}
+
+
+def test_integrate_has_one_branch_per_integrator():
+    assert integrate_branches() == [i.name for i in Integrator]
+
+
+@pytest.mark.parametrize("module", [twin_integrators, portable_integrators],
+                         ids=["float64", "portable"])
+def test_each_twin_steps_every_integrator_with_the_function_of_its_name(module):
+    assert list(module.INTEGRATORS) == list(Integrator)
+    for integrator, step in module.INTEGRATORS.items():
+        assert step is getattr(module, integrator.value) and callable(step)
+
+
+def test_no_other_module_lists_the_integrators():
+    """A module naming every integrator (as a member or as its name in a scene file) holds a
+    second table, which a new integrator would miss."""
+    table = PACKAGE / "core" / "scene" / "model.py"
+
+    def names_every_integrator(text: str) -> bool:
+        return all(f"Integrator.{i.name}" in text or f'"{i.value}"' in text for i in Integrator)
+
+    listing = [path.relative_to(PACKAGE).as_posix() for path in sorted(PACKAGE.rglob("*.py"))
+               if path != table and names_every_integrator(path.read_text())]
+    assert listing == []
