@@ -20,6 +20,7 @@ from cavesim.tools.cli import main
 from cavesim.tools.reports.cluster import target_line
 
 RUN_MAIN = "import sys; from cavesim.tools.cli import main; sys.exit(main(sys.argv[1:]))"
+pytestmark = pytest.mark.xdist_group("bench_cluster")  # one cluster bench, on one worker
 
 
 @pytest.fixture(scope="module")

@@ -22,6 +22,7 @@ from cavesim.tools.cli import main
 
 ROOT = Path(__file__).parents[1]
 RUN_MAIN = "import sys; from cavesim.tools.cli import main; sys.exit(main(sys.argv[1:]))"
+pytestmark = pytest.mark.xdist_group("bench_soak")  # one tiny soak, on one worker
 
 
 @pytest.fixture(scope="module")

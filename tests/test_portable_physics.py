@@ -294,8 +294,11 @@ def intermediate_trees(sources: list[tuple[str, ShaderSource]], folder: Path) ->
     return {name: "\n".join(lines) for name, lines in trees.items()}
 
 
+@pytest.mark.slow
 @pytest.mark.requires("glslang")
 def test_portable_shaders_use_no_operation_the_spec_leaves_to_the_driver(tmp_path):
+    """Slow (the intermediate tree of every portable variant): the only test that reads
+    what the compiler made of the portable code."""
     trees = intermediate_trees(stages(portable_builds()), tmp_path)
     assert len(trees) > 3 * 8 * 9  # 9 variants of each integrator in 3 particle-pass stages
     found = {name: sorted({m[1] for m in FORBIDDEN.finditer(tree)})
