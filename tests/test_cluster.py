@@ -159,7 +159,7 @@ def test_healthy_soak_of_1000_frames_has_no_divergence_and_replays(tmp_path, ctx
     """1000 frames (17 s of the dust devil) on three walls: no divergence, no resync, every
     wall in at the end, and the frame log replays bit for bit. At a capacity of 20,000, not
     the scene's 300,000 (which took over a minute on 2 cores): the cloud is full by frame
-    45, every later frame's emission overflows it, and the sand that dies (at 3-6 s) is
+    45, its emission overflows it from then on, and the sand that dies (at 3-6 s) is
     replaced by new particles, the same ones on every wall."""
     text = DUST_DEVIL.read_text()
     assert "\ncapacity = 300000\n" in text

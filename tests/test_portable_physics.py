@@ -147,10 +147,10 @@ def test_the_demos_have_the_portable_twins_checksum_every_frame(lockstep, name):
     devil's sand living out its 3-6 s) in portable arithmetic: both engine paths have the
     portable twin's checksum every frame, and at the first differing frame the record and
     field are named. At a capacity of 6,000, not the demos' 300,000: the cloud is full
-    within 20 frames, so every later frame's emission overflows it (the particles that do
-    not fit are dropped as the twin drops them), and the particles that die make room for
-    new ones, in the same order. Slow: the twin repeats every float operation in numpy
-    (at the demos' own capacity, 200,000 particles took about 6 minutes on 2 cores)."""
+    within 20 frames and the emission overflows it from then on (the particles that do not
+    fit are dropped as the twin drops them), and the particles that die make room for new
+    ones, in the same order. Slow: the twin repeats every float operation in numpy (at the
+    demos' own capacity, up to 200,000 particles, the two took about 6 minutes on 2 cores)."""
     scene = portable_scene(SCENES / f"{name}.toml", capacity=DEMO_CAPACITY)
     run = lockstep(scene)
     for _ in range(DEMO_FRAMES):
