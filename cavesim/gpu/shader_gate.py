@@ -110,14 +110,29 @@ def check_sources(builds: Iterable[Build], validator: str = VALIDATOR) -> list[F
                           f"(`apt-get install glslang-tools`, or run deploy/setup.sh --test)")
     findings: list[Finding] = []
     stages: list[tuple[Build, str, ShaderSource]] = []
+    builds = list(builds)
+    assembled = _assembled(builds)
     for build in builds:
-        for stage, source in build.spec.sources(dict(build.defines)).items():
+        for stage, source in assembled[build].items():
             findings += [Finding(build, stage, problem) for problem in lint(source)]
             stages.append((build, stage, source))
     with tempfile.TemporaryDirectory(prefix="cavesim-gate-") as folder:
         for start in range(0, len(stages), _BATCH):
             findings += _validate(stages[start:start + _BATCH], Path(folder), validator)
     return findings
+
+
+def _assembled(builds: list[Build]) -> dict[Build, dict[str, ShaderSource]]:
+    """The sources of every build; each program's files are pasted once, not once a variant
+    (thousands of particle-pass variants: most of the gate's time in Python)."""
+    by_spec: dict[ProgramSpec, list[Build]] = {}
+    for build in builds:
+        by_spec.setdefault(build.spec, []).append(build)
+    assembled = {}
+    for spec, group in by_spec.items():
+        each = spec.variant_sources([dict(build.defines) for build in group])
+        assembled.update(zip(group, each, strict=True))
+    return assembled
 
 
 def _validate(stages: list[tuple[Build, str, ShaderSource]], folder: Path,

@@ -81,8 +81,14 @@ class ProgramSpec:
 
     def sources(self, defines: Defines) -> dict[str, ShaderSource]:
         """The assembled source of every stage."""
-        return {stage: assemble(self.name, stage, defines, self.allowed, self.root)
+        (sources,) = self.variant_sources([defines])
+        return sources
+
+    def variant_sources(self, variants: Sequence[Defines]) -> list[dict[str, ShaderSource]]:
+        """`sources` of each set of defines in `variants`, each stage's files pasted once."""
+        each = {stage: assemble_each(self.name, stage, variants, self.allowed, self.root)
                 for stage in self.stages}
+        return [{stage: each[stage][k] for stage in self.stages} for k in range(len(variants))]
 
     def build(self, ctx: moderngl.Context,
               defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
@@ -98,20 +104,34 @@ def assemble(
     root: Path = SHADER_ROOT,
 ) -> ShaderSource:
     """Return the source of one stage of the program `name` (relative to `root`)."""
+    (source,) = assemble_each(name, stage, [defines], allowed, root)
+    return source
+
+
+def assemble_each(
+    name: str,
+    stage: str,
+    variants: Sequence[Defines],
+    allowed: Collection[str],
+    root: Path = SHADER_ROOT,
+) -> list[ShaderSource]:
+    """`assemble` for each set of defines in `variants`. Every set names each allowed define
+    (no more), so the pasted files are the same text for all: they are pasted once."""
     if stage not in STAGE_MACROS:
         raise ShaderError(f"stage must be one of {sorted(STAGE_MACROS)}, got {stage=!r}")
-    header = [
-        f"#version {REQUIRED_GL_VERSION} core",
-        *_define_lines(defines, allowed),
-        f"#define {STAGE_MACROS[stage]}",
-    ]
-    paster = _Paster(root, injected={*defines, *STAGE_MACROS.values()})
+    headers = [[f"#version {REQUIRED_GL_VERSION} core", *_define_lines(defines, allowed),
+                f"#define {STAGE_MACROS[stage]}"] for defines in variants]
+    if not headers:
+        return []
+    paster = _Paster(root, injected={*variants[0], *STAGE_MACROS.values()})
     body = paster.paste(_resolve(name, "", "shader"), chain=())
     # A position marker that nothing follows marks nothing, and NVIDIA's compiler rejects a
     # `#line` as the last line of a source (C0115: "#line source-string number invalid").
     while body and _LINE_MARKER.fullmatch(body[-1]):
         body.pop()
-    return ShaderSource("\n".join([*header, *body]) + "\n", tuple(paster.files))
+    text = "".join(f"{line}\n" for line in body)
+    files = tuple(paster.files)
+    return [ShaderSource("\n".join(header) + "\n" + text, files) for header in headers]
 
 
 def build_program(

@@ -100,7 +100,7 @@ def doctor(out: Path, say: Say) -> Stage:
 
 def tests(out: Path, tier: str, say: Say) -> Stage:
     """The suite (`full`) or its fast tier (`fast`: without the tests marked slow), on
-    every core where pytest-xdist is installed."""
+    every core where pytest-xdist is installed (handed out as deploy/test.sh does)."""
     stage = Stage("tests")
     if tier == "none":
         stage.detail = "not run (--tests none)"
@@ -110,7 +110,7 @@ def tests(out: Path, tier: str, say: Say) -> Stage:
     if tier == "fast":
         command[3:3] = ["-m", "not slow"]
     if _has_xdist():
-        command[3:3] = ["-n", "auto"]
+        command[3:3] = ["-n", "auto", "--dist", "loadgroup"]
 
     def progress(line: str) -> None:
         if line.rstrip().endswith("%]"):

@@ -49,6 +49,7 @@ SCENE = "config/scenes/minimal.toml"
 WALLS = ("front", "left", "right")
 MASTER_PORT = DEFAULT_MASTER_PORT
 FIGURES_JSON = ROOT / "out" / "multihost.json"
+pytestmark = pytest.mark.xdist_group("multihost")  # one figures table of every run
 
 
 @dataclass(frozen=True)

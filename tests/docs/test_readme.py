@@ -5,10 +5,15 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).parents[2]
 
 
+@pytest.mark.slow
 def test_readme_python_example_runs():
+    """The README's example, as written: 600 frames of the dust devil (about 200,000
+    particles on llvmpipe), so slow."""
     readme = (ROOT / "README.md").read_text()
     (example,) = re.findall(r"```python\n(.*?)```", readme, re.S)
     result = subprocess.run([sys.executable, "-c", example], cwd=ROOT, capture_output=True,

@@ -2,7 +2,9 @@
 twin, velocity and cloud errors, the reference check, and the files the command writes.
 
 One quick run (every case and integrator, dt = 1/15 ... 1/240 s, 2,000 particles) on the
-session's GL context feeds every GL test here.
+session's GL context feeds every GL test here: about three minutes on 2 cores, so those
+tests are marked slow, and they share one worker. What only they prove: the command end to
+end, the orders observed on this GPU, and the GPU following its float64 twin.
 """
 
 from __future__ import annotations
@@ -57,6 +59,8 @@ SMOOTH_CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline")
 FLOAT32_FLOOR = 1e-4  # m: what float32 arithmetic may add to a GPU error over T = 1 s
 GPU_TO_TWIN_FACTOR = 2.0
 
+pytestmark = pytest.mark.xdist_group("accuracy")  # one quick run, not one per worker
+
 
 @pytest.fixture(scope="module")
 def quick_run(gl_session, tmp_path_factory):
@@ -105,6 +109,7 @@ def test_runs_last_ten_relaxation_times():
     assert tau == pytest.approx(TAU) and FINAL_TIME >= 10 * tau
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
 @pytest.mark.parametrize("case", SMOOTH_CASES)
 def test_observed_order_matches_the_table(quick_run, case, method):
@@ -126,6 +131,7 @@ def test_observed_order_matches_the_table(quick_run, case, method):
     assert summary.verdict == "ok"
 
 
+@pytest.mark.slow
 def test_only_rk4_is_capped_by_the_trilinear_and_catmull_rom_grids(quick_run):
     result, _, _ = quick_run
     capped = [(s.case, s.integrator, s.expected) for s in result.summaries
@@ -133,6 +139,7 @@ def test_only_rk4_is_capped_by_the_trilinear_and_catmull_rom_grids(quick_run):
     assert capped == [("vortex", "rk4", 2), ("vortex_catmull_rom", "rk4", 3)]
 
 
+@pytest.mark.slow
 def test_rk4_order_rises_with_the_fields_smoothness(quick_run):
     """Trilinear (C0), Catmull-Rom (C1), B-spline (C2): RK4 observes about 2, 3, 4."""
     result, _, _ = quick_run
@@ -143,6 +150,7 @@ def test_rk4_order_rises_with_the_fields_smoothness(quick_run):
     assert observed == pytest.approx([2, 3, 4], abs=rk4.tolerance)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", SMOOTH_CASES)
 def test_gpu_error_follows_the_twin_where_truncation_dominates(quick_run, case):
     result, _, _ = quick_run
@@ -155,6 +163,7 @@ def test_gpu_error_follows_the_twin_where_truncation_dominates(quick_run, case):
         assert row.float32_rms < FLOAT32_FLOOR, row
 
 
+@pytest.mark.slow
 def test_the_error_sources_are_kept_apart(quick_run):
     result, _, _ = quick_run
     for row in result.rows:
@@ -172,6 +181,7 @@ def test_the_error_sources_are_kept_apart(quick_run):
         assert row.gpu_step_ms > 0 and row.gpu_run_s > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
 def test_velocity_errors_converge_at_the_methods_order(quick_run, method):
     """Velocities are read back and measured: in the vortex their float64 error falls at the
@@ -185,6 +195,7 @@ def test_velocity_errors_converge_at_the_methods_order(quick_run, method):
         assert row.gpu_vel_rms == pytest.approx(row.twin_vel_rms, rel=0.5, abs=1e-5), row
 
 
+@pytest.mark.slow
 def test_evaluations_to_t_are_steps_times_the_methods_count(quick_run):
     result, _, _ = quick_run
     per_step = {m.name: m.evaluations for m in METHODS}
@@ -194,6 +205,7 @@ def test_evaluations_to_t_are_steps_times_the_methods_count(quick_run):
         assert summary.evaluations == per_step[summary.integrator]
 
 
+@pytest.mark.slow
 def test_cloud_error_is_measured_in_the_demo_flow_and_falls_with_dt(quick_run):
     result, _, _ = quick_run
     for row in result.rows:
@@ -250,6 +262,7 @@ def test_dormand_prince_follows_its_tolerance_in_a_closed_form():
     assert errors == sorted(errors, reverse=True)
 
 
+@pytest.mark.slow
 def test_the_reference_check_converges_and_bounds_the_reference(quick_run):
     result, _, _ = quick_run
     for case in (c["name"] for c in result.report["cases"]):
@@ -268,6 +281,7 @@ def test_the_reference_check_converges_and_bounds_the_reference(quick_run):
         assert accuracy.margin > 20 or accuracy.case == "vortex_catmull_rom", accuracy
 
 
+@pytest.mark.slow
 def test_the_c1_grids_reference_agrees_with_a_four_times_finer_one(quick_run):
     """On the Catmull-Rom grid the second derivative jumps at every cell face, which DP5(4)'s
     error estimate does not expect: its result converges slowly with the tolerance, and the
@@ -283,6 +297,7 @@ def test_the_c1_grids_reference_agrees_with_a_four_times_finer_one(quick_run):
     assert 0 < rms < accuracy.smallest_fitted / 100
 
 
+@pytest.mark.slow
 def test_portable_arithmetic_costs_time_not_accuracy(quick_run):
     """The portable GPU run differs from the native one by float32 rounding alone, and its
     step time is measured; a portable run that fell back to native would show no difference
@@ -299,6 +314,7 @@ def test_portable_arithmetic_costs_time_not_accuracy(quick_run):
         assert summary.portable_cost > 0 and summary.to_json()["portable_cost"] > 0
 
 
+@pytest.mark.slow
 def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     result, out, printed = quick_run
     assert result.paths == [out / name for name in OUTPUT_NAMES]

@@ -43,6 +43,7 @@ NUMPY_CAP = 3000  # the numpy twin is timed at the first size, not at the second
 RUN_MAIN = "import sys; from nodes.cli import main; sys.exit(main(sys.argv[1:]))"
 MEASURED_ORDER = ("gs_tf_frame", "checksum", "gs_tf_update", "compute_frame", "compute_update",
                   "gs_tf_portable_frame", "compute_portable_frame", "copy", "numpy")
+pytestmark = pytest.mark.xdist_group("bench")  # one bench run, on one worker
 
 
 @pytest.fixture(scope="module")

@@ -19,6 +19,7 @@ IDENTITY = np.eye(3, dtype=np.float32)
 RTOL, ATOL = 1e-5, 1e-4  # float32 state over 100 steps; observed gaps are ~20x smaller
 PLANE = {"kind": "plane", "friction": 0.3, "resilience": 0.5, "friction_min_speed": 0.05,
          "height": 0.2}
+pytestmark = pytest.mark.xdist_group("engine_vs_twin")  # one run per integrator, on one worker
 
 
 def run_both(ctx, scene, steps=STEPS, dt=1 / 60):

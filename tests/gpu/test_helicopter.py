@@ -99,10 +99,12 @@ def test_dust_rises_only_with_the_sand_that_blasts_it():
         assert dust_factor == sand_factor
 
 
+@pytest.mark.slow
 def test_sand_hops_stay_low_and_the_wash_lifts_the_dust():
     """Hovering over the ground (frames 600-720), 99% of the sand stays within 0.3 m while
     the turbulence lifts a tenth of the dust above 1.2 m, out of the wall jet's lowest
-    metre (float64 twin, rates cut to a quarter)."""
+    metre (float64 twin, rates cut to a quarter). Slow (12 s of flight, tens of thousands
+    of particles): the only test of where the demo's sand and dust end up."""
     data = load_scene_dict()
     data["simulation"]["capacity"] = 75000
     for e in data["emitter"]:

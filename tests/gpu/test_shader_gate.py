@@ -87,9 +87,10 @@ def test_every_program_compiles_on_this_context_within_gl43_uniform_limits(ctx, 
 class EndsWithLine(ProgramSpec):
     """A program as the assembler wrote them before NVIDIA was tried: a `#line` last."""
 
-    def sources(self, defines):
-        return {stage: dataclasses.replace(source, text=source.text + "#line 48 0\n")
-                for stage, source in super().sources(defines).items()}
+    def variant_sources(self, variants):
+        return [{stage: dataclasses.replace(source, text=source.text + "#line 48 0\n")
+                 for stage, source in sources.items()}
+                for sources in super().variant_sources(variants)]
 
 
 @pytest.mark.requires("glslang")

@@ -21,6 +21,8 @@ from cavesim.tools.stability.sweep import (
     sweep_scene,
 )
 
+pytestmark = pytest.mark.xdist_group("stability")  # one sweep, on one worker
+
 
 @pytest.fixture(scope="module")
 def sweep(gl_session):

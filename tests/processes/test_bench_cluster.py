@@ -20,6 +20,7 @@ from nodes.cluster_bench.barrier import TARGETS, build_report
 from nodes.cluster_bench.tables import target_line
 
 RUN_MAIN = "import sys; from nodes.cli import main; sys.exit(main(sys.argv[1:]))"
+pytestmark = pytest.mark.xdist_group("bench_cluster")  # one cluster bench, on one worker
 
 
 @pytest.fixture(scope="module")

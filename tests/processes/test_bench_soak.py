@@ -22,6 +22,7 @@ from nodes.launch.launcher import resident_mb
 
 ROOT = Path(__file__).parents[2]
 RUN_MAIN = "import sys; from nodes.cli import main; sys.exit(main(sys.argv[1:]))"
+pytestmark = pytest.mark.xdist_group("bench_soak")  # one tiny soak, on one worker
 
 
 @pytest.fixture(scope="module")

@@ -24,6 +24,7 @@ from nodes.master.process import MasterConfig
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 FRAMES = 6
 REAL_FRAMES = 40
+pytestmark = pytest.mark.xdist_group("framelog")  # one real log, on one worker
 
 
 def record_spans(data: bytes) -> list[tuple[int, int]]:

@@ -13,6 +13,7 @@ BUSY = scene_dict(integrator="rk4", capacity=6000, damping=0.1, collision=PLANE,
     FOUNTAIN, dict(FOUNTAIN, name="dust", particle_class="dust", rate=2500.0,
                    position=[1.0, -1.0, 0.3])])
 OVERFLOWING = dict(BUSY, simulation=dict(BUSY["simulation"], capacity=1500))
+pytestmark = pytest.mark.xdist_group("determinism")  # one set of runs, on one worker
 
 
 def run_all(jobs):

@@ -7,6 +7,9 @@ Euler's 1 / (1 + h lambda)) or moved the position by a sum of products failed th
 at 1/480 and 1/960 s (up to 9.6e-5 m for the exponential step). With the right forms and a
 float32 position alone, every integrator still ended at 7e-6 to 1.1e-5 m at 1/960 s; the
 record's low part of the position (cavesim/core/position.py) is what brings it below.
+
+Slow (about four minutes on 2 cores: every integrator at 1/480 and 1/960 s, GPU and twin),
+and on one worker, which builds the cases once.
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ FLOOR_LIMIT = 5e-6  # m: the floor required of every integrator
 # within 1.3x; an NVIDIA H100 ends RK4 in the uniform flow at 1.58x (1/480 s).
 STORAGE_FACTOR = 1.7
 SCENE = Path(__file__).parents[2] / "config" / "scenes" / "brownout.toml"
+
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("float32_floor")]
 
 
 @pytest.fixture(scope="module")

@@ -28,6 +28,7 @@ PARTICLES = 500
 T = 1.0
 DT = 1 / 60
 REFINE = 64  # the reference: RK4 at DT / REFINE (within 1e-12 m of DT / 256, both taus)
+pytestmark = pytest.mark.xdist_group("integrators")  # each vortex once, on one worker
 
 
 def vortex_forces(tau: float, count: int) -> tuple[np.ndarray, np.ndarray, ForceModel]:
