@@ -32,9 +32,11 @@ from cavesim.core.wire.payloads.state_transfer import (
     HistoryFrame,
 )
 from cavesim.core.wire.rejects import RejectCounter
+from cavesim.core.wire.replies import asking
 
 log = logging.getLogger("cavesim.blocks")
 BLOCK_SECONDS = 5.0  # one question and its reply (4 MiB at most)
+BUFFERED_REPLIES = 4  # whole replies one question buffers: the followed one and others'
 
 
 class TreeHolder(Protocol):
@@ -165,26 +167,28 @@ class BlockAsker:
             return None
         payload = self.seal(request)
         self.bytes += len(payload)
-        replies = self.session.get(self.key, payload=payload,
-                                   consolidation=zenoh.ConsolidationMode.NONE,
-                                   timeout=deadline - now)
-        for reply in replies:
-            if time.monotonic() > deadline:
-                break
-            if reply.ok is None:
-                self.refusal = reply.err.payload.to_string()
-                continue
-            replier = str(reply.replier_id)
-            if replier in self.failed or self.replier not in (None, replier):
-                continue
-            data = reply.ok.payload.to_bytes()
-            try:
-                checked = check_reply(self.open_reply(data), request)
-            except ProtocolError as e:
-                self.rejects.reject(e, self.key)
-                self.failed.add(replier)
-                continue
-            self.replier = replier
-            self.bytes += len(data)
-            return checked
+
+        def listen(replier: str) -> bool:
+            return replier not in self.failed and self.replier in (None, replier)
+
+        with asking(self.session, self.key, deadline, BUFFERED_REPLIES * MAX_BLOCK_BYTES,
+                    listen, payload=payload,
+                    consolidation=zenoh.ConsolidationMode.NONE) as replies:
+            for reply in replies:
+                if reply.ok is None:
+                    self.refusal = reply.err.payload.to_string()
+                    continue
+                replier = str(reply.replier_id)
+                if not listen(replier):
+                    continue
+                data = reply.ok.payload.to_bytes()
+                try:
+                    checked = check_reply(self.open_reply(data), request)
+                except ProtocolError as e:
+                    self.rejects.reject(e, self.key)
+                    self.failed.add(replier)
+                    continue
+                self.replier = replier
+                self.bytes += len(data)
+                return checked
         return None

@@ -62,6 +62,7 @@ from cavesim.core.wire import (
 from cavesim.core.wire.envelope import Message
 from cavesim.core.wire.network import NetworkSettings, lockstep_publisher, open_session
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
+from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
@@ -94,6 +95,7 @@ IDLE = 1.0  # s between looks at the master's presence when nothing comes
 MASTER_SILENCE = 10  # x --master-wait: a master this long silent counts as gone
 BEHIND_EVERY = 1.0  # s between two BEHIND reports
 RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
+SOURCE_WAIT = 1.0  # s a resync waits for the source's liveliness before asking again
 DELTA_SECONDS = 5.0  # s for all of a delta's questions; then the full snapshot
 
 
@@ -407,7 +409,7 @@ class WallNode:
         deadline = started + transfer_seconds(self.system.capacity)
         request = StateRequest(command.frame, source, command.digest)
         sealed = self._seal(request)
-        while (remaining := deadline - time.monotonic()) > 0:
+        while deadline > time.monotonic():
             received = [len(sealed)]
             header = fetch_snapshot(self.session, self.keys.state(source), self.system,
                                     sealed, self._open_reply, request, deadline,
@@ -418,8 +420,8 @@ class WallNode:
                              time.monotonic() - started)
                 return
             time.sleep(min(RESYNC_PAUSE, max(deadline - time.monotonic(), 0.0)))
-            list(self.session.liveliness().get(self.keys.alive(source),
-                                               timeout=min(1.0, max(remaining, 0.01))))
+            anyone_alive(self.session, self.keys.alive(source),
+                         min(time.monotonic() + SOURCE_WAIT, deadline))
         log.error("%s: no verified snapshot of frame %d from %s within %.0f s; keeping our "
                   "state", wall, command.frame, source, deadline - started)
         state = self.system.checksum()  # the master sees at once that the resync failed

@@ -3,7 +3,8 @@
 `send_snapshot` answers one `state/<wall>` query with a header and the chunks, reading each
 chunk from the GPU just before sending it; `fetch_snapshot` asks for one and streams the
 chunks straight into the receiver's back particle buffer (`SnapshotLoad`), committing only
-a whole, verified state. Every wait has a deadline (wire/snapshot.py: `transfer_seconds`).
+a whole, verified state. Every wait has a deadline (wire/snapshot.py: `transfer_seconds`),
+and the replies are read as wire/replies.py hands them over, never blocking zenoh.
 """
 
 from __future__ import annotations
@@ -15,9 +16,11 @@ from collections.abc import Callable
 import zenoh
 
 from cavesim.core.errors import ProtocolError, StateError
+from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.envelope import Message
 from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
+from cavesim.core.wire.replies import asking
 from cavesim.core.wire.snapshot import (
     CHUNK_PARTICLES,
     SnapshotAssembly,
@@ -27,7 +30,8 @@ from cavesim.core.wire.snapshot import (
 from cavesim.gpu.engine import ParticleSystem
 
 log = logging.getLogger("cavesim.snapshot")
-REPLY_QUEUE = 4  # replies a receiver holds before zenoh waits for it (back-pressure)
+BUFFERED_STATES = 2  # of the largest state, in bytes: what a fetch buffers at most
+BUFFER_SLACK = 2**20  # bytes beyond them, for the headers of repliers not followed
 
 
 class SnapshotLoad:
@@ -39,6 +43,12 @@ class SnapshotLoad:
     def __init__(self, system: ParticleSystem) -> None:
         self.system = system
         self.assembly: SnapshotAssembly | None = None
+        self.chunks = 0  # chunks placed (each at most once)
+
+    @property
+    def whole(self) -> bool:
+        """Whether every chunk the header announced is in."""
+        return self.assembly is not None and self.chunks == self.assembly.header.chunks
 
     def feed(self, message: Message) -> None:
         """Take the next message of the stream: the header first, then chunks in any order."""
@@ -54,6 +64,7 @@ class SnapshotLoad:
                                               f"snapshot's chunks")
         else:
             self.system.write_particle_chunk(self.assembly.place(message), message.data)
+            self.chunks += 1
 
     def commit(self) -> SnapshotHeader:
         """Make the staged state current once every chunk is in and its checksum matches."""
@@ -102,44 +113,52 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, req
                    ) -> SnapshotHeader | None:
     """Ask `key` for the state `wanted` names (`request`: that request, sealed) and load it
     into `system`; its header, or None when nothing was loaded (nobody answered, the
-    deadline passed, or every stream was refused: counted). `received` is told the size of
-    each reply followed.
+    deadline passed, the stream came faster than it was loaded, or it was refused:
+    counted). `received` is told the size of each reply followed.
 
     Only a stream whose header is of the wanted frame and checksum is followed, from the
-    first replier that sends one; other repliers are ignored, and a replier that sent
+    first replier that sends one; other repliers are not heard, and a replier that sent
     another state or a broken stream (`failed`, kept across the caller's attempts) is not
-    heard again. The state
-    becomes current only whole and with the wanted checksum (which covers its seed).
+    heard again: the attempt ends at once, and the caller asks again. The state becomes
+    current only whole and with the wanted checksum (which covers its seed).
     """
     load = SnapshotLoad(system)
     source: str | None = None
-    replies = session.get(
-        key, handler=zenoh.handlers.FifoChannel(REPLY_QUEUE), payload=request,
-        consolidation=zenoh.ConsolidationMode.NONE,  # the default keeps one reply per key
-        congestion_control=zenoh.CongestionControl.BLOCK,  # so replies wait, never drop
-        timeout=max(deadline - time.monotonic(), 1e-3))
-    for reply in replies:
-        if time.monotonic() > deadline:
-            log.warning("snapshot from %s: deadline passed while streaming", key)
-            return None
-        replier = str(reply.replier_id)
-        if reply.ok is None or replier in failed or source not in (None, replier):
-            continue
-        data = reply.ok.payload.to_bytes()
-        received(len(data))
-        try:
-            message = open_reply(data)
-            if source is None:
-                _check_wanted(message, wanted)
-                source = replier
-            load.feed(message)
-        except ProtocolError as e:
-            rejects.reject(e, key)
-            failed.add(replier)  # a wrong header or a broken stream: not followed again
-            if source == replier:
+
+    def listen(replier: str) -> bool:
+        return replier not in failed and source in (None, replier)
+
+    limit = BUFFERED_STATES * system.capacity * PARTICLE_BYTES + BUFFER_SLACK
+    with asking(session, key, deadline, limit, listen, payload=request,
+                consolidation=zenoh.ConsolidationMode.NONE,  # the default keeps one per key
+                congestion_control=zenoh.CongestionControl.BLOCK) as replies:
+        for reply in replies:
+            if replies.overflowed:
+                log.warning("snapshot from %s: %d replies came faster than they were loaded; "
+                            "asking again", key, replies.overflowed)
                 return None
+            replier = str(reply.replier_id)
+            if reply.ok is None or not listen(replier):
+                continue
+            data = reply.ok.payload.to_bytes()
+            received(len(data))
+            try:
+                message = open_reply(data)
+                if source is None:
+                    _check_wanted(message, wanted)
+                    source = replier
+                load.feed(message)
+            except ProtocolError as e:
+                rejects.reject(e, key)
+                failed.add(replier)  # a wrong header or a broken stream: not followed again
+                if source == replier:
+                    return None
+            if load.whole:
+                break
     if load.assembly is None:
         return None
+    if not load.whole and time.monotonic() > deadline:
+        log.warning("snapshot from %s: deadline passed while streaming", key)
     try:
         return load.commit()
     except ProtocolError as e:
