@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     DEFAULT_SCENE,
     INTERRUPTED,
@@ -92,12 +93,13 @@ def run(args: argparse.Namespace, console) -> int:
         if args.progress:
             print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
 
-    if args.report is None:
-        record = run_master(config, progress)
-    else:
-        with ReportFile(args.report) as report:
-            record = run_master(config, progress, report.checkpoint)
-            report.finish(record.summary(), record.interrupted)
+    with sigterm_as_interrupt():
+        if args.report is None:
+            record = run_master(config, progress)
+        else:
+            with ReportFile(args.report) as report:
+                record = run_master(config, progress, report.checkpoint)
+                report.finish(record.summary(), record.interrupted)
     if record.interrupted:
         return INTERRUPTED
     return lost_walls_code(record.final.lost if record.final else (), args.on_loss, "master")

@@ -10,6 +10,7 @@ from cavesim.core.limits import GPU_RANGE
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
+from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     DEFAULT_SCENE,
     UsageError,
@@ -110,4 +111,5 @@ def run(args: argparse.Namespace, console) -> int:
                         preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
                         master_wait=args.master_wait, resync=args.resync,
                         drift_sample=node_sample_from(args, "node"))
-    return run_node(config)
+    with sigterm_as_interrupt():
+        return run_node(config)

@@ -21,6 +21,7 @@ from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
 from cavesim.tools.reports.run_tables import demo_table, forensic_lines, gpu_table, summary_table
+from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     DEFAULT_SCENE,
     INTERRUPTED,
@@ -219,7 +220,8 @@ def run(args: argparse.Namespace, console) -> int:
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus, display=args.display,
                    preview=args.preview, engine=args.engine, tolerance=tolerance)
-    report = run_walls(plan, console)
+    with sigterm_as_interrupt():
+        report = run_walls(plan, console)
     if report["interrupted"]:
         return INTERRUPTED
     return lost_walls_code(report["final"].get("lost", ()), args.on_loss, "run")
