@@ -158,12 +158,22 @@ def test_a_node_answers_only_about_the_state_it_holds_and_within_it(pair):
         check_reply(reply, BlockRequest(FRAME, "front", digest, BlockQuery.TREE, 2, (0, 1)))
 
 
+class Payload(bytes):
+    """A zenoh payload stand-in."""
+
+    def to_bytes(self) -> bytes:
+        return bytes(self)
+
+    def to_string(self) -> str:
+        return self.decode()
+
+
 class Reply:
     """A zenoh reply stand-in: `data` from `replier`, or a refusal."""
 
     def __init__(self, replier: str, data: bytes | None = None, refusal: str = "") -> None:
         self.replier_id = replier
-        payload = SimpleNamespace(to_bytes=lambda: data, to_string=lambda: refusal)
+        payload = Payload(refusal.encode() if data is None else data)
         self.ok = None if data is None else SimpleNamespace(payload=payload)
         self.err = SimpleNamespace(payload=payload)
 
@@ -172,8 +182,10 @@ class Session:
     def __init__(self, replies: list[Reply]) -> None:
         self.replies = replies
 
-    def get(self, key, **options):
-        return iter(self.replies)
+    def get(self, key, handler, **options) -> None:
+        for reply in self.replies:
+            handler.callback(reply)
+        handler.drop()
 
 
 def test_an_asker_counts_bad_replies_and_follows_the_first_good_replier(pair):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import random
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -206,8 +207,14 @@ class Reply:
 
     def __init__(self, replier: str, data: bytes) -> None:
         self.replier_id = replier
-        self.ok = type("Sample", (), {"payload": type("Payload", (), {
-            "to_bytes": staticmethod(lambda: data)})})()
+        self.ok = SimpleNamespace(payload=Payload(data))
+
+
+class Payload(bytes):
+    """A zenoh payload stand-in."""
+
+    def to_bytes(self) -> bytes:
+        return bytes(self)
 
 
 class RepliesSession:
@@ -216,8 +223,10 @@ class RepliesSession:
     def __init__(self, replies: list[Reply]) -> None:
         self.replies = replies
 
-    def get(self, key, **options):
-        return iter(self.replies)
+    def get(self, key, handler, **options) -> None:
+        for reply in self.replies:
+            handler.callback(reply)
+        handler.drop()
 
 
 def replies_of(replier: str, system: ParticleSystem, frame: int = FRAME) -> list[Reply]:
