@@ -107,8 +107,9 @@ def test_sigterm_to_a_node_ends_it_cleanly(tmp_path):
         assert line and time.monotonic() < deadline, "the node did not come up"
     took = terminate(node)
     err = node.stderr.read()
-    assert node.returncode == 0 and took < PROMPT, err
-    assert "front: interrupted" in err and "Traceback" not in err
+    # 0 from its loop; 130 when the signal comes just before it (the line is cavesim's)
+    assert node.returncode in (0, INTERRUPTED) and took < PROMPT, err
+    assert "interrupted" in err and "Traceback" not in err
 
 
 def test_sigterm_to_the_tracker_writes_its_report(tmp_path):
@@ -121,10 +122,13 @@ def test_sigterm_to_the_tracker_writes_its_report(tmp_path):
                       f"tcp/127.0.0.1:{free_port()}", "--session", f"termtrack{os.getpid()}",
                       "--report", str(report), "--verbose")
     deadline = time.monotonic() + 60
-    while "receiving DTrack" not in (line := tracker.stderr.readline()):
-        assert line and time.monotonic() < deadline, "the tracker did not come up"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as dtrack:
+        dtrack.sendto(b"fr 1\r\n", ("127.0.0.1", port))  # its first, once it listens
+        while "first DTrack datagram" not in (line := tracker.stderr.readline()):
+            assert line and time.monotonic() < deadline, "the tracker did not come up"
+            dtrack.sendto(b"fr 1\r\n", ("127.0.0.1", port))
     took = terminate(tracker)
     err = tracker.stderr.read()
     assert tracker.returncode == 0 and took < PROMPT, err
-    assert json.loads(report.read_text())["datagrams"] == 0
+    assert json.loads(report.read_text())["datagrams"] >= 1
     assert "Traceback" not in err
