@@ -59,7 +59,7 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.envelope import Envelope, Message
 from cavesim.core.wire.network import NetworkSettings, lockstep_publisher, open_session
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
@@ -446,12 +446,13 @@ class WallNode:
                      time.monotonic() - started)
         return True
 
-    def _open_reply(self, data: bytes) -> Message:
-        """A reply to our snapshot or block query, checked: of our run."""
+    def _open_reply(self, data: bytes) -> Envelope:
+        """A reply to our snapshot or block query, checked: of our run (whose key signed it,
+        the asker checks)."""
         envelope = decode_envelope(data, self.config.session, self.config.credentials)
         if envelope.run_id != self.view.run_id:
             raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
-        return envelope.message
+        return envelope
 
     def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
         self.view.done = frame
