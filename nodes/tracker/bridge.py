@@ -112,8 +112,8 @@ class Bridge:
 
 
 class RunFollower:
-    """The run id of the master's latest frame (0 before the first): the master takes
-    tracking only of its own run."""
+    """The run id of the master's latest frame (0 before the first, which the master
+    refuses): the master takes tracking only of its own run."""
 
     def __init__(self, session: str, credentials: Credentials | None) -> None:
         self.session, self.credentials, self.run_id = session, credentials, 0
@@ -149,7 +149,7 @@ def main(config: TrackerConfig, stop: threading.Event | None = None) -> TrackerC
         publisher = session.declare_publisher(key, express=True)
         run = RunFollower(config.session, config.credentials)
         frames = session.declare_subscriber(SessionKeys(config.session).frame, run.on_frame)
-        bridge = Bridge(config.mapping, lambda m: run.run_id and publisher.put(
+        bridge = Bridge(config.mapping, lambda m: publisher.put(
             encode(m, config.session, config.credentials, run.run_id)), config.max_rate)
         log.info("receiving DTrack on udp %s:%d, publishing on %s", config.bind, config.port, key)
         try:

@@ -103,7 +103,7 @@ class NodeConfig:
     scene: Path
     session: str = "default"
     network: NetworkSettings = NetworkSettings()
-    credentials: Credentials | None = None  # session.key: checks the master's signature
+    credentials: Credentials | None = None  # wall-WALL.key: signs as this wall, checks the master's
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
     cave: Path | None = None  # draw this node's wall of this CAVE ...

@@ -23,7 +23,7 @@ from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.blocks import BlockAsker, answer, check_reply, serve_blocks
 from nodes.wall.delta import DeltaRefused, fetch_delta
 
-SESSION, KEY = "delta", generate().for_members()
+SESSION, KEY = "delta", generate().issue("wall", "front")  # the source's own key
 FRAME, PARTICLES = 30, 40_000  # 25 blocks of the checksum's tree
 
 
@@ -81,7 +81,7 @@ def test_a_flipped_bit_heals_by_fetching_one_invocations_records(pair):
     assert (delta.blocks, delta.invocations) == (1, 1) and delta.records <= 256
     assert [q.query for q in source.questions] == [BlockQuery.TREE] * 3 + [BlockQuery.RECORDS]
     full = healthy.live_count * PARTICLE_DTYPE.itemsize
-    assert source.bytes < 12_000 < full // 100  # vs 1.6 MB of a full snapshot
+    assert source.bytes < 13_000 < full // 100  # vs 1.6 MB; each reply has its wall's card
 
 
 def test_the_emitter_stream_and_the_seed_heal_by_delta_too(ctx):
@@ -189,7 +189,7 @@ def test_an_asker_counts_bad_replies_and_follows_the_first_good_replier(pair):
         envelope = decode_envelope(data, SESSION, KEY)
         if envelope.run_id != 1:
             raise ProtocolError("wrong-run", "another run's reply")
-        return envelope.message
+        return envelope
 
     replies = [Reply("a", refusal="not-held: asked about frame 30"),
                Reply("b", sealed(good, run=2)),  # another run's

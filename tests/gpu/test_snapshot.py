@@ -13,14 +13,14 @@ from scenes import FOUNTAIN, make_scene
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import generate
-from cavesim.core.wire.envelope import decode, encode
+from cavesim.core.wire.envelope import decode, decode_envelope, encode
 from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.wall.snapshots import SnapshotLoad, fetch_snapshot, send_snapshot
 
-SESSION, KEY = "snap", generate().for_members()
+SESSION, KEY = "snap", generate().issue("wall", "front")  # the source's own key
 FRAME = 12
 CHUNK = 37  # particles per reply: about ten chunks, the last one short
 
@@ -231,7 +231,8 @@ def fetch(target: ParticleSystem, replies: list[Reply], wanted: StateRequest,
     rejects = RejectCounter("test")
     failed = set() if failed is None else failed
     header = fetch_snapshot(RepliesSession(replies), "cavesim/snap/state/front", target,
-                            b"", unseal, wanted, time.monotonic() + 30, rejects, failed)
+                            b"", lambda data: decode_envelope(data, SESSION, KEY), wanted,
+                            time.monotonic() + 30, rejects, failed)
     return header, dict(rejects.counts), failed
 
 
