@@ -3,7 +3,8 @@
 #
 #   deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display] [--scene FILE]
 #                    [--frames F] [--out DIR] [--session NAME] [--keys DIR]
-#                    [--config FILE] [--realtime] [--mixed-hardware] [--dry-run]
+#                    [--config FILE] [--realtime] [--mixed-hardware] [--insecure]
+#                    [--dry-run]
 #
 # Without --hosts everything runs here: this execs `.venv/bin/cavesim run --walls N ...`
 # (or `--cave FILE`; after deploy/setup.sh if .venv is missing), which writes
@@ -27,7 +28,7 @@
 #
 # On each node host it runs
 #   $CAVESIM_REMOTE node --wall WALL --scene S --session NAME --connect tcp/MASTER:PORT
-#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K/session.key]
+#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K/wall-WALL.key]
 #                        [--config Z]
 #                        [--cave C --display]
 # and on the master host `mkdir -p OUT`, then
@@ -42,9 +43,11 @@
 # config/zenoh/multihost.json5 (a short lease and fast reconnects for a LAN; the endpoints
 # still come from the hosts file), and --realtime has the master pace frames by the wall
 # clock, as a CAVE's displays need (default: as fast as the barrier allows).
-# --keys DIR signs every message: DIR holds what `cavesim keys --out DIR` made; the master
-# reads DIR/master.key (on the master host only), each node DIR/session.key (which cannot
-# sign frames or commands). The scene, OUT, DIR and Z are paths on the hosts (relative ones are resolved by
+# --keys DIR signs every message: DIR holds what `cavesim keys --out DIR --walls ...` made;
+# the master reads DIR/master.key (on the master host only), each node its own wall's
+# DIR/wall-WALL.key (which cannot sign frames or commands, nor speak for another wall).
+# With --hosts the messages cross a network, so --keys is required; --insecure runs
+# unsigned anyway (anyone on that network can then steer, stop or forge the run). The scene, OUT, DIR and Z are paths on the hosts (relative ones are resolved by
 # the remote command: the login directory for ssh; a scene also by the cavesim checkout).
 # Node output is collected here in OUT/logs/WALL.log; the master's goes to the terminal.
 # The launcher waits for the master, exits with its status, and on exit or Ctrl-C stops
@@ -60,7 +63,7 @@ DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/processes/
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \
          "[--scene FILE] [--frames F] [--out DIR] [--session NAME] [--keys DIR]" \
-         "[--config FILE] [--realtime] [--mixed-hardware] [--dry-run]" >&2
+         "[--config FILE] [--realtime] [--mixed-hardware] [--insecure] [--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
 }
@@ -72,6 +75,7 @@ die() {  # a usage or input error: one line, exit 2
 
 hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
 session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0 mixed=0
+insecure=0
 while (($#)); do
     case "$1" in
         --hosts | --walls | --scene | --frames | --out | --session | --keys | --config \
@@ -92,6 +96,7 @@ while (($#)); do
         --realtime) realtime=1; shift ;;
         --display) display=1; shift ;;
         --mixed-hardware) mixed=1; shift ;;
+        --insecure) insecure=1; shift ;;
         --dry-run) dry_run=1; shift ;;
         -h | --help) usage ;;
         *) die "unknown argument $1 (see deploy/launch.sh --help)" ;;
@@ -218,6 +223,9 @@ done
 common=(--scene "$scene" --session "$session")
 [ -z "$zenoh_config" ] || common+=(--config "$zenoh_config")
 ((!mixed)) || common+=(--mixed-hardware)
+[ -n "$keys" ] || ((insecure)) || die "argument --hosts: messages cross a network unsigned;" \
+    "give --keys DIR (made by \`cavesim keys --out DIR --walls ...\`), or --insecure to run" \
+    "unsigned anyway"
 wall_list="$(IFS=,; echo "${node_walls[*]}")"
 master_command=("${master_via[@]}" "$remote" master --walls "$wall_list" --frames "$frames"
                 "${common[@]}" --listen "tcp/0.0.0.0:$master_port"
@@ -228,7 +236,7 @@ node_command() {  # node_command I: the command of node I, in the global array `
     eval "command=(${node_vias[$1]})"
     command+=("$remote" node --wall "${node_walls[$1]}" "${common[@]}"
               --connect "tcp/$master_host:$master_port" --listen "tcp/0.0.0.0:0" --verbose)
-    [ -z "$keys" ] || command+=(--key-file "$keys/session.key")
+    [ -z "$keys" ] || command+=(--key-file "$keys/wall-${node_walls[$1]}.key")
     ((!display)) || command+=(--cave "$cave" --display)
 }
 

@@ -10,8 +10,9 @@ import tempfile
 from pathlib import Path
 
 from cavesim.core.limits import DEFAULT_MASTER_PORT
-from cavesim.core.wire.credentials import Credentials, read_credentials
+from cavesim.core.wire.credentials import MASTER, Credentials
 from cavesim.core.wire.key_expressions import check_name
+from cavesim.core.wire.key_files import read_key_file
 from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from nodes.faults import Fault, parse_fault
 
@@ -178,8 +179,9 @@ def add_network_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--session", default="default", type=session_name,
                        help="session name: the key prefix")
     group.add_argument("--key-file", type=Path, metavar="FILE",
-                       help="the session's keys from `cavesim keys`: master.key for the "
-                            "master, session.key for nodes and trackers")
+                       help="this process's key from `cavesim keys`: master.key for the "
+                            "master, wall-WALL.key for a wall's node, tracker-NAME.key for a "
+                            "tracker (mode 0600)")
 
 
 def network_settings(args: argparse.Namespace) -> NetworkSettings:
@@ -193,37 +195,28 @@ def network_settings(args: argparse.Namespace) -> NetworkSettings:
     return settings
 
 
-def read_key(path: Path | None) -> Credentials | None:
-    """The session's credentials from a --key-file (None without one); ValueError names the
-    file and what is wrong."""
-    return None if path is None else read_credentials(path)
+def read_key(path: Path | None, role: str, name: str | None = None) -> Credentials | None:
+    """The credentials of `role` (member `name`, where given) from a --key-file (None
+    without one); ValueError names the file and what is wrong, e.g. another role's key."""
+    return None if path is None else read_key_file(path, role, name)
 
 
-def network_and_key(args: argparse.Namespace, command: str):
-    """The zenoh settings and the session's key from the network flags (UsageError)."""
+def network_and_key(args: argparse.Namespace, command: str, role: str,
+                    name: str | None = None):
+    """The zenoh settings and this process's key from the network flags (UsageError)."""
     try:
-        return network_settings(args), read_key(args.key_file)
+        return network_settings(args), read_key(args.key_file, role, name)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e
 
 
 def master_credentials(path: Path | None, command: str):
-    """The master's credentials from its --key-file (None without one), checked by
-    `signing_key` (UsageError)."""
+    """The master's credentials from its --key-file (None without one): a master.key, else
+    UsageError naming the file."""
     try:
-        return signing_key(read_key(path), path, command)
+        return read_key(path, MASTER)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e
-
-
-def signing_key(credentials, path: Path | None, command: str):
-    """`credentials` if they are a master.key (or None), since only the master signs frames
-    and commands; else UsageError naming the file."""
-    if credentials is not None and not credentials.can_sign_as_master:
-        raise UsageError(f"cavesim {command}: error: argument --key-file: {path} holds no "
-                         f"master signing key (it is a session.key); the master needs the "
-                         f"master.key made with it by `cavesim keys`")
-    return credentials
 
 
 def lost_walls_code(lost, on_loss: str | None, command: str) -> int:

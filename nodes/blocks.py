@@ -5,7 +5,8 @@ its checksum's tree, the history of its fold-1 items, single records), and the m
 A request names the frame and the checksum of the state it is about; a node that holds
 another state refuses it (a signed refusal reason, so the asker does not wait). Every
 reply is checked against its request before use — sealed for this run, from the node
-asked, of the query asked, exactly the data asked for — and a refused reply is counted.
+asked and signed by its key, of the query asked, exactly the data asked for — and a
+refused reply is counted.
 Sizes are bounded on both sides (`MAX_BLOCK_INDICES`, `MAX_BLOCK_BYTES`); each question
 has a deadline.
 """
@@ -23,7 +24,8 @@ import zenoh
 from cavesim.core.digest.history import HistoryEntry
 from cavesim.core.digest.shape import ITEM_WORDS, plan
 from cavesim.core.errors import ProtocolError, StateError
-from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.credentials import WALL
+from cavesim.core.wire.envelope import Envelope, Message
 from cavesim.core.wire.payloads.state_transfer import (
     MAX_BLOCK_BYTES,
     BlockQuery,
@@ -148,7 +150,7 @@ class BlockAsker:
     monotonic time) if one is given."""
 
     def __init__(self, session: zenoh.Session, key: str, seal: Callable[[Message], bytes],
-                 open_reply: Callable[[bytes], Message], rejects: RejectCounter,
+                 open_reply: Callable[[bytes], Envelope], rejects: RejectCounter,
                  failed: set[str] | None = None, deadline: float | None = None) -> None:
         self.session, self.key, self.seal, self.open_reply = session, key, seal, open_reply
         self.rejects, self.deadline = rejects, deadline
@@ -183,7 +185,9 @@ class BlockAsker:
                     continue
                 data = reply.ok.payload.to_bytes()
                 try:
-                    checked = check_reply(self.open_reply(data), request)
+                    envelope = self.open_reply(data)
+                    envelope.check_signer(WALL, request.node)
+                    checked = check_reply(envelope.message, request)
                 except ProtocolError as e:
                     self.rejects.reject(e, self.key)
                     self.failed.add(replier)

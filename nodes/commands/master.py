@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from cavesim.core.wire.credentials import MASTER
 from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     DEFAULT_SCENE,
@@ -20,7 +21,6 @@ from nodes.arguments import (
     output_path,
     scene_file,
     seconds,
-    signing_key,
     wall_list,
 )
 from nodes.lockstep import LOSS_POLICIES
@@ -73,8 +73,7 @@ def run(args: argparse.Namespace, console) -> int:
     from nodes.master.report_file import ReportFile
 
     configure_logging(args.verbose)
-    network, credentials = network_and_key(args, "master")
-    signing_key(credentials, args.key_file, "master")
+    network, credentials = network_and_key(args, "master", MASTER)
     tolerance = tolerance_from(args, args.walls, "master")
     for flag, path in (("--report", args.report), ("--frame-log", args.frame_log)):
         if path is not None:

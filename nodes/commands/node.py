@@ -4,10 +4,10 @@ unit); flags in, a typed `NodeConfig` out."""
 from __future__ import annotations
 
 import argparse
-import logging
 
 from cavesim.core.limits import GPU_RANGE
 from cavesim.core.scene.model import Engine
+from cavesim.core.wire.credentials import WALL
 from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from cavesim.tools.signals import sigterm_as_interrupt
@@ -28,8 +28,6 @@ from nodes.arguments import (
 from nodes.lockstep import MASTER_LOSS_POLICIES, RESYNC_MODES
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_sample_from
-
-log = logging.getLogger("cavesim")
 
 
 def add(commands) -> None:
@@ -84,11 +82,7 @@ def run(args: argparse.Namespace, console) -> int:
     from nodes.wall.process import main as run_node
 
     configure_logging(args.verbose)
-    network, credentials = network_and_key(args, "node")
-    if credentials is not None and credentials.can_sign_as_master:
-        log.warning("node %s: --key-file %s is the master's own key; give nodes the "
-                    "session.key, so that no node can sign as the master", args.wall,
-                    args.key_file)
+    network, credentials = network_and_key(args, "node", WALL, args.wall)
     if args.render_every and (args.cave is None or args.images is None):
         raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
                          "and --images too")

@@ -56,7 +56,7 @@ class RunPlan:
     frames: int
     out: Path
     session: str = "run"
-    credentials: Credentials | None = None  # the master's (master.key); nodes get session.key
+    credentials: Credentials | None = None  # the master's (master.key); nodes get their own
     on_loss: str = "continue"  # a wall lost: go on without it, or "pause" the barrier
     cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
     render_every: int = 0
@@ -196,7 +196,8 @@ def add(commands) -> None:
                              "for good; give --on-loss continue to accept that")
     parser.add_argument("--key-file", type=Path,
                         help="the session's master.key (`cavesim keys`): every message signed; "
-                             "the nodes get OUT/session.key")
+                             "each node gets its own wall's key, issued for the run (never "
+                             "written into --out)")
     add_mixed_hardware_arguments(parser, master=True)
     parser.set_defaults(handler=run)
 

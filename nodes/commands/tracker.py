@@ -8,6 +8,7 @@ import json
 
 from cavesim.core.errors import TrackerError
 from cavesim.core.output import writing
+from cavesim.core.wire.credentials import TRACKER
 from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     UsageError,
@@ -51,7 +52,7 @@ def tracker(args: argparse.Namespace, console) -> int:
     from nodes.tracker.bridge import main as run_tracker
 
     configure_logging(args.verbose)
-    network, key = network_and_key(args, "tracker")
+    network, key = network_and_key(args, "tracker", TRACKER)
     try:
         mapping = load_mapping(args.map)
     except TrackerError as e:

@@ -1,7 +1,8 @@
 """A whole cluster on this machine: one node process per wall and the master in this
 process, for `cavesim run`, `cavesim check` and `cavesim bench --cluster` alike. With
-credentials, the nodes get OUT/session.key: the secret and the master's public key, never the
-master's signing key.
+credentials, each node gets its own wall's key, issued by the master's key for this run into
+a private temporary folder (mode 0700, removed when the cluster stops): never the master's
+signing key, and no secret in OUT.
 
 The master runs here so that a caller can act between frames (the consistency harness
 kills, restarts and forges) and gets the run's `RunRecord` itself; a node process that
@@ -13,12 +14,13 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cavesim.core.wire.credentials import SESSION_FILE, write_member_key
+from cavesim.core.wire.key_files import write_member_keys
 from cavesim.core.wire.network import NetworkSettings
 from nodes.launch.launcher import LocalCluster
 from nodes.master.link import open_master_link
@@ -29,7 +31,7 @@ from nodes.master.run_record import RunRecord
 @dataclass(frozen=True)
 class ClusterPlan:
     master: MasterConfig  # walls, scene, frames, session, credentials, timing (network: here)
-    out: Path  # logs/<wall>.log of the node processes, session.key for them
+    out: Path  # logs/<wall>.log of the node processes
     node_args: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # per wall
     drawing: frozenset[str] = frozenset()  # walls whose nodes draw pictures
 
@@ -51,16 +53,28 @@ def started_cluster(plan: ClusterPlan) -> Iterator[tuple[LocalCluster, MasterCon
     """The plan's node processes, started (and stopped at the end), and the master's config
     with the endpoint they connect to; the master's log goes to OUT/logs/master.log."""
     config = plan.master
-    key_file = None if config.credentials is None else \
-        write_member_key(plan.out / SESSION_FILE, config.credentials)
-    with LocalCluster(config.scene, plan.out, config.session, key_file=key_file,
-                      expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
+    with _wall_keys(config) as keys, \
+            LocalCluster(config.scene, plan.out, config.session, keys=keys,
+                         expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
         for wall in config.walls:
             cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
         config = dataclasses.replace(config, network=NetworkSettings(
             listen=(cluster.master_endpoint,)))
         with _master_log(cluster.log_path("master")):
             yield cluster, config
+
+
+@contextmanager
+def _wall_keys(config: MasterConfig) -> Iterator[Path | None]:
+    """A private folder with a key of each wall, issued by the master's credentials (None
+    without credentials); removed at the end."""
+    if config.credentials is None:
+        yield None
+        return
+    with tempfile.TemporaryDirectory(prefix="cavesim-keys-") as folder:  # mode 0700
+        keys = Path(folder)
+        write_member_keys(keys, config.credentials, config.walls)
+        yield keys
 
 
 @contextmanager

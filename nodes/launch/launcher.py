@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from cavesim.core.wire.credentials import WALL, member_file
 from nodes.faults import Fault
 from nodes.master.events import Event, ProcessEnded
 
@@ -46,7 +47,7 @@ class LocalCluster:
     out: Path
     session: str
     port: int = field(default_factory=free_port)
-    key_file: Path | None = None
+    keys: Path | None = None  # a folder of the walls' key files (wall-WALL.key)
     expected_nodes: int = 1  # how many nodes share this machine's cores
     drawing: frozenset[str] = frozenset()  # walls whose nodes draw pictures
     nodes: dict[str, subprocess.Popen] = field(default_factory=dict)
@@ -57,8 +58,13 @@ class LocalCluster:
         return f"tcp/127.0.0.1:{self.port}"
 
     def _common(self) -> list[str]:
-        args = ["--scene", str(self.scene), "--session", self.session, "--verbose"]
-        return args + (["--key-file", str(self.key_file)] if self.key_file else [])
+        return ["--scene", str(self.scene), "--session", self.session, "--verbose"]
+
+    def key_arguments(self, wall: str) -> list[str]:
+        """--key-file of `wall`'s own key, when the cluster has keys."""
+        if self.keys is None:
+            return []
+        return ["--key-file", str(self.keys / member_file(WALL, wall))]
 
     def _spawn(self, name: str, args: list[str],
                environment: dict[str, str] | None = None) -> subprocess.Popen:
@@ -84,7 +90,8 @@ class LocalCluster:
         return {"LP_NUM_THREADS": str(share if share > 1 else 0), **os.environ}
 
     def start_node(self, wall: str, faults: tuple[Fault, ...] = (), extra=()) -> None:
-        args = ["node", "--wall", wall, *self._common(), "--connect", self.master_endpoint,
+        args = ["node", "--wall", wall, *self._common(), *self.key_arguments(wall),
+                "--connect", self.master_endpoint,
                 "--listen", "tcp/127.0.0.1:0", *extra]
         for fault in faults:
             args += ["--inject", str(fault)]

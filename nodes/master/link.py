@@ -2,11 +2,13 @@
 
 Zenoh callbacks decode and check on Zenoh's threads, so nothing unchecked is ever queued: a
 message must carry this run's id (`run_id`, drawn by the master), come from the wall its
-key names, and a report may only be of a frame already sent. Refusals are counted (and
+key names and signed by that wall's own key (with keys), and a report may only be of a
+frame already sent. Refusals are counted (and
 logged at a bounded rate), never queued; a wall whose every message fails its signature, or
 that refuses the master's signed queries, is named with a hint about --key-file. The event
 queue is bounded: when the master falls that far behind, further events are dropped and
-counted (the barrier asks again). Only the latest tracking message is kept. The master's
+counted (the barrier asks again). Only the latest tracking message is kept, and only one
+of this run, signed by a tracker, fresh and newer than its sender's last. The master's
 liveliness token tells the nodes it is there; liveliness of the session's walls becomes
 WallUp/WallDown.
 """
@@ -16,6 +18,7 @@ from __future__ import annotations
 import logging
 import queue
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -37,9 +40,11 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.envelope import Message, new_run_id
+from cavesim.core.wire.credentials import TRACKER, WALL, Identity
+from cavesim.core.wire.envelope import Envelope, new_run_id
 from cavesim.core.wire.guards import KeyMismatch
 from cavesim.core.wire.network import lockstep_publisher, open_session
+from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import BlockAsker
 from nodes.master.events import Described, Displayed, Event, Reported, WallDown, WallUp
@@ -60,6 +65,7 @@ class ZenohMasterLink:
         self.mismatch = KeyMismatch("master")
         self.dropped = 0  # events the full queue could not take
         self.tracking: TrackingMessage | None = None  # the latest; the master samples it
+        self._tracking_sent: dict[Identity | None, int] = {}  # per signer: the last taken
         self.last_sent = 0  # the newest frame sent: a report of a later one is refused
         self._lock = threading.Lock()
         self._frames = lockstep_publisher(session, self.keys.frame)
@@ -108,12 +114,13 @@ class ZenohMasterLink:
     def _seal(self, message) -> bytes:
         return encode(message, self.name, self.credentials, self.run_id)
 
-    def _open_reply(self, data: bytes) -> Message:
-        """A reply to one of our queries, checked: of this run."""
+    def _open_reply(self, data: bytes) -> Envelope:
+        """A reply to one of our queries, checked: of this run (whose key signed it, the
+        asker checks)."""
         envelope = decode_envelope(data, self.name, self.credentials)
         if envelope.run_id != self.run_id:
             raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
-        return envelope.message
+        return envelope
 
     # -- zenoh callbacks: decode, check, enqueue ------------------------------------------
 
@@ -157,16 +164,43 @@ class ZenohMasterLink:
 
     def _on_tracking(self, sample: zenoh.Sample) -> None:
         try:
-            message = decode_envelope(sample.payload.to_bytes(), self.name,
-                                      self.credentials).message
+            envelope = decode_envelope(sample.payload.to_bytes(), self.name,
+                                       self.credentials)
+            message = envelope.message
         except ProtocolError as e:
             self._reject(e, sample)
             return
         if isinstance(message, TrackingMessage):
+            try:
+                self._check_tracking(envelope, message)
+            except ProtocolError as e:
+                self._reject(e, sample)
+                return
             self.tracking = message
         else:
             self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
                                                      f"tracking key"), sample)
+
+    def _check_tracking(self, envelope: Envelope, message: TrackingMessage) -> None:
+        """ProtocolError unless `message` is of this run, signed by a tracker (or a wall's
+        preview window) with keys, sent within MAX_TRACKING_AGE of now and after the last
+        one its sender had taken."""
+        if envelope.run_id != self.run_id:
+            raise ProtocolError("wrong-run", f"tracking of run {envelope.run_id:#018x}, this "
+                                             f"run is {self.run_id:#018x}")
+        if envelope.keyed and (envelope.signer is None
+                               or envelope.signer.role not in (TRACKER, WALL)):
+            raise ProtocolError("wrong-signer", f"tracking signed by "
+                                                f"{envelope.signer or 'no member'}")
+        age = time.time() - message.sent_ns / 1e9
+        if abs(age) > MAX_TRACKING_AGE:
+            raise ProtocolError("stale-tracking", f"sent {age:.1f} s ago; at most "
+                                                  f"{MAX_TRACKING_AGE} s either way")
+        last = self._tracking_sent.get(envelope.signer, 0)
+        if message.sent_ns <= last:
+            raise ProtocolError("replayed-tracking", f"sent at {message.sent_ns} ns, not "
+                                                     f"after the last taken ({last} ns)")
+        self._tracking_sent[envelope.signer] = message.sent_ns
 
     def _from_wall(self, sample: zenoh.Sample, expected: type, key: str):
         """The message if it is an `expected` of this run from the wall its key names."""
@@ -189,6 +223,11 @@ class ZenohMasterLink:
             self._reject(ProtocolError("unexpected", f"{type(message).__name__} from "
                                                      f"{sender!r} on a {key} key"), sample)
         else:
+            try:
+                envelope.check_signer(WALL, sender)  # an insider speaks for its wall only
+            except ProtocolError as e:
+                self._reject(e, sample)
+                return None
             return message
         return None
 

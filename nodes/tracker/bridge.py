@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from cavesim.core.errors import ProtocolError, TrackerError
 from cavesim.core.tracking import TrackerMapping, TrackingState, parse_datagram
 from cavesim.core.tracking.dtrack import MAX_DATAGRAM
-from cavesim.core.wire import Credentials, SessionKeys, TrackingMessage, encode
+from cavesim.core.wire import Credentials, SessionKeys, TrackingMessage, decode_envelope, encode
 from cavesim.core.wire.network import NetworkSettings, open_session
 
 log = logging.getLogger("cavesim.tracker")
@@ -37,7 +37,7 @@ class TrackerConfig:
     bind: str  # address of this host to receive on (0.0.0.0: all)
     session: str = "default"
     network: NetworkSettings = NetworkSettings()
-    credentials: Credentials | None = None  # session.key
+    credentials: Credentials | None = None  # the tracker's own key (tracker-NAME.key)
     max_rate: float = 0.0  # messages per second at most; 0: one per datagram
 
 
@@ -111,6 +111,22 @@ class Bridge:
         return min(POLL, self.next_at - now) if self.pending else POLL
 
 
+class RunFollower:
+    """The run id of the master's latest frame (0 before the first, which the master
+    refuses): the master takes tracking only of its own run."""
+
+    def __init__(self, session: str, credentials: Credentials | None) -> None:
+        self.session, self.credentials, self.run_id = session, credentials, 0
+
+    def on_frame(self, sample) -> None:
+        try:
+            envelope = decode_envelope(sample.payload.to_bytes(), self.session,
+                                       self.credentials)
+        except ProtocolError:
+            return  # not the master's: the nodes count it
+        self.run_id = envelope.run_id
+
+
 def open_dtrack_socket(bind: str, port: int) -> socket.socket:
     """A UDP socket bound where DTrack2 sends (TrackerError naming the address if not)."""
     udp = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -131,8 +147,10 @@ def main(config: TrackerConfig, stop: threading.Event | None = None) -> TrackerC
     with open_dtrack_socket(config.bind, config.port) as udp, \
             open_session(config.network) as session:
         publisher = session.declare_publisher(key, express=True)
+        run = RunFollower(config.session, config.credentials)
+        frames = session.declare_subscriber(SessionKeys(config.session).frame, run.on_frame)
         bridge = Bridge(config.mapping, lambda m: publisher.put(
-            encode(m, config.session, config.credentials)), config.max_rate)
+            encode(m, config.session, config.credentials, run.run_id)), config.max_rate)
         log.info("receiving DTrack on udp %s:%d, publishing on %s", config.bind, config.port, key)
         try:
             while not stop.is_set():
@@ -149,6 +167,7 @@ def main(config: TrackerConfig, stop: threading.Event | None = None) -> TrackerC
         except KeyboardInterrupt:
             log.info("interrupted")
         finally:
+            frames.undeclare()
             publisher.undeclare()
     log.info("tracker done: %s", bridge.counts.summary())
     return bridge.counts

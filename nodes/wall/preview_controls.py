@@ -72,7 +72,7 @@ class PreviewControls:
         if not self.touched:
             return None
         return TrackingMessage(0, HeadState(tuple(self.head)),
-                               WandState(tuple(self.wand), self.orientation()))
+                               WandState(tuple(self.wand), self.orientation()), time.time_ns())
 
     def orientation(self) -> tuple[float, float, float, float]:
         """The wand's quaternion (xyzw): turned by `heading` about z, then tilted about x."""

@@ -59,7 +59,7 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.envelope import Envelope, Message
 from cavesim.core.wire.network import NetworkSettings, lockstep_publisher, open_session
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.replies import anyone_alive
@@ -105,7 +105,7 @@ class NodeConfig:
     scene: Path
     session: str = "default"
     network: NetworkSettings = NetworkSettings()
-    credentials: Credentials | None = None  # session.key: checks the master's signature
+    credentials: Credentials | None = None  # wall-WALL.key: signs as this wall, checks the master's
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
     cave: Path | None = None  # draw this node's wall of this CAVE ...
@@ -448,12 +448,13 @@ class WallNode:
                      time.monotonic() - started)
         return True
 
-    def _open_reply(self, data: bytes) -> Message:
-        """A reply to our snapshot or block query, checked: of our run."""
+    def _open_reply(self, data: bytes) -> Envelope:
+        """A reply to our snapshot or block query, checked: of our run (whose key signed it,
+        the asker checks)."""
         envelope = decode_envelope(data, self.config.session, self.config.credentials)
         if envelope.run_id != self.view.run_id:
             raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
-        return envelope.message
+        return envelope
 
     def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
         self.view.done = frame

@@ -17,7 +17,8 @@ import zenoh
 
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.wire.envelope import Message
+from cavesim.core.wire.credentials import WALL
+from cavesim.core.wire.envelope import Envelope, Message
 from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.replies import asking
@@ -107,7 +108,7 @@ def send_snapshot(query: zenoh.Query, key: str, system: ParticleSystem, frame: i
 
 
 def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, request: bytes,
-                   open_reply: Callable[[bytes], Message], wanted: StateRequest,
+                   open_reply: Callable[[bytes], Envelope], wanted: StateRequest,
                    deadline: float, rejects: RejectCounter, failed: set[str],
                    received: Callable[[int], None] = lambda size: None
                    ) -> SnapshotHeader | None:
@@ -116,8 +117,11 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, req
     deadline passed, the stream came faster than it was loaded, or it was refused:
     counted). `received` is told the size of each reply followed.
 
-    Only a stream whose header is of the wanted frame and checksum is followed, from the
-    first replier that sends one; other repliers are not heard, and a replier that sent
+    Every reply must be signed by the wall asked (`wanted.node`), so the staged bytes are
+    that wall's: a state whose checksum collides with the wanted one, sent by anyone else,
+    is refused before any of it is staged. Only a stream whose header is of the wanted
+    frame and checksum is followed, from the first replier that sends one; other repliers
+    are not heard, and a replier that sent
     another state or a broken stream (`failed`, kept across the caller's attempts) is not
     heard again: the attempt ends at once, and the caller asks again. The state becomes
     current only whole and with the wanted checksum (which covers its seed).
@@ -143,7 +147,9 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, req
             data = reply.ok.payload.to_bytes()
             received(len(data))
             try:
-                message = open_reply(data)
+                envelope = open_reply(data)
+                envelope.check_signer(WALL, wanted.node)
+                message = envelope.message
                 if source is None:
                     _check_wanted(message, wanted)
                     source = replier

@@ -30,8 +30,9 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import SessionKeys, decode, encode
-from cavesim.core.wire.credentials import Credentials, read_credentials, write_key_files
+from cavesim.core.wire.credentials import Credentials, generate
 from cavesim.core.wire.envelope import HEADER
+from cavesim.core.wire.key_files import read_key_file, write_key_files
 from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.launch.launcher import LocalCluster
@@ -199,13 +200,13 @@ def replay(ctx, log: Path) -> int:
 def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     session_name = f"fuzz-{secrets.token_hex(6)}"
     keys = SessionKeys(session_name)
-    master_key, session_key = write_key_files(tmp_path / "keys")
+    master_key, *wall_keys = write_key_files(tmp_path / "keys", generate(), WALLS)
     plan = draw_plan(session_name)
     per_category = EXAMPLES // len(CATEGORIES)
     assert Counter(fuzz.category for fuzz in plan) == dict.fromkeys(CATEGORIES, per_category)
     traffic = Traffic(WALLS)
 
-    with LocalCluster(SCENE, tmp_path, session_name, key_file=session_key) as cluster:
+    with LocalCluster(SCENE, tmp_path, session_name, keys=tmp_path / "keys") as cluster:
         master = spawn_master(cluster, WALLS, frames=FRAMES, extra=("--barrier-timeout", "1"),
                               key_file=master_key)
         config = zenoh_config(NetworkSettings(connect=(cluster.master_endpoint,)))
@@ -246,7 +247,7 @@ def test_fuzzed_cluster_rejects_everything_and_keeps_its_state(tmp_path, ctx):
     rejected = report["rejected_messages"]
     to_nodes = sum(1 for where, _ in sent if where in (keys.frame, keys.control))
     assert to_nodes > 0 and rejected["nodes"] == dict.fromkeys(WALLS, to_nodes)
-    master_expected = expected_master_rejects(sent, keys, read_credentials(session_key))
+    master_expected = expected_master_rejects(sent, keys, read_key_file(wall_keys[0], "wall"))
     assert sum(master_expected.values()) > 0 and rejected["master"] == master_expected
 
     assert replay(ctx, tmp_path / "frames.log") == FRAMES

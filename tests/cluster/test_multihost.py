@@ -38,7 +38,8 @@ from requirements import CAVESIM
 
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.limits import DEFAULT_MASTER_PORT
-from cavesim.core.wire.credentials import write_key_files
+from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.key_files import write_key_files
 from cavesim.core.wire.network import RUNTIME_THREADS
 
 ROOT = Path(__file__).parents[2]
@@ -185,7 +186,7 @@ def logs(out: Path) -> str:
 def run(net: Network, condition: Condition, out: Path) -> tuple[dict, Cut | None]:
     """One cluster run under `condition`; the master's report and the cut (if any)."""
     keys = out / "keys"
-    write_key_files(keys)
+    write_key_files(keys, generate(), WALLS)
     relay = start_relay(net, condition.delay_ms) if condition.delay_ms else None
     if condition.loss:
         net.drop_share(condition.loss)

@@ -23,7 +23,8 @@ from cavesim.core.errors import TrackerError
 from cavesim.core.tracking import Target, Tracked, TrackerMapping, TrackingState, parse_datagram
 from cavesim.core.tracking.dtrack import MAX_DATAGRAM
 from cavesim.core.wire import HeadState, SessionKeys, TrackingMessage, WandState, decode
-from cavesim.core.wire.credentials import read_credentials, write_key_files
+from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.key_files import read_key_file, write_key_files
 from cavesim.core.wire.network import NetworkSettings, zenoh_config
 from nodes.launch.launcher import free_port
 from nodes.tracker.bridge import Bridge, open_dtrack_socket
@@ -166,8 +167,8 @@ def free_udp_port() -> int:
 @pytest.mark.slow
 def test_recorded_datagrams_reach_a_subscriber_as_signed_tracking_messages(tmp_path):
     session = f"dtrack{os.getpid()}"
-    _, session_key = write_key_files(tmp_path)
-    key = read_credentials(session_key)  # a member's: a tracker signs with the secret
+    _, session_key = write_key_files(tmp_path, generate(), (), ("dtrack",))
+    key = read_key_file(session_key, "tracker")  # the tracker's own, certified by the master
     endpoint, port = f"tcp/127.0.0.1:{free_port()}", free_udp_port()
     tracker = cavesim("tracker", "--dtrack", str(port), "--bind", "127.0.0.1", "--map",
                       "config/tracking/dtrack.toml", "--listen", endpoint, "--session", session,

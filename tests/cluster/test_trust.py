@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 from master_process import spawn_master
 
-from cavesim.core.wire.credentials import write_key_files
+from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.key_files import write_key_files
 from nodes.arguments import lost_walls_code
 from nodes.launch.launcher import LocalCluster
 from nodes.lockstep import MASTER_GONE
@@ -35,9 +36,9 @@ def progress_until(master: subprocess.Popen, frame: int) -> int:
 
 
 def test_a_sigkilled_master_is_noticed_and_a_new_master_takes_the_nodes_over(tmp_path):
-    master_key, session_key = write_key_files(tmp_path / "keys")
+    master_key, *_ = write_key_files(tmp_path / "keys", generate(), WALLS)
     session = f"kill{os.getpid()}"
-    with LocalCluster(MINIMAL, tmp_path, session, key_file=session_key) as cluster:
+    with LocalCluster(MINIMAL, tmp_path, session, keys=tmp_path / "keys") as cluster:
         for wall in WALLS:
             cluster.start_node(wall)
         first = spawn_master(cluster, WALLS, 100_000, key_file=master_key)
@@ -62,10 +63,10 @@ def test_a_sigkilled_master_is_noticed_and_a_new_master_takes_the_nodes_over(tmp
 
 
 def test_mismatched_keys_are_named_on_both_sides(tmp_path):
-    master_key, _ = write_key_files(tmp_path / "master-keys")
-    _, other_session_key = write_key_files(tmp_path / "other-keys")
+    master_key, _ = write_key_files(tmp_path / "master-keys", generate(), ("front",))
+    write_key_files(tmp_path / "other-keys", generate(), ("front",))
     session = f"keys{os.getpid()}"
-    with LocalCluster(MINIMAL, tmp_path, session, key_file=other_session_key) as cluster:
+    with LocalCluster(MINIMAL, tmp_path, session, keys=tmp_path / "other-keys") as cluster:
         cluster.start_node("front", extra=("--master-wait", "8"))
         master = spawn_master(cluster, ("front",), 10, ("--join-timeout", "8"),
                               key_file=master_key)
@@ -81,16 +82,17 @@ def test_mismatched_keys_are_named_on_both_sides(tmp_path):
 
 
 def test_keys_are_never_overwritten_and_the_master_needs_master_key(tmp_path):
-    master_key, _ = write_key_files(tmp_path)
-    again = subprocess.run([sys.executable, "-m", "cavesim", "keys", "--out", str(tmp_path)],
+    master_key, _ = write_key_files(tmp_path, generate(), ("front",))
+    again = subprocess.run([sys.executable, "-m", "cavesim", "keys", "--out", str(tmp_path),
+                            "--walls", "front"],
                            capture_output=True, text=True, cwd=ROOT, timeout=60)
-    assert again.returncode == 2 and "already holds master.key and session.key" in again.stderr
+    assert again.returncode == 2 and "already holds master.key, wall-front.key" in again.stderr
     assert oct(master_key.stat().st_mode & 0o777) == "0o600"
     master = subprocess.run([sys.executable, "-m", "cavesim", "master", "--walls", "front",
-                           "--key-file", str(tmp_path / "session.key")],
+                           "--key-file", str(tmp_path / "wall-front.key")],
                           capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert master.returncode == 2
-    assert "holds no master signing key (it is a session.key)" in master.stderr
+    assert "holds the key of wall front; this needs master's" in master.stderr
 
 
 def test_a_wall_lost_for_good_makes_the_master_exit_1_unless_continue_was_asked(tmp_path):

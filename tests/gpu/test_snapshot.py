@@ -5,23 +5,23 @@ from __future__ import annotations
 
 import random
 import time
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from scenes import FOUNTAIN, make_scene
+from zenoh_doubles import RepliesSession, Reply
 
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import generate
-from cavesim.core.wire.envelope import decode, encode
+from cavesim.core.wire.envelope import decode, decode_envelope, encode
 from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.wall.snapshots import SnapshotLoad, fetch_snapshot, send_snapshot
 
-SESSION, KEY = "snap", generate().for_members()
+SESSION, KEY = "snap", generate().issue("wall", "front")  # the source's own key
 FRAME = 12
 CHUNK = 37  # particles per reply: about ten chunks, the last one short
 
@@ -202,33 +202,6 @@ def test_transfer_deadline_grows_with_the_state():
 
 # -- fetching: only the named state, whole and verified, from a replier that has not failed --
 
-class Reply:
-    """A zenoh reply stand-in: its replier and its payload."""
-
-    def __init__(self, replier: str, data: bytes) -> None:
-        self.replier_id = replier
-        self.ok = SimpleNamespace(payload=Payload(data))
-
-
-class Payload(bytes):
-    """A zenoh payload stand-in."""
-
-    def to_bytes(self) -> bytes:
-        return bytes(self)
-
-
-class RepliesSession:
-    """A zenoh session stand-in whose state query gets the replies given, in order."""
-
-    def __init__(self, replies: list[Reply]) -> None:
-        self.replies = replies
-
-    def get(self, key, handler, **options) -> None:
-        for reply in self.replies:
-            handler.callback(reply)
-        handler.drop()
-
-
 def replies_of(replier: str, system: ParticleSystem, frame: int = FRAME) -> list[Reply]:
     query = CapturedQuery()
     send_snapshot(query, "cavesim/snap/state/front", system, frame, seal, CHUNK)
@@ -240,7 +213,8 @@ def fetch(target: ParticleSystem, replies: list[Reply], wanted: StateRequest,
     rejects = RejectCounter("test")
     failed = set() if failed is None else failed
     header = fetch_snapshot(RepliesSession(replies), "cavesim/snap/state/front", target,
-                            b"", unseal, wanted, time.monotonic() + 30, rejects, failed)
+                            b"", lambda data: decode_envelope(data, SESSION, KEY), wanted,
+                            time.monotonic() + 30, rejects, failed)
     return header, dict(rejects.counts), failed
 
 

@@ -108,12 +108,12 @@ def test_scene_session_and_keys_reach_every_process(dry_run):
         assert flag(argv, "--session") == "cave1"
     assert flag(dry_run["master"], "--key-file") == "/etc/cavesim/keys/master.key"
     for wall in ("front", "left", "floor"):  # nodes never get the master's signing key
-        assert flag(dry_run[wall], "--key-file") == "/etc/cavesim/keys/session.key"
+        assert flag(dry_run[wall], "--key-file") == f"/etc/cavesim/keys/wall-{wall}.key"
 
 
 def test_default_port_ipv6_master_and_remote_cavesim(tmp_path):
     hosts = hosts_file(tmp_path, "master [fd00::1]\nnode front [fd00::2]\n")
-    done = launch("--hosts", str(hosts), "--dry-run",
+    done = launch("--hosts", str(hosts), "--dry-run", "--insecure",
                   env={"CAVESIM_REMOTE": "/opt/cavesim/bin/cavesim"})
     assert done.returncode == 0, done.stderr
     found = commands(done.stdout)
@@ -140,7 +140,7 @@ def test_display_runs_the_cave_live_here_and_on_every_host(tmp_path):
     argv = shlex.split(done.stdout.splitlines()[-1])
     assert flag(argv, "--cave") == "config/cave/flex4.toml" and "--display" in argv
     assert "--walls" not in argv
-    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--cave",
+    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure", "--cave",
                   "/opt/cave.toml", "--display")
     assert done.returncode == 0, done.stderr
     found = commands(done.stdout)
@@ -150,7 +150,8 @@ def test_display_runs_the_cave_live_here_and_on_every_host(tmp_path):
 
 
 def test_mixed_hardware_reaches_the_master_and_every_node_or_cavesim_run(tmp_path):
-    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--mixed-hardware")
+    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure",
+                  "--mixed-hardware")
     assert done.returncode == 0, done.stderr
     found = commands(done.stdout)
     assert all("--mixed-hardware" in found[p] for p in ("master", "front", "left", "floor"))
@@ -184,6 +185,14 @@ def test_a_bad_hosts_file_exits_2_naming_the_line(tmp_path, text, line, message)
     assert done.stdout == ""
 
 
+def test_hosts_without_keys_refuse_to_run_unsigned_unless_insecure(tmp_path):
+    hosts = str(hosts_file(tmp_path, HOSTS))
+    done = launch("--hosts", hosts, "--dry-run")
+    assert done.returncode == 2 and "messages cross a network unsigned; give --keys DIR" \
+        in done.stderr and done.stdout == "", done.stderr
+    assert launch("--hosts", hosts, "--dry-run", "--insecure").returncode == 0
+
+
 @pytest.mark.parametrize("args, message", [
     (["--walls", "2"], "argument --walls: 2 walls, but"),
     (["--frames", "0"], "argument --frames: expected a number >= 1"),
@@ -193,7 +202,7 @@ def test_a_bad_hosts_file_exits_2_naming_the_line(tmp_path, text, line, message)
     (["--bogus"], "unknown argument --bogus"),
 ])
 def test_bad_arguments_exit_2(tmp_path, args, message):
-    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", *args)
+    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure", *args)
     assert done.returncode == 2 and message in done.stderr, done.stderr
 
 
@@ -231,7 +240,8 @@ def running(session: str) -> list[str]:
 @pytest.mark.requires("venv")
 def test_a_hosts_file_run_on_this_machine(tmp_path):
     out, session = tmp_path / "run", f"hosts{os.getpid()}"
-    done = launch("--hosts", str(local_hosts(tmp_path)), "--frames", "30", "--out", str(out),
+    done = launch("--hosts", str(local_hosts(tmp_path)), "--insecure", "--frames", "30",
+                  "--out", str(out),
                   "--scene", MINIMAL, "--session", session, timeout=120,
                   env={"CAVESIM_REMOTE": str(CAVESIM)})
     assert done.returncode == 0, done.stderr
@@ -246,7 +256,8 @@ def test_a_hosts_file_run_on_this_machine(tmp_path):
 @pytest.mark.requires("venv")
 def test_ctrl_c_stops_the_master_and_every_node(tmp_path):
     out, session = tmp_path / "run", f"sigint{os.getpid()}"
-    argv = [str(LAUNCH), "--hosts", str(local_hosts(tmp_path)), "--frames", "1000000",
+    argv = [str(LAUNCH), "--hosts", str(local_hosts(tmp_path)), "--insecure", "--frames",
+            "1000000",
             "--out", str(out), "--scene", MINIMAL, "--session", session]
     # its own process group, with SIGINT at its default (as a terminal's Ctrl-C finds it)
     process = subprocess.Popen(argv, cwd=ROOT, env={**os.environ, "CAVESIM_REMOTE": str(CAVESIM)},

@@ -92,5 +92,5 @@ def test_a_bad_session_name_is_an_argument_error():
 ])
 def test_bad_network_flags_are_one_usage_line(flags, line):
     with pytest.raises(UsageError) as e:
-        network_and_key(parse(*flags), "master")
+        network_and_key(parse(*flags), "master", "master")
     assert str(e.value).startswith(line) and "\n" not in str(e.value)

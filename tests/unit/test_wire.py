@@ -80,7 +80,7 @@ OTHER = generate()  # another session's: another secret and another master key p
 # magic, version, kind, flags, reserved, session id, run id, frame, payload length
 HEADER = struct.Struct("<4sBBBBQQQI")
 RUN_ID_AT, FRAME_AT, PAYLOAD_AT = 16, 24, 36  # where the run id, frame and payload start
-SIGNED, MASTER_SIGNED = 0x01, 0x02  # header flags
+SIGNED, MASTER_SIGNED, MEMBER_SIGNED = 0x01, 0x02, 0x04  # header flags
 HMAC_BYTES, MASTER_SIGNATURE_BYTES = 32, 64
 MASTER_KINDS = {Kind.FRAME, Kind.CONTROL, Kind.INFO_REQUEST}  # only the master sends these
 MASTER_MESSAGES = (FrameMessage, ControlMessage, InfoRequest)  # ... as these messages
@@ -613,6 +613,10 @@ REJECTIONS = [
     ("flipped-master-signature-bit", flipped(SIGNED_STOP, -HMAC_BYTES - 1, 7), MEMBER,
      "bad-signature"),
     ("flipped-hmac-bit", flipped(SIGNED_STOP, -1, 7), MEMBER, "bad-signature"),
+    # a member's card must be the master's, and its signature the card's key's
+    ("card-of-another-master", encode(EDGE_MESSAGES["report"], SESSION, Credentials(
+        MASTER.secret, OTHER.master_public, OTHER.master_private).issue("wall", "front")),
+     MEMBER, "bad-member-signature"),
     # the master's signature covers header and payload: a member can HMAC, not sign
     ("master-signature-of-another-key-pair", craft(Kind.CONTROL, STOP_BODY,
                                                    secret=MASTER.secret,
@@ -809,7 +813,8 @@ def test_every_reason_decode_raises_has_a_crafted_case():
     source = "".join(path.read_text() for path in [wire / "envelope.py",
                                                    *(wire / "payloads").glob("*.py")])
     raised = set(re.findall(r'ProtocolError\(\s*"([a-z-]+)"', source))
-    assert raised == {case[3] for case in REJECTIONS}
+    checked_by_receivers = {"wrong-signer"}  # Envelope.check_signer: tests/unit/test_identity.py
+    assert raised - checked_by_receivers == {case[3] for case in REJECTIONS}
 
 
 def flip_reason(signed: bytes, index: int, bit: int, hmac_renewed: bool = False) -> str:
@@ -829,7 +834,8 @@ def flip_reason(signed: bytes, index: int, bit: int, hmac_renewed: bool = False)
         return "bad-flags" if master_signed and kind not in MASTER_KINDS else caught
     if index == 6:  # allowed flags that announce another trailer than the one attached
         flags = signed[6] ^ (1 << bit)
-        allowed = (0, SIGNED) + ((SIGNED | MASTER_SIGNED,) if signed[5] in MASTER_KINDS else ())
+        allowed = (0, SIGNED, SIGNED | (MASTER_SIGNED if signed[5] in MASTER_KINDS
+                                        else MEMBER_SIGNED))
         return "bad-length" if flags in allowed else "bad-flags"
     if index == 7:  # the reserved byte must stay 0
         return "bad-flags"

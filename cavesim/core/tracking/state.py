@@ -7,6 +7,8 @@ Flystick's buttons and joystick are taken whenever it is reported, tracked or no
 
 from __future__ import annotations
 
+import time
+
 from cavesim.core.tracking.dtrack import Body, Datagram, Flystick
 from cavesim.core.tracking.mapping import Target, Tracked, TrackerMapping
 from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
@@ -48,7 +50,7 @@ class TrackingState:
         return tuple(missing)
 
     def message(self, frame: int) -> TrackingMessage:
-        return TrackingMessage(frame, self.head, self.wand)
+        return TrackingMessage(frame, self.head, self.wand, time.time_ns())
 
 
 def _find(datagram: Datagram, target: Target) -> Body | None:

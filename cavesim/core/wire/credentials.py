@@ -1,30 +1,81 @@
-"""A session's credentials: the shared secret every member signs its messages with
-(HMAC-SHA256), and the master's Ed25519 key pair. Only the master holds the private half,
-so only the master can sign a frame or a command; nodes and trackers hold the public half
-and check those signatures, but cannot make them.
+"""A session's credentials: the shared secret every message carries an HMAC-SHA256 under
+(a cheap first filter against outsiders), the master's Ed25519 key pair, and one Ed25519 key
+pair per wall and per tracker, each with a certificate: the master's signature over its
+role, name and public key. Only the master holds its private half, so only the master can
+sign a frame or a command, or make a member; a wall or a tracker signs its own messages with
+its own key and sends its certificate along, so a receiver knows which member spoke and
+that the master made it.
 
-`cavesim keys --out DIR` writes both files: `master.key` (the secret and the signing key:
-the master's only) and `session.key` (the secret and the master's public key: for every
-node and tracker). Both are small TOML files, readable by their owner only.
+`cavesim keys --out DIR --walls front,left --trackers dtrack` writes `master.key` (the
+secret and the master's signing key: the master's only), `wall-front.key`,
+`wall-left.key` and `tracker-dtrack.key` (the secret, the master's public key, the
+member's own key and certificate). All are small TOML files, readable by their owner only;
+a key file that others may read is refused.
 """
 
 from __future__ import annotations
 
-import os
 import secrets
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
 from cryptography.exceptions import InvalidSignature
 from cryptography.hazmat.primitives import serialization
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey, Ed25519PublicKey
 
+from cavesim.core.wire.key_expressions import check_name
+
 FORMAT = "cavesim-key"
 SECRET_BYTES = 32
-ED25519_BYTES = 32  # either half of the key pair
-MASTER_SIGNATURE_BYTES = 64
-MASTER_FILE, SESSION_FILE = "master.key", "session.key"
+ED25519_BYTES = 32  # either half of a key pair
+MASTER_SIGNATURE_BYTES = 64  # any Ed25519 signature
+MASTER_FILE = "master.key"
+MASTER, WALL, TRACKER = "master", "wall", "tracker"
+ROLE_CODES = {WALL: 1, TRACKER: 2}  # the byte a member's card names its role by
+_CERTIFIED = b"cavesim member certificate\0"  # what a certificate signs begins with this
+
+
+def member_file(role: str, name: str) -> str:
+    """The key file's name of a member: wall-front.key, tracker-dtrack.key."""
+    return f"{role}-{name}.key"
+
+
+@dataclass(frozen=True)
+class Identity:
+    """Who signed a message: the master, or a wall or tracker by its name."""
+
+    role: str
+    name: str
+
+    def __str__(self) -> str:
+        return self.role if self.role == MASTER else f"{self.role} {self.name}"
+
+
+MASTER_IDENTITY = Identity(MASTER, MASTER)
+
+
+def card_body(identity: Identity, public: bytes) -> bytes:
+    """A member's role, name and public key as a card carries them (what the master
+    certifies)."""
+    name = identity.name.encode()
+    return bytes([ROLE_CODES[identity.role], len(name)]) + name + public
+
+
+def read_card(data: bytes, offset: int) -> tuple[Identity, bytes, bytes, int] | None:
+    """(identity, public key, certificate, end) of the card at `offset`, or None when the
+    bytes there are not one."""
+    if len(data) < offset + 2:
+        return None
+    code, length = data[offset], data[offset + 1]
+    roles = {c: r for r, c in ROLE_CODES.items()}
+    end = offset + 2 + length + ED25519_BYTES + MASTER_SIGNATURE_BYTES
+    if code not in roles or len(data) < end:
+        return None
+    try:
+        name = check_name("member name", data[offset + 2:offset + 2 + length].decode("ascii"))
+    except (UnicodeDecodeError, ValueError):
+        return None
+    public = data[offset + 2 + length:end - MASTER_SIGNATURE_BYTES]
+    return Identity(roles[code], name), public, data[end - MASTER_SIGNATURE_BYTES:end], end
 
 
 @dataclass(frozen=True, repr=False)
@@ -32,6 +83,9 @@ class Credentials:
     secret: bytes  # the shared HMAC key
     master_public: bytes  # Ed25519 public key that verifies the master's signatures
     master_private: bytes | None = None  # Ed25519 private key: the master's file only
+    member: Identity | None = None  # a wall's or tracker's file: whose it is
+    member_private: bytes | None = None  # ... its own Ed25519 private key
+    certificate: bytes | None = None  # ... and the master's signature over its card body
 
     def __post_init__(self) -> None:
         if len(self.secret) != SECRET_BYTES or len(self.master_public) != ED25519_BYTES \
@@ -45,32 +99,93 @@ class Credentials:
         if private is not None and _raw_public(private) != self.master_public:
             raise ValueError("the master's public key is not the private key's")
         object.__setattr__(self, "_private", private)
+        object.__setattr__(self, "_card", self._member_card())
+        object.__setattr__(self, "_cards", {})  # verified cards -> (identity, public key)
+
+    def _member_card(self) -> bytes | None:
+        if self.member is None:
+            return None
+        key = Ed25519PrivateKey.from_private_bytes(self.member_private)
+        body = card_body(self.member, _raw_public(key))
+        if not self.is_masters(_CERTIFIED + body, self.certificate):
+            raise ValueError(f"the certificate of {self.member} is not the master's "
+                             f"signature over its role, name and public key")
+        object.__setattr__(self, "_member_key", key)
+        return body + self.certificate
 
     @property
     def can_sign_as_master(self) -> bool:
         return self._private is not None
 
+    @property
+    def card(self) -> bytes | None:
+        """The member's card: role, name, public key and the master's certificate."""
+        return self._card
+
     def sign_as_master(self, data: bytes) -> bytes:
         if self._private is None:
-            raise ValueError("these credentials hold no master signing key (session.key); "
+            raise ValueError("these credentials hold no master signing key (a member's key); "
                              "the master needs master.key")
         return self._private.sign(data)
 
+    def sign_as_member(self, data: bytes) -> bytes:
+        return self._member_key.sign(data)
+
     def is_masters(self, data: bytes, signature: bytes) -> bool:
         """Whether `signature` is the master's over `data`."""
-        try:
-            self._public.verify(signature, data)
-        except InvalidSignature:
-            return False
-        return True
+        return _verifies(self._public, data, signature)
+
+    def signer_of(self, card: bytes, data: bytes, signature: bytes) -> Identity | None:
+        """Who signed `data`: the member `card` names, if the master certified the card and
+        `signature` is that member's over `data` (else None)."""
+        known = self._member_of(card)
+        return None if known is None or not _verifies(known[1], data, signature) else known[0]
+
+    def _member_of(self, card: bytes) -> tuple[Identity, Ed25519PublicKey] | None:
+        """The identity and public key a card names, if the master certified it."""
+        if (known := self._cards.get(card)) is not None:
+            return known
+        parsed = read_card(card, 0)
+        if parsed is None or parsed[3] != len(card):
+            return None
+        identity, public, certificate, _ = parsed
+        if not self.is_masters(_CERTIFIED + card_body(identity, public), certificate):
+            return None
+        known = identity, Ed25519PublicKey.from_public_bytes(public)
+        if len(self._cards) < MAX_KNOWN_CARDS:  # only the master's cards get here
+            self._cards[card] = known
+        return known
+
+    def issue(self, role: str, name: str) -> Credentials:
+        """A new member's credentials: its own key pair, certified by the master."""
+        if role not in ROLE_CODES:
+            raise ValueError(f"a member's role is one of {sorted(ROLE_CODES)}, got {role!r}")
+        identity = Identity(role, check_name(f"{role} name", name))
+        private = secrets.token_bytes(ED25519_BYTES)
+        public = _raw_public(Ed25519PrivateKey.from_private_bytes(private))
+        certificate = self.sign_as_master(_CERTIFIED + card_body(identity, public))
+        return Credentials(self.secret, self.master_public, None, identity, private,
+                           certificate)
 
     def for_members(self) -> Credentials:
-        """What nodes and trackers hold: the secret and the master's public key."""
+        """The secret and the master's public key alone: no member's key, so what it signs
+        is attributed to nobody."""
         return Credentials(self.secret, self.master_public)
 
     def __repr__(self) -> str:  # never print a key
-        role = "master" if self.can_sign_as_master else "member"
+        role = MASTER if self.can_sign_as_master else str(self.member or "unattributed")
         return f"Credentials({role}, public {self.master_public[:4].hex()}...)"
+
+
+MAX_KNOWN_CARDS = 1024  # verified cards a receiver remembers
+
+
+def _verifies(public: Ed25519PublicKey, data: bytes, signature: bytes) -> bool:
+    try:
+        public.verify(signature, data)
+    except InvalidSignature:
+        return False
+    return True
 
 
 def generate() -> Credentials:
@@ -87,56 +202,3 @@ def of_master(secret: bytes, private: bytes) -> Credentials:
 def _raw_public(private: Ed25519PrivateKey) -> bytes:
     return private.public_key().public_bytes(serialization.Encoding.Raw,
                                              serialization.PublicFormat.Raw)
-
-
-def write_key_files(folder: Path, credentials: Credentials | None = None) -> tuple[Path, Path]:
-    """Write master.key and session.key into `folder` (mode 0600); their paths."""
-    credentials = credentials or generate()
-    folder.mkdir(parents=True, exist_ok=True)
-    master, session = folder / MASTER_FILE, folder / SESSION_FILE
-    _write(master, "the master's only: the session's secret and the master's signing key",
-           secret=credentials.secret, master_private=credentials.master_private,
-           master_public=credentials.master_public)
-    write_member_key(session, credentials)
-    return master, session
-
-
-def write_member_key(path: Path, credentials: Credentials) -> Path:
-    """Write the session.key of `credentials` (no signing key) to `path`, mode 0600."""
-    _write(path, "for every node and tracker: the session's secret and the master's "
-                 "public key", secret=credentials.secret,
-           master_public=credentials.master_public)
-    return path
-
-
-def _write(path: Path, what: str, **keys: bytes | None) -> None:
-    lines = [f"# cavesim key file, {what}", f'format = "{FORMAT}"']
-    lines += [f'{name} = "{value.hex()}"' for name, value in keys.items() if value is not None]
-    descriptor = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    os.fchmod(descriptor, 0o600)  # a file that was there keeps its mode otherwise
-    with os.fdopen(descriptor, "w") as file:
-        file.write("\n".join(lines) + "\n")
-
-
-def read_credentials(path: Path) -> Credentials:
-    """The credentials in a key file; ValueError names the file and what is wrong."""
-    try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        raise ValueError(f"--key-file {path}: cannot read it: {e}") from e
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError:
-        data = {}
-    if data.get("format") != FORMAT:
-        raise ValueError(f"--key-file {path}: not a cavesim key file; make the session's keys "
-                         f"with `cavesim keys --out DIR` ({MASTER_FILE} for the master, "
-                         f"{SESSION_FILE} for nodes and trackers)")
-    try:
-        secret, public = (bytes.fromhex(data[name]) for name in ("secret", "master_public"))
-        private = bytes.fromhex(data["master_private"]) if "master_private" in data else None
-        return Credentials(secret, public, private)
-    except (KeyError, TypeError, ValueError) as e:
-        raise ValueError(f"--key-file {path}: damaged: it needs hex `secret` "
-                         f"({SECRET_BYTES} bytes) and `master_public` ({ED25519_BYTES} bytes), "
-                         f"and in {MASTER_FILE} `master_private`") from e

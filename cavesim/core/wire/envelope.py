@@ -4,8 +4,11 @@ signatures, and the table of payload kinds (their layouts are in `payloads/`).
 Every message: a 36-byte header (magic, version, kind, flags, session id, run id, frame
 number, payload length) and the payload; in a session with credentials
 (`credentials.py`), the master's own kinds (frames, commands, info requests) then carry
-the master's Ed25519 signature, and every message ends with an HMAC-SHA256 of all that
-under the session's secret. The run id is the master's, drawn when its run starts: a
+the master's Ed25519 signature, a wall's or tracker's message its card (role, name, public
+key, the master's certificate) and its own Ed25519 signature, and every message ends with
+an HMAC-SHA256 of all that under the session's secret. The envelope says who signed
+(`Envelope.signer`); a receiver checks that it is whom the message speaks for
+(`Envelope.check_signer`). The run id is the master's, drawn when its run starts: a
 message of another run (a replay) is refused by its receiver. A node's state never
 travels in one message: a snapshot is a header and chunks (see snapshot.py); blocks of
 the checksum's tree and single records travel in bounded block replies. `decode`
@@ -25,7 +28,13 @@ from enum import IntEnum
 from typing import NamedTuple
 
 from cavesim.core.errors import ProtocolError
-from cavesim.core.wire.credentials import MASTER_SIGNATURE_BYTES, Credentials
+from cavesim.core.wire.credentials import (
+    MASTER_IDENTITY,
+    MASTER_SIGNATURE_BYTES,
+    Credentials,
+    Identity,
+    read_card,
+)
 from cavesim.core.wire.payloads import from_master, from_nodes, poses, state_transfer
 from cavesim.core.wire.payloads.from_master import ControlMessage, FrameMessage, InfoRequest
 from cavesim.core.wire.payloads.from_nodes import DisplayMessage, InfoMessage, ReportMessage
@@ -39,16 +48,17 @@ from cavesim.core.wire.payloads.state_transfer import (
 )
 
 MAGIC = b"CVSM"
-VERSION = 6  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 7  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
 # take part in the swap barrier; 4: a run id in the header, the master's signature, requests
 # (block requests and replies came later as new kinds, which an older build refuses as such);
 # 5: a report may end in a drift sample (the mixed-hardware tolerance mode); 6: a particle
 # record's last word carries the position's low part beside the class (a snapshot or block
-# reply, which an older build would read as a class)
+# reply, which an older build would read as a class); 7: a wall's or tracker's card and own
+# signature, and a tracking message's send time
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
-SIGNED, MASTER_SIGNED = 0x01, 0x02
+SIGNED, MASTER_SIGNED, MEMBER_SIGNED = 0x01, 0x02, 0x04
 
 
 class Kind(IntEnum):
@@ -114,8 +124,23 @@ class Envelope:
     """A checked message and what its header said of it."""
 
     message: Message
-    run_id: int  # the run it belongs to (0: none, e.g. a tracker's)
-    from_master: bool  # it carries the master's valid signature
+    run_id: int  # the run it belongs to (0: none)
+    signer: Identity | None  # whose valid signature it carries (None: nobody's)
+    keyed: bool = False  # it was checked against the session's credentials
+
+    @property
+    def from_master(self) -> bool:
+        """It carries the master's valid signature."""
+        return self.signer == MASTER_IDENTITY
+
+    def check_signer(self, role: str, name: str) -> None:
+        """ProtocolError `wrong-signer` unless a keyed message is signed by the member
+        `role` `name` (the one it speaks for); without keys nobody signs, and nothing is
+        checked."""
+        if self.keyed and self.signer != Identity(role, name):
+            raise ProtocolError("wrong-signer", f"a {type(self.message).__name__} for "
+                                                f"{role} {name} signed by "
+                                                f"{self.signer or 'no member'}")
 
 
 def new_run_id() -> int:
@@ -131,20 +156,25 @@ def session_id(session: str) -> int:
 def encode(message: Message, session: str, credentials: Credentials | None = None,
            run_id: int = 0) -> bytes:
     """The message's bytes: with credentials, signed (and a master kind signed by the
-    master, whose credentials must hold the signing key)."""
+    master, whose credentials must hold the signing key; any other kind by the member whose
+    credentials they are, if they name one)."""
     if not 0 <= message.frame < 2**64 or not 0 <= run_id < 2**64:
         raise ValueError(f"frame and run id must be in [0, 2**64), got {message.frame} and "
                          f"{run_id}")
     kind = _KINDS[type(message)]
     payload = _PAYLOADS[kind].write(message)
     by_master = credentials is not None and kind in MASTER_KINDS
-    flags = (SIGNED | (MASTER_SIGNED if by_master else 0)) if credentials is not None else 0
+    by_member = credentials is not None and not by_master and credentials.card is not None
+    flags = (SIGNED | (MASTER_SIGNED if by_master else 0) | (MEMBER_SIGNED if by_member else 0)
+             ) if credentials is not None else 0
     data = HEADER.pack(MAGIC, VERSION, kind, flags, 0, session_id(session), run_id,
                        message.frame, len(payload)) + payload
     if credentials is None:
         return data
     if by_master:
         data += credentials.sign_as_master(data)
+    if by_member:
+        data += credentials.card + credentials.sign_as_member(data)
     return data + _signature(credentials.secret, data)
 
 
@@ -157,7 +187,7 @@ def decode_envelope(data: bytes, session: str,
                     credentials: Credentials | None = None) -> Envelope:
     """Check and parse one message of `session`, keeping its run id; ProtocolError names
     what is wrong. With credentials, every message must carry the session's HMAC and the
-    master's kinds the master's signature."""
+    master's kinds the master's signature; a member's card and signature must verify."""
     data = bytes(data)
     if len(data) < HEADER.size:
         raise ProtocolError("truncated", f"{len(data)} bytes, a header alone is {HEADER.size}")
@@ -170,21 +200,24 @@ def decode_envelope(data: bytes, session: str,
         raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
     if sid != session_id(session):
         raise ProtocolError("wrong-session", f"session id {sid:#x} is not {session!r}'s")
-    if flags & ~(SIGNED | MASTER_SIGNED) or reserved or flags == MASTER_SIGNED \
-            or flags & MASTER_SIGNED and kind not in MASTER_KINDS:
+    allowed = (0, SIGNED, SIGNED | (MASTER_SIGNED if kind in MASTER_KINDS else MEMBER_SIGNED))
+    if flags not in allowed or reserved:
         raise ProtocolError("bad-flags", f"flags {flags:#x} and reserved byte {reserved:#x}; "
-                                         f"allowed: 0, {SIGNED:#x}, {SIGNED | MASTER_SIGNED:#x}"
-                                         f" (the second for the master's kinds), reserved 0")
+                                         f"allowed for a {Kind(kind).name.lower()}: "
+                                         f"{', '.join(f'{a:#x}' for a in allowed)}, "
+                                         f"reserved 0")
+    end = HEADER.size + length  # of the body
+    card_end = _card_end(data, end) if flags & MEMBER_SIGNED else end
     trailer = (SIGNATURE_BYTES if flags & SIGNED else 0) \
-        + (MASTER_SIGNATURE_BYTES if flags & MASTER_SIGNED else 0)
-    if len(data) != HEADER.size + length + trailer:
+        + (MASTER_SIGNATURE_BYTES if flags & (MASTER_SIGNED | MEMBER_SIGNED) else 0)
+    if len(data) != card_end + trailer:
         raise ProtocolError("bad-length", f"{len(data)} bytes, the header announces "
-                                          f"{HEADER.size + length + trailer}")
-    body = data[:HEADER.size + length]
-    from_master = False
+                                          f"{card_end + trailer}")
+    signer = None
     if credentials is not None:
         if not flags & SIGNED:
             raise ProtocolError("unsigned", "the session requires an HMAC and none is attached")
+        body = data[:end]
         signed, signature = data[:-SIGNATURE_BYTES], data[-SIGNATURE_BYTES:]
         if not hmac.compare_digest(signature, _signature(credentials.secret, signed)):
             raise ProtocolError("bad-signature", "the HMAC does not match the session's key")
@@ -192,14 +225,31 @@ def decode_envelope(data: bytes, session: str,
             if not credentials.is_masters(body, signed[len(body):]):
                 raise ProtocolError("bad-master-signature", "the master's signature does not "
                                                             "match the session's master key")
-            from_master = True
-        if kind in MASTER_KINDS and not from_master:
+            signer = MASTER_IDENTITY
+        if flags & MEMBER_SIGNED:
+            signer = credentials.signer_of(signed[len(body):card_end], body,
+                                           signed[card_end:])
+            if signer is None:
+                raise ProtocolError("bad-member-signature", "the sender's card is not the "
+                                                            "master's, or its signature does "
+                                                            "not match the card's key")
+        if kind in MASTER_KINDS and signer != MASTER_IDENTITY:
             raise ProtocolError("not-from-master", f"a {Kind(kind).name.lower()} message "
                                                    f"without the master's signature")
     elif flags:
         raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
     payload = data[HEADER.size:HEADER.size + length]
-    return Envelope(_PAYLOADS[Kind(kind)].read(frame, payload), run_id, from_master)
+    return Envelope(_PAYLOADS[Kind(kind)].read(frame, payload), run_id, signer,
+                    credentials is not None)
+
+
+def _card_end(data: bytes, start: int) -> int:
+    """Where the member's card after the body ends; ProtocolError if there is none."""
+    card = read_card(data, start)
+    if card is None:
+        raise ProtocolError("bad-length", f"{len(data) - start} bytes after the body are not "
+                                          f"a member's card and signature")
+    return card[3]
 
 
 def _signature(secret: bytes, data: bytes) -> bytes:

@@ -71,5 +71,5 @@ class KeyMismatch:
     def _hint(self, sender: str) -> str:
         return (f"every message between {self.receiver} and {sender} fails its signature "
                 f"({self._failed[sender]} so far): check --key-file on both sides; the master "
-                f"needs master.key and every node and tracker the session.key made with it "
+                f"needs master.key and every node and tracker its own key made with it "
                 f"(`cavesim keys`)")

@@ -1,5 +1,6 @@
 """The tracked head and wand: their states, which every frame carries, and the tracking
-message a tracker (or a script, or a keyboard bridge) sends the master."""
+message a tracker (or a script, or a keyboard bridge) sends the master: stamped with its
+sender's wall clock, so that the master can refuse an old one and a replayed one."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ import numpy as np
 
 from cavesim.core.errors import ProtocolError
 
-TRACKING = struct.Struct("<3f4f3f4fI4f")  # head, wand pose, buttons, axes
+TRACKING = struct.Struct("<3f4f3f4fI4fQ")  # head, wand pose, buttons, axes, sent_ns
+MAX_TRACKING_AGE = 2.0  # s: the master ignores a tracking message sent longer ago (or ahead)
 
 
 @dataclass(frozen=True)
@@ -35,6 +37,8 @@ class TrackingMessage:
     frame: int  # the sender's own counter; the master ignores it
     head: HeadState
     wand: WandState
+    sent_ns: int = 0  # the sender's wall clock (time.time_ns): its age, and its sequence
+    # (the master takes from each sender only a message sent after the last it took)
 
 
 def write_tracking(m: TrackingMessage) -> bytes:
@@ -42,8 +46,10 @@ def write_tracking(m: TrackingMessage) -> bytes:
     values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes])
     if not np.all(np.isfinite(values)) or np.any(np.abs(values) > np.finfo(np.float32).max):
         raise ValueError(f"tracking values must be finite float32 values, got {h} and {w}")
+    if not 0 <= m.sent_ns < 2**64:
+        raise ValueError(f"sent_ns must be in [0, 2**64), got {m.sent_ns}")
     return TRACKING.pack(*h.position, *h.orientation, *w.position, *w.orientation, w.buttons,
-                         *w.axes)
+                         *w.axes, m.sent_ns)
 
 
 def read_tracking(frame: int, payload: bytes) -> TrackingMessage:
@@ -51,7 +57,7 @@ def read_tracking(frame: int, payload: bytes) -> TrackingMessage:
         raise ProtocolError("bad-payload", f"tracking payload of {len(payload)} bytes, "
                                            f"expected {TRACKING.size}")
     v = TRACKING.unpack(payload)
-    if not all(math.isfinite(x) for x in (*v[:14], *v[15:])):
+    if not all(math.isfinite(x) for x in (*v[:14], *v[15:19])):
         raise ProtocolError("bad-value", "head and wand values must be finite")
     return TrackingMessage(frame, HeadState(v[0:3], v[3:7]), WandState(v[7:10], v[10:14], v[14],
-                                                                         v[15:19]))
+                                                                         v[15:19]), v[19])
