@@ -22,7 +22,7 @@ import numpy as np
 from cavesim.core.frame import FrameInput
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
-from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.credentials import WALL, generate
 from nodes.check.findings import check_report
 from nodes.check.rogue import RoguePeer, run_id_of
 from nodes.faults import FLOOD_MESSAGES, FLOOD_QUERIES, NODE_FAULTS, Fault
@@ -169,8 +169,9 @@ class _Harness:
             elif fault.kind == "replay-attack":
                 self._replay(k)
             elif fault.kind == "snapshot-forgery":
-                self.rogue.serve_forged_snapshots(cluster.master_endpoint,
-                                                  self.credentials.for_members(),
+                insiders = [self.credentials.issue(WALL, wall)
+                            for wall in self.rogue.walls if wall != fault.node]
+                self.rogue.serve_forged_snapshots(cluster.master_endpoint, insiders,
                                                   self.emitters)
                 self.rogue.flood(0, FORGERY_QUERIES)
             elif fault.kind == "flood":
@@ -201,7 +202,7 @@ class _Harness:
         rogue.as_an_earlier_run(self.credentials, k)
         latest = rogue.latest("frame")
         run_id = run_id_of(latest) if latest is not None else 0
-        rogue.as_a_member(self.credentials.for_members(), run_id, k)
+        rogue.as_a_member(self.credentials.issue(WALL, rogue.walls[0]), run_id, k)
 
     @staticmethod
     def _measure(cluster: LocalCluster) -> dict:

@@ -3,17 +3,18 @@ attacker on the CAVE's network would try, so that every defence is exercised for
 
 It captures the cluster's signed traffic (as anyone on the network can read it) and plays
 it back; it sends messages of an earlier run of the same keys (the harness made the keys,
-so it signs them as that run's master would have); it forges what a member that holds
-session.key can (HMAC-signed frames and commands without the master's signature, reports
-of frames never sent); it answers state queries with forged snapshots (an old frame, one
-that does not fit the scene, one whose chunks are not the named state), and floods the
-nodes with junk and with state queries.
+so it signs them as that run's master would have); it forges what a member that holds the
+session's shared secret can (HMAC-signed frames and commands without the master's
+signature, reports of frames never sent); holding a wall's own key, it answers state
+queries with forged snapshots (an old frame, one that does not fit the scene, one whose
+chunks are not the named state); and it floods the nodes with junk and with state queries.
 """
 
 from __future__ import annotations
 
 import hashlib
 import hmac
+import itertools
 import logging
 import threading
 import time
@@ -49,7 +50,7 @@ FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the ki
 
 def member_signed(message: Message, session: str, secret: bytes, run_id: int) -> bytes:
     """`message` with the session's HMAC but not the master's signature: what a node that
-    holds session.key can make of a frame or a command (every receiver must refuse it)."""
+    holds the shared secret can make of a frame or a command (every receiver must refuse it)."""
     data = bytearray(encode(message, session, run_id=run_id))
     data[FLAGS_AT] = SIGNED
     return bytes(data) + hmac.new(secret, bytes(data), hashlib.sha256).digest()
@@ -140,8 +141,9 @@ class RoguePeer:
                  encode(report, self.name, master.for_members(), earlier))
 
     def as_a_member(self, member: Credentials, run_id: int, frame: int) -> None:
-        """What a node holding session.key could try: a frame and a STOP with only the HMAC
-        (no master signature), and a report of a frame the master has not sent."""
+        """What an insider holding a wall's key (`member`) could try: a frame and a STOP
+        with only the HMAC (no master signature), and that wall's report of a frame the
+        master has not sent."""
         inputs = FrameInput(1 / 60, np.eye(3))
         self.put("member-frame", self.keys.frame,
                  member_signed(FrameMessage(frame, inputs), self.name, member.secret, run_id))
@@ -174,15 +176,17 @@ class RoguePeer:
 
     # -- forged snapshots ------------------------------------------------------------------
 
-    def serve_forged_snapshots(self, endpoint: str, member: Credentials,
+    def serve_forged_snapshots(self, endpoint: str, insiders: list[Credentials],
                                emitters: int) -> None:
         """One forger per kind of FORGERIES, each a peer of its own (a resyncing node
-        follows one replier at a time), answering every wall's state queries."""
-        for forgery in FORGERIES:
+        follows one replier at a time) holding a healthy wall's key in turn (`insiders`),
+        answering every wall's state queries: one holding the key of the wall asked is
+        refused by what it sends, the others by whose key signed it."""
+        for forgery, member in zip(FORGERIES, itertools.cycle(insiders)):
             forger = open_session(NetworkSettings(connect=(endpoint,)))
             self._forgers.append(forger)
             self._declarations.append(forger.declare_queryable(
-                self.keys.state(), lambda query, forgery=forgery: self._forge(
+                self.keys.state(), lambda query, forgery=forgery, member=member: self._forge(
                     query, forgery, member, emitters)))
 
     def _forge(self, query: zenoh.Query, forgery: str, member: Credentials,
