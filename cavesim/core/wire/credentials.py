@@ -126,7 +126,7 @@ def read_credentials(path: Path) -> Credentials:
         raise ValueError(f"--key-file {path}: cannot read it: {e}") from e
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):  # a RecursionError: nested too deep
         data = {}
     if data.get("format") != FORMAT:
         raise ValueError(f"--key-file {path}: not a cavesim key file; make the session's keys "
