@@ -477,12 +477,15 @@ def run_master(config: MasterConfig, link: Link,
     master-kill).
 
     Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
-    `checkpoint` gets the record after every frame (it keeps report.json current).
+    `checkpoint` gets the record as the run starts and after every frame (it keeps
+    report.json current).
     """
     master = Master(config, link, before_frame)
+    checkpoint = checkpoint or (lambda record: None)
     try:
+        checkpoint(master.record)  # from the start: a run whose walls never join has one too
         master.wait_for_walls()
-        master.run(progress, checkpoint or (lambda record: None))
+        master.run(progress, checkpoint)
     except KeyboardInterrupt:
         master.record.interrupted = True
         log.warning("interrupted at frame %d", master.record.frames)
