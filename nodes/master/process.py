@@ -376,6 +376,8 @@ class Master:
                 {n: reports[n].particles for n in members}, forensics))
         for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
             self._resync(k, node, vote.source, vote.agreed)
+        for node in () if self.tolerance is None else self.tolerance.over_budget:
+            self._give_up(k, node, "breach-budget")
         return vote
 
     def _investigate(self, k: int, vote: Vote) -> dict | None:
@@ -450,11 +452,15 @@ class Master:
         self.resync_failures[node] = failures = self.resync_failures.get(node, 0) + 1
         if failures >= MAX_RESYNC_FAILURES:
             self.resync_failures.pop(node)
-            if node in self.membership.members:
-                self.record.losses.append(Loss(k, node, "resync-failed"))
-            self.membership = self.membership.gave_up(node)
+            self._give_up(k, node, "resync-failed")
             log.warning("frame %d: gave %s up after %d failed resyncs", k, node, failures)
         return False
+
+    def _give_up(self, k: int, node: str, reason: str) -> None:
+        """`node` is out of the lock-step, and lost, until its node joins anew."""
+        if node in self.membership.members:
+            self.record.losses.append(Loss(k, node, reason))
+        self.membership = self.membership.gave_up(node)
 
     def _admit_joiners(self, k: int, vote: Vote) -> None:
         """Walls that joined or fell behind, but are not members, enter by resync."""

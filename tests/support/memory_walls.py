@@ -121,6 +121,7 @@ class MemoryWall:
     silent_from: int | None = None  # from this frame on it is up but never reports
     offset: float = 0.0  # m: x of every particle its drift samples hold
     nudge_at: dict[int, float] = field(default_factory=dict)  # frame -> m added to offset
+    unsampled_at: set[int] = field(default_factory=set)  # frames reported without a sample
     records: RecordState | None = None  # real records (the link's `particles`)
     flip_bits: dict[int, BitFlip] = field(default_factory=dict)  # frame -> a bit it flips
 
@@ -245,7 +246,7 @@ class MemoryLink:
                                                sample=self._sample(wall))))
 
     def _sample(self, wall: MemoryWall) -> DriftSample | None:
-        if not self.sample:
+        if not self.sample or wall.done in wall.unsampled_at:
             return None
         positions = np.zeros((sample_size(self.sample, wall.done), 3))
         positions[:, 0] = wall.offset
