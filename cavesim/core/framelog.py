@@ -18,7 +18,11 @@ the first that is not (`Damage`): a torn tail (the writer stopped inside a recor
 crash, a full disk) or a corrupt record; nothing after it is read, as every frame
 depends on the ones before.
 
-Version 2 (this one) added the checks; version 1 logs are refused, not read: they are
+The header names the session, the scene's path and its digest (`scene_digest`, of its
+content: `cavesim.core.scene.digest`), the walls and the clock's seed; a log written
+before the digest was added has none, and a replay says so.
+
+Version 2 added the checks; version 1 logs are refused, not read: they are
 replayed by the build that wrote them (the wire format they hold changes with builds too).
 """
 

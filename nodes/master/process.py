@@ -40,6 +40,7 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.framelog import FrameLogWriter
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene
+from cavesim.core.scene.digest import scene_digest
 from cavesim.core.tracking.scripted_head import ScriptedHead
 from cavesim.core.wire import (
     BlockReply,
@@ -137,6 +138,7 @@ class Master:
         self.link = link
         self.before_frame = before_frame or (lambda k: None)
         scene = load_scene(config.scene)
+        self.scene_digest = scene_digest(scene)  # every wall must hold this scene
         self.texture_size = scene.random_texture_size
         self.driver = driver_for(scene)
         # a resync may take as long as the largest state the scene holds takes to stream
@@ -158,6 +160,7 @@ class Master:
         self.up: set[str] = set()  # walls whose liveliness token is there
         self.asked: dict[str, float] = {}  # wall -> when its info was last asked for
         self.resync_failures: dict[str, int] = {}  # wall -> failed resyncs in a row
+        self.wrong_scene: dict[str, str] = {}  # wall -> the line refusing its other scene
         self.tolerance = None if config.tolerance is None else ToleranceMode(
             config.tolerance, config.walls, config.check_every)
         self.record.tolerance = self.tolerance
@@ -175,6 +178,8 @@ class Master:
     def _handle(self, event: Event) -> None:
         match event:
             case Reported(report) if report.status is Status.JOINED:
+                if report.node in self.wrong_scene:
+                    return  # it holds another scene: it cannot be in this run
                 self.membership = self.membership.came_up(report.node)
                 log.info("%s joined run %016x", report.node, self.link.run_id)
             case Reported(report) if report.status is Status.BEHIND:
@@ -218,11 +223,21 @@ class Master:
 
     def _welcome(self, info: InfoMessage) -> None:
         """A wall described itself: note its GPU and swap lock, and welcome it into the run
-        with its own nonce (it then starts this run and reports JOINED)."""
+        with its own nonce and the run's scene (it then starts this run and reports JOINED;
+        a wall of another scene is refused here, and refuses the WELCOME)."""
         self.record.gpus[info.node] = info.gpu()
         self.swap_locked[info.node] = info.swap_locked
+        if info.scene != self.scene_digest:
+            refusal = (f"wall {info.node} holds scene {info.scene or 'none'}, this run's "
+                       f"scene {self.config.scene} is {self.scene_digest}: give every host "
+                       f"the same scene file")
+            if self.wrong_scene.get(info.node) != refusal:
+                log.error("master: %s", refusal)
+            self.wrong_scene[info.node] = refusal
+        else:
+            self.wrong_scene.pop(info.node, None)
         self.link.send(ControlMessage(self.frame, Command.WELCOME, info.node,
-                                      nonce=info.nonce))
+                                      digest=self.scene_digest, nonce=info.nonce))
 
     # -- the run ---------------------------------------------------------------------------
 
@@ -233,7 +248,8 @@ class Master:
         while missing := sorted((set(self.config.walls) - self.membership.alive)
                                 | (set(self.config.walls) - set(self.swap_locked))):
             if time.monotonic() > deadline:
-                hints = [hint for wall in missing if (hint := self.link.sender_hint(wall))]
+                hints = [hint for wall in missing if (hint := self.wrong_scene.get(wall)
+                                                      or self.link.sender_hint(wall))]
                 raise ClusterError(f"walls {missing} did not join within "
                                    f"{self.config.join_timeout:g} s (--join-timeout): "
                                    + ("; ".join(hints) if hints else
@@ -249,6 +265,7 @@ class Master:
         if self.config.frame_log is not None:
             log_writer = FrameLogWriter(self.config.frame_log, {
                 "session": self.config.session, "scene": str(self.config.scene),
+                "scene_digest": self.scene_digest,
                 "walls": list(self.config.walls), "clock_seed": self.config.clock_seed})
         started = time.monotonic()
         try:

@@ -378,6 +378,6 @@ def test_the_summary_names_the_scenes_arithmetic(tmp_path):
     portable.write_text(MINIMAL.read_text().replace("[simulation]",
                                                     '[simulation]\narithmetic = "portable"'))
     config = MasterConfig(WALLS, portable, 2, "memory", barrier_timeout=0.05)
-    summary = run_master(config, MemoryLink(WALLS)).summary()
+    summary = run_master(config, MemoryLink(WALLS, scene=portable)).summary()
     assert summary["arithmetic"] == "portable"
     assert dict(mode_rows(summary))["mode"] == "bit-exact (portable arithmetic)"

@@ -183,8 +183,9 @@ SAMPLE = DriftSample.of(np.array([[1.5, -2.0, 0.25], [math.nan, math.inf, -0.0]]
 
 
 def info_body(node: bytes = b"front", device: int = 0, flags: int = 1, nonce: int = 0,
-              texts=(b"llvmpipe", b"Mesa", b"4.5 Mesa"), extra: bytes = b"") -> bytes:
-    return name(node) + struct.pack("<HBQ", device, flags, nonce) + \
+              texts=(b"llvmpipe", b"Mesa", b"4.5 Mesa"), extra: bytes = b"",
+              scene: bytes = bytes(16)) -> bytes:
+    return name(node) + struct.pack("<HBQ16s", device, flags, nonce, scene) + \
         b"".join(map(name, texts)) + extra
 
 
