@@ -18,7 +18,11 @@ the first that is not (`Damage`): a torn tail (the writer stopped inside a recor
 crash, a full disk) or a corrupt record; nothing after it is read, as every frame
 depends on the ones before.
 
-Version 2 (this one) added the checks; version 1 logs are refused, not read: they are
+The header names the session, the scene's path and its digest (`scene_digest`, of its
+content: `cavesim.core.scene.digest`), the walls and the clock's seed; a log written
+before the digest was added has none, and a replay says so.
+
+Version 2 added the checks; version 1 logs are refused, not read: they are
 replayed by the build that wrote them (the wire format they hold changes with builds too).
 """
 
@@ -35,6 +39,7 @@ from zlib import crc32
 
 from cavesim.core.output import writing
 from cavesim.core.wire import FrameMessage, decode, encode
+from cavesim.core.wire.envelope import FRAME_VERSIONS
 
 FORMAT = "cavesim-frame-log"
 VERSION = 3  # 3: digests of records that keep the position's low part (position.py)
@@ -126,8 +131,9 @@ class LoggedFrames:
     def __iter__(self) -> Iterator[LoggedFrame]:
         for start, end in self._spans:
             digest, particles = _TAIL.unpack_from(self._data, end - _TAIL.size)
-            yield LoggedFrame(decode(self._data[start:end - _TAIL.size], self._session),
-                              digest.hex(), particles)
+            frame = decode(self._data[start:end - _TAIL.size], self._session,
+                           versions=FRAME_VERSIONS)
+            yield LoggedFrame(frame, digest.hex(), particles)
 
 
 def read_frame_log(path: Path) -> tuple[dict, LoggedFrames]:

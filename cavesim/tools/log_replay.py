@@ -1,7 +1,10 @@
 """Replaying a frame log on one engine: every recorded checksum must come back bit for bit.
 
 The replay takes the log's whole records and stops where it is torn or corrupt (every
-frame depends on the ones before); `damage` says where.
+frame depends on the ones before); `damage` says where. The scene must be the run's: its
+digest (`cavesim.core.scene.digest`) must be the one the log's header names. A scene given
+by hand overrides that check, with a warning; a log written before headers named the
+digest is replayed with a warning that nothing could be checked.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from pathlib import Path
 from cavesim.core.drivers import driver_for
 from cavesim.core.framelog import Damage, read_frame_log
 from cavesim.core.scene import load_scene
+from cavesim.core.scene.digest import scene_digest
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.gl.context import create_context
 
@@ -24,6 +28,7 @@ class ReplayResult:
     frames: int = 0
     mismatches: list[dict] = field(default_factory=list)
     damage: Damage | None = None  # where the log stops being readable
+    warnings: list[str] = field(default_factory=list)  # about the scene it was given
 
     @property
     def equal(self) -> bool:
@@ -33,17 +38,23 @@ class ReplayResult:
         return {"log": self.log, "scene": self.scene, "frames": self.frames,
                 "equal": self.equal, "mismatches": self.mismatches[:100],
                 "mismatch_count": len(self.mismatches),
-                "damage": self.damage.to_json() if self.damage else None}
+                "damage": self.damage.to_json() if self.damage else None,
+                "warnings": self.warnings}
 
 
 def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
            progress: Callable[[int], None] = lambda k: None) -> ReplayResult:
-    """Step the logged inputs on one context and compare each frame's checksum."""
+    """Step the logged inputs on one context and compare each frame's checksum (ValueError
+    when the log's own scene file no longer holds the run's scene)."""
     header, frames = read_frame_log(log_path)
+    given = scene_path is not None
     scene_path = Path(scene_path or header["scene"])
     scene = load_scene(scene_path)
+    warnings = scene_warnings(header.get("scene_digest"), scene_digest(scene), scene_path,
+                              given)
     system, driver = ParticleSystem(ctx or create_context(), scene), driver_for(scene)
-    result = ReplayResult(str(log_path), str(scene_path), damage=frames.damage)
+    result = ReplayResult(str(log_path), str(scene_path), damage=frames.damage,
+                          warnings=warnings)
     for logged in frames:
         system.step(logged.message.inputs, driver.decode(logged.message.params))
         state = system.checksum()
@@ -55,3 +66,20 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
         progress(logged.message.frame)
     system.release()
     return result
+
+
+def scene_warnings(logged: str | None, digest: str, scene_path: Path,
+                   given: bool) -> list[str]:
+    """What to say of replaying the scene at `scene_path` (digest `digest`) against the log's
+    scene (`logged`; None in a log older than scene digests); ValueError when the log's own
+    scene file holds another scene and no --scene overrides it."""
+    if logged is None:
+        return [f"the log names no scene digest (written before logs did): {scene_path} is "
+                f"replayed unchecked"]
+    if logged == digest:
+        return []
+    if not given:
+        raise ValueError(f"the scene file {scene_path} the log names now holds scene {digest}, "
+                         f"the run's was {logged}: give the run's scene with --scene")
+    return [f"--scene {scene_path} is scene {digest}, the run's was {logged}: replayed as "
+            f"asked (--scene overrides the check)"]

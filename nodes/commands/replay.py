@@ -49,6 +49,8 @@ def replay(args: argparse.Namespace, console) -> int:
     if args.out:
         with writing(args.out / "replay.json"):
             (args.out / "replay.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
+    for warning in result.warnings:
+        console.print(f"[yellow]warning: {escape(warning)}")
     console.print(f"{result.frames} frames replayed: {_verdict(result)}")
     damage = result.damage
     if damage is not None:

@@ -40,6 +40,7 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.framelog import FrameLogWriter
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene
+from cavesim.core.scene.digest import scene_digest
 from cavesim.core.tracking.scripted_head import ScriptedHead
 from cavesim.core.wire import (
     BlockReply,
@@ -137,6 +138,7 @@ class Master:
         self.link = link
         self.before_frame = before_frame or (lambda k: None)
         scene = load_scene(config.scene)
+        self.scene_digest = scene_digest(scene)  # every wall must hold this scene
         self.texture_size = scene.random_texture_size
         self.driver = driver_for(scene)
         # a resync may take as long as the largest state the scene holds takes to stream
@@ -158,6 +160,7 @@ class Master:
         self.up: set[str] = set()  # walls whose liveliness token is there
         self.asked: dict[str, float] = {}  # wall -> when its info was last asked for
         self.resync_failures: dict[str, int] = {}  # wall -> failed resyncs in a row
+        self.wrong_scene: dict[str, str] = {}  # wall -> the line refusing its other scene
         self.tolerance = None if config.tolerance is None else ToleranceMode(
             config.tolerance, config.walls, config.check_every)
         self.record.tolerance = self.tolerance
@@ -175,6 +178,8 @@ class Master:
     def _handle(self, event: Event) -> None:
         match event:
             case Reported(report) if report.status is Status.JOINED:
+                if report.node in self.wrong_scene:
+                    return  # it holds another scene: it cannot be in this run
                 self.membership = self.membership.came_up(report.node)
                 log.info("%s joined run %016x", report.node, self.link.run_id)
             case Reported(report) if report.status is Status.BEHIND:
@@ -218,11 +223,21 @@ class Master:
 
     def _welcome(self, info: InfoMessage) -> None:
         """A wall described itself: note its GPU and swap lock, and welcome it into the run
-        with its own nonce (it then starts this run and reports JOINED)."""
+        with its own nonce and the run's scene (it then starts this run and reports JOINED;
+        a wall of another scene is refused here, and refuses the WELCOME)."""
         self.record.gpus[info.node] = info.gpu()
         self.swap_locked[info.node] = info.swap_locked
+        if info.scene != self.scene_digest:
+            refusal = (f"wall {info.node} holds scene {info.scene or 'none'}, this run's "
+                       f"scene {self.config.scene} is {self.scene_digest}: give every host "
+                       f"the same scene file")
+            if self.wrong_scene.get(info.node) != refusal:
+                log.error("master: %s", refusal)
+            self.wrong_scene[info.node] = refusal
+        else:
+            self.wrong_scene.pop(info.node, None)
         self.link.send(ControlMessage(self.frame, Command.WELCOME, info.node,
-                                      nonce=info.nonce))
+                                      digest=self.scene_digest, nonce=info.nonce))
 
     # -- the run ---------------------------------------------------------------------------
 
@@ -233,7 +248,8 @@ class Master:
         while missing := sorted((set(self.config.walls) - self.membership.alive)
                                 | (set(self.config.walls) - set(self.swap_locked))):
             if time.monotonic() > deadline:
-                hints = [hint for wall in missing if (hint := self.link.sender_hint(wall))]
+                hints = [hint for wall in missing if (hint := self.wrong_scene.get(wall)
+                                                      or self.link.sender_hint(wall))]
                 raise ClusterError(f"walls {missing} did not join within "
                                    f"{self.config.join_timeout:g} s (--join-timeout): "
                                    + ("; ".join(hints) if hints else
@@ -249,6 +265,7 @@ class Master:
         if self.config.frame_log is not None:
             log_writer = FrameLogWriter(self.config.frame_log, {
                 "session": self.config.session, "scene": str(self.config.scene),
+                "scene_digest": self.scene_digest,
                 "walls": list(self.config.walls), "clock_seed": self.config.clock_seed})
         started = time.monotonic()
         try:
@@ -376,6 +393,8 @@ class Master:
                 {n: reports[n].particles for n in members}, forensics))
         for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
             self._resync(k, node, vote.source, vote.agreed)
+        for node in () if self.tolerance is None else self.tolerance.over_budget:
+            self._give_up(k, node, "breach-budget")
         return vote
 
     def _investigate(self, k: int, vote: Vote) -> dict | None:
@@ -450,11 +469,15 @@ class Master:
         self.resync_failures[node] = failures = self.resync_failures.get(node, 0) + 1
         if failures >= MAX_RESYNC_FAILURES:
             self.resync_failures.pop(node)
-            if node in self.membership.members:
-                self.record.losses.append(Loss(k, node, "resync-failed"))
-            self.membership = self.membership.gave_up(node)
+            self._give_up(k, node, "resync-failed")
             log.warning("frame %d: gave %s up after %d failed resyncs", k, node, failures)
         return False
+
+    def _give_up(self, k: int, node: str, reason: str) -> None:
+        """`node` is out of the lock-step, and lost, until its node joins anew."""
+        if node in self.membership.members:
+            self.record.losses.append(Loss(k, node, reason))
+        self.membership = self.membership.gave_up(node)
 
     def _admit_joiners(self, k: int, vote: Vote) -> None:
         """Walls that joined or fell behind, but are not members, enter by resync."""
@@ -477,12 +500,15 @@ def run_master(config: MasterConfig, link: Link,
     master-kill).
 
     Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
-    `checkpoint` gets the record after every frame (it keeps report.json current).
+    `checkpoint` gets the record as the run starts and after every frame (it keeps
+    report.json current).
     """
     master = Master(config, link, before_frame)
+    checkpoint = checkpoint or (lambda record: None)
     try:
+        checkpoint(master.record)  # from the start: a run whose walls never join has one too
         master.wait_for_walls()
-        master.run(progress, checkpoint or (lambda record: None))
+        master.run(progress, checkpoint)
     except KeyboardInterrupt:
         master.record.interrupted = True
         log.warning("interrupted at frame %d", master.record.frames)

@@ -1,28 +1,61 @@
 """report.json kept current while the master runs, so that a crash or SIGKILL of the master
 leaves it behind whole.
 
-The master hands its `RunRecord` to `ReportFile.checkpoint` after every frame; the file is
-replaced atomically (`cavesim.core.output.write_atomically`) after the first frame, then at
-most once every CHECKPOINT_SECONDS, and never more often than keeps its writing under
-1/BUDGET_RATIO of the run (the summary grows with the run). Its `ended` field tells a
-reader what the file is: RUNNING in a checkpoint (the master may be gone since), then
-FINISHED, INTERRUPTED or FAILED (with the `error` line) once the run is over.
+The master hands its `RunRecord` to `ReportFile.checkpoint` when the run starts and after
+every frame; the file is replaced atomically (`cavesim.core.output.write_atomically`) at
+the start and the first frame, then at most once every CHECKPOINT_SECONDS, and never more
+often than keeps its writing under 1/BUDGET_RATIO of the run (the summary grows with the
+run). Its `ended` field tells a reader what the file is: RUNNING in a checkpoint (the
+master may be gone since), then FINISHED, INTERRUPTED or FAILED (with the `error` line)
+once the run is over.
+
+A full disk must not leave a checkpoint saying RUNNING behind: an atomic replacement needs
+room for a whole new file, while the frame log's small appends still fit in its last
+block. So each checkpoint keeps twice its size (and a margin) in reserve, in a hidden file
+beside the report; when the last report cannot be written, the reserve is given up for it.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import time
 from contextlib import suppress
 from pathlib import Path
 
 from cavesim.core.errors import OutputError
-from cavesim.core.output import write_atomically
+from cavesim.core.output import write_atomically, writing
 from nodes.master.run_record import RunRecord
 
 RUNNING, FINISHED, INTERRUPTED, FAILED = "running", "finished", "interrupted", "failed"
 CHECKPOINT_SECONDS = 1.0
 BUDGET_RATIO = 20  # a checkpoint that took t seconds waits at least BUDGET_RATIO * t
+RESERVE_MARGIN = 16 * 1024  # bytes held beyond twice the last checkpoint: the final fields
+
+
+class Reserve:
+    """Disk space held in a file, to be given up when the report cannot be written."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.size = 0  # bytes held
+
+    def keep(self, size: int) -> None:
+        """Hold at least `size` bytes (OutputError when the disk has no room left)."""
+        if size <= self.size:
+            return
+        with writing(self.path), open(self.path, "ab") as file:
+            file.write(bytes(size - self.size))
+            file.flush()
+            os.fsync(file.fileno())
+        self.size = size
+
+    def release(self) -> bool:
+        """Give the space back; whether any was held."""
+        held = self.path.exists()
+        self.path.unlink(missing_ok=True)
+        self.size = 0
+        return held
 
 
 class ReportFile:
@@ -34,31 +67,44 @@ class ReportFile:
         self.every_seconds = every_seconds
         self._record: RunRecord | None = None  # the master's, as of the last checkpoint
         self._due = 0.0  # monotonic time of the next checkpoint
+        self._reserve = Reserve(self.path.with_name(f".{self.path.name}.reserve"))
 
     def checkpoint(self, record: RunRecord) -> None:
-        """The master's call after each frame: write the record if a checkpoint is due."""
+        """The master's call when the run starts and after each frame: write the record if
+        a checkpoint is due."""
         self._record = record
         started = time.monotonic()
         if started < self._due:
             return
-        self._write(record.summary(), RUNNING)
-        took = time.monotonic() - started
-        self._due = started + max(self.every_seconds, BUDGET_RATIO * took)
+        size = self._write(record.summary(), RUNNING)
+        self._reserve.keep(2 * size + RESERVE_MARGIN)
+        if record.frames:  # the start's checkpoint does not put off the first frame's
+            took = time.monotonic() - started
+            self._due = started + max(self.every_seconds, BUDGET_RATIO * took)
 
     def finish(self, report: dict, interrupted: bool) -> Path:
         """Write the run's final report (OutputError if it cannot be)."""
-        return self._write(report, INTERRUPTED if interrupted else FINISHED)
-
-    def _write(self, report: dict, ended: str) -> Path:
-        write_atomically(self.path, json.dumps({"ended": ended, **report}, indent=2) + "\n")
+        self._write(report, INTERRUPTED if interrupted else FINISHED)
+        self._reserve.release()
         return self.path
+
+    def _write(self, report: dict, ended: str) -> int:
+        """Replace the file; its size in bytes. On a full disk the reserve makes room."""
+        text = json.dumps({"ended": ended, **report}, indent=2) + "\n"
+        try:
+            write_atomically(self.path, text)
+        except OutputError:
+            if not self._reserve.release():
+                raise
+            write_atomically(self.path, text)
+        return len(text.encode())
 
     def __enter__(self) -> ReportFile:
         return self
 
     def __exit__(self, kind, error, trace) -> None:
-        if error is None or self._record is None:
-            return
-        ended = INTERRUPTED if isinstance(error, KeyboardInterrupt) else FAILED
-        with suppress(OutputError):  # the run's own error is the one to tell
-            self._write({**self._record.summary(), "error": str(error)}, ended)
+        if error is not None and self._record is not None:
+            ended = INTERRUPTED if isinstance(error, KeyboardInterrupt) else FAILED
+            with suppress(OutputError):  # the run's own error is the one to tell
+                self._write({**self._record.summary(), "error": str(error)}, ended)
+        self._reserve.release()

@@ -6,7 +6,14 @@ One wall is the authority. At each compared frame every node's report carries a 
 the authority's sample, and one that drifted beyond the tolerances, or holds another live
 count, breaches: it is named and resynced from the authority at once. Every `resync_every`
 frames each node whose bits differ from the authority's is resynced from it, which also
-bounds the drift of the particles no sample sees. Without a checksum vote this is weaker
+bounds the drift of the particles no sample sees.
+
+Both are bounded, as their samples may be wrong or forged. A node that breaches more than
+`breach_budget` times in `breach_window` frames is named (in the log and report.json) and
+given up, not resynced again, until its node joins anew; the periodic resyncs are one per
+node every `resync_every` frames. A report whose sample is missing or of the wrong size is
+refused and counted per node (the first of each node's refusals is logged): it is not
+compared in that frame, and never ends the run. Without a checksum vote this is weaker
 than the bit-exact mode, so it is named in the log and in report.json, with the drift per
 node over time, the breaches and the resyncs (`ToleranceMode.summary`).
 
@@ -18,8 +25,9 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import Counter, deque
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from cavesim.core.bounded import DecimatedSeries, FirstEntries
 from cavesim.core.drift import (
@@ -27,12 +35,10 @@ from cavesim.core.drift import (
     MAX_SAMPLE,
     NO_DRIFT,
     Drift,
-    DriftSample,
     measure_drift,
     rounded,
     sample_size,
 )
-from cavesim.core.errors import ClusterError
 from cavesim.core.wire import ReportMessage
 from nodes.lockstep import Vote
 
@@ -48,18 +54,26 @@ DEFAULT_POSITION_TOLERANCE = 2e-3  # m
 DEFAULT_VELOCITY_TOLERANCE = 1e-2  # m/s
 TOLERANCE_RANGE = (1e-9, 1e3)  # m and m/s
 DRIFT_POINTS = 1024  # per node: the drift series is decimated beyond this many comparisons
+# a wall resynced after every breach stays in step while its GPU drifts now and then; more
+# than 5 breaches in 10 s at 60 Hz is a broken GPU or forged samples, not drift
+DEFAULT_BREACH_BUDGET = 5  # breaches per node in BREACH_WINDOW frames
+BREACH_BUDGET_RANGE = (1, 10_000)
+BREACH_WINDOW = 600  # frames
 
 
 @dataclass(frozen=True)
 class Tolerance:
     """The mode's settings: `authority` (a wall), resync every `resync_every` frames,
-    samples of `sample` records, tolerances in m and m/s."""
+    samples of `sample` records, tolerances in m and m/s, at most `breach_budget` breaches
+    of a node in `breach_window` frames."""
 
     authority: str
     resync_every: int = DEFAULT_RESYNC_EVERY
     sample: int = DEFAULT_SAMPLE
     position: float = DEFAULT_POSITION_TOLERANCE
     velocity: float = DEFAULT_VELOCITY_TOLERANCE
+    breach_budget: int = DEFAULT_BREACH_BUDGET
+    breach_window: int = BREACH_WINDOW
 
     def __post_init__(self) -> None:
         low, high = RESYNC_EVERY_RANGE
@@ -69,6 +83,13 @@ class Tolerance:
         if not 1 <= self.sample <= MAX_SAMPLE:
             raise ValueError(f"sample must be in [1, {MAX_SAMPLE}] records, got "
                              f"{self.sample!r}")
+        low, high = BREACH_BUDGET_RANGE
+        if not low <= self.breach_budget <= high:
+            raise ValueError(f"breach_budget must be in [{low}, {high}] breaches, got "
+                             f"{self.breach_budget!r}")
+        if self.breach_window < 1:
+            raise ValueError(f"breach_window must be at least 1 frame, got "
+                             f"{self.breach_window!r}")
         low, high = TOLERANCE_RANGE
         for name in ("position", "velocity"):
             if not low <= getattr(self, name) <= high:
@@ -78,7 +99,8 @@ class Tolerance:
     def to_json(self) -> dict:
         return {"authority": self.authority, "resync_every_frames": self.resync_every,
                 "sample_records": self.sample, "position_tolerance_m": self.position,
-                "velocity_tolerance_m_s": self.velocity}
+                "velocity_tolerance_m_s": self.velocity, "breach_budget": self.breach_budget,
+                "breach_window_frames": self.breach_window}
 
 
 @dataclass(frozen=True)
@@ -89,6 +111,7 @@ class Judgement:
     vote: Vote  # odd: breached and periodic resyncs; named: the breached
     drifts: dict[str, Drift]  # per compared node (not the authority)
     periodic: tuple[str, ...]  # due for the periodic resync: bits not the authority's
+    refused: dict[str, str]  # node -> why its sample could not be compared
 
 
 def acting_authority(tolerance: Tolerance, members: tuple[str, ...]) -> str:
@@ -99,15 +122,26 @@ def acting_authority(tolerance: Tolerance, members: tuple[str, ...]) -> str:
 def judge(k: int, members: tuple[str, ...], reports: Mapping[str, ReportMessage],
           tolerance: Tolerance, compare: bool = True) -> Judgement:
     """Frame k's outcome: each member's drift from the acting authority (`compare`), the
-    breaches, and the periodic resyncs due at k. ClusterError when a report that must be
-    compared carries no sample, or one of another size than the master's --drift-sample."""
+    breaches, and the periodic resyncs due at k. A report that must be compared but carries
+    no sample, or one of another size than the master's --drift-sample, is refused (and
+    when it is the authority's, no one is compared)."""
     authority = acting_authority(tolerance, members)
     held = reports[authority]
     others = tuple(m for m in members if m != authority)
-    drifts = {}
+    drifts: dict[str, Drift] = {}
+    refused: dict[str, str] = {}
     if compare:
-        drifts = {node: NO_DRIFT if reports[node].digest == held.digest
-                  else _drift(k, reports[node], held, tolerance.sample) for node in others}
+        drifts = {node: NO_DRIFT for node in others if reports[node].digest == held.digest}
+        differing = [node for node in others if node not in drifts]
+        if differing and (problem := sample_problem(k, held, tolerance.sample)):
+            refused[authority] = problem
+            differing = []
+        for node in differing:
+            if problem := sample_problem(k, reports[node], tolerance.sample):
+                refused[node] = problem
+            else:
+                drifts[node] = measure_drift(reports[node].sample, reports[node].particles,
+                                             held.sample, held.particles)
     breached = tuple(n for n, d in drifts.items()
                      if d.exceeds(tolerance.position, tolerance.velocity))
     due = k % tolerance.resync_every == 0
@@ -115,27 +149,23 @@ def judge(k: int, members: tuple[str, ...], reports: Mapping[str, ReportMessage]
                      and reports[n].digest != held.digest)
     odd = tuple(m for m in members if m in breached or m in periodic)
     return Judgement(Vote(held.digest, held.particles, authority, odd, breached), drifts,
-                     periodic)
+                     periodic, refused)
 
 
-def _drift(k: int, report: ReportMessage, authority: ReportMessage, size: int) -> Drift:
-    return measure_drift(_sample(k, report, size), report.particles,
-                         _sample(k, authority, size), authority.particles)
-
-
-def _sample(k: int, report: ReportMessage, size: int) -> DriftSample:
-    """The report's drift sample, of the size the master expects (ClusterError)."""
+def sample_problem(k: int, report: ReportMessage, size: int) -> str | None:
+    """Why the report's drift sample cannot be compared (None: it is of the size the master
+    expects)."""
     if report.sample is None:
-        raise ClusterError(f"frame {k}: {report.node}'s report carries no drift sample; in "
-                           f"the mixed-hardware mode every node must sample its state: start "
-                           f"it with --mixed-hardware (cavesim node)")
+        return (f"frame {k}: {report.node}'s report carries no drift sample; in the "
+                f"mixed-hardware mode every node must sample its state: start it with "
+                f"--mixed-hardware (cavesim node)")
     expected = sample_size(size, report.particles)
     if len(report.sample) != expected:
-        raise ClusterError(f"frame {k}: {report.node} sampled {len(report.sample)} of its "
-                           f"{report.particles} live records, the master expects {expected} "
-                           f"(--drift-sample {size}): give the master and every node the "
-                           f"same --drift-sample")
-    return report.sample
+        return (f"frame {k}: {report.node} sampled {len(report.sample)} of its "
+                f"{report.particles} live records, the master expects {expected} "
+                f"(--drift-sample {size}): give the master and every node the same "
+                f"--drift-sample")
+    return None
 
 
 @dataclass(frozen=True)
@@ -196,12 +226,22 @@ class ToleranceMode:
         self.breaches: FirstEntries[Breach] = FirstEntries()
         self.periodic_resyncs = 0
         self.handovers: FirstEntries[dict] = FirstEntries()  # acting authority changes
+        self.refused_samples: Counter[str] = Counter()
+        self.recent_breaches: dict[str, deque[int]] = {wall: deque() for wall in walls}
+        self.given_up: list[dict] = []  # walls that breached past the budget
+        self.over_budget: tuple[str, ...] = ()  # of the last vote: the master gives them up
         self._acting = tolerance.authority
 
     def vote(self, k: int, members: tuple[str, ...], reports: Mapping[str, ReportMessage],
              compare: bool = True) -> Vote:
-        """Frame k's vote: the acting authority's state; odd, the nodes to resync from it."""
+        """Frame k's vote: the acting authority's state; odd, the nodes to resync from it
+        (`over_budget`: the breached to give up instead)."""
         judgement = judge(k, members, reports, self.tolerance, compare)
+        for node, problem in judgement.refused.items():
+            if not self.refused_samples[node]:
+                log.warning("%s; refused (its later refusals are counted in report.json)",
+                            problem)
+            self.refused_samples[node] += 1
         authority = judgement.vote.source
         if authority != self._acting:
             log.warning("frame %d: %s acts as the authority (the authority %s is %s)", k,
@@ -211,17 +251,37 @@ class ToleranceMode:
             self._acting = authority
         for node, drift in judgement.drifts.items():
             self.drift[node].add(k, drift)
+        self.over_budget = tuple(n for n in judgement.vote.named if self._past_budget(k, n))
         for node in judgement.vote.named:
             drift = judgement.drifts[node]
             self.breaches.append(Breach(k, node, authority, drift))
             log.warning("frame %d: %s breached the tolerance against the authority %s: "
                         "position max %.3g m (tolerance %g), velocity max %.3g m/s "
-                        "(tolerance %g), live %d / %d; resyncing it from %s", k, node,
+                        "(tolerance %g), live %d / %d; %s", k, node,
                         authority, drift.position_max, self.tolerance.position,
                         drift.velocity_max, self.tolerance.velocity, drift.particles,
-                        drift.authority_particles, authority)
+                        drift.authority_particles, "past its budget" if node in
+                        self.over_budget else f"resyncing it from {authority}")
         self.periodic_resyncs += len(judgement.periodic)
-        return judgement.vote
+        vote = judgement.vote
+        return replace(vote, odd=tuple(n for n in vote.odd if n not in self.over_budget))
+
+    def _past_budget(self, k: int, node: str) -> bool:
+        """Note `node`'s breach at k; whether that is one past its budget (it is named)."""
+        recent, window = self.recent_breaches[node], self.tolerance.breach_window
+        recent.append(k)
+        while recent[0] <= k - window:
+            recent.popleft()
+        if len(recent) <= self.tolerance.breach_budget:
+            return False
+        self.given_up.append({"frame": k, "node": node, "breaches": len(recent),
+                              "window_frames": window})
+        log.warning("frame %d: %s breached the tolerance %d times in %d frames (--breach-"
+                    "budget %d): given up, not resynced again, until its node joins anew; "
+                    "check its GPU, and who else holds the session's key", k, node,
+                    len(recent), window, self.tolerance.breach_budget)
+        recent.clear()
+        return True
 
     def summary(self) -> dict:
         """report.json's "tolerance": the settings, drift per node, breaches, resyncs."""
@@ -232,5 +292,7 @@ class ToleranceMode:
                 "breaches": [b.to_json() for b in self.breaches],
                 "breach_total": self.breaches.total,
                 "periodic_resyncs": self.periodic_resyncs,
-                "authority_handovers": list(self.handovers)}
+                "authority_handovers": list(self.handovers),
+                "refused_samples": dict(sorted(self.refused_samples.items())),
+                "given_up": self.given_up}
 

@@ -44,6 +44,7 @@ from cavesim.core.errors import ClusterError, ContextError, ProtocolError
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Engine, load_scene
+from cavesim.core.scene.digest import scene_digest
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire import (
     BlockRequest,
@@ -136,6 +137,7 @@ class WallNode:
         self.keys = SessionKeys(config.session)
         self.fired: set[Fault] = set()  # injected faults done
         scene = load_scene(config.scene)
+        self.scene_digest = scene_digest(scene)  # of the file's scene: a run must be of it
         if config.engine is not None:
             scene = dataclasses.replace(scene, engine=config.engine)
         if self._fault("seed"):
@@ -207,7 +209,7 @@ class WallNode:
         if isinstance(message, FrameMessage):
             self._on_frame(message)
         elif message.command is Command.WELCOME:
-            self._join(run_id)
+            self._join(run_id, message.digest)
         elif message.command is Command.STOP:
             self.running = False
         elif message.command is Command.SWAP and self.live is not None:
@@ -221,13 +223,18 @@ class WallNode:
         """Our GPU, whether we are swap-locked, and the nonce a WELCOME must name."""
         swap_locked = self.live is not None and self.live.screen.swap_locked
         message = InfoMessage.of_gpu(self.done, self.config.wall, self.gpu, swap_locked,
-                                     self.view.nonce)
+                                     self.view.nonce, self.scene_digest)
         query.reply(self.keys.info(self.config.wall), self._seal(message, run_id))
         query.drop()
 
-    def _join(self, run_id: int) -> None:
+    def _join(self, run_id: int, scene: str) -> None:
         """The master's WELCOME named our nonce: join its run, from the scene's start state
-        if we held another run's."""
+        if we held another run's; a run of another scene ends the node (ClusterError)."""
+        if scene != self.scene_digest:
+            raise ClusterError(f"node {self.config.wall}: the master's run {run_id:016x} is "
+                               f"of scene {scene or 'none'}, this node's --scene "
+                               f"{self.config.scene} is {self.scene_digest}: give every "
+                               f"host the same scene file")
         previous = self.view.run_id
         if previous is not None and previous != run_id:
             log.warning("%s: a new master's run %016x replaces run %016x: starting over "

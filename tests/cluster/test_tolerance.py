@@ -19,7 +19,6 @@ from cavesim.core.drift import (
     measure_drift,
     sample_indices,
 )
-from cavesim.core.errors import ClusterError
 from cavesim.core.wire import ReportMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.reports.run_tables import mode_rows
@@ -28,6 +27,7 @@ from nodes.commands.run import RunPlan
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.tolerance import (
     BIT_EXACT,
+    BREACH_WINDOW,
     MIXED_HARDWARE,
     Tolerance,
     ToleranceMode,
@@ -145,16 +145,18 @@ def test_the_first_member_acts_while_the_authority_is_out():
     assert (vote.source, vote.named) == ("left", ("right",))
 
 
-def test_a_report_without_a_sample_or_of_another_size_ends_the_run_with_a_hint():
+def test_a_report_without_a_sample_or_of_another_size_is_refused_with_a_hint():
     reports = {"front": report("front", "a"), "left": report("left", "b", with_sample=False),
                "right": report("right", "a", with_sample=False)}  # its bits: not needed
-    with pytest.raises(ClusterError, match="left's report carries no drift sample.*"
-                                           "--mixed-hardware"):
-        judge(3, WALLS, reports, TOLERANCE)
+    judgement = judge(3, WALLS, reports, TOLERANCE)
+    assert judgement.vote.odd == () and set(judgement.refused) == {"left"}
+    assert "left's report carries no drift sample" in judgement.refused["left"]
+    assert "--mixed-hardware" in judgement.refused["left"]
     reports["left"] = report("left", "b", particles=4)
-    with pytest.raises(ClusterError, match="left sampled 4 of its 4 live records, the master "
-                                           "expects 3 \\(--drift-sample 3\\)"):
-        judge(3, WALLS, reports, Tolerance("front", sample=3))
+    refused = judge(3, WALLS, reports, Tolerance("front", sample=3)).refused
+    assert list(refused) == ["front"]  # the authority's: no one can be measured against it
+    assert "front sampled 4 of its 4 live records, the master expects 3 (--drift-sample 3)" \
+        in refused["front"]
 
 
 def test_the_authority_must_be_a_wall():
@@ -196,6 +198,44 @@ def test_a_small_drift_is_tolerated_and_reported_a_large_one_is_resynced_from_th
     assert tolerance["authority"] == "right" and tolerance["resync_every_frames"] == 10
     assert set(tolerance["drift"]) == {"front", "left"}
     assert tolerance["drift"]["front"]["bit_equal"] == 30
+
+
+def test_reports_without_a_sample_are_counted_and_never_end_the_run():
+    link = MemoryLink(WALLS, sample=4)
+    for wall in ("left", "right"):
+        link.walls[wall].nudge_at[2] = SMALL  # bits not the authority's: a sample is needed
+    link.walls["left"].unsampled_at.update({3, 4, 9})  # as a forged report would be
+    link.walls["right"].unsampled_at.add(5)
+    link.walls["front"].unsampled_at.add(7)  # the authority's: no one can be measured
+    record = run(link, tolerance=Tolerance("front", sample=4))
+    tolerance = record.summary()["tolerance"]
+    assert tolerance["refused_samples"] == {"front": 1, "left": 3, "right": 1}
+    assert tolerance["drift"]["left"]["comparisons"] == 30 - 3 - 1
+    assert record.frames == 30 and record.final.all_walls_in  # bits differ: no "agree"
+    assert record.divergences.total == 0 and not record.losses
+
+
+def test_a_wall_that_keeps_breaching_is_given_up_not_resynced_forever():
+    link = MemoryLink(WALLS, sample=4)
+    link.walls["left"].nudge_at.update({k: LARGE for k in range(3, 300)})
+    record = run(link, frames=300, tolerance=Tolerance("front", sample=4, breach_budget=4))
+    left_resyncs = [r.frame for r in record.resyncs if r.node == "left"]
+    assert left_resyncs == [3, 4, 5, 6]  # the budget's 4, then the 5th breach gives it up
+    (loss,) = record.losses
+    assert (loss.frame, loss.node, loss.detected_by) == (7, "left", "breach-budget")
+    tolerance = record.summary()["tolerance"]
+    assert tolerance["breach_total"] == 5 and tolerance["breach_budget"] == 4
+    assert tolerance["given_up"] == [{"frame": 7, "node": "left", "breaches": 5,
+                                      "window_frames": BREACH_WINDOW}]
+    assert record.frames == 300 and record.final.lost == ("left",) and record.final.agree
+
+
+def test_breaches_further_apart_than_the_window_stay_within_the_budget():
+    link = MemoryLink(WALLS, sample=4)
+    link.walls["left"].nudge_at.update({k: LARGE for k in range(3, 40, 10)})
+    record = run(link, frames=40, tolerance=Tolerance("front", sample=4, breach_budget=1,
+                                                      breach_window=10))
+    assert [r.frame for r in record.resyncs] == [3, 13, 23, 33] and not record.losses
 
 
 def test_the_bit_exact_mode_names_the_small_drift_at_once():
@@ -283,6 +323,10 @@ def test_jitter_changes_the_bits_but_hardly_the_positions_and_shove_breaches(fou
      "argument --resync-every: expected frames in [1, 100000], got '0'"),
     (["master", "--walls", "front", "--mixed-hardware", "--drift-sample", "2000"],
      "argument --drift-sample: expected records in [1, 1024], got '2000'"),
+    (["master", "--walls", "front", "--breach-budget", "3"],
+     "cavesim master: error: argument --breach-budget: only with --mixed-hardware"),
+    (["run", "--mixed-hardware", "--breach-budget", "0"],
+     "argument --breach-budget: expected breaches in [1, 10000], got '0'"),
     (["run", "--mixed-hardware", "--velocity-tolerance", "nan"],
      "argument --velocity-tolerance: expected m/s in"),
 ])
@@ -294,8 +338,9 @@ def test_bad_mixed_hardware_flags_are_one_line_usage_errors(args, message, capsy
 
 def test_the_master_takes_the_first_wall_as_authority_and_the_defaults():
     args = cli.build_parser().parse_args(["master", "--walls", "left,front", "--mixed-hardware",
-                                          "--velocity-tolerance", "0.5"])
-    assert tolerance_from(args, args.walls, "master") == Tolerance("left", velocity=0.5)
+                                          "--velocity-tolerance", "0.5", "--breach-budget", "9"])
+    assert tolerance_from(args, args.walls, "master") == Tolerance("left", velocity=0.5,
+                                                                    breach_budget=9)
     plain = cli.build_parser().parse_args(["master", "--walls", "left,front"])
     assert tolerance_from(plain, plain.walls, "master") is None
 
@@ -333,6 +378,6 @@ def test_the_summary_names_the_scenes_arithmetic(tmp_path):
     portable.write_text(MINIMAL.read_text().replace("[simulation]",
                                                     '[simulation]\narithmetic = "portable"'))
     config = MasterConfig(WALLS, portable, 2, "memory", barrier_timeout=0.05)
-    summary = run_master(config, MemoryLink(WALLS)).summary()
+    summary = run_master(config, MemoryLink(WALLS, scene=portable)).summary()
     assert summary["arithmetic"] == "portable"
     assert dict(mode_rows(summary))["mode"] == "bit-exact (portable arithmetic)"

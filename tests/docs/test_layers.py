@@ -139,7 +139,7 @@ for module in pkgutil.walk_packages(cavesim.core.__path__, "cavesim.core."):
     importlib.import_module(module.name)
 from memory_walls import MemoryLink
 from nodes.master.process import MasterConfig, run_master
-link = MemoryLink(("front", "left", "right"))
+link = MemoryLink(("front", "left", "right"), scene="config/scenes/brownout.toml")
 link.walls["left"].flip_at.add(5)
 record = run_master(MasterConfig(("front", "left", "right"),
                                  "config/scenes/brownout.toml", 20, "nogl"), link)

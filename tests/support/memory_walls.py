@@ -18,6 +18,7 @@ import queue
 import threading
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -27,6 +28,8 @@ from cavesim.core.digest.twin import reference_checksum, reference_levels
 from cavesim.core.drift import DriftSample, sample_size
 from cavesim.core.errors import ProtocolError
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
+from cavesim.core.scene import load_scene
+from cavesim.core.scene.digest import scene_digest
 from cavesim.core.wire import (
     BlockReply,
     BlockRequest,
@@ -45,6 +48,7 @@ from nodes.faults import BitFlip
 from nodes.master.events import Described, Displayed, Reported, WallDown, WallUp
 
 START = "0" * 32
+MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 
 
 class RecordState:
@@ -121,14 +125,18 @@ class MemoryWall:
     silent_from: int | None = None  # from this frame on it is up but never reports
     offset: float = 0.0  # m: x of every particle its drift samples hold
     nudge_at: dict[int, float] = field(default_factory=dict)  # frame -> m added to offset
+    unsampled_at: set[int] = field(default_factory=set)  # frames reported without a sample
+    scene: str | None = None  # the digest its info names (None: the link's scene's)
     records: RecordState | None = None  # real records (the link's `particles`)
     flip_bits: dict[int, BitFlip] = field(default_factory=dict)  # frame -> a bit it flips
 
 
 class MemoryLink:
     def __init__(self, walls: tuple[str, ...], late: tuple[str, ...] = (),
-                 displaying: tuple[str, ...] = (), particles: int = 0, sample: int = 0) -> None:
+                 displaying: tuple[str, ...] = (), particles: int = 0, sample: int = 0,
+                 scene: Path = MINIMAL) -> None:
         self.events: queue.Queue = queue.Queue()
+        self.scene = scene_digest(load_scene(scene))  # the one the walls hold
         self.walls = {name: MemoryWall(name, up=name not in late, displays=name in displaying,
                                        records=RecordState(particles) if particles else None)
                       for name in walls}
@@ -175,8 +183,10 @@ class MemoryLink:
                 self.go_down(wall.name)
 
     def ask_info(self, wall: str) -> None:
+        held = self.walls[wall]
         self.events.put(Described(InfoMessage(0, wall, 0, True, "memory", "tests", "none",
-                                              swap_locked=self.walls[wall].displays)))
+                                              swap_locked=held.displays,
+                                              scene=held.scene or self.scene)))
 
     def sender_hint(self, wall: str) -> str | None:
         return None
@@ -245,7 +255,7 @@ class MemoryLink:
                                                sample=self._sample(wall))))
 
     def _sample(self, wall: MemoryWall) -> DriftSample | None:
-        if not self.sample:
+        if not self.sample or wall.done in wall.unsampled_at:
             return None
         positions = np.zeros((sample_size(self.sample, wall.done), 3))
         positions[:, 0] = wall.offset

@@ -183,8 +183,9 @@ SAMPLE = DriftSample.of(np.array([[1.5, -2.0, 0.25], [math.nan, math.inf, -0.0]]
 
 
 def info_body(node: bytes = b"front", device: int = 0, flags: int = 1, nonce: int = 0,
-              texts=(b"llvmpipe", b"Mesa", b"4.5 Mesa"), extra: bytes = b"") -> bytes:
-    return name(node) + struct.pack("<HBQ", device, flags, nonce) + \
+              texts=(b"llvmpipe", b"Mesa", b"4.5 Mesa"), extra: bytes = b"",
+              scene: bytes = bytes(16)) -> bytes:
+    return name(node) + struct.pack("<HBQ16s", device, flags, nonce, scene) + \
         b"".join(map(name, texts)) + extra
 
 
@@ -975,3 +976,17 @@ def test_a_signed_message_is_unexpected_without_credentials_and_unsigned_with_th
     assert reason_of(encode(message, SESSION, sender(message)), SESSION) == \
         "unexpected-signature"
     assert reason_of(encode(message, SESSION), SESSION, MEMBER) == "unsigned"
+
+
+def test_a_frame_log_reads_older_frames_that_the_wire_refuses():
+    """A frame of an older version whose frame layout is this build's replays from a frame
+    log; on the wire only this version is spoken, and a frame of another layout is refused
+    everywhere."""
+    frame = bytearray(encode(FrameMessage(9, FrameInput(1 / 60, np.eye(3))), "s"))
+    frame[4] = envelope.FRAME_VERSIONS[0]
+    with pytest.raises(ProtocolError, match="bad-version"):
+        decode(bytes(frame), "s")
+    assert decode(bytes(frame), "s", versions=envelope.FRAME_VERSIONS).frame == 9
+    frame[4] = envelope.FRAME_VERSIONS[0] - 1
+    with pytest.raises(ProtocolError, match="bad-version"):
+        decode(bytes(frame), "s", versions=envelope.FRAME_VERSIONS)

@@ -57,6 +57,9 @@ VERSION = 7  # 2: frames carry the head pose; 3: snapshots stream as a header an
 # reply, which an older build would read as a class); 7: a wall's or tracker's card and own
 # signature, and a tracking message's send time
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
+# the versions whose frame message (kind, header and payload) is this build's: a frame log
+# recorded by any of them replays (on the wire, only VERSION is spoken)
+FRAME_VERSIONS = (4, 5, 6, VERSION)
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED, MEMBER_SIGNED = 0x01, 0x02, 0x04
 
@@ -178,13 +181,15 @@ def encode(message: Message, session: str, credentials: Credentials | None = Non
     return data + _signature(credentials.secret, data)
 
 
-def decode(data: bytes, session: str, credentials: Credentials | None = None) -> Message:
-    """Check and parse one message of `session`; ProtocolError names what is wrong."""
-    return decode_envelope(data, session, credentials).message
+def decode(data: bytes, session: str, credentials: Credentials | None = None,
+           versions: tuple[int, ...] = (VERSION,)) -> Message:
+    """Check and parse one message of `session` in one of `versions`; ProtocolError names
+    what is wrong."""
+    return decode_envelope(data, session, credentials, versions).message
 
 
-def decode_envelope(data: bytes, session: str,
-                    credentials: Credentials | None = None) -> Envelope:
+def decode_envelope(data: bytes, session: str, credentials: Credentials | None = None,
+                    versions: tuple[int, ...] = (VERSION,)) -> Envelope:
     """Check and parse one message of `session`, keeping its run id; ProtocolError names
     what is wrong. With credentials, every message must carry the session's HMAC and the
     master's kinds the master's signature; a member's card and signature must verify."""
@@ -194,8 +199,9 @@ def decode_envelope(data: bytes, session: str,
     magic, version, kind, flags, reserved, sid, run_id, frame, length = HEADER.unpack_from(data)
     if magic != MAGIC:
         raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
-    if version != VERSION:
-        raise ProtocolError("bad-version", f"version {version}, this build speaks {VERSION}")
+    if version not in versions:
+        raise ProtocolError("bad-version", f"version {version}, this build reads "
+                                           f"{', '.join(map(str, versions))}")
     if kind not in Kind.__members__.values():
         raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
     if sid != session_id(session):

@@ -77,7 +77,7 @@ def read_key_file(path: Path, role: str, name: str | None = None) -> Credentials
                          f"its owner's only: run `chmod 600 {path}`")
     try:
         data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):  # a RecursionError: nested too deep
         data = {}
     if data.get("format") != FORMAT or data.get("role") not in (MASTER, *ROLE_CODES):
         raise ValueError(f"{where}: not a cavesim key file; make the session's keys with "

@@ -17,14 +17,15 @@ from cavesim.core.wire.payloads.poses import HeadState, WandState
 
 MAX_PARAMS = 32
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
-_CONTROL_TAIL = struct.Struct("<16sQ")  # the named state's digest (RESYNC), nonce (WELCOME)
+_CONTROL_TAIL = struct.Struct("<16sQ")  # a digest (RESYNC, WELCOME), nonce (WELCOME)
 
 
 class Command(IntEnum):
     RESYNC = 1  # target loads `source`'s state of the frame, whose checksum is `digest`
     STOP = 2  # every node ends cleanly
     SWAP = 3  # every swap-locked wall has drawn the frame: show it
-    WELCOME = 4  # target joins this run (the header's run id); `nonce` is its own, fresh
+    WELCOME = 4  # target joins this run (the header's run id) of the scene `digest` names;
+    # `nonce` is its own, fresh
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ class ControlMessage:
     command: Command
     target: str = ""
     source: str = ""
-    digest: str = ""  # RESYNC: the checksum of the state to load (32 hex digits)
+    digest: str = ""  # RESYNC: the state to load's checksum; WELCOME: the scene's digest
     nonce: int = 0  # WELCOME: the nonce the target last sent in its info
 
 

@@ -15,7 +15,7 @@ from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_na
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
 _REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
-_INFO = struct.Struct("<HBQ")  # EGL device index, flags, join nonce; then three strings
+_INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED = 0x01, 0x02
 _DISPLAY = struct.Struct("<BQ")  # phase, the node's monotonic clock in ns
 
@@ -55,17 +55,18 @@ class InfoMessage:
     version: str  # ... each printable ASCII, at most MAX_TEXT characters
     swap_locked: bool = False  # it shows frames live and swaps only on the master's SWAP
     nonce: int = 0  # fresh after every WELCOME: only a WELCOME naming it admits the node
+    scene: str = ""  # the digest of the node's scene (`cavesim.core.scene.digest`)
 
     @classmethod
     def of_gpu(cls, frame: int, node: str, gpu: Mapping, swap_locked: bool = False,
-               nonce: int = 0) -> InfoMessage:
+               nonce: int = 0, scene: str = "") -> InfoMessage:
         """The message for a GPU as `cavesim.gpu.gl.context.gpu_of` describes it; characters
         the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
         def fit(text: str) -> str:
             return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
 
         return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
-                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce)
+                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce, scene)
 
     def gpu(self) -> dict:
         """The GPU as `gpu_of` describes it, for report.json."""
@@ -138,14 +139,15 @@ def write_info(m: InfoMessage) -> bytes:
     flags = (INFO_SOFTWARE if m.software else 0) | (INFO_SWAP_LOCKED if m.swap_locked else 0)
     if not 0 <= m.nonce < 2**64:
         raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
-    return name_bytes(m.node) + _INFO.pack(m.device, flags, m.nonce) + texts
+    scene = digest_bytes(m.scene) if m.scene else bytes(16)
+    return name_bytes(m.node) + _INFO.pack(m.device, flags, m.nonce, scene) + texts
 
 
 def read_info(frame: int, payload: bytes) -> InfoMessage:
     node, rest = read_name(payload)
     if len(rest) < _INFO.size:
         raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
-    device, flags, nonce = _INFO.unpack_from(rest)
+    device, flags, nonce, scene = _INFO.unpack_from(rest)
     if flags & ~(INFO_SOFTWARE | INFO_SWAP_LOCKED):
         raise ProtocolError("bad-value", f"info flags {flags:#x}: only "
                                          f"{INFO_SOFTWARE | INFO_SWAP_LOCKED:#x} are defined")
@@ -157,7 +159,8 @@ def read_info(frame: int, payload: bytes) -> InfoMessage:
     if rest:
         raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info message")
     return InfoMessage(frame, node, device, bool(flags & INFO_SOFTWARE), *texts,
-                       swap_locked=bool(flags & INFO_SWAP_LOCKED), nonce=nonce)
+                       swap_locked=bool(flags & INFO_SWAP_LOCKED), nonce=nonce,
+                       scene=scene.hex() if any(scene) else "")
 
 
 def write_display(m: DisplayMessage) -> bytes:
