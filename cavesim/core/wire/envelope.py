@@ -39,13 +39,14 @@ from cavesim.core.wire.payloads.state_transfer import (
 )
 
 MAGIC = b"CVSM"
-VERSION = 6  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 7  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
 # take part in the swap barrier; 4: a run id in the header, the master's signature, requests
 # (block requests and replies came later as new kinds, which an older build refuses as such);
 # 5: a report may end in a drift sample (the mixed-hardware tolerance mode); 6: a particle
 # record's last word carries the position's low part beside the class (a snapshot or block
-# reply, which an older build would read as a class)
+# reply, which an older build would read as a class); 7: state, block and info requests end in
+# a fresh nonce (state and block requests also name their asker)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED = 0x01, 0x02
