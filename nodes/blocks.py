@@ -26,6 +26,7 @@ from cavesim.core.digest.shape import ITEM_WORDS, plan
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.wire.credentials import WALL
 from cavesim.core.wire.envelope import Envelope, Message
+from cavesim.core.wire.network import zenoh_message
 from cavesim.core.wire.payloads.state_transfer import (
     MAX_BLOCK_BYTES,
     BlockQuery,
@@ -125,21 +126,26 @@ def check_reply(message: Message, request: BlockRequest) -> BlockReply:
 
 def serve_blocks(query: zenoh.Query, key: str, holder: TreeHolder, node: str,
                  held: tuple[int, str] | None, request: BlockRequest,
-                 seal: Callable[[Message], bytes]) -> None:
+                 seal: Callable[[Message], bytes]) -> int:
     """Answer one block request about the state `held` (frame, checksum) names, or refuse
-    it with a reason (another state, beyond the state, too large)."""
+    it with a reason (another state, beyond the state, too large); the bytes sent (which
+    the asker's serving budget is charged)."""
     try:
-        if held != (request.frame, request.digest):
-            raise ProtocolError("not-held", f"asked about frame {request.frame} "
-                                            f"({request.digest[:8]}); this node holds "
-                                            f"{held[0] if held else 'no'} frame")
-        query.reply(key, seal(answer(holder, request, node)))
-    except ProtocolError as e:
-        query.reply_err(str(e))
+        try:
+            if held != (request.frame, request.digest):
+                raise ProtocolError("not-held", f"asked about frame {request.frame} "
+                                                f"({request.digest[:8]}); this node holds "
+                                                f"{held[0] if held else 'no'} frame")
+            reply = seal(answer(holder, request, node))
+            query.reply(key, reply)
+            return len(reply)
+        except ProtocolError as e:
+            query.reply_err(str(e))
     except zenoh.ZError as e:  # the asker went away
-        log.info("%s: a block reply failed: %s", node, e)
+        log.info("%s: a block reply failed: %s", node, zenoh_message(e))
     finally:
         query.drop()
+    return 0
 
 
 class BlockAsker:

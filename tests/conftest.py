@@ -4,10 +4,15 @@ Under pytest-xdist's --dist loadgroup (deploy/test.sh) it also orders the collec
 tests first, and makes sure each xdist_group mark reaches the scheduler."""
 
 import pytest
+from hypothesis import settings
 
 from cavesim.gpu.gl.context import create_context
 
 pytest_plugins = ["requirements"]  # @pytest.mark.requires(...) and --require-tools
+# no per-example deadline: the property tests check what comes out, not how fast, and a
+# shared machine under a parallel suite is slow at random
+settings.register_profile("cavesim", deadline=None)
+settings.load_profile("cavesim")
 
 
 @pytest.hookimpl(trylast=True)  # after pytest-xdist's own, which names the groups

@@ -10,11 +10,12 @@ queue is bounded: when the master falls that far behind, further events are drop
 counted (the barrier asks again). Only the latest tracking message is kept, and only one
 of this run, signed by a tracker, fresh and newer than its sender's last. The master's
 liveliness token tells the nodes it is there; liveliness of the session's walls becomes
-WallUp/WallDown.
+WallUp/WallDown. Nothing a callback raises reaches Zenoh's thread (`RejectCounter.guarded`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import queue
 import threading
@@ -52,6 +53,7 @@ from nodes.master.events import Described, Displayed, Event, Reported, WallDown,
 log = logging.getLogger("cavesim.master")
 INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
 EVENT_QUEUE = 4096  # events the master's loop may fall behind by
+MASTER_ASKER = "master"  # the asker a node charges the master's block questions to
 
 
 class ZenohMasterLink:
@@ -70,12 +72,16 @@ class ZenohMasterLink:
         self._lock = threading.Lock()
         self._frames = lockstep_publisher(session, self.keys.frame)
         self._control = lockstep_publisher(session, self.keys.control)
+        guarded = self.rejects.guarded
         self._declarations = [
-            session.declare_subscriber(self.keys.report(), self._on_report),
-            session.declare_subscriber(self.keys.display(), self._on_display),
-            session.declare_subscriber(self.keys.tracking, self._on_tracking),
-            session.liveliness().declare_subscriber(self.keys.alive(), self._on_alive,
-                                                    history=True),
+            session.declare_subscriber(self.keys.report(), guarded("a report", self._on_report)),
+            session.declare_subscriber(self.keys.display(),
+                                       guarded("a display message", self._on_display)),
+            session.declare_subscriber(self.keys.tracking,
+                                       guarded("a tracking message", self._on_tracking)),
+            session.liveliness().declare_subscriber(
+                self.keys.alive(), guarded("a wall's liveliness", self._on_alive),
+                history=True),
             session.liveliness().declare_token(self.keys.master_alive),
         ]
 
@@ -89,8 +95,9 @@ class ZenohMasterLink:
 
     def ask_info(self, wall: str) -> None:
         """Ask `wall` which GPU it computes on and for its nonce; the answer is an event."""
-        self.session.get(self.keys.info(wall), lambda reply: self._on_info(wall, reply),
-                         timeout=INFO_TIMEOUT, payload=self._seal(InfoRequest(0, wall)))
+        self.session.get(self.keys.info(wall), self.rejects.guarded(
+            f"{wall}'s info reply", lambda reply: self._on_info(wall, reply)),
+            timeout=INFO_TIMEOUT, payload=self._seal(InfoRequest(0, wall)))
 
     def ask_blocks(self, wall: str, request: BlockRequest) -> BlockReply | None:
         """`wall`'s reply to a block request about its state (desync forensics), checked and
@@ -112,6 +119,8 @@ class ZenohMasterLink:
             declaration.undeclare()
 
     def _seal(self, message) -> bytes:
+        if isinstance(message, BlockRequest):  # whose budget it spends there
+            message = dataclasses.replace(message, asker=MASTER_ASKER)
         return encode(message, self.name, self.credentials, self.run_id)
 
     def _open_reply(self, data: bytes) -> Envelope:

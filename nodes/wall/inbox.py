@@ -4,11 +4,17 @@ Nothing unchecked is queued: a frame or a command must carry the master's signat
 session with credentials) and this run's id, a WELCOME this node's own fresh nonce, a frame
 must not be older than the node's, a command not older than the newest frame the master
 sent (a RESYNC replayed from earlier in the same run is refused); a state or block query
-must be signed, of this run and for this wall; an info query must be the master's. Refusals are
-counted (and logged at a bounded rate), and a sender whose every message fails its
-signature is named with a hint about --key-file. Queries are answered at a bounded rate,
-and dropped and counted when the main thread is behind; the master's frames and commands
-are never dropped: when the queue is full, Zenoh's thread waits for the main thread.
+must be signed, of this run, for this wall and not of a frame older than the node's; an info
+query must be the master's. Every query's nonce is taken once: a replayed query is refused
+before it costs anything. Refusals are counted (and logged at a bounded rate), and a sender
+whose every message fails its signature is named with a hint about --key-file; nothing a
+callback raises reaches Zenoh's thread (`RejectCounter.guarded`). Queries are answered
+within a budget per asker (requests and bytes per second; an info query's asker is the
+master of its run), so one peer's flood cannot starve another's resync, and dropped and
+counted when the main thread is behind. The master's frames and commands are never
+dropped: when the queue is full, Zenoh's thread waits for the main thread; copies of a
+frame already queued (the master sends one again after a barrier stall) are let through at
+most one per REPEAT_SPACING.
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from __future__ import annotations
 import logging
 import queue
 import threading
+import time
 from collections import Counter
 from dataclasses import dataclass
 
@@ -33,14 +40,16 @@ from cavesim.core.wire import (
     StateRequest,
     decode_envelope,
 )
-from cavesim.core.wire.guards import SIGNATURE_REASONS, KeyMismatch, RateLimit
+from cavesim.core.wire.guards import SIGNATURE_REASONS, FreshNonces, KeyMismatch, ServingBudget
 from cavesim.core.wire.rejects import RejectCounter
 
 log = logging.getLogger("cavesim.node")
 QUEUE = 256  # events the main thread may fall behind by
-STATE_RATE, STATE_BURST = 1.0, 2  # snapshots served per second: each may be megabytes
-INFO_RATE, INFO_BURST = 5.0, 5
-BLOCK_RATE, BLOCK_BURST = 20.0, 40  # block questions: a forensics or a delta asks a few
+# per asker: requests per second, at once, and bytes per second (also at once)
+STATE_RATE, STATE_BURST, STATE_BYTES = 1.0, 2, 64 * 2**20  # a snapshot may be megabytes
+BLOCK_RATE, BLOCK_BURST, BLOCK_BYTES = 20.0, 40, 32 * 2**20  # a forensics or delta asks a few
+INFO_RATE, INFO_BURST, INFO_BYTES = 5.0, 5, 2**20  # per run: an old run's replays spend its own
+REPEAT_SPACING = 0.25  # s between copies of a queued frame let through (the master's: 2 s)
 MASTER = "the master"  # the sender named in a --key-file hint
 
 
@@ -93,6 +102,11 @@ class MasterPresence:
 NodeEvent = FromMaster | StateQuery | BlocksQuery | InfoQuery | MasterPresence
 
 
+def asker(event: StateQuery | BlocksQuery | InfoQuery) -> str | int:
+    """Whose serving budget a query is charged to: a request's asker, an info query's run."""
+    return event.run_id if isinstance(event, InfoQuery) else event.request.asker
+
+
 class NodeInbox:
     def __init__(self, session_name: str, credentials: Credentials | None,
                  view: NodeView) -> None:
@@ -100,22 +114,31 @@ class NodeInbox:
         self.rejects = RejectCounter(f"node {view.wall}")
         self.mismatch = KeyMismatch(f"node {view.wall}")
         self.dropped: Counter[str] = Counter()  # queries the full queue could not take
-        self._limits = {StateQuery: RateLimit(STATE_RATE, STATE_BURST),
-                        BlocksQuery: RateLimit(BLOCK_RATE, BLOCK_BURST),
-                        InfoQuery: RateLimit(INFO_RATE, INFO_BURST)}
+        self._budgets = {StateQuery: ServingBudget(STATE_RATE, STATE_BURST, STATE_BYTES,
+                                                   STATE_BYTES),
+                         BlocksQuery: ServingBudget(BLOCK_RATE, BLOCK_BURST, BLOCK_BYTES,
+                                                    BLOCK_BYTES),
+                         InfoQuery: ServingBudget(INFO_RATE, INFO_BURST, INFO_BYTES,
+                                                  INFO_BYTES)}
+        self._nonces = FreshNonces()
+        self._copy_at = -REPEAT_SPACING  # when the last copy of a queued frame was queued
         self._queue: queue.Queue[NodeEvent] = queue.Queue(maxsize=QUEUE)
         self._lock = threading.Lock()
 
     def declare(self, session: zenoh.Session, keys: SessionKeys) -> list:
-        wall = self.view.wall
+        wall, guarded = self.view.wall, self.rejects.guarded
         return [
-            session.declare_subscriber(keys.frame, self._on_frame),
-            session.declare_subscriber(keys.control, self._on_control),
-            session.declare_queryable(keys.state(wall), self._on_state_query),
-            session.declare_queryable(keys.blocks(wall), self._on_blocks_query),
-            session.declare_queryable(keys.info(wall), self._on_info_query),
-            session.liveliness().declare_subscriber(keys.master_alive, self._on_master,
-                                                    history=True),
+            session.declare_subscriber(keys.frame, guarded("a frame", self._on_frame)),
+            session.declare_subscriber(keys.control, guarded("a command", self._on_control)),
+            session.declare_queryable(keys.state(wall),
+                                      guarded("a state query", self._on_state_query)),
+            session.declare_queryable(keys.blocks(wall),
+                                      guarded("a block query", self._on_blocks_query)),
+            session.declare_queryable(keys.info(wall),
+                                      guarded("an info query", self._on_info_query)),
+            session.liveliness().declare_subscriber(
+                keys.master_alive, guarded("the master's liveliness", self._on_master),
+                history=True),
         ]
 
     def get(self, timeout: float | None) -> NodeEvent | None:
@@ -123,6 +146,10 @@ class NodeInbox:
             return self._queue.get(timeout=timeout)
         except queue.Empty:
             return None
+
+    def spent(self, event: StateQuery | BlocksQuery | InfoQuery, size: int) -> None:
+        """Charge the bytes that answering `event` sent to its asker's budget."""
+        self._budgets[type(event)].spend(asker(event), size)
 
     def master_hint(self) -> str | None:
         return self.mismatch.hint(MASTER)
@@ -138,9 +165,22 @@ class NodeInbox:
         if message.frame < view.done:
             self._reject(ProtocolError("stale-frame", f"frame {message.frame}, this node "
                                                       f"holds {view.done}"), where)
+        elif message.frame <= view.heard and not self._copy_due():
+            self._reject(ProtocolError("repeated-frame", f"another copy of frame "
+                                                         f"{message.frame} within "
+                                                         f"{REPEAT_SPACING} s"), where)
         else:
             view.heard = max(view.heard, message.frame)
             self._queue.put(FromMaster(message, envelope.run_id))  # waits, never drops
+
+    def _copy_due(self) -> bool:
+        """Whether a copy of a frame already queued may go through now (one at a time)."""
+        with self._lock:
+            now = time.monotonic()
+            if now - self._copy_at < REPEAT_SPACING:
+                return False
+            self._copy_at = now
+            return True
 
     def _on_control(self, sample: zenoh.Sample) -> None:
         where, view = str(sample.key_expr), self.view
@@ -166,31 +206,47 @@ class NodeInbox:
                 self._queue.put(FromMaster(message, envelope.run_id))
 
     def _on_state_query(self, query: zenoh.Query) -> None:
-        request = self._peer_request(query, StateRequest, "state")
+        where = str(query.key_expr)  # a dropped query's key can no longer be read
+        request = self._peer_request(query, where, StateRequest, "state")
         if request is not None:
-            self._offer(StateQuery(query, request), query)
+            self._offer(StateQuery(query, request), query, where)
 
     def _on_blocks_query(self, query: zenoh.Query) -> None:
-        request = self._peer_request(query, BlockRequest, "block")
+        where = str(query.key_expr)
+        request = self._peer_request(query, where, BlockRequest, "block")
         if request is not None:
-            self._offer(BlocksQuery(query, request), query)
+            self._offer(BlocksQuery(query, request), query, where)
 
-    def _peer_request(self, query: zenoh.Query, expected: type, what: str):
-        """The request of a signed query of this run for this wall, or None (dropped)."""
-        request = self._request(query, expected)
-        if request is None:
+    def _peer_request(self, query: zenoh.Query, where: str, expected: type, what: str):
+        """The request of a signed, fresh query of this run for this wall about a state it
+        may still hold, or None (refused and counted, the query dropped)."""
+        envelope = self._request(query, where, expected)
+        if envelope is None:
             return None
-        if request.run_id != self.view.run_id or request.message.node != self.view.wall:
-            query.drop()
-            self._reject(ProtocolError("wrong-run", f"a {what} query of another run or wall"),
-                         str(query.key_expr))
-            return None
-        return request.message
+        request, view = envelope.message, self.view
+        if envelope.run_id != view.run_id or request.node != view.wall:
+            error = ProtocolError("wrong-run", f"a {what} query of another run or wall")
+        elif not self._nonces.take(request.nonce):
+            error = ProtocolError("replayed-query", f"a {what} query whose nonce was taken "
+                                                    f"before")
+        elif request.frame < view.done:
+            error = ProtocolError("stale-query", f"a {what} query of frame {request.frame}; "
+                                                 f"this node holds frame {view.done}")
+        else:
+            return request
+        self._refuse(query, error, where)
+        return None
 
     def _on_info_query(self, query: zenoh.Query) -> None:
-        request = self._request(query, InfoRequest, tell_signature_failures=True)
-        if request is not None:
-            self._offer(InfoQuery(query, request.run_id), query)
+        where = str(query.key_expr)
+        envelope = self._request(query, where, InfoRequest, tell_signature_failures=True)
+        if envelope is None:
+            return
+        if not self._nonces.take(envelope.message.nonce):
+            self._refuse(query, ProtocolError("replayed-query", "an info query whose nonce "
+                                                                "was taken before"), where)
+        else:
+            self._offer(InfoQuery(query, envelope.run_id), query, where)
 
     def _on_master(self, sample: zenoh.Sample) -> None:
         self._queue.put(MasterPresence(sample.kind == zenoh.SampleKind.PUT))
@@ -230,12 +286,11 @@ class NodeInbox:
             return False
         return True
 
-    def _request(self, query: zenoh.Query, expected: type,
+    def _request(self, query: zenoh.Query, where: str, expected: type,
                  tell_signature_failures: bool = False):
         """The query's checked request envelope, or None (the query is then dropped; with
         `tell_signature_failures`, a signature failure is first answered with its reason, so
         that the master can tell that the keys do not match)."""
-        where = str(query.key_expr)
         payload = query.payload
         sender = MASTER if expected is InfoRequest else "a peer"
         if payload is None:
@@ -252,14 +307,16 @@ class NodeInbox:
             query.drop()
         return envelope
 
-    def _offer(self, event: StateQuery | BlocksQuery | InfoQuery, query: zenoh.Query) -> None:
-        """Queue a checked query for the main thread, within its kind's rate (refused and
-        counted above it) and while the queue has room (dropped and counted when full)."""
-        if not self._limits[type(event)].allow():
-            query.drop()
-            self._reject(ProtocolError("rate-limited", f"more {type(event).__name__}s than "
-                                                       f"this node answers per second"),
-                         str(query.key_expr))
+    def _offer(self, event: StateQuery | BlocksQuery | InfoQuery, query: zenoh.Query,
+               where: str) -> None:
+        """Queue a checked query for the main thread, within its asker's budget (refused
+        and counted above it) and while the queue has room (dropped and counted when
+        full)."""
+        if not self._budgets[type(event)].admit(asker(event)):
+            self._refuse(query, ProtocolError("over-budget", f"more {type(event).__name__}s "
+                                                             f"than this node serves "
+                                                             f"{asker(event)!r} per second"),
+                         where)
             return
         try:
             self._queue.put_nowait(event)
@@ -267,6 +324,11 @@ class NodeInbox:
             query.drop()
             with self._lock:
                 self.dropped[type(event).__name__] += 1
+
+    def _refuse(self, query: zenoh.Query, error: ProtocolError, where: str) -> None:
+        """Count a refused query and drop it: it is answered by nothing."""
+        self._reject(error, where)
+        query.drop()
 
     def _reject(self, error: ProtocolError, where: str, sender: str | None = None) -> None:
         self.rejects.reject(error, where)

@@ -61,7 +61,12 @@ from cavesim.core.wire import (
     encode,
 )
 from cavesim.core.wire.envelope import Envelope, Message
-from cavesim.core.wire.network import NetworkSettings, lockstep_publisher, open_session
+from cavesim.core.wire.network import (
+    NetworkSettings,
+    lockstep_publisher,
+    open_session,
+    zenoh_message,
+)
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
@@ -196,11 +201,11 @@ class WallNode:
                     self.heard = time.monotonic()
                     self._from_master(message, run_id)
                 case StateQuery(query, request):
-                    self._serve_state(query, request)
+                    self.inbox.spent(event, self._serve_state(query, request))
                 case BlocksQuery(query, request):
-                    self._serve_blocks(query, request)
+                    self.inbox.spent(event, self._serve_blocks(query, request))
                 case InfoQuery(query, run_id):
-                    self._answer_info(query, run_id)
+                    self.inbox.spent(event, self._answer_info(query, run_id))
                 case MasterPresence(up):
                     self._master_presence(up)
             self._check_master()
@@ -219,13 +224,21 @@ class WallNode:
 
     # -- joining a run, and the master's presence ----------------------------------------
 
-    def _answer_info(self, query: zenoh.Query, run_id: int) -> None:
-        """Our GPU, whether we are swap-locked, and the nonce a WELCOME must name."""
+    def _answer_info(self, query: zenoh.Query, run_id: int) -> int:
+        """Our GPU, whether we are swap-locked, and the nonce a WELCOME must name; the bytes
+        sent."""
         swap_locked = self.live is not None and self.live.screen.swap_locked
-        message = InfoMessage.of_gpu(self.done, self.config.wall, self.gpu, swap_locked,
-                                     self.view.nonce, self.scene_digest)
-        query.reply(self.keys.info(self.config.wall), self._seal(message, run_id))
-        query.drop()
+        message = self._seal(InfoMessage.of_gpu(self.done, self.config.wall, self.gpu,
+                                                swap_locked, self.view.nonce,
+                                                self.scene_digest), run_id)
+        try:
+            query.reply(self.keys.info(self.config.wall), message)
+        except zenoh.ZError as e:  # the master asking went away
+            log.info("%s: an info reply failed: %s", self.config.wall, zenoh_message(e))
+            return 0
+        finally:
+            query.drop()
+        return len(message)
 
     def _join(self, run_id: int, scene: str) -> None:
         """The master's WELCOME named our nonce: join its run, from the scene's start state
@@ -375,6 +388,8 @@ class WallNode:
         self.report_publisher.put(self._seal(report))
 
     def _seal(self, message: Message, run_id: int | None = None) -> bytes:
+        if isinstance(message, StateRequest | BlockRequest):  # whose budget it spends there
+            message = dataclasses.replace(message, asker=self.config.wall)
         return encode(message, self.config.session, self.config.credentials,
                       self.view.run_id or 0 if run_id is None else run_id)
 
@@ -414,9 +429,9 @@ class WallNode:
         if self.config.resync == "delta" and self._delta(command, failed_repliers, started):
             return
         deadline = started + transfer_seconds(self.system.capacity)
-        request = StateRequest(command.frame, source, command.digest)
-        sealed = self._seal(request)
         while deadline > time.monotonic():
+            request = StateRequest(command.frame, source, command.digest)  # a fresh nonce
+            sealed = self._seal(request)
             received = [len(sealed)]
             header = fetch_snapshot(self.session, self.keys.state(source), self.system,
                                     sealed, self._open_reply, request, deadline,
@@ -473,22 +488,30 @@ class WallNode:
                                     state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
                                     self._sample()))
 
-    def _serve_blocks(self, query: zenoh.Query, request: BlockRequest) -> None:
-        """Answer a question about the state we hold, if it is the one it names."""
+    def _serve_blocks(self, query: zenoh.Query, request: BlockRequest) -> int:
+        """Answer a question about the state we hold, if it is the one it names; the bytes
+        sent."""
         held = self.last_report
-        serve_blocks(query, self.keys.blocks(self.config.wall), self.system, self.config.wall,
-                     None if held is None else (held.frame, held.digest), request, self._seal)
+        return serve_blocks(query, self.keys.blocks(self.config.wall), self.system,
+                            self.config.wall,
+                            None if held is None else (held.frame, held.digest), request,
+                            self._seal)
 
-    def _serve_state(self, query: zenoh.Query, request: StateRequest) -> None:
-        """Stream our state to a resyncing node, if it is the one it asks for."""
+    def _serve_state(self, query: zenoh.Query, request: StateRequest) -> int:
+        """Stream our state to a resyncing node, if it is the one it asks for; the bytes
+        sent."""
         held = self.last_report
         if held is None or held.frame != request.frame or held.digest != request.digest:
-            log.info("%s: asked for the state of frame %d (%s); holding frame %d",
-                     self.config.wall, request.frame, request.digest[:8], self.done)
+            self.rejects.reject(ProtocolError("not-held", f"asked for the state of frame "
+                                                          f"{request.frame} "
+                                                          f"({request.digest[:8]}); holding "
+                                                          f"frame {self.done}"),
+                                self.keys.state(self.config.wall))
             query.drop()
-            return
-        send_snapshot(query, self.keys.state(self.config.wall), self.system, self.done,
+            return 0
+        return send_snapshot(query, self.keys.state(self.config.wall), self.system, self.done,
                       self._seal, self.config.chunk_particles)
+
 
 
 def main(config: NodeConfig) -> int:

@@ -19,6 +19,7 @@ from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import WALL
 from cavesim.core.wire.envelope import Envelope, Message
+from cavesim.core.wire.network import zenoh_message
 from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.replies import asking
@@ -82,8 +83,9 @@ class SnapshotLoad:
 
 def send_snapshot(query: zenoh.Query, key: str, system: ParticleSystem, frame: int,
                   seal: Callable[[Message], bytes],
-                  chunk_particles: int = CHUNK_PARTICLES) -> None:
-    """Answer `query` with the current state of `system`, frame `frame`, sealed by `seal`.
+                  chunk_particles: int = CHUNK_PARTICLES) -> int:
+    """Answer `query` with the current state of `system`, frame `frame`, sealed by `seal`;
+    the bytes sent (which the asker's serving budget is charged).
 
     A reply waits while the receiver's queue is full (zenoh closes a link blocked past its
     `wait_before_close`, 5 s by default); past the transfer's deadline the rest is not sent.
@@ -92,19 +94,26 @@ def send_snapshot(query: zenoh.Query, key: str, system: ParticleSystem, frame: i
     deadline = time.monotonic() + transfer_seconds(live)
     header = SnapshotHeader(frame, system.scene.seed, live, chunk_particles,
                             system.checksum().digest, system.read_emitters())
+    sent = 0
     try:
-        query.reply(key, seal(header))
+        sent += _reply(query, key, seal(header))
         for index, first, count in chunk_spans(live, chunk_particles):
             if time.monotonic() > deadline:
                 log.warning("snapshot of frame %d: deadline passed after %d of %d chunks",
                             frame, index, header.chunks)
-                return
+                break
             data = system.read_particle_chunk(first, count)
-            query.reply(key, seal(SnapshotChunk(frame, index, data)))
+            sent += _reply(query, key, seal(SnapshotChunk(frame, index, data)))
     except zenoh.ZError as e:  # the receiver went away
-        log.warning("snapshot of frame %d: a reply failed: %s", frame, e)
+        log.warning("snapshot of frame %d: a reply failed: %s", frame, zenoh_message(e))
     finally:
         query.drop()
+    return sent
+
+
+def _reply(query: zenoh.Query, key: str, data: bytes) -> int:
+    query.reply(key, data)
+    return len(data)
 
 
 def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, request: bytes,

@@ -3,8 +3,12 @@ refuses, counted by reason (nodes/wall/inbox.py)."""
 
 from __future__ import annotations
 
+import logging
+import time
+
 import numpy as np
 import pytest
+import zenoh
 
 from cavesim.core.frame import FrameInput
 from cavesim.core.wire import (
@@ -22,7 +26,9 @@ from cavesim.core.wire.credentials import generate
 from nodes.wall.inbox import (
     BLOCK_BURST,
     QUEUE,
+    REPEAT_SPACING,
     STATE_BURST,
+    STATE_BYTES,
     BlocksQuery,
     FromMaster,
     NodeInbox,
@@ -49,11 +55,20 @@ class Sample:
         self.key_expr, self.payload = key, Payload(data)
 
 
-class Query(Sample):
+class Query:
+    """A query as zenoh hands one over: once dropped, reading its key raises (as zenoh's
+    `Dropped query`)."""
+
     def __init__(self, key: str, data: bytes | None) -> None:
-        super().__init__(key, data or b"")
+        self._key = key
         self.payload = None if data is None else Payload(data)
         self.dropped, self.errors = False, []
+
+    @property
+    def key_expr(self) -> str:
+        if self.dropped:
+            raise zenoh.ZError("Dropped query")
+        return self._key
 
     def drop(self) -> None:
         self.dropped = True
@@ -128,13 +143,14 @@ def test_state_queries_need_the_key_the_run_and_this_wall_and_are_rate_limited(i
     for query in (unsigned, foreign, Query(KEYS.state("front"), None)):
         inbox._on_state_query(query)
         assert query.dropped
-    signed = [Query(KEYS.state("front"), encode(request, SESSION, MEMBER, RUN))
+    signed = [Query(KEYS.state("front"), encode(StateRequest(10, "front", "b" * 32),
+                                                SESSION, MEMBER, RUN))
               for _ in range(STATE_BURST + 3)]
     for query in signed:
         inbox._on_state_query(query)
     served = [e for e in delivered(inbox) if isinstance(e, StateQuery)]
     assert len(served) == STATE_BURST and all(q.dropped for q in signed[STATE_BURST:])
-    assert inbox.rejects.counts == {"unsigned": 2, "wrong-run": 1, "rate-limited": 3}
+    assert inbox.rejects.counts == {"unsigned": 2, "wrong-run": 1, "over-budget": 3}
     assert not unsigned.errors  # only the master's info query is told why
 
 
@@ -149,14 +165,16 @@ def test_block_queries_need_the_key_the_run_and_this_wall_and_are_rate_limited(i
     for query in (unsigned, foreign, other_wall, state):
         inbox._on_blocks_query(query)
         assert query.dropped
-    signed = [Query(KEYS.blocks("front"), encode(request, SESSION, MEMBER, RUN))
+    signed = [Query(KEYS.blocks("front"), encode(BlockRequest(
+        10, "front", "b" * 32, BlockQuery.TREE, 2), SESSION, MEMBER, RUN))
               for _ in range(BLOCK_BURST + 2)]
     for query in signed:
         inbox._on_blocks_query(query)
     served = [e for e in delivered(inbox) if isinstance(e, BlocksQuery)]
-    assert len(served) == BLOCK_BURST and served[0].request == request
+    assert len(served) == BLOCK_BURST
+    assert (served[0].request.query, served[0].request.part) == (request.query, request.part)
     assert inbox.rejects.counts == {"unsigned": 1, "wrong-run": 2, "unexpected": 1,
-                                    "rate-limited": 2}
+                                    "over-budget": 2}
 
 
 def test_an_info_query_whose_signature_fails_is_told_why(inbox):
@@ -173,3 +191,91 @@ def test_queries_are_dropped_and_counted_when_the_queue_is_full(inbox):
     inbox._on_info_query(query)
     assert query.dropped and inbox.dropped == {"InfoQuery": 1}
     assert len(delivered(inbox)) == QUEUE
+
+
+def state_query(frame: int = 10, asker: str = "left", run: int = RUN) -> Query:
+    return Query(KEYS.state("front"), encode(StateRequest(frame, "front", "b" * 32, asker),
+                                             SESSION, MEMBER, run))
+
+
+def test_a_query_of_an_earlier_run_is_counted_and_raises_nothing(inbox, caplog):
+    """zenoh raises on reading a dropped query's key: the refusal reads it first."""
+    caplog.set_level(logging.WARNING)
+    earlier = [state_query(run=OTHER_RUN) for _ in range(50)]
+    blocks = [Query(KEYS.blocks("front"), encode(BlockRequest(
+        10, "front", "b" * 32, BlockQuery.TREE, 2), SESSION, MEMBER, OTHER_RUN))
+        for _ in range(50)]
+    for query in earlier:
+        inbox._on_state_query(query)
+    for query in blocks:
+        inbox._on_blocks_query(query)
+    assert all(q.dropped for q in earlier + blocks) and not delivered(inbox)
+    assert inbox.rejects.counts == {"wrong-run": 100}
+    assert not any(r.exc_info for r in caplog.records) and len(caplog.records) == 1
+
+
+def test_a_replayed_query_is_refused_before_it_spends_anyones_budget(inbox):
+    """A query captured in this run and sent again, however often, is answered by nothing
+    and leaves the asker's budget whole: its next fresh query is served."""
+    captured = encode(StateRequest(10, "front", "b" * 32, "left"), SESSION, MEMBER, RUN)
+    replays = [Query(KEYS.state("front"), captured) for _ in range(1000)]
+    for query in replays:
+        inbox._on_state_query(query)
+    fresh = state_query()
+    inbox._on_state_query(fresh)
+    assert [e.query for e in delivered(inbox)] == [replays[0], fresh]
+    assert inbox.rejects.counts == {"replayed-query": 999}
+
+
+def test_a_query_of_a_frame_older_than_the_nodes_is_refused_as_stale(inbox):
+    inbox._on_state_query(state_query(frame=9))
+    inbox._on_state_query(state_query(frame=10))
+    assert [e.request.frame for e in delivered(inbox)] == [10]
+    assert inbox.rejects.counts == {"stale-query": 1}
+
+
+def test_each_asker_has_its_own_budget(inbox):
+    """A peer that spends its queries and bytes leaves another's resync untouched."""
+    flood = [state_query(asker="rogue") for _ in range(STATE_BURST + 20)]
+    for query in flood:
+        inbox._on_state_query(query)
+    first = delivered(inbox)
+    inbox.spent(first[0], STATE_BYTES * 4)  # one huge snapshot: in debt
+    inbox._on_state_query(state_query(asker="left"))
+    served = delivered(inbox)
+    assert len(first) == STATE_BURST and [e.request.asker for e in served] == ["left"]
+    assert inbox.rejects.counts == {"over-budget": 20}
+
+
+def test_a_replayed_info_query_is_refused(inbox):
+    captured = encode(InfoRequest(0, "front"), SESSION, MASTER, OTHER_RUN)
+    for _ in range(10):
+        inbox._on_info_query(Query(KEYS.info("front"), captured))
+    inbox._on_info_query(Query(KEYS.info("front"), encode(InfoRequest(0, "front"), SESSION,
+                                                          MASTER, RUN)))
+    assert [e.run_id for e in delivered(inbox)] == [OTHER_RUN, RUN]
+    assert inbox.rejects.counts == {"replayed-query": 9}
+
+
+def test_copies_of_a_queued_frame_are_let_through_one_at_a_time(inbox):
+    """The master sends a frame again after a barrier stall; a flood of copies of it is
+    counted, not queued (each would make the node publish its report again)."""
+    copy = frame(11)
+    started = time.monotonic()
+    for _ in range(1000):
+        inbox._on_frame(copy)
+    let_through = 2 + (time.monotonic() - started) / REPEAT_SPACING  # the frame, then copies
+    passed = delivered(inbox)
+    assert {e.message.frame for e in passed} == {11} and 2 <= len(passed) <= let_through
+    assert inbox.rejects.counts == {"repeated-frame": 1000 - len(passed)}
+
+
+def test_whatever_a_callback_raises_is_counted_in_one_line(inbox, caplog):
+    caplog.set_level(logging.INFO)
+    on_frame = inbox.rejects.guarded("a frame", inbox._on_frame)
+    for _ in range(100):
+        on_frame(Sample(KEYS.frame, None))  # a payload of no bytes: TypeError
+    assert inbox.rejects.counts == {"callback-failed": 100}
+    (line,) = [r for r in caplog.records if "callback-failed" in r.getMessage()
+               or "a frame raised" in r.getMessage()]
+    assert "a frame raised TypeError" in line.getMessage() and not line.exc_info

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from cavesim.core.wire.network import NetworkSettings, zenoh_config
+from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.wire.network import MAX_MESSAGE_BYTES, NetworkSettings, zenoh_config
+from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from nodes.arguments import (
     UsageError,
     add_network_arguments,
@@ -94,3 +96,10 @@ def test_bad_network_flags_are_one_usage_line(flags, line):
     with pytest.raises(UsageError) as e:
         network_and_key(parse(*flags), "master", "master")
     assert str(e.value).startswith(line) and "\n" not in str(e.value)
+
+
+@pytest.mark.parametrize("config_file", [None, LOCAL], ids=["embedded", "file"])
+def test_every_config_refuses_messages_larger_than_cavesim_sends(config_file):
+    config = zenoh_config(NetworkSettings(config_file=config_file))
+    assert setting(config, "transport/link/rx/max_message_size") == MAX_MESSAGE_BYTES
+    assert MAX_MESSAGE_BYTES >= MAX_CHUNK_PARTICLES * PARTICLE_BYTES + 2**12

@@ -189,8 +189,16 @@ def info_body(node: bytes = b"front", device: int = 0, flags: int = 1, nonce: in
         b"".join(map(name, texts)) + extra
 
 
+REQUEST_NONCE = 0x0123456789ABCDEF  # a request's nonce, fixed so that its bytes can be crafted
+
+
+def asked(asker: bytes = b"", nonce: int = REQUEST_NONCE) -> bytes:
+    """A request's tail: its nonce, then its asker's name (empty: none)."""
+    return struct.pack("<Q", nonce) + name(asker)
+
+
 def state_request_body(node: bytes = b"left", digest: bytes = bytes.fromhex(DIGEST)) -> bytes:
-    return name(node) + digest
+    return name(node) + digest + asked()
 
 
 BLOCK_REQUEST_HEAD = struct.Struct("<16sBBI")  # digest, query, part, index count
@@ -201,7 +209,7 @@ def block_request_body(query: int = BlockQuery.RECORDS, part: int = 0, indices=(
                        count: int | None = None) -> bytes:
     return name(b"left") + BLOCK_REQUEST_HEAD.pack(
         bytes.fromhex(DIGEST), query, part, len(indices) if count is None else count) \
-        + np.asarray(indices, "<u4").tobytes()
+        + np.asarray(indices, "<u4").tobytes() + asked()
 
 
 def block_reply_body(query: int = BlockQuery.TREE, part: int = 1, particles: int = 10,
@@ -449,10 +457,13 @@ def test_crafted_bytes_match_encode():
         f32_bits(1 / 60), MATRIX, params=(0.25,)))
     info = InfoMessage(1, "front", 0, True, "llvmpipe", "Mesa", "4.5 Mesa", True, U64 - 1)
     assert encode(info, SESSION) == craft(Kind.INFO, info_body(flags=0x03, nonce=U64 - 1))
-    assert encode(InfoRequest(4, "front"), SESSION) == craft(Kind.INFO_REQUEST, name(b"front"),
-                                                             frame=4)
-    assert encode(StateRequest(6, "left", DIGEST), SESSION) == craft(
+    assert encode(InfoRequest(4, "front", REQUEST_NONCE), SESSION) == craft(
+        Kind.INFO_REQUEST, name(b"front") + struct.pack("<Q", REQUEST_NONCE), frame=4)
+    assert encode(StateRequest(6, "left", DIGEST, nonce=REQUEST_NONCE), SESSION) == craft(
         Kind.STATE_REQUEST, state_request_body(), frame=6)
+    blocks = BlockRequest(2, "left", DIGEST, BlockQuery.RECORDS, 0, (3, 9), "front", 1)
+    assert encode(blocks, SESSION) == craft(Kind.BLOCK_REQUEST, block_request_body()[:-len(
+        asked())] + asked(b"front", 1), frame=2)
 
 
 def test_crafted_signatures_match_encode():
@@ -464,13 +475,14 @@ def test_crafted_signatures_match_encode():
     frame = FrameMessage(1, FrameInput(np.float32(1 / 60), MATRIX))
     assert encode(frame, SESSION, MASTER) == by_master(Kind.FRAME, frame_body(
         f32_bits(1 / 60), MATRIX))
-    assert encode(InfoRequest(4, "front"), SESSION, MASTER, U64) == by_master(
-        Kind.INFO_REQUEST, name(b"front"), frame=4, run_id=U64)
+    assert encode(InfoRequest(4, "front", REQUEST_NONCE), SESSION, MASTER, U64) == by_master(
+        Kind.INFO_REQUEST, name(b"front") + struct.pack("<Q", REQUEST_NONCE), frame=4,
+        run_id=U64)
     report = ReportMessage(1, "front", DIGEST, 1, 2, 3, 4, 5, Status.BEHIND)
     assert encode(report, SESSION, MEMBER, 1) == by_member(Kind.REPORT, report_body(status=4),
                                                            run_id=1)
-    assert encode(StateRequest(6, "left", DIGEST), SESSION, MEMBER) == by_member(
-        Kind.STATE_REQUEST, state_request_body(), frame=6)
+    assert encode(StateRequest(6, "left", DIGEST, nonce=REQUEST_NONCE), SESSION,
+                  MEMBER) == by_member(Kind.STATE_REQUEST, state_request_body(), frame=6)
 
 
 @pytest.mark.parametrize("message", MEMBER_EDGE_MESSAGES.values(),
@@ -726,6 +738,12 @@ REJECTIONS = [
     ("info-request-signed-name-empty", by_master(Kind.INFO_REQUEST, name(b"")), MEMBER,
      "bad-payload"),
     ("state-request-empty", craft(Kind.STATE_REQUEST, b""), None, "bad-payload"),
+    ("state-request-without-nonce", craft(Kind.STATE_REQUEST, name(b"left") + bytes.fromhex(
+        DIGEST)), None, "bad-payload"),
+    ("state-request-asker-slash", craft(Kind.STATE_REQUEST, name(b"left") + bytes.fromhex(
+        DIGEST) + asked(b"a/b")), None, "bad-payload"),
+    ("block-request-without-nonce", craft(Kind.BLOCK_REQUEST, block_request_body()[:-len(
+        asked())]), None, "bad-payload"),
     ("state-request-digest-short", craft(Kind.STATE_REQUEST, state_request_body()[:-1]), None,
      "bad-payload"),
     ("state-request-stray-byte", craft(Kind.STATE_REQUEST, state_request_body() + b"\x00"),

@@ -55,7 +55,8 @@ VERSION = 7  # 2: frames carry the head pose; 3: snapshots stream as a header an
 # 5: a report may end in a drift sample (the mixed-hardware tolerance mode); 6: a particle
 # record's last word carries the position's low part beside the class (a snapshot or block
 # reply, which an older build would read as a class); 7: a wall's or tracker's card and own
-# signature, and a tracking message's send time
+# signature, a tracking message's send time, and requests that end in a fresh nonce (state
+# and block requests also name their asker)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 # the versions whose frame message (kind, header and payload) is this build's: a frame log
 # recorded by any of them replays (on the wire, only VERSION is spoken)

@@ -4,7 +4,8 @@ built. The flags that fill the settings are parsed at the edge (`nodes/arguments
 Embedded default: peer mode on loopback, multicast scouting off, gossip on (peers that
 connect to the master learn of each other and connect directly, so a node can fetch a
 snapshot from another node without a router). Several hosts: explicit endpoints, or a
-zenoh JSON5 config file from config/zenoh/.
+zenoh JSON5 config file from config/zenoh/. Whichever: zenoh refuses a message larger than
+the largest cavesim sends (MAX_MESSAGE_BYTES) before buffering it.
 """
 
 from __future__ import annotations
@@ -18,11 +19,17 @@ from pathlib import Path
 import zenoh
 
 from cavesim.core.errors import ClusterError
+from cavesim.core.records import PARTICLE_BYTES
+from cavesim.core.wire.payloads.state_transfer import MAX_BLOCK_BYTES, MAX_CHUNK_PARTICLES
 
 # Zenoh lingers 10 s on closing a lost peer's TCP socket (eclipse-zenoh/zenoh#1101); with
 # its default single tx thread that froze the healthy peers' traffic when a wall's link
 # was cut. More runtime threads keep the barrier going. Never "": zenoh then fails to start.
 RUNTIME_THREADS = "(tx: (worker_threads: 2), rx: (worker_threads: 3))"
+# The largest message: a snapshot's chunk (a block reply is smaller), with room for the
+# envelope, the signatures and zenoh's own framing. Zenoh's default is 1 GiB, so 45 junk
+# messages of 64 MB once grew the master by 300 MB; a larger message is now dropped.
+MAX_MESSAGE_BYTES = max(MAX_CHUNK_PARTICLES * PARTICLE_BYTES, MAX_BLOCK_BYTES) + 2**16
 
 
 @dataclass(frozen=True)
@@ -53,6 +60,7 @@ def zenoh_config(settings: NetworkSettings) -> zenoh.Config:
         config = zenoh.Config()
         config.insert_json5("mode", '"peer"')
         config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("transport/link/rx/max_message_size", str(MAX_MESSAGE_BYTES))
     if settings.listen:
         config.insert_json5("listen/endpoints", json.dumps(list(settings.listen)))
     if settings.connect:

@@ -6,7 +6,9 @@ from Zenoh's callback threads at once (it holds a lock). Counts are exact; the l
 rate-limited per reason: the first reject of a reason is logged at once, later ones at most
 once per `interval`, as one line saying how many more came (written when a reject arrives
 after the interval: no timer thread), and `flush()` writes what is left and the exact
-counts at the end of a run.
+counts at the end of a run. `guarded` wraps a Zenoh callback so that nothing it raises
+escapes to Zenoh's thread (which would print a traceback per message): it is counted as
+`callback-failed` and logged like any reject.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from cavesim.core.errors import ProtocolError
 
@@ -67,6 +70,20 @@ class RejectCounter:
         if line is not None:
             log.warning(line)
 
+    def guarded(self, name: str, callback: Callable[[Any], None]) -> Callable[[Any], None]:
+        """`callback` (called `name` in the log) for Zenoh's threads: whatever it raises is
+        counted as a `callback-failed` reject and logged at the same bounded rate, in one
+        line and without a traceback. A last resort: callbacks refuse bad input themselves."""
+        def run(received: Any) -> None:
+            try:
+                callback(received)
+            except Exception as e:  # noqa: BLE001 - nothing may reach Zenoh's thread
+                text = " ".join(str(e).split()) or "no message"
+                self.reject(ProtocolError("callback-failed", f"{name} raised "
+                                                             f"{type(e).__name__}: {text}"),
+                            _key_of(received))
+        return run
+
     def flush(self) -> None:
         """Log the rejects not yet logged, and one closing line with every reason's exact
         count (nothing when there were none); for the end of a run."""
@@ -103,6 +120,14 @@ class RejectCounter:
                 f"{_messages(unlogged.count)} in the last {now - unlogged.since:.0f} s "
                 f"({self._counts[reason]:,} in all); the last on {unlogged.key}: "
                 f"{unlogged.error}")
+
+
+def _key_of(received: Any) -> str:
+    """The key a sample or query came on, where it can still be read."""
+    try:
+        return str(received.key_expr)
+    except Exception:  # noqa: BLE001 - a dropped query, or a reply, has none to read
+        return "a reply or dropped query"
 
 
 def _messages(count: int) -> str:

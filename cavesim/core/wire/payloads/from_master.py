@@ -4,8 +4,9 @@
 from __future__ import annotations
 
 import math
+import secrets
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum
 
 import numpy as np
@@ -18,6 +19,7 @@ from cavesim.core.wire.payloads.poses import HeadState, WandState
 MAX_PARAMS = 32
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 _CONTROL_TAIL = struct.Struct("<16sQ")  # a digest (RESYNC, WELCOME), nonce (WELCOME)
+_INFO_NONCE = struct.Struct("<Q")  # an info request's own nonce, after the node's name
 
 
 class Command(IntEnum):
@@ -49,10 +51,12 @@ class ControlMessage:
 
 @dataclass(frozen=True)
 class InfoRequest:
-    """The master's question to a node: which GPU do you compute on, and your nonce?"""
+    """The master's question to a node: which GPU do you compute on, and your nonce? Its
+    own `nonce` is fresh: a node takes each once (a replayed question is refused)."""
 
     frame: int
     node: str
+    nonce: int = field(default_factory=lambda: secrets.randbits(64))
 
 
 def write_frame(m: FrameMessage) -> bytes:
@@ -117,11 +121,15 @@ def read_control(frame: int, payload: bytes) -> ControlMessage:
 
 
 def write_info_request(m: InfoRequest) -> bytes:
-    return name_bytes(m.node)
+    if not 0 <= m.nonce < 2**64:
+        raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
+    return name_bytes(m.node) + _INFO_NONCE.pack(m.nonce)
 
 
 def read_info_request(frame: int, payload: bytes) -> InfoRequest:
     node, rest = read_name(payload)
-    if rest:
-        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info request")
-    return InfoRequest(frame, node)
+    if len(rest) != _INFO_NONCE.size:
+        raise ProtocolError("bad-payload", f"an info request ends in {len(rest)} bytes, "
+                                           f"expected its {_INFO_NONCE.size}-byte nonce")
+    (nonce,) = _INFO_NONCE.unpack(rest)
+    return InfoRequest(frame, node, nonce)

@@ -1,9 +1,12 @@
 """A node's state on the wire, asked for by a resyncing node or the master's forensics: a
 state request answered by a snapshot's header and chunks, and block requests answered by
-the items of the checksum's tree or whole records."""
+the items of the checksum's tree or whole records. A request ends in a fresh nonce (a node
+takes each nonce once: a replayed request is refused) and the name of its asker (whose
+serving budget it is charged to)."""
 
 from __future__ import annotations
 
+import secrets
 import struct
 from dataclasses import dataclass, field
 from enum import IntEnum
@@ -17,13 +20,14 @@ from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
-MAX_CHUNK_PARTICLES = 2**26 // PARTICLE_BYTES  # 64 MiB, far below zenoh's 1 GiB messages
+MAX_CHUNK_PARTICLES = 2**23 // PARTICLE_BYTES  # 8 MiB: the largest message (network.py)
 MAX_BLOCK_INDICES = 16_384  # items or records one block request names (64 KiB)
 MAX_BLOCK_BYTES = 4 * 2**20  # of a block reply's data, like a snapshot's chunk
 _SNAPSHOT = struct.Struct("<QIII16s")  # seed, particles, emitters, chunk particles, digest
 _CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _STATE_REQUEST = struct.Struct("<16s")  # the digest of the state asked for
 _BLOCK_REQUEST = struct.Struct("<16sBBI")  # digest, query, part, index count; then indices
+_ASKED = struct.Struct("<Q")  # a request's nonce, then its asker's name
 _BLOCK_REPLY = struct.Struct("<BBQIIB")  # query, part, seed, counts, history frames
 _HISTORY_FRAME = struct.Struct("<QII")  # frame, particles, emitters
 
@@ -35,6 +39,8 @@ class StateRequest:
     frame: int
     node: str
     digest: str
+    asker: str = ""  # the node asking ("master": the master)
+    nonce: int = field(default_factory=lambda: secrets.randbits(64))
 
 
 @dataclass(frozen=True)
@@ -86,6 +92,8 @@ class BlockRequest:
     query: BlockQuery
     part: int
     indices: tuple[int, ...] = ()  # ascending, at most MAX_BLOCK_INDICES
+    asker: str = ""  # the node asking ("master": the master)
+    nonce: int = field(default_factory=lambda: secrets.randbits(64))
 
 
 @dataclass(frozen=True)
@@ -120,17 +128,37 @@ class BlockReply:
         return ITEM_WORDS[self.part] * 4
 
 
+def write_asked(asker: str, nonce: int) -> bytes:
+    """A request's tail: its nonce and its asker."""
+    if not 0 <= nonce < 2**64:
+        raise ValueError(f"nonce must be in [0, 2**64), got {nonce}")
+    return _ASKED.pack(nonce) + name_bytes(asker, optional=True)
+
+
+def read_asked(tail: bytes, what: str) -> tuple[str, int]:
+    """(asker, nonce) of a request's tail, which must end there."""
+    if len(tail) < _ASKED.size:
+        raise ProtocolError("bad-payload", f"{what} ends before its nonce")
+    (nonce,) = _ASKED.unpack_from(tail)
+    asker, rest = read_name(tail[_ASKED.size:], optional=True)
+    if rest:
+        raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after a {what}")
+    return asker, nonce
+
+
 def write_state_request(m: StateRequest) -> bytes:
-    return name_bytes(m.node) + _STATE_REQUEST.pack(digest_bytes(m.digest))
+    return name_bytes(m.node) + _STATE_REQUEST.pack(digest_bytes(m.digest)) + write_asked(
+        m.asker, m.nonce)
 
 
 def read_state_request(frame: int, payload: bytes) -> StateRequest:
     node, rest = read_name(payload)
-    if len(rest) != _STATE_REQUEST.size:
+    if len(rest) < _STATE_REQUEST.size:
         raise ProtocolError("bad-payload", f"state request body of {len(rest)} bytes, "
-                                           f"expected {_STATE_REQUEST.size}")
-    (digest,) = _STATE_REQUEST.unpack(rest)
-    return StateRequest(frame, node, digest.hex())
+                                           f"expected at least {_STATE_REQUEST.size}")
+    (digest,) = _STATE_REQUEST.unpack_from(rest)
+    asker, nonce = read_asked(rest[_STATE_REQUEST.size:], "state request")
+    return StateRequest(frame, node, digest.hex(), asker, nonce)
 
 
 def write_snapshot(m: SnapshotHeader) -> bytes:
@@ -192,7 +220,8 @@ def write_block_request(m: BlockRequest) -> bytes:
                          f"{_PARTS[m.query]}) and 1 to {MAX_BLOCK_INDICES} ascending indices "
                          f"(a TREE request may name none), got {len(indices)}")
     return name_bytes(m.node) + _BLOCK_REQUEST.pack(
-        digest_bytes(m.digest), m.query, m.part, len(indices)) + indices.astype("<u4").tobytes()
+        digest_bytes(m.digest), m.query, m.part, len(indices)) + indices.astype(
+        "<u4").tobytes() + write_asked(m.asker, m.nonce)
 
 
 def read_block_request(frame: int, payload: bytes) -> BlockRequest:
@@ -203,15 +232,17 @@ def read_block_request(frame: int, payload: bytes) -> BlockRequest:
     digest, query, part, count = _BLOCK_REQUEST.unpack_from(rest)
     if query not in BlockQuery.__members__.values() or part not in _PARTS[BlockQuery(query)]:
         raise ProtocolError("bad-value", f"block query {query} of part {part} is unknown")
-    if count > MAX_BLOCK_INDICES or len(rest) != _BLOCK_REQUEST.size + 4 * count:
+    end = _BLOCK_REQUEST.size + 4 * count
+    if count > MAX_BLOCK_INDICES or len(rest) < end:
         raise ProtocolError("bad-payload", f"a block request of {count} indices in "
                                            f"{len(rest)} bytes (at most {MAX_BLOCK_INDICES})")
+    asker, nonce = read_asked(rest[end:], "block request")
     indices = np.frombuffer(rest, "<u4", count, _BLOCK_REQUEST.size).astype(np.int64)
     if np.any(np.diff(indices) <= 0) or (query != BlockQuery.TREE and not count):
         raise ProtocolError("bad-value", "block request indices must be ascending, and only "
                                          "a TREE request may name none")
     return BlockRequest(frame, node, digest.hex(), BlockQuery(query), part,
-                        tuple(indices.tolist()))
+                        tuple(indices.tolist()), asker, nonce)
 
 
 def write_block_reply(m: BlockReply) -> bytes:
