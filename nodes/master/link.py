@@ -46,6 +46,7 @@ from cavesim.core.wire.envelope import Envelope, new_run_id
 from cavesim.core.wire.guards import KeyMismatch
 from cavesim.core.wire.network import lockstep_publisher, open_session
 from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
+from cavesim.core.wire.payloads.state_transfer import MASTER_ASKER
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import BlockAsker
 from nodes.master.events import Described, Displayed, Event, Reported, WallDown, WallUp
@@ -53,7 +54,6 @@ from nodes.master.events import Described, Displayed, Event, Reported, WallDown,
 log = logging.getLogger("cavesim.master")
 INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
 EVENT_QUEUE = 4096  # events the master's loop may fall behind by
-MASTER_ASKER = "master"  # the asker a node charges the master's block questions to
 
 
 class ZenohMasterLink:

@@ -40,7 +40,9 @@ from cavesim.core.wire import (
     StateRequest,
     decode_envelope,
 )
+from cavesim.core.wire.credentials import WALL, Identity
 from cavesim.core.wire.guards import SIGNATURE_REASONS, FreshNonces, KeyMismatch, ServingBudget
+from cavesim.core.wire.payloads.state_transfer import MASTER_ASKER
 from cavesim.core.wire.rejects import RejectCounter
 
 log = logging.getLogger("cavesim.node")
@@ -226,6 +228,11 @@ class NodeInbox:
         request, view = envelope.message, self.view
         if envelope.run_id != view.run_id or request.node != view.wall:
             error = ProtocolError("wrong-run", f"a {what} query of another run or wall")
+        elif envelope.keyed and request.asker not in ("", MASTER_ASKER) \
+                and envelope.signer != Identity(WALL, request.asker):  # a wall's own budget
+            error = ProtocolError("wrong-signer", f"a {what} query in the name of "
+                                                  f"{request.asker!r} signed by "
+                                                  f"{envelope.signer or 'no member'}")
         elif not self._nonces.take(request.nonce):
             error = ProtocolError("replayed-query", f"a {what} query whose nonce was taken "
                                                     f"before")

@@ -22,7 +22,7 @@ from cavesim.core.wire import (
     StateRequest,
     encode,
 )
-from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.credentials import WALL, generate
 from nodes.wall.inbox import (
     BLOCK_BURST,
     QUEUE,
@@ -39,6 +39,7 @@ from nodes.wall.inbox import (
 SESSION, RUN, OTHER_RUN, NONCE = "inbox", 0xABC, 0xDEF, 77
 MASTER = generate()
 MEMBER = MASTER.for_members()
+WALLS = {name: MASTER.issue(WALL, name) for name in ("left", "rogue")}  # their own keys
 KEYS = SessionKeys(SESSION)
 
 
@@ -195,7 +196,7 @@ def test_queries_are_dropped_and_counted_when_the_queue_is_full(inbox):
 
 def state_query(frame: int = 10, asker: str = "left", run: int = RUN) -> Query:
     return Query(KEYS.state("front"), encode(StateRequest(frame, "front", "b" * 32, asker),
-                                             SESSION, MEMBER, run))
+                                             SESSION, WALLS[asker], run))
 
 
 def test_a_query_of_an_earlier_run_is_counted_and_raises_nothing(inbox, caplog):
@@ -217,7 +218,7 @@ def test_a_query_of_an_earlier_run_is_counted_and_raises_nothing(inbox, caplog):
 def test_a_replayed_query_is_refused_before_it_spends_anyones_budget(inbox):
     """A query captured in this run and sent again, however often, is answered by nothing
     and leaves the asker's budget whole: its next fresh query is served."""
-    captured = encode(StateRequest(10, "front", "b" * 32, "left"), SESSION, MEMBER, RUN)
+    captured = encode(StateRequest(10, "front", "b" * 32, "left"), SESSION, WALLS["left"], RUN)
     replays = [Query(KEYS.state("front"), captured) for _ in range(1000)]
     for query in replays:
         inbox._on_state_query(query)
@@ -279,3 +280,13 @@ def test_whatever_a_callback_raises_is_counted_in_one_line(inbox, caplog):
     (line,) = [r for r in caplog.records if "callback-failed" in r.getMessage()
                or "a frame raised" in r.getMessage()]
     assert "a frame raised TypeError" in line.getMessage() and not line.exc_info
+
+
+def test_a_query_in_another_walls_name_is_refused():
+    """A wall's serving budget is spent only by queries that wall signed."""
+    inbox = NodeInbox(SESSION, MEMBER, NodeView("front", NONCE, run_id=RUN, done=10))
+    forged = encode(StateRequest(10, "front", "b" * 32, "left"), SESSION, WALLS["rogue"], RUN)
+    inbox._on_state_query(Query(KEYS.state("front"), forged))
+    inbox._on_state_query(state_query(asker="left"))
+    assert [e.request.asker for e in delivered(inbox)] == ["left"]
+    assert inbox.rejects.counts == {"wrong-signer": 1}

@@ -28,6 +28,7 @@ _CHUNK = struct.Struct("<I")  # chunk index, then whole particle records
 _STATE_REQUEST = struct.Struct("<16s")  # the digest of the state asked for
 _BLOCK_REQUEST = struct.Struct("<16sBBI")  # digest, query, part, index count; then indices
 _ASKED = struct.Struct("<Q")  # a request's nonce, then its asker's name
+MASTER_ASKER = "master"  # the asker the master's block questions name
 _BLOCK_REPLY = struct.Struct("<BBQIIB")  # query, part, seed, counts, history frames
 _HISTORY_FRAME = struct.Struct("<QII")  # frame, particles, emitters
 
