@@ -1,11 +1,14 @@
-"""A resync under insiders: eight peers holding session.key answer the resyncing node's
-state query with a signed header of the wanted frame and checksum, then a broken chunk.
+"""A resync under insiders: eight peers, each holding a healthy wall's own key, answer the
+resyncing node's state query with a signed header of the wanted frame and checksum, then a
+broken chunk (those holding the key of the wall asked are followed until the chunk breaks;
+the others are refused by their signature).
 The node follows one replier at a time, drops each broken stream and no longer hears
 that replier, so it comes to the honest stream (the master resyncs it again if its first
 deadline passes first), and it still leaves on --master-wait once the master is gone."""
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import signal
@@ -22,8 +25,9 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import SessionKeys, StateRequest, encode
-from cavesim.core.wire.credentials import read_credentials, write_key_files
+from cavesim.core.wire.credentials import WALL, Credentials, generate
 from cavesim.core.wire.envelope import decode_envelope
+from cavesim.core.wire.key_files import write_key_files
 from cavesim.core.wire.network import NetworkSettings, open_session
 from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
 from nodes.faults import parse_fault
@@ -40,12 +44,14 @@ pytestmark = pytest.mark.slow
 
 
 class Forgers:
-    """FORGERS peers of their own, each answering every state query with a signed header of
-    the asked frame and checksum, then `broken` (a chunk sent twice, or a short one); each
-    holds its queries open, as a hostile peer would, until it is closed."""
+    """FORGERS peers of their own, each holding one of `insiders` in turn, answering every
+    state query with a signed header of the asked frame and checksum, then `broken` (a
+    chunk sent twice, or a short one); each holds its queries open, as a hostile peer
+    would, until it is closed."""
 
-    def __init__(self, endpoint: str, session: str, session_key: Path, broken: str) -> None:
-        self.name, self.member, self.broken = session, read_credentials(session_key), broken
+    def __init__(self, endpoint: str, session: str, insiders: list[Credentials],
+                 broken: str) -> None:
+        self.name, self.broken = session, broken
         self.emitters = len(load_scene(MINIMAL).emitters)
         self.keys = SessionKeys(session)
         self.answered = 0
@@ -53,12 +59,14 @@ class Forgers:
         self._lock = threading.Lock()
         self._sessions = [open_session(NetworkSettings(connect=(endpoint,)))
                           for _ in range(FORGERS)]
-        self._queryables = [s.declare_queryable(self.keys.state(), self._forge)
-                            for s in self._sessions]
+        self._queryables = [
+            s.declare_queryable(self.keys.state(),
+                                lambda query, member=member: self._forge(query, member))
+            for s, member in zip(self._sessions, itertools.cycle(insiders))]
 
-    def _forge(self, query: zenoh.Query) -> None:
+    def _forge(self, query: zenoh.Query, member: Credentials) -> None:
         try:
-            envelope = decode_envelope(query.payload.to_bytes(), self.name, self.member)
+            envelope = decode_envelope(query.payload.to_bytes(), self.name, member)
         except (ProtocolError, AttributeError):
             return
         request = envelope.message
@@ -71,7 +79,7 @@ class Forgers:
                                 np.zeros(self.emitters, EMITTER_DTYPE))
         try:
             for message in (header, chunk, second):
-                query.reply(str(query.key_expr), encode(message, self.name, self.member,
+                query.reply(str(query.key_expr), encode(message, self.name, member,
                                                         envelope.run_id))
         except zenoh.ZError:
             return
@@ -105,10 +113,12 @@ def wait_for_line(path: Path, texts: tuple[str, ...], seconds: float) -> str:
 @pytest.mark.parametrize("broken", ["duplicate", "short"])
 def test_a_resync_among_eight_forgers_heals_and_the_node_still_leaves_on_master_wait(
         tmp_path, broken):
-    master_key, session_key = write_key_files(tmp_path / "keys")
+    credentials = generate()
+    master_key, *_ = write_key_files(tmp_path / "keys", credentials, WALLS)
+    insiders = [credentials.issue(WALL, wall) for wall in WALLS if wall != "left"]
     session = f"forge{broken}{os.getpid()}"
-    with LocalCluster(MINIMAL, tmp_path, session, key_file=session_key) as cluster:
-        forgers = Forgers(cluster.master_endpoint, session, session_key, broken)
+    with LocalCluster(MINIMAL, tmp_path, session, keys=tmp_path / "keys") as cluster:
+        forgers = Forgers(cluster.master_endpoint, session, insiders, broken)
         try:
             for wall in WALLS:
                 faults = (parse_fault("bitflip@30:left"),) if wall == "left" else ()
