@@ -98,12 +98,13 @@ class RoguePeer:
         """Until this peer sees the master's and every wall's liveliness token (it reaches
         them all; after a master was killed, the new one)."""
         deadline = time.monotonic() + timeout
-        wanted = {*self.walls, self.keys.node_of(self.keys.master_alive)}
+        liveliness = self.zenoh.liveliness()
         while time.monotonic() < deadline:
-            seen = {self.keys.node_of(reply.ok.key_expr) for key in (self.keys.alive(),
-                                                                      self.keys.master_alive)
-                    for reply in self.zenoh.liveliness().get(key, timeout=1.0) if reply.ok}
-            if seen >= wanted:
+            walls = {self.keys.node_of(reply.ok.key_expr)
+                     for reply in liveliness.get(self.keys.alive(), timeout=1.0) if reply.ok}
+            master = any(reply.ok for reply in liveliness.get(self.keys.master_alive(),
+                                                              timeout=1.0))
+            if master and walls >= set(self.walls):
                 return
         raise ClusterError(f"the rogue peer did not reach the master and the walls within "
                            f"{timeout} s")

@@ -41,6 +41,14 @@ class WallDown:
 
 
 @dataclass(frozen=True)
+class OtherMaster:
+    """The liveliness token of another master of this session appeared: of run `run_id`."""
+
+    run_id: int
+    key: str
+
+
+@dataclass(frozen=True)
 class ProcessEnded:
     """A node process this machine started has exited while the run needed it: a failure
     (code other than 0) ends the run; a node that left on its own (its window was closed)
@@ -51,4 +59,4 @@ class ProcessEnded:
     failure: str  # one line: its exit code, its own last error line, its log
 
 
-Event = Reported | Described | Displayed | WallUp | WallDown | ProcessEnded
+Event = Reported | Described | Displayed | WallUp | WallDown | OtherMaster | ProcessEnded

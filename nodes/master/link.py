@@ -9,8 +9,10 @@ that refuses the master's signed queries, is named with a hint about --key-file.
 queue is bounded: when the master falls that far behind, further events are dropped and
 counted (the barrier asks again). Only the latest tracking message is kept, and only one
 of this run, signed by a tracker, fresh and newer than its sender's last. The master's
-liveliness token tells the nodes it is there; liveliness of the session's walls becomes
-WallUp/WallDown. Nothing a callback raises reaches Zenoh's thread (`RejectCounter.guarded`).
+liveliness token, keyed by its run id, tells the nodes it is there; another master's token
+becomes OtherMaster (one master per session), and liveliness of the session's walls
+WallUp/WallDown. Nothing a callback raises reaches Zenoh's thread
+(`RejectCounter.guarded`).
 """
 
 from __future__ import annotations
@@ -49,7 +51,15 @@ from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
 from cavesim.core.wire.payloads.state_transfer import MASTER_ASKER
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import BlockAsker
-from nodes.master.events import Described, Displayed, Event, Reported, WallDown, WallUp
+from nodes.master.events import (
+    Described,
+    Displayed,
+    Event,
+    OtherMaster,
+    Reported,
+    WallDown,
+    WallUp,
+)
 
 log = logging.getLogger("cavesim.master")
 INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
@@ -82,7 +92,10 @@ class ZenohMasterLink:
             session.liveliness().declare_subscriber(
                 self.keys.alive(), guarded("a wall's liveliness", self._on_alive),
                 history=True),
-            session.liveliness().declare_token(self.keys.master_alive),
+            session.liveliness().declare_subscriber(
+                self.keys.master_alive(), guarded("a master's liveliness", self._on_master),
+                history=True),
+            session.liveliness().declare_token(self.keys.master_alive(run_id)),
         ]
 
     def send(self, message: FrameMessage | ControlMessage) -> None:
@@ -145,6 +158,16 @@ class ZenohMasterLink:
         if wall in self.walls:
             up = sample.kind == zenoh.SampleKind.PUT
             self._post(WallUp(wall) if up else WallDown(wall))
+
+    def _on_master(self, sample: zenoh.Sample) -> None:
+        """Another master's token came: the master decides (it refuses to start, or keeps
+        its run); its going away changes nothing here."""
+        run_id = self.keys.run_of(sample.key_expr)
+        if run_id is None:
+            self._reject(ProtocolError("bad-master-token", "a master's liveliness token "
+                                                           "without a run id"), sample)
+        elif run_id != self.run_id and sample.kind == zenoh.SampleKind.PUT:
+            self._post(OtherMaster(run_id, str(sample.key_expr)))
 
     def _on_report(self, sample: zenoh.Sample) -> None:
         report = self._from_wall(sample, ReportMessage, "report")

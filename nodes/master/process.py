@@ -17,6 +17,10 @@ joined or fell behind, log the frame. Only frame k's reports are kept. It takes 
 events from a link (Zenoh in a real run, memory in the tests) and leaves the rules to
 `nodes/lockstep.py`; it needs no GL.
 
+One master per session: a master that finds another's liveliness token before its first
+frame refuses to start; one already running keeps its run and counts the other
+(`other-master`), whose WELCOME its nodes refuse.
+
 In the mixed-hardware mode the vote is each member's drift from an authority instead of its
 checksum (`nodes/master/tolerance.py`), and no forensics run: every wall's bits differ.
 """
@@ -35,7 +39,7 @@ import numpy as np
 
 from cavesim.core.clock import Clock
 from cavesim.core.drivers import driver_for
-from cavesim.core.errors import ClusterError
+from cavesim.core.errors import ClusterError, ProtocolError
 from cavesim.core.frame import FrameInput
 from cavesim.core.framelog import FrameLogWriter
 from cavesim.core.random_texture import draw_transform
@@ -63,6 +67,7 @@ from nodes.master.events import (
     Described,
     Displayed,
     Event,
+    OtherMaster,
     ProcessEnded,
     Reported,
     WallDown,
@@ -153,6 +158,7 @@ class Master:
                            config.max_substeps)
         self.head = ScriptedHead()
         self.stopping = False
+        self.refused = False  # another master was there first: the nodes are its own
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value)
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
@@ -207,8 +213,23 @@ class Master:
             case WallDown(wall):
                 self.up.discard(wall)
                 self.membership, _ = self.membership.went_down(wall, self.config.on_loss)
+            case OtherMaster(run_id, key):
+                self._other_master(run_id, key)
             case ProcessEnded(_, code, failure) if code != 0 and not self.stopping:
                 raise ClusterError(failure)
+
+    def _other_master(self, run_id: int, key: str) -> None:
+        """One master per session: before its first frame, this master refuses to start
+        beside another (ClusterError); once running, it keeps its run (its nodes refuse the
+        other's WELCOME while it is alive) and counts the other."""
+        ours, session = self.link.run_id, self.config.session
+        if self.frame == 0:
+            self.refused = True
+            raise ClusterError(f"another master's run {run_id:016x} is on session {session}: "
+                               f"refusing to start run {ours:016x}; stop that master first")
+        self.link.rejects.reject(ProtocolError(
+            "other-master", f"another master's run {run_id:016x} came on session {session}; "
+            f"keeping run {ours:016x}, whose nodes refuse the other"), key)
 
     def _ask_info(self, wall: str) -> None:
         self.asked[wall] = time.monotonic()
@@ -316,10 +337,13 @@ class Master:
                                                  if w not in members))
 
     def stop(self, wait: float = STOP_WAIT) -> None:
-        """Tell every node to STOP, and wait (on liveliness) until they have left. The STOP
-        names the newest frame sent (a node refuses a command older than that as a replay),
-        which is one past the last done when the run was interrupted in a barrier."""
+        """Tell every node to STOP, and wait (on liveliness) until they have left (a master
+        refused beside another says nothing). The STOP names the newest frame sent (a node
+        refuses a command older than that as a replay), which is one past the last done
+        when the run was interrupted in a barrier."""
         self.stopping = True
+        if self.refused:
+            return  # not a word to the other master's nodes
         self.link.send(ControlMessage(self.frame, Command.STOP))
         deadline = time.monotonic() + wait
         while self.membership.alive and time.monotonic() < deadline:

@@ -1,7 +1,9 @@
 """What reaches a wall node's main thread, checked first on Zenoh's threads.
 
 Nothing unchecked is queued: a frame or a command must carry the master's signature (in a
-session with credentials) and this run's id, a WELCOME this node's own fresh nonce, a frame
+session with credentials) and this run's id, a WELCOME this node's own fresh nonce (and, once
+the node is in a run, that run's master must be gone: a node never leaves a live master for
+another; the masters' liveliness tokens, keyed by run id, say which are there), a frame
 must not be older than the node's, a command not older than the newest frame the master
 sent (a RESYNC replayed from earlier in the same run is refused); a state or block query
 must be signed, of this run, for this wall and not of a frame older than the node's; an info
@@ -96,8 +98,9 @@ class InfoQuery:
 
 @dataclass(frozen=True)
 class MasterPresence:
-    """The master's liveliness token appeared (True) or went away (False)."""
+    """The liveliness token of the master of run `run_id` appeared (True) or went away."""
 
+    run_id: int
     up: bool
 
 
@@ -113,6 +116,7 @@ class NodeInbox:
     def __init__(self, session_name: str, credentials: Credentials | None,
                  view: NodeView) -> None:
         self.session_name, self.credentials, self.view = session_name, credentials, view
+        self.keys = SessionKeys(session_name)
         self.rejects = RejectCounter(f"node {view.wall}")
         self.mismatch = KeyMismatch(f"node {view.wall}")
         self.dropped: Counter[str] = Counter()  # queries the full queue could not take
@@ -126,6 +130,7 @@ class NodeInbox:
         self._copy_at = -REPEAT_SPACING  # when the last copy of a queued frame was queued
         self._queue: queue.Queue[NodeEvent] = queue.Queue(maxsize=QUEUE)
         self._lock = threading.Lock()
+        self._masters: set[int] = set()  # the runs whose master's token is there
 
     def declare(self, session: zenoh.Session, keys: SessionKeys) -> list:
         wall, guarded = self.view.wall, self.rejects.guarded
@@ -139,7 +144,7 @@ class NodeInbox:
             session.declare_queryable(keys.info(wall),
                                       guarded("an info query", self._on_info_query)),
             session.liveliness().declare_subscriber(
-                keys.master_alive, guarded("the master's liveliness", self._on_master),
+                keys.master_alive(), guarded("the master's liveliness", self._on_master),
                 history=True),
         ]
 
@@ -155,6 +160,17 @@ class NodeInbox:
 
     def master_hint(self) -> str | None:
         return self.mismatch.hint(MASTER)
+
+    def refuses_hop(self, run_id: int, where: str) -> bool:
+        """Whether a WELCOME into run `run_id` is refused (and counted): a node stays in
+        the run it joined while that run's master is alive, whatever another master says."""
+        joined = self.view.run_id
+        if joined is None or run_id == joined or not self._master_alive(joined):
+            return False
+        self._reject(ProtocolError("other-master", f"a WELCOME into run {run_id:#018x}; "
+                                                   f"this node is in run {joined:#018x}, "
+                                                   f"whose master is alive"), where)
+        return True
 
     # -- zenoh callbacks ---------------------------------------------------------------
 
@@ -197,7 +213,7 @@ class NodeInbox:
                 self._reject(ProtocolError("stale-welcome", "a WELCOME naming a nonce this "
                                                             "node does not hold (a replay)"),
                              where)
-            else:
+            elif not self.refuses_hop(envelope.run_id, where):
                 self._queue.put(FromMaster(message, envelope.run_id))
         elif self._of_this_run(envelope.run_id, where):
             if message.frame < view.heard:  # the master's commands name the frame in flight
@@ -256,7 +272,23 @@ class NodeInbox:
             self._offer(InfoQuery(query, envelope.run_id), query, where)
 
     def _on_master(self, sample: zenoh.Sample) -> None:
-        self._queue.put(MasterPresence(sample.kind == zenoh.SampleKind.PUT))
+        where = str(sample.key_expr)
+        run_id = self.keys.run_of(where)
+        if run_id is None:
+            self._reject(ProtocolError("bad-master-token", "a master's liveliness token "
+                                                           "without a run id"), where)
+            return
+        up = sample.kind == zenoh.SampleKind.PUT
+        with self._lock:
+            if up:
+                self._masters.add(run_id)
+            else:
+                self._masters.discard(run_id)
+        self._queue.put(MasterPresence(run_id, up))
+
+    def _master_alive(self, run_id: int | None) -> bool:
+        with self._lock:
+            return run_id in self._masters
 
     # -- checks ------------------------------------------------------------------------
 
@@ -288,8 +320,13 @@ class NodeInbox:
                                                      "joined"), where)
             return False
         if run_id != joined:
-            self._reject(ProtocolError("wrong-run", f"run {run_id:#018x}, this node's is "
-                                                    f"{joined:#018x}"), where)
+            if self._master_alive(run_id):  # a master beside ours: the node stays in its run
+                error = ProtocolError("other-master", f"run {run_id:#018x} of another "
+                                                      f"master, this node's is {joined:#018x}")
+            else:
+                error = ProtocolError("wrong-run", f"run {run_id:#018x}, this node's is "
+                                                   f"{joined:#018x}")
+            self._reject(error, where)
             return False
         return True
 

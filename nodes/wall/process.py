@@ -6,8 +6,9 @@ one window showing every wall). Zenoh's threads check every message before it re
 main thread (`nodes/wall/inbox.py`); the main thread, which owns the GL context, does
 all work:
 an info query -> answer with our GPU and a fresh nonce; the master's WELCOME naming that
-nonce -> join its run (a node that held another run starts over from the scene's start
-state) and report JOINED; frame k -> step, checksum, report k; a repeated frame -> repeat
+nonce -> join its run (a node that held another run, whose master is gone, starts over
+from the scene's start state; while that master is alive, the WELCOME is refused) and
+report JOINED; frame k -> step, checksum, report k; a repeated frame -> repeat
 the report; a frame ahead of us -> report BEHIND and wait for a resync; RESYNC -> stream the
 named node's snapshot of the named frame and checksum in, and load it only whole and
 verified; a state query -> stream our snapshot out (nodes/wall/snapshots.py); STOP ->
@@ -206,15 +207,18 @@ class WallNode:
                     self.inbox.spent(event, self._serve_blocks(query, request))
                 case InfoQuery(query, run_id):
                     self.inbox.spent(event, self._answer_info(query, run_id))
-                case MasterPresence(up):
-                    self._master_presence(up)
+                case MasterPresence(run_id, up):
+                    self._master_presence(run_id, up)
             self._check_master()
 
     def _from_master(self, message: FrameMessage | ControlMessage, run_id: int) -> None:
         if isinstance(message, FrameMessage):
             self._on_frame(message)
         elif message.command is Command.WELCOME:
-            self._join(run_id, message.digest)
+            # the inbox checked it, but a second master's WELCOME may have been queued
+            # before the first one's was joined
+            if not self.inbox.refuses_hop(run_id, self.keys.control):
+                self._join(run_id, message.digest)
         elif message.command is Command.STOP:
             self.running = False
         elif message.command is Command.SWAP and self.live is not None:
@@ -269,10 +273,13 @@ class WallNode:
         if self.live is not None:
             self.live.pending = None
 
-    def _master_presence(self, up: bool) -> None:
+    def _master_presence(self, run_id: int, up: bool) -> None:
+        """Only the master of our run counts: another one's token does not hold us."""
+        if run_id != self.view.run_id:
+            return
         if up:
             self.master_gone_at = None
-        elif self.view.run_id is not None and self.master_gone_at is None:
+        elif self.master_gone_at is None:
             self.master_gone_at = time.monotonic()
             if self.config.on_master_loss == "wait":
                 log.warning("%s: %s (run %016x); waiting up to %g s for a new master "

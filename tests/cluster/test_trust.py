@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from master_process import spawn_master
+from master_process import progress_until, spawn_master
 
 from cavesim.core.wire.credentials import generate
 from cavesim.core.wire.key_files import write_key_files
@@ -25,14 +25,6 @@ MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left")
 
 pytestmark = pytest.mark.slow
-
-
-def progress_until(master: subprocess.Popen, frame: int) -> int:
-    """Read the master's JSON progress lines until `frame`; the last frame read."""
-    for line in master.stdout:
-        if json.loads(line)["frame"] >= frame:
-            return frame
-    raise AssertionError(f"the master ended before frame {frame}")
 
 
 def test_a_sigkilled_master_is_noticed_and_a_new_master_takes_the_nodes_over(tmp_path):

@@ -31,6 +31,7 @@ from nodes.wall.inbox import (
     STATE_BYTES,
     BlocksQuery,
     FromMaster,
+    MasterPresence,
     NodeInbox,
     NodeView,
     StateQuery,
@@ -76,6 +77,14 @@ class Query:
 
     def reply_err(self, text: str) -> None:
         self.errors.append(text)
+
+
+class Token:
+    """A liveliness sample: a token under `key` appeared (PUT) or went away (DELETE)."""
+
+    def __init__(self, key: str, up: bool) -> None:
+        self.key_expr = key
+        self.kind = zenoh.SampleKind.PUT if up else zenoh.SampleKind.DELETE
 
 
 def frame(k: int, run: int = RUN, credentials=MASTER) -> Sample:
@@ -290,3 +299,35 @@ def test_a_query_in_another_walls_name_is_refused():
     inbox._on_state_query(state_query(asker="left"))
     assert [e.request.asker for e in delivered(inbox)] == ["left"]
     assert inbox.rejects.counts == {"wrong-signer": 1}
+
+
+def welcome(run: int) -> Sample:
+    return control(ControlMessage(0, Command.WELCOME, "front", nonce=NONCE), run)
+
+
+def test_while_its_master_is_alive_a_node_refuses_another_masters_welcome_and_frames(inbox):
+    for run in (RUN, OTHER_RUN):
+        inbox._on_master(Token(KEYS.master_alive(run), up=True))
+    inbox._on_control(welcome(OTHER_RUN))
+    inbox._on_frame(frame(11, OTHER_RUN))
+    inbox._on_frame(frame(11, 0x123))  # of a run whose master is not there: a replay
+    assert inbox.refuses_hop(OTHER_RUN, KEYS.control)  # a WELCOME queued before the join
+    assert not inbox.refuses_hop(RUN, KEYS.control)
+    assert delivered(inbox) == [MasterPresence(RUN, True), MasterPresence(OTHER_RUN, True)]
+    assert inbox.rejects.counts == {"other-master": 3, "wrong-run": 1}
+
+
+def test_once_its_masters_token_is_gone_a_node_takes_a_new_masters_welcome(inbox):
+    inbox._on_master(Token(KEYS.master_alive(RUN), up=True))
+    inbox._on_master(Token(KEYS.master_alive(OTHER_RUN), up=True))
+    inbox._on_master(Token(KEYS.master_alive(RUN), up=False))
+    inbox._on_control(welcome(OTHER_RUN))
+    *presence, joining = delivered(inbox)
+    assert presence[-1] == MasterPresence(RUN, False)
+    assert isinstance(joining, FromMaster) and joining.run_id == OTHER_RUN
+    assert not inbox.rejects.counts
+
+
+def test_a_master_token_without_a_run_id_is_refused(inbox):
+    inbox._on_master(Token(f"{KEYS.prefix}/master_alive/not-a-run", up=True))
+    assert not delivered(inbox) and inbox.rejects.counts == {"bad-master-token": 1}

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from cavesim.core.limits import NAME_RE
+
+RUN_RE = re.compile(r"[0-9a-f]{16}")  # a run id in a key: as master_alive writes it
 
 
 def check_name(what: str, name: str) -> str:
@@ -59,10 +62,16 @@ class SessionKeys:
     def alive(self, node: str = "*") -> str:
         return f"{self.prefix}/alive/{node}"
 
-    @property
-    def master_alive(self) -> str:
-        """The master's liveliness token: nodes notice when the master is gone."""
-        return f"{self.prefix}/master_alive"
+    def master_alive(self, run_id: int | None = None) -> str:
+        """The liveliness token of the master of run `run_id` (None: of every master): a
+        node notices when its master is gone, a master that another one is there."""
+        run = "*" if run_id is None else f"{run_id:016x}"
+        return f"{self.prefix}/master_alive/{run}"
+
+    def run_of(self, key: str) -> int | None:
+        """The run id at the end of a master's liveliness key (None: not 16 hex digits)."""
+        run = self.node_of(key)
+        return int(run, 16) if RUN_RE.fullmatch(run) else None
 
     def node_of(self, key: str) -> str:
         """The wall name at the end of a report, state, blocks, info or alive key."""
