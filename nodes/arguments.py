@@ -201,11 +201,13 @@ def read_key(path: Path | None, role: str, name: str | None = None) -> Credentia
     return None if path is None else read_key_file(path, role, name)
 
 
-def network_and_key(args: argparse.Namespace, command: str, role: str,
+def network_and_key(args: argparse.Namespace, command: str, role: str | None = None,
                     name: str | None = None):
-    """The zenoh settings and this process's key from the network flags (UsageError)."""
+    """The zenoh settings and this process's key from the network flags (UsageError); the
+    key must be that of `role` (and member `name`), and with no role it is not read."""
     try:
-        return network_settings(args), read_key(args.key_file, role, name)
+        key = None if role is None else read_key(args.key_file, role, name)
+        return network_settings(args), key
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e
 

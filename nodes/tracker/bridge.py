@@ -161,9 +161,10 @@ def main(config: TrackerConfig, stop: threading.Event | None = None) -> TrackerC
                     data, sender = udp.recvfrom(MAX_DATAGRAM + 1)  # a larger one is refused
                 except TimeoutError:
                     continue
-                if not bridge.counts.datagrams:
-                    log.info("first DTrack datagram, from %s:%d", *sender)
+                first = not bridge.counts.datagrams
                 bridge.receive(data, time.monotonic())
+                if first:  # said once it is counted
+                    log.info("first DTrack datagram, from %s:%d", *sender)
         except KeyboardInterrupt:
             log.info("interrupted")
         finally:

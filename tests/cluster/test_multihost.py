@@ -227,7 +227,8 @@ def test_launch_passes_the_zenoh_config_and_real_time_to_the_hosts(tmp_path):
     hosts = tmp_path / "hosts"
     hosts.write_text('master 10.9.9.1 via="ip netns exec m"\nnode front 10.9.9.2 via=\n')
     done = subprocess.run([str(LAUNCH), "--hosts", str(hosts), "--config", ZENOH_CONFIG,
-                           "--realtime", "--dry-run"], cwd=ROOT, capture_output=True,
+                           "--realtime", "--insecure", "--dry-run"], cwd=ROOT,
+                          capture_output=True,
                           text=True, timeout=30)
     assert done.returncode == 0, done.stderr
     master, node = [argv for argv in map(str.split, done.stdout.splitlines())

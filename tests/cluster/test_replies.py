@@ -74,6 +74,8 @@ def test_replies_beyond_the_buffer_are_dropped_and_counted_without_blocking(pair
 
     queryable = replier.declare_queryable(KEY, flood)
     try:
+        ask_until_answered(asker, time.monotonic() + 10, 2**20)  # the queryable is known
+        sent.clear()
         with asking(asker, KEY, time.monotonic() + 10, 4 * REPLY_FLOOR,
                     consolidation=EVERY_REPLY) as replies:
             assert sent.wait(10), "the replier was blocked by a reader that did not read"

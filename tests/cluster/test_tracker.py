@@ -63,7 +63,9 @@ def test_before_a_target_is_seen_it_has_the_default_pose():
     state, missing = state_after(NOTHING, HEAD_LOST)
     assert missing == [("head", "wand"), ("head",)]
     assert state.head == HeadState() and state.wand.buttons == 1
-    assert state.message(9) == TrackingMessage(9, HeadState(), state.wand)
+    message = state.message(9)  # stamped with its send time
+    assert message == TrackingMessage(9, HeadState(), state.wand, message.sent_ns)
+    assert abs(message.sent_ns - time.time_ns()) < 5e9
 
 
 def test_a_wand_on_a_standard_body_has_no_buttons_and_an_absent_flystick_keeps_its_own():

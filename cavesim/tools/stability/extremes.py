@@ -117,7 +117,7 @@ def bad_dt() -> list[dict]:
 def bad_wand() -> list[dict]:
     rows = []
     for name, value in (("NaN wand", math.nan), ("infinite wand", math.inf)):
-        body = TRACKING.pack(0, 0, 1.7, 0, 0, 0, 1, value, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0)
+        body = TRACKING.pack(0, 0, 1.7, 0, 0, 0, 1, value, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0)
         data = HEADER.pack(MAGIC, VERSION, Kind.TRACKING, 0, 0, session_id("s"), 0, 0,
                            len(body)) + body
         try:
