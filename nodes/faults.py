@@ -11,10 +11,11 @@ NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove")
 # the node does them to itself; jitter and shove make it drift, as another GPU's rounding
 # would and far beyond any tolerance (nodes/wall/drift_sample.py)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
-                  "flood")
+                  "flood", "report-forgery")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
-# snapshots to a node it makes diverge, flood the nodes with junk and state queries
+# snapshots to a node it makes diverge, flood the nodes with junk and state queries, and
+# report in every other wall's name with one wall's key
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
 FLIPPED_BIT = 20  # of the word a bitflip changes: a mantissa bit of a float32 field

@@ -160,6 +160,19 @@ def _forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evi
                     if healed_at is not None else f"{fault.node} was not healed")
 
 
+def _report_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """Reports in other walls' names: detected when the master refused them by their
+    signer, healed when no report of theirs made a divergence."""
+    forged = harness.rogue.sent.get("report-in-another-wall's-name", 0)
+    refused = record.master_rejected.get("wrong-signer", 0)
+    caught = fault.frame if forged and refused >= forged else None
+    return Evidence(
+        caught, healed_at=caught if record.divergences.total == 0 else None,
+        detection={"forged_reports": forged, "refused_by_master_as_wrong_signer": refused},
+        outcome=f"{record.frames} frames ran to the end with {record.divergences.total} "
+                f"divergence(s): no wall was judged by a report it did not sign")
+
+
 def _flood(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """A flood: detected when the nodes counted every junk message, healed when no node
     was lost."""
@@ -198,6 +211,7 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "rogue": _attack, "replay-attack": _attack,
     "snapshot-forgery": _forgery,
     "flood": _flood,
+    "report-forgery": _report_forgery,
     "master-kill": _master_kill,
 }
 

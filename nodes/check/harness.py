@@ -33,8 +33,9 @@ from nodes.master.link import open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
-WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood")  # of no one node
-ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood")  # a RoguePeer's
+WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery")  # no node's
+ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood",
+                "report-forgery")  # a RoguePeer's
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
 FLOOD_SETTLE = 30  # frames after a flood before the nodes are measured again
@@ -174,6 +175,11 @@ class _Harness:
                 self.rogue.serve_forged_snapshots(cluster.master_endpoint, insiders,
                                                   self.emitters)
                 self.rogue.flood(0, FORGERY_QUERIES)
+            elif fault.kind == "report-forgery":
+                latest = self.rogue.latest("frame")
+                self.rogue.in_other_walls_names(
+                    self.credentials.issue(WALL, self.rogue.walls[0]),
+                    run_id_of(latest) if latest is not None else 0, k)
             elif fault.kind == "flood":
                 self.flood = {"frame": k, "before": self._measure(cluster)}
                 self.flood["seconds"] = round(self.rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)

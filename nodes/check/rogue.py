@@ -155,6 +155,16 @@ class RoguePeer:
         self.put("unsent-frame-report", self.keys.report(self.walls[0]),
                  encode(report, self.name, member, run_id))
 
+    def in_other_walls_names(self, member: Credentials, run_id: int, frame: int) -> None:
+        """An insider holding one wall's key (`member`) reports frame `frame` in every other
+        wall's name, with a checksum none holds: the master must take none of them (a
+        report counts only under the key of the wall it names)."""
+        for wall in self.walls:
+            if wall != member.member.name:
+                report = ReportMessage(frame, wall, "5" * 32, 1, 0, 0, 0)
+                self.put("report-in-another-wall's-name", self.keys.report(wall),
+                         encode(report, self.name, member, run_id))
+
     def flood(self, messages: int, queries: int, size: int = 200) -> float:
         """`messages` junk messages on the frame and control keys and `queries` state
         queries without the key, as fast as zenoh takes them; the seconds it took."""

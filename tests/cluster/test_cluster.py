@@ -85,6 +85,17 @@ def test_attacks_and_a_killed_master_are_refused_and_survived(tmp_path):
     assert report["divergences"] == 0 and report["final"]["agree"]  # in the new run
 
 
+def test_reports_in_other_walls_names_are_refused_by_their_signer(tmp_path):
+    """An insider holding front's key reports a frame in left's and right's names with a
+    checksum neither holds: the master takes none, and no wall is judged by them."""
+    report = check(tmp_path, ["report-forgery@20"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["report-forgery@20"])
+    (forgery,) = report["faults"]
+    assert forgery["detection"]["forged_reports"] == len(WALLS) - 1
+    assert forgery["detection"]["refused_by_master_as_wrong_signer"] >= len(WALLS) - 1
+    assert report["divergences"] == 0 and report["final"]["agree"]
+
+
 def test_a_flood_of_junk_and_queries_is_counted_and_costs_no_memory_and_little_log(tmp_path):
     report = check(tmp_path, ["flood@20"], frames=60, scene=MINIMAL)
     assert_each_fault_caught(report, ["flood@20"])
