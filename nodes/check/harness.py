@@ -24,7 +24,7 @@ from cavesim.core.scene import load_scene
 from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import WALL, generate
 from nodes.check.findings import check_report
-from nodes.check.rogue import RoguePeer, run_id_of
+from nodes.check.rogue import RoguePeer
 from nodes.faults import FLOOD_MESSAGES, FLOOD_QUERIES, NODE_FAULTS, Fault
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
@@ -176,10 +176,9 @@ class _Harness:
                                                   self.emitters)
                 self.rogue.flood(0, FORGERY_QUERIES)
             elif fault.kind == "report-forgery":
-                latest = self.rogue.latest("frame")
                 self.rogue.in_other_walls_names(
                     self.credentials.issue(WALL, self.rogue.walls[0]),
-                    run_id_of(latest) if latest is not None else 0, k)
+                    self.rogue.current_run(), k)
             elif fault.kind == "flood":
                 self.flood = {"frame": k, "before": self._measure(cluster)}
                 self.flood["seconds"] = round(self.rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
@@ -206,9 +205,7 @@ class _Harness:
         for kind in ("frame", "report", "control"):
             rogue.replay_captured(kind, REPLAYED_PER_KIND)
         rogue.as_an_earlier_run(self.credentials, k)
-        latest = rogue.latest("frame")
-        run_id = run_id_of(latest) if latest is not None else 0
-        rogue.as_a_member(self.credentials.issue(WALL, rogue.walls[0]), run_id, k)
+        rogue.as_a_member(self.credentials.issue(WALL, rogue.walls[0]), rogue.current_run(), k)
 
     @staticmethod
     def _measure(cluster: LocalCluster) -> dict:

@@ -90,9 +90,11 @@ class RoguePeer:
         with self._lock:
             self.captured[kind].append((key, data))
 
-    def latest(self, kind: str) -> bytes | None:
+    def current_run(self) -> int:
+        """The run id of the latest frame it captured (0 before any)."""
         with self._lock:
-            return self.captured[kind][-1][1] if self.captured[kind] else None
+            frames = self.captured["frame"]
+            return run_id_of(frames[-1][1]) if frames else 0
 
     def await_cluster(self, timeout: float = 10.0) -> None:
         """Until this peer sees the master's and every wall's liveliness token (it reaches
