@@ -11,13 +11,22 @@ NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove")
 # the node does them to itself; jitter and shove make it drift, as another GPU's rounding
 # would and far beyond any tolerance (nodes/wall/drift_sample.py)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
-                  "flood", "report-forgery")
+                  "flood", "report-forgery", "query-replay", "tracking-replay",
+                  "second-master", "snapshot-collision", "oversize")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
-# snapshots to a node it makes diverge, flood the nodes with junk and state queries, and
-# report in every other wall's name with one wall's key
+# snapshots to a node it makes diverge, flood the nodes with junk and state queries, report
+# in every other wall's name with one wall's key, replay the walls' own queries during a
+# resync, replay an earlier run's tracking, start a second master beside the first, serve
+# a state whose checksum collides with the named one, and send messages larger than the
+# transport takes
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
+# the harness makes these kinds' node diverge this many times, DIVERGENCE_GAP frames apart:
+# a query replay captures the first resync's queries and replays them against the second's;
+# a collision's forgers race the wall asked for its state, and win only now and then
+DIVERGENCES = {"query-replay": 2, "snapshot-collision": 8}
+DIVERGENCE_GAP = 10
 FLIPPED_BIT = 20  # of the word a bitflip changes: a mantissa bit of a float32 field
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 
@@ -39,6 +48,12 @@ def parse_fault(spec: str) -> Fault:
         raise ValueError(f"fault {spec!r} must be KIND@FRAME[:NODE] with KIND one of "
                          f"{', '.join(KINDS)} and FRAME >= 1")
     return Fault(match["kind"], int(match["frame"]), match["node"])
+
+
+def divergence_frames(fault: Fault) -> tuple[int, ...]:
+    """The frames at which the harness makes the node of `fault` diverge for it."""
+    return tuple(fault.frame + i * DIVERGENCE_GAP
+                 for i in range(DIVERGENCES.get(fault.kind, 1)))
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,15 @@ from pathlib import Path
 
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
-from nodes.faults import FLOOD_MESSAGES, FLOOD_QUERIES, Fault, bitflip_target
+from cavesim.core.wire.credentials import WALL
+from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
+from nodes.faults import (
+    FLOOD_MESSAGES,
+    FLOOD_QUERIES,
+    Fault,
+    bitflip_target,
+    divergence_frames,
+)
 from nodes.master.run_record import Divergence, RunRecord
 
 
@@ -36,7 +44,7 @@ def check_report(walls: tuple[str, ...], faults: tuple[Fault, ...], record: RunR
         "all_localised": all(o["localisation"]["exact"] for o in outcomes
                              if "localisation" in o),
         "divergences": record.divergences.total,
-        "rogue_messages_sent": dict(harness.rogue.sent) if harness.rogue else {},
+        "rogue_messages_sent": harness.sent(),
         "final": summary["final"],
         "run": summary,
     }
@@ -139,7 +147,7 @@ def _attack(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evid
     refused = sum(record.node_rejected.values())
     at = fault.frame if refused else None
     return Evidence(at, healed_at=at, detection={
-        "sent": dict(harness.rogue.sent), "refused_by_nodes": refused,
+        "sent": harness.sent(), "refused_by_nodes": refused,
         "refused_by_master": dict(record.master_rejected)},
         outcome=f"{record.frames} frames ran to the end with {record.divergences.total} "
                 f"divergence(s): no replayed or forged message was stepped or obeyed")
@@ -148,7 +156,7 @@ def _attack(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evid
 def _forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """Forged snapshots served to a diverged node: detected when it refused them, healed by
     a resync to the state the master named."""
-    forged = {k: n for k, n in harness.rogue.sent.items() if k.endswith("-snapshot")}
+    forged = {k: n for k, n in harness.forgers.sent.items() if k.endswith("-snapshot")}
     refused = record.node_rejected.get(fault.node, 0)
     detection = {"forged_snapshots_served": forged, "refused_by_node": refused}
     hit = _first_divergence(record, fault)
@@ -180,10 +188,115 @@ def _flood(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evide
     return Evidence(
         fault.frame if refused >= FLOOD_MESSAGES else None,
         healed_at=fault.frame if not record.losses and record.frames else None,
-        detection={**harness.flood, "refused_by_nodes": refused},
+        detection={**harness.measured["flood"], "refused_by_nodes": refused},
         outcome=f"{FLOOD_MESSAGES:,} junk messages and {FLOOD_QUERIES:,} unsigned state "
-                f"queries in {harness.flood.get('seconds')} s: counted, logged at a bounded "
-                f"rate, no node lost")
+                f"queries in {harness.measured['flood'].get('seconds')} s: counted, logged "
+                f"at a bounded rate, no node lost")
+
+
+def _query_replay(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """The walls' own queries replayed while a node resyncs: detected when the nodes
+    refused at least as many queries as were replayed, healed when the resync they were
+    replayed against loaded the state."""
+    sent = harness.sent()
+    replayed = sent.get("replayed-query", 0) + sent.get("earlier-run-query", 0)
+    refused = sum(record.node_rejected.values())
+    second = divergence_frames(fault)[1]
+    resync = next((r for r in record.resyncs if r.node == fault.node and r.frame >= second),
+                  None)
+    detected = second if replayed and refused >= replayed else None
+    detection = {"replayed_queries": sent.get("replayed-query", 0),
+                 "earlier_run_queries": sent.get("earlier-run-query", 0),
+                 "refused_by_nodes": refused,
+                 "resync_seconds": round(resync.seconds, 4) if resync else None}
+    if resync is None or not resync.ok:
+        return Evidence(detected, detection=detection, outcome=f"{fault.node} was not healed")
+    return Evidence(detected, [fault.node], resync.frame, detection,
+                    f"{fault.node} resynced in {resync.seconds:.3f} s while "
+                    f"{replayed:,} replayed queries were refused")
+
+
+def _tracking_replay(fault: Fault, record: RunRecord, harness, killed, out: Path
+                     ) -> Evidence:
+    """An earlier run's tracking, unsigned tracking, a replayed and a stale one: detected
+    when the master refused each by its reason, healed when no frame carried the replayed
+    pose (and one did carry the one fresh message's, so that a pose is seen at all)."""
+    sent, refused = harness.sent(), record.master_rejected
+    expected = {"wrong-run": "earlier-run-tracking", "unsigned": "unsigned-tracking",
+                "replayed-tracking": "replayed-tracking", "stale-tracking": "stale-tracking"}
+    caught = all(sent.get(what, 0) and refused.get(reason, 0) >= sent[what]
+                 for reason, what in expected.items())
+    member = harness.credentials.issue(WALL, record.walls[0])
+    forged = harness.rogue.frames_with_head(FORGED_HEAD, member)
+    taken = harness.rogue.frames_with_head(TAKEN_HEAD, member)
+    return Evidence(
+        fault.frame if caught else None,
+        healed_at=fault.frame if forged == 0 and taken else None,
+        detection={"sent": {what: sent.get(what, 0) for what in (*expected.values(),
+                                                                  "fresh-tracking")},
+                   "refused_by_master": {r: refused.get(r, 0) for r in expected},
+                   "frames_with_the_replayed_pose": forged,
+                   "frames_with_the_fresh_pose": taken},
+        outcome=f"no frame carried a replayed pose; the one fresh message's pose reached "
+                f"{taken} frame(s)")
+
+
+def _second_master(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A second master with the same keys: detected when it refused to start with one line
+    and the running master counted it (and the one that missed it, by its token); healed
+    when every wall stayed in the first run to the end, without a divergence."""
+    second = harness.second_master
+    counted = record.master_rejected.get("other-master", 0)
+    refused = second.get("refused")
+    stayed = set(record.final.members) == set(record.walls) if record.final else False
+    return Evidence(
+        fault.frame if refused and "\n" not in refused and counted >= 2 else None,
+        healed_at=fault.frame if stayed and record.divergences.total == 0 else None,
+        detection={"second_master": second, "counted_by_the_master": counted,
+                   "frames_signed_for_another_run": harness.sent().get("second-master-frame",
+                                                                       0),
+                   "refused_by_nodes": sum(record.node_rejected.values())},
+        outcome=f"every wall stayed in run {record.run_id:016x} for its {record.frames} "
+                f"frames" if stayed else "a wall left the run")
+
+
+def _collision(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A state whose checksum is the named one, served by insiders to a node that diverges
+    again and again: detected when the node refused it at least once (no one but the wall
+    asked may send that wall's state; the forgers do not always answer first), healed when
+    its last resync loaded the real state."""
+    collisions = harness.forgers.collisions
+    colliding = [c for c in collisions if c["colliding_checksum"] == c["named_checksum"]]
+    served = harness.forgers.sent.get("colliding-snapshot", 0)
+    refused = record.node_rejected.get(fault.node, 0)
+    detection = {"collisions": collisions, "colliding_snapshots_served": served,
+                 "refused_by_node": refused}
+    hit = _first_divergence(record, fault)
+    if not (hit and colliding and served and refused):
+        return Evidence(detection=detection, outcome=f"{fault.node} was not shown a collision")
+    healed_at = _resynced(record, fault.node, divergence_frames(fault)[-1])
+    return Evidence(hit.frame, [fault.node], healed_at, detection,
+                    f"{fault.node} refused a state with the named checksum and loaded the "
+                    f"real one" if healed_at is not None else f"{fault.node} was not healed")
+
+
+def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """Messages larger than the transport takes: detected when none reached a node (each
+    counted the junk under the limit, and no more than that of anything), healed when no
+    node was lost."""
+    sent = harness.sent()
+    under = sent.get("junk-under-the-limit", 0)
+    oversize = sent.get("oversize-message", 0) + sent.get("oversize-query", 0)
+    by_node = dict(record.node_rejected)
+    caught = oversize and by_node and all(under <= n < under + oversize
+                                          for n in by_node.values())
+    return Evidence(
+        fault.frame if caught else None,
+        healed_at=fault.frame if not record.losses and record.frames else None,
+        detection={**harness.measured["oversize"], "oversize_sent": oversize,
+                   "junk_under_the_limit_sent": under, "refused_by_nodes": by_node},
+        outcome=f"{oversize} messages and queries over the transport's limit dropped before "
+                f"any was buffered; each node counted only the {under} under it")
 
 
 def _master_kill(fault: Fault, record: RunRecord, harness, killed: RunRecord,
@@ -212,6 +325,11 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "snapshot-forgery": _forgery,
     "flood": _flood,
     "report-forgery": _report_forgery,
+    "query-replay": _query_replay,
+    "tracking-replay": _tracking_replay,
+    "second-master": _second_master,
+    "snapshot-collision": _collision,
+    "oversize": _oversize,
     "master-kill": _master_kill,
 }
 

@@ -12,20 +12,33 @@ refused and what became of the run.
 from __future__ import annotations
 
 import dataclasses
+import threading
 import time
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from cavesim.core.errors import ClusterError
 from cavesim.core.frame import FrameInput
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
-from cavesim.core.wire.credentials import WALL, generate
+from cavesim.core.wire.credentials import TRACKER, WALL, generate
+from cavesim.core.wire.network import NetworkSettings
 from nodes.check.findings import check_report
 from nodes.check.rogue import RoguePeer
-from nodes.faults import FLOOD_MESSAGES, FLOOD_QUERIES, NODE_FAULTS, Fault
+from nodes.check.state_forgers import StateForgers
+from nodes.faults import (
+    DIVERGENCE_GAP,
+    DIVERGENCES,
+    FLOOD_MESSAGES,
+    FLOOD_QUERIES,
+    NODE_FAULTS,
+    Fault,
+    divergence_frames,
+)
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
 from nodes.lockstep import MASTER_GONE
@@ -33,12 +46,21 @@ from nodes.master.link import open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
-WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery")  # no node's
-ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood",
-                "report-forgery")  # a RoguePeer's
+WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
+                 "tracking-replay", "second-master", "oversize")  # no node's
+ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-forgery",
+                "query-replay", "tracking-replay", "second-master", "snapshot-collision",
+                "oversize")  # a RoguePeer's
+STATE_FORGERIES = ("snapshot-forgery", "snapshot-collision")  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
-FLOOD_SETTLE = 30  # frames after a flood before the nodes are measured again
+SETTLE = 30  # frames after a flood or oversized messages before the nodes are measured again
+REPLAY_SECONDS, REPLAY_MOST = 3.0, 5_000  # how long and how many queries are replayed
+EARLIER_RUN_QUERIES = 20
+TRACKING_REPLAYS = 100  # tracking messages of each kind the master must refuse
+SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one signs
+OVERSIZE_MESSAGES, OVERSIZE_BYTES, OVERSIZE_QUERIES = 45, 64 * 2**20, 5
+UNDER_LIMIT_JUNK = 3  # junk frames just under the transport's limit, sent with them
 
 
 @dataclass(frozen=True)
@@ -73,11 +95,11 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
                           on_loss=plan.on_loss, check_every=plan.check_every,
                           frame_log=plan.out / "frames.log", forensics=plan.out)
     kill = master_kill_frame(faults)
-    injected = [(f.node, own) for f in faults if (own := _injected(f)) is not None]
+    injected = [(f.node, own) for f in faults for own in _injected(f)]
     cluster = ClusterPlan(master, plan.out, {wall: (*node_args, *(
         arg for node, own in injected if node == wall for arg in ("--inject", str(own))),
         *_full_resync(faults, wall)) for wall in plan.walls})
-    harness = _Harness(faults, node_args, credentials, plan.scene, plan.frames)
+    harness = _Harness(faults, node_args, master, plan.out)
     try:
         if kill is None:
             record, killed = run_cluster(cluster, progress, harness.before_frame), None
@@ -93,8 +115,8 @@ def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
     nodes do themselves comes at or after it (the new master's run numbers its frames from
     1 again: a node could not tell which frame was meant)."""
     kill = next((f.frame for f in faults if f.kind == "master-kill"), None)
-    late = [str(f) for f in faults if kill is not None and f.frame >= kill
-            and (f.kind in NODE_FAULTS or f.kind == "snapshot-forgery")]
+    late = [str(f) for f in faults if kill is not None and any(
+        own.frame >= kill for own in _injected(f))]
     if late:
         raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
                          f"master-kill@{kill} (the new master's run counts frames from 1)")
@@ -102,21 +124,24 @@ def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
 
 
 def _full_resync(faults: tuple[Fault, ...], wall: str) -> tuple[str, ...]:
-    """A wall that the forged snapshots are served to resyncs by full snapshot only (a delta
+    """A wall that forged states are served to resyncs by full snapshot only (a delta
     would heal it before any snapshot was asked for); the last --resync counts."""
-    if any(f.kind == "snapshot-forgery" and f.node == wall for f in faults):
+    if any(f.kind in STATE_FORGERIES and f.node == wall for f in faults):
         return ("--resync", "full")
     return ()
 
 
-def _injected(fault: Fault) -> Fault | None:
-    """What the node itself must do for `fault`: its own faults, and the divergence a
-    snapshot forgery needs (the forged snapshots are served to its resync)."""
+def _injected(fault: Fault) -> tuple[Fault, ...]:
+    """What the node itself must do for `fault`: its own faults, the divergence whose
+    resync forged snapshots are served to, and the divergences of the kinds that make
+    their node diverge again and again (DIVERGENCES)."""
     if fault.kind in NODE_FAULTS:
-        return fault
+        return (fault,)
     if fault.kind == "snapshot-forgery":
-        return Fault("bitflip", fault.frame, fault.node)
-    return None
+        return (Fault("bitflip", fault.frame, fault.node),)
+    if fault.kind in DIVERGENCES:
+        return tuple(Fault("bitflip", k, fault.node) for k in divergence_frames(fault))
+    return ()
 
 
 def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harness
@@ -142,48 +167,85 @@ def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harne
 class _Harness:
     """Does the faults that come from outside the nodes, just before their frame."""
 
-    def __init__(self, faults: tuple[Fault, ...], node_args, credentials: Credentials,
-                 scene: Path, frames: int) -> None:
+    def __init__(self, faults: tuple[Fault, ...], node_args, master: MasterConfig,
+                 out: Path) -> None:
         self.faults = faults
         self.node_args = node_args
-        self.credentials = credentials
-        self.emitters = len(load_scene(scene).emitters)
-        self.frames = frames
+        self.master, self.out = master, out
+        self.credentials: Credentials = master.credentials
+        self.emitters = len(load_scene(master.scene).emitters)
         self.rogue: RoguePeer | None = None
+        self.forgers: StateForgers | None = None
         self.noticed: list[str] = []  # walls whose log says they saw the master go
-        self.flood: dict = {}  # the nodes' memory and log sizes before and after a flood
+        # a flood's and oversized messages': the nodes' memory and log sizes before and after
+        self.measured: dict[str, dict] = {}
+        self.second_master: dict = {}  # what became of a second master's start
+        self._replaying: list[threading.Thread] = []
 
     def before_frame(self, cluster: LocalCluster, k: int) -> None:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
-            self.rogue = RoguePeer(cluster.master_endpoint, cluster.session,
-                                   tuple(cluster.nodes))
-            self.rogue.await_cluster()
-            self.rogue.capture()
+            self._connect(cluster)
         for fault in self.faults:
-            if fault.frame != k:
-                continue
-            if fault.kind == "kill":
+            if fault.kind == "query-replay" and k == divergence_frames(fault)[1]:
+                self._replay_queries()
+            if fault.kind == "query-replay" and k == min(divergence_frames(fault)[1]
+                                                         + DIVERGENCE_GAP, self.master.frames):
+                self._end_replays()  # so that the nodes' later reports count them all
+            if fault.frame == k:
+                self._do(fault, cluster, k)
+        for measured in self.measured.values():
+            if k == min(measured["frame"] + SETTLE, self.master.frames):
+                measured["after"] = self._measure(cluster)
+
+    def _connect(self, cluster: LocalCluster) -> None:
+        walls = tuple(cluster.nodes)
+        self.rogue = RoguePeer(cluster.master_endpoint, cluster.session, walls)
+        self.rogue.await_cluster()
+        self.rogue.capture()
+        if any(f.kind == "query-replay" for f in self.faults):
+            self.rogue.capture_queries()
+        if any(f.kind in STATE_FORGERIES for f in self.faults):
+            self.forgers = StateForgers(cluster.master_endpoint, cluster.session, walls)
+
+    def _do(self, fault: Fault, cluster: LocalCluster, k: int) -> None:
+        rogue = self.rogue
+        match fault.kind:
+            case "kill":
                 cluster.kill_node(fault.node)
                 cluster.start_node(fault.node, extra=self.node_args)  # restarts, rejoins
-            elif fault.kind == "rogue":
+            case "rogue":
                 self._forge(cluster.session, k)
-            elif fault.kind == "replay-attack":
+            case "replay-attack":
                 self._replay(k)
-            elif fault.kind == "snapshot-forgery":
-                insiders = [self.credentials.issue(WALL, wall)
-                            for wall in self.rogue.walls if wall != fault.node]
-                self.rogue.serve_forged_snapshots(cluster.master_endpoint, insiders,
-                                                  self.emitters)
-                self.rogue.flood(0, FORGERY_QUERIES)
-            elif fault.kind == "report-forgery":
-                self.rogue.in_other_walls_names(
-                    self.credentials.issue(WALL, self.rogue.walls[0]),
-                    self.rogue.current_run(), k)
-            elif fault.kind == "flood":
-                self.flood = {"frame": k, "before": self._measure(cluster)}
-                self.flood["seconds"] = round(self.rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
-        if self.flood and k == min(self.flood["frame"] + FLOOD_SETTLE, self.frames):
-            self.flood["after"] = self._measure(cluster)
+            case "snapshot-forgery":
+                self.forgers.serve_forgeries(self._insiders(fault.node), self.emitters)
+                rogue.flood(0, FORGERY_QUERIES)
+            case "snapshot-collision":
+                self.forgers.serve_collisions(self._insiders(fault.node), fault.node,
+                                              divergence_frames(fault))
+            case "report-forgery":
+                rogue.in_other_walls_names(self.credentials.issue(WALL, rogue.walls[0]),
+                                           rogue.current_run(), k)
+            case "tracking-replay":
+                rogue.replay_tracking(self.credentials.issue(TRACKER, "tracker"),
+                                      rogue.current_run(), TRACKING_REPLAYS)
+            case "second-master":
+                self.second_master = self._start_a_second_master(cluster)
+                rogue.as_a_second_master(self.credentials, k, SECOND_MASTER_FRAMES)
+            case "flood":
+                self.measured["flood"] = {"frame": k, "before": self._measure(cluster)}
+                self.measured["flood"]["seconds"] = round(
+                    rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
+            case "oversize":
+                self.measured["oversize"] = {"frame": k, "before": self._measure(cluster)}
+                started = time.monotonic()
+                rogue.oversize(OVERSIZE_MESSAGES, OVERSIZE_BYTES, UNDER_LIMIT_JUNK,
+                               OVERSIZE_QUERIES)
+                self.measured["oversize"]["seconds"] = round(time.monotonic() - started, 3)
+
+    def _insiders(self, node: str) -> list[Credentials]:
+        """Keys of the walls other than `node`: what the insiders serving it hold."""
+        return [self.credentials.issue(WALL, wall) for wall in self.rogue.walls if wall != node]
 
     def _forge(self, session: str, k: int) -> None:
         """Frames from a foreign publisher: unsigned, wrongly signed, or of another session."""
@@ -207,6 +269,36 @@ class _Harness:
         rogue.as_an_earlier_run(self.credentials, k)
         rogue.as_a_member(self.credentials.issue(WALL, rogue.walls[0]), rogue.current_run(), k)
 
+    def _replay_queries(self) -> None:
+        """The walls' captured queries played back from another thread, while the frame
+        whose resync they are to starve runs; queries of an earlier run with them."""
+        self.rogue.earlier_run_queries(self.credentials.issue(WALL, self.rogue.walls[0]),
+                                       EARLIER_RUN_QUERIES)
+        thread = threading.Thread(target=self.rogue.replay_queries, daemon=True,
+                                  args=(REPLAY_SECONDS, REPLAY_MOST), name="query replay")
+        thread.start()
+        self._replaying.append(thread)
+
+    def _start_a_second_master(self, cluster: LocalCluster) -> dict:
+        """Start a master with the same session and keys beside the running one: it must
+        refuse to start, with one line; what it said and how long it took."""
+        second = dataclasses.replace(
+            self.master, network=NetworkSettings(connect=(cluster.master_endpoint,)),
+            frame_log=None, forensics=None, join_timeout=10.0)
+        started = time.monotonic()
+        try:
+            with open_master_link(second) as link:
+                record = run_master(second, link)
+        except ClusterError as e:
+            return {"refused": str(e), "seconds": round(time.monotonic() - started, 3)}
+        return {"refused": None, "ran_frames": record.frames,
+                "seconds": round(time.monotonic() - started, 3)}
+
+    def _end_replays(self) -> None:
+        for thread in self._replaying:
+            thread.join(REPLAY_SECONDS + 1.0)
+        self._replaying.clear()
+
     @staticmethod
     def _measure(cluster: LocalCluster) -> dict:
         """Each node's resident memory (MB) and log size (bytes)."""
@@ -224,6 +316,15 @@ class _Harness:
                 return
             time.sleep(0.05)
 
+    def sent(self) -> dict[str, int]:
+        """What the rogue peer and the state forgers sent, by what it was."""
+        sent = Counter(self.rogue.sent if self.rogue else {})
+        sent.update(self.forgers.sent if self.forgers else {})
+        return dict(sent)
+
     def close(self) -> None:
+        self._end_replays()
+        if self.forgers is not None:
+            self.forgers.close()
         if self.rogue is not None:
             self.rogue.close()

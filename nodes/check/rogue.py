@@ -5,9 +5,11 @@ It captures the cluster's signed traffic (as anyone on the network can read it) 
 it back; it sends messages of an earlier run of the same keys (the harness made the keys,
 so it signs them as that run's master would have); it forges what a member that holds the
 session's shared secret can (HMAC-signed frames and commands without the master's
-signature, reports of frames never sent); holding a wall's own key, it answers state
-queries with forged snapshots (an old frame, one that does not fit the scene, one whose
-chunks are not the named state); and it floods the nodes with junk and with state queries.
+signature, reports of frames never sent, reports in other walls' names); it replays the
+walls' own state and block queries and an earlier run's tracking messages, starts beside the
+master as a second master with the same keys, sends messages larger than the transport
+takes, and floods the nodes with junk and with state queries. (Insiders that serve forged
+states are in nodes/check/state_forgers.py.)
 """
 
 from __future__ import annotations
@@ -25,27 +27,27 @@ import zenoh
 
 from cavesim.core.errors import ClusterError, ProtocolError
 from cavesim.core.frame import FrameInput
-from cavesim.core.limits import MAX_PARTICLES
-from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire import (
     Command,
     ControlMessage,
     Credentials,
     FrameMessage,
+    HeadState,
     ReportMessage,
     SessionKeys,
     StateRequest,
+    TrackingMessage,
+    WandState,
     decode_envelope,
     encode,
 )
 from cavesim.core.wire.envelope import HEADER, SIGNED, Message, new_run_id
-from cavesim.core.wire.network import NetworkSettings, open_session
-from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
+from cavesim.core.wire.network import MAX_MESSAGE_BYTES, NetworkSettings, open_session
 
 log = logging.getLogger("cavesim.rogue")
-FORGERIES = ("old", "misfit", "corrupt")  # the snapshots a forger serves
-FORGED_PARTICLES = 64  # particles of a corrupt snapshot: a whole chunk of junk
 FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
+FORGED_HEAD = HeadState((7.0, 7.0, 7.0))  # the pose of the tracking messages it replays
+TAKEN_HEAD = HeadState((0.5, -0.5, 1.625))  # of the one fresh message it sends (float32 exact)
 
 
 def member_signed(message: Message, session: str, secret: bytes, run_id: int) -> bytes:
@@ -54,6 +56,11 @@ def member_signed(message: Message, session: str, secret: bytes, run_id: int) ->
     data = bytearray(encode(message, session, run_id=run_id))
     data[FLAGS_AT] = SIGNED
     return bytes(data) + hmac.new(secret, bytes(data), hashlib.sha256).digest()
+
+
+def tracked(head: HeadState, sent_ns: int) -> TrackingMessage:
+    """A tracking message of `head` with an idle wand, stamped `sent_ns`."""
+    return TrackingMessage(0, head, WandState(), sent_ns)
 
 
 def run_id_of(data: bytes) -> int:
@@ -73,7 +80,6 @@ class RoguePeer:
         self.sent: Counter[str] = Counter()  # what it sent, by what it was
         self._lock = threading.Lock()
         self._declarations: list = []
-        self._forgers: list[zenoh.Session] = []
 
     # -- listening -------------------------------------------------------------------------
 
@@ -89,6 +95,18 @@ class RoguePeer:
     def _keep(self, kind: str, key: str, data: bytes) -> None:
         with self._lock:
             self.captured[kind].append((key, data))
+
+    def capture_queries(self) -> None:
+        """Keep every state and block query sent on the session from now on (a queryable of
+        its own hears them as the walls' do), answering none."""
+        for key in (self.keys.state(), self.keys.blocks()):
+            self._declarations.append(self.zenoh.declare_queryable(key, self._keep_query))
+
+    def _keep_query(self, query: zenoh.Query) -> None:
+        payload = query.payload
+        if payload is not None:
+            self._keep("query", str(query.key_expr), payload.to_bytes())
+        query.drop()
 
     def current_run(self) -> int:
         """The run id of the latest frame it captured (0 before any)."""
@@ -167,6 +185,101 @@ class RoguePeer:
                 self.put("report-in-another-wall's-name", self.keys.report(wall),
                          encode(report, self.name, member, run_id))
 
+    def replay_queries(self, seconds: float, most: int) -> None:
+        """Send the captured state and block queries again, verbatim, round and round, for
+        `seconds` or `most` queries (outsiders starving a resync with the walls' own
+        queries); and as many queries as a wall of an earlier run signed them."""
+        with self._lock:
+            captured = list(self.captured["query"])
+        if not captured:
+            log.warning("no state or block query was captured to replay")
+            return
+        stop = time.monotonic() + seconds
+        for (key, data), _ in zip(itertools.cycle(captured), range(most)):
+            if time.monotonic() > stop:
+                break
+            self.zenoh.get(key, lambda reply: None, payload=data, timeout=0.5)
+            with self._lock:
+                self.sent["replayed-query"] += 1
+
+    def earlier_run_queries(self, member: Credentials, count: int) -> None:
+        """`count` state queries as the wall `member` signed them in an earlier run."""
+        earlier = new_run_id()
+        for i in range(count):
+            wall = self.walls[(i + 1) % len(self.walls)]
+            request = StateRequest(1, wall, "6" * 32, asker=member.member.name)
+            self.zenoh.get(self.keys.state(wall), lambda reply: None,
+                           payload=encode(request, self.name, member, earlier), timeout=0.5)
+        self.sent["earlier-run-query"] += count
+
+    def replay_tracking(self, tracker: Credentials, run_id: int, count: int) -> None:
+        """Tracking messages the master must not take: `count` captured from an earlier run
+        (signed by a tracker, sent a minute ago, all of one forged pose, FORGED_HEAD) and
+        `count` without a key; then, as a tracker of this run, one fresh message (taken: its
+        pose, TAKEN_HEAD, reaches the frames), the same again `count` times, and one sent
+        longer ago than the master takes."""
+        earlier, now = new_run_id(), time.time_ns()
+        for i in range(count):
+            old = tracked(FORGED_HEAD, now - 60 * 10**9 + i * 10**7)
+            self.put("earlier-run-tracking", self.keys.tracking,
+                     encode(old, self.name, tracker, earlier))
+            self.put("unsigned-tracking", self.keys.tracking, encode(old, self.name))
+        fresh = encode(tracked(TAKEN_HEAD, time.time_ns()), self.name, tracker, run_id)
+        self.put("fresh-tracking", self.keys.tracking, fresh)
+        for _ in range(count):
+            self.put("replayed-tracking", self.keys.tracking, fresh)
+        stale = tracked(FORGED_HEAD, time.time_ns() - 10 * 10**9)
+        self.put("stale-tracking", self.keys.tracking,
+                 encode(stale, self.name, tracker, run_id))
+
+    def frames_with_head(self, head: HeadState, member: Credentials) -> int:
+        """How many captured frames of the current run carry `head` (checked as a wall
+        would check them)."""
+        run_id = self.current_run()
+        with self._lock:
+            frames = [data for _, data in self.captured["frame"] if run_id_of(data) == run_id]
+        carrying = 0
+        for data in frames:
+            try:
+                message = decode_envelope(data, self.name, member).message
+            except ProtocolError:
+                continue
+            carrying += isinstance(message, FrameMessage) and message.head == head
+        return carrying
+
+    def as_a_second_master(self, master: Credentials, frame: int, count: int) -> None:
+        """A second master with the session's keys, started beside the first without seeing
+        it: its liveliness token for a run of its own, and `count` frames it signs for that
+        run, from frame `frame` on."""
+        second = new_run_id()
+        token = self.zenoh.liveliness().declare_token(self.keys.master_alive(second))
+        try:
+            time.sleep(0.2)  # the walls learn of its token before its frames come
+            inputs = FrameInput(1 / 60, np.eye(3))
+            for k in range(frame, frame + count):
+                self.put("second-master-frame", self.keys.frame,
+                         encode(FrameMessage(k, inputs), self.name, master, second))
+            time.sleep(0.2)
+        finally:
+            token.undeclare()
+
+    def oversize(self, count: int, size: int, under_limit: int, queries: int) -> None:
+        """`count` messages of `size` bytes on the frame, control, report and tracking keys
+        in turn and `queries` state queries as large (the transport must drop them all
+        before they are buffered); `under_limit` junk frames just under the transport's
+        limit (which reach the nodes, and are counted)."""
+        junk = bytes(size)
+        keys = (self.keys.frame, self.keys.control, self.keys.report(self.walls[0]),
+                self.keys.tracking)
+        for i in range(count):
+            self.put("oversize-message", keys[i % len(keys)], junk)
+        for i in range(queries):
+            self.zenoh.get(self.keys.state(self.walls[i % len(self.walls)]), lambda reply: None,
+                           payload=junk, timeout=0.5)
+        self.sent["oversize-query"] += queries
+        for _ in range(under_limit):
+            self.put("junk-under-the-limit", self.keys.frame, bytes(MAX_MESSAGE_BYTES - 2**16))
+
     def flood(self, messages: int, queries: int, size: int = 200) -> float:
         """`messages` junk messages on the frame and control keys and `queries` state
         queries without the key, as fast as zenoh takes them; the seconds it took."""
@@ -187,57 +300,7 @@ class RoguePeer:
         self.sent["unsigned-state-query"] += queries
         return time.monotonic() - started
 
-    # -- forged snapshots ------------------------------------------------------------------
-
-    def serve_forged_snapshots(self, endpoint: str, insiders: list[Credentials],
-                               emitters: int) -> None:
-        """One forger per kind of FORGERIES, each a peer of its own (a resyncing node
-        follows one replier at a time) holding a healthy wall's key in turn (`insiders`),
-        answering every wall's state queries: one holding the key of the wall asked is
-        refused by what it sends, the others by whose key signed it."""
-        for forgery, member in zip(FORGERIES, itertools.cycle(insiders)):
-            forger = open_session(NetworkSettings(connect=(endpoint,)))
-            self._forgers.append(forger)
-            self._declarations.append(forger.declare_queryable(
-                self.keys.state(), lambda query, forgery=forgery, member=member: self._forge(
-                    query, forgery, member, emitters)))
-
-    def _forge(self, query: zenoh.Query, forgery: str, member: Credentials,
-               emitters: int) -> None:
-        try:
-            envelope = decode_envelope(query.payload.to_bytes(), self.name, member)
-        except (ProtocolError, AttributeError):
-            query.drop()
-            return
-        request, run_id = envelope.message, envelope.run_id
-        if not isinstance(request, StateRequest):
-            query.drop()
-            return
-        empty = np.zeros(emitters, EMITTER_DTYPE)
-        if forgery == "old":
-            header = SnapshotHeader(max(request.frame - 10, 0), 1, 0, 1, "4" * 32, empty)
-            chunks = []
-        elif forgery == "misfit":
-            header = SnapshotHeader(request.frame, 1, MAX_PARTICLES, MAX_PARTICLES // 64,
-                                    request.digest, empty)  # more than any scene holds
-            chunks = []
-        else:
-            header = SnapshotHeader(request.frame, 1, FORGED_PARTICLES, FORGED_PARTICLES,
-                                    request.digest, empty)
-            chunks = [SnapshotChunk(request.frame, 0, bytes(FORGED_PARTICLES * PARTICLE_BYTES))]
-        try:
-            for message in (header, *chunks):
-                query.reply(str(query.key_expr), encode(message, self.name, member, run_id))
-            with self._lock:
-                self.sent[f"{forgery}-snapshot"] += 1
-        except zenoh.ZError as e:
-            log.info("a forged reply failed: %s", e)
-        finally:
-            query.drop()
-
     def close(self) -> None:
         for declaration in reversed(self._declarations):
             declaration.undeclare()
-        for forger in self._forgers:
-            forger.close()
         self.zenoh.close()

@@ -24,7 +24,7 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
-from nodes.faults import KINDS
+from nodes.faults import KINDS, divergence_frames
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 
 CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faults show at once
@@ -63,6 +63,10 @@ def check(args: argparse.Namespace, console) -> int:
         if f.frame > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
                              f"last frame {args.frames}")
+        if (last := divergence_frames(f)[-1]) > args.frames:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} makes its node "
+                             f"diverge again at frame {last}, after the last frame "
+                             f"{args.frames}")
     try:
         master_kill_frame(tuple(args.inject))
     except ValueError as e:

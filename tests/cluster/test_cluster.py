@@ -31,9 +31,13 @@ MILLION = RESYNC_SCENE.format(particles=1_000_000, rate=6e7)
 
 
 def check(tmp_path, faults, walls=WALLS, frames=150, session="t", scene=DUST_DEVIL, **options):
+    """The harness's report; whatever the faults, no process's log holds a traceback."""
     plan = CheckPlan(walls, scene, frames, tuple(map(parse_fault, faults)), tmp_path,
                      session=f"{session}{os.getpid()}", **options)
-    return run_check(plan)
+    report = run_check(plan)
+    logs = sorted((tmp_path / "logs").glob("*.log"))
+    assert logs and not [log.name for log in logs if "Traceback" in log.read_text(errors="replace")]
+    return report
 
 
 def assert_each_fault_caught(report, faults):
@@ -94,6 +98,57 @@ def test_reports_in_other_walls_names_are_refused_by_their_signer(tmp_path):
     assert forgery["detection"]["forged_reports"] == len(WALLS) - 1
     assert forgery["detection"]["refused_by_master_as_wrong_signer"] >= len(WALLS) - 1
     assert report["divergences"] == 0 and report["final"]["agree"]
+
+
+def test_replayed_queries_are_refused_and_do_not_starve_a_resync(tmp_path):
+    """The state and block queries of a node's first resync, captured, are replayed for 3 s
+    against its second, with queries of an earlier run: every one is refused, and the
+    second resync takes well under a second."""
+    report = check(tmp_path, ["query-replay@20:right"], frames=60, scene=MINIMAL)
+    (replay,) = report["faults"]
+    assert replay["detected_frame"] == 30 and replay["named"] == ["right"] and replay["healed"]
+    detection = replay["detection"]
+    assert detection["replayed_queries"] > 100 and detection["earlier_run_queries"] == 20
+    assert detection["resync_seconds"] < 1.0, detection
+
+
+def test_replayed_tracking_never_reaches_a_frame(tmp_path):
+    report = check(tmp_path, ["tracking-replay@20"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["tracking-replay@20"])
+    (replay,) = report["faults"]
+    detection = replay["detection"]
+    assert detection["frames_with_the_replayed_pose"] == 0
+    assert detection["frames_with_the_fresh_pose"] > 0  # a tracked pose is seen at all
+    assert detection["refused_by_master"]["wrong-run"] >= 100
+
+
+def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
+    report = check(tmp_path, ["second-master@20"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["second-master@20"])
+    (second,) = report["faults"]
+    refused = second["detection"]["second_master"]["refused"]
+    assert "another master's run" in refused and "refusing to start" in refused
+    assert report["run"]["frames"] == 60 and report["divergences"] == 0
+
+
+def test_a_state_with_the_named_checksum_from_another_wall_is_refused(tmp_path):
+    report = check(tmp_path, ["snapshot-collision@20:right"], frames=100, scene=MINIMAL)
+    assert_each_fault_caught(report, ["snapshot-collision@20:right"])
+    (collision,) = report["faults"]
+    made = collision["detection"]["collisions"]
+    assert made and all(c["colliding_checksum"] == c["named_checksum"] ==
+                        c["genuine_checksum"] and len(c["particles_changed"]) == 2 for c in made)
+    assert collision["detection"]["colliding_snapshots_served"] >= 1
+
+
+def test_oversized_messages_are_dropped_by_the_transport(tmp_path):
+    report = check(tmp_path, ["oversize@20"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["oversize@20"])
+    (oversize,) = report["faults"]
+    detection = oversize["detection"]
+    assert detection["oversize_sent"] == 50  # 45 messages and 5 queries of 64 MiB
+    for wall in WALLS:  # three junk messages of 8 MiB reach each node, and no more
+        assert detection["after"]["rss_mb"][wall] < detection["before"]["rss_mb"][wall] + 64
 
 
 def test_a_flood_of_junk_and_queries_is_counted_and_costs_no_memory_and_little_log(tmp_path):

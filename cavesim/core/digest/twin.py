@@ -20,6 +20,7 @@ from cavesim.core.digest.shape import (
 )
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 
+INDEX_MIX = 0x9E3779B9  # a word is xor'ed with its index times this before it is mixed
 _PERMUTE_CONSTANTS = (0x6A09E667, 0xBB67AE85, 0x3C6EF372, 0xA54FF53A)
 _FOLD_IV = (0x510E527F, 0x9B05688C)
 _DIGEST_IV = (0x1F83D9AB, 0x5BE0CD19, 0xCBBB9D5D, 0x629A292A)
@@ -66,7 +67,7 @@ def reference_sums(words: np.ndarray) -> np.ndarray:
     words = np.asarray(words, dtype=np.uint32)
     index = np.arange(words.size, dtype=np.uint32)
     with np.errstate(over="ignore"):
-        h = words ^ (index * np.uint32(0x9E3779B9))
+        h = words ^ (index * np.uint32(INDEX_MIX))
         lanes = np.stack([_fmix32(h), _fmix32(h + np.uint32(0x7F4A7C15))], axis=1)
     groups = group_count(words.size)
     padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)

@@ -1,0 +1,271 @@
+"""Insiders that answer a resyncing node's state query with a state it must not load, for
+the consistency harness: each a zenoh peer of its own (a resyncing node follows one replier
+at a time) holding one wall's own key.
+
+The forgers of `serve_forgeries` send an old snapshot, one that does not fit the scene, and
+one whose chunks are not the named state. The forgers of `serve_collisions` send a state
+whose checksum *is* the named one (nodes/check/checksum_collision.py): each watches the
+walls' reports, fetches the state of the first healthy wall to report, under its own key, and
+makes its colliding twin before the diverged node asks for that state (the master first
+waits for every report and runs its forensics). Only whose key signed it can tell such a
+state from the real one.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import threading
+import time
+from collections import Counter
+
+import numpy as np
+import zenoh
+
+from cavesim.core.digest.twin import reference_checksum
+from cavesim.core.errors import ProtocolError
+from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
+from cavesim.core.wire import (
+    Credentials,
+    ReportMessage,
+    SessionKeys,
+    StateRequest,
+    decode_envelope,
+    encode,
+)
+from cavesim.core.wire.credentials import WALL
+from cavesim.core.wire.network import NetworkSettings, open_session
+from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
+from cavesim.core.wire.replies import asking
+from nodes.check.checksum_collision import changed_particles, colliding_particles
+
+log = logging.getLogger("cavesim.rogue")
+FORGERIES = ("old", "misfit", "corrupt")  # the snapshots `serve_forgeries` sends
+FORGED_PARTICLES = 64  # particles of a corrupt snapshot: a whole chunk of junk
+FETCH_SECONDS = 5.0  # how long a collision forger waits for the state it fetches
+Snapshot = tuple[SnapshotHeader, list[SnapshotChunk]]
+
+
+class StateForgers:
+    """Forgers on session `session`, connected at `endpoint`; `sent` counts what they sent,
+    by what it was; `collisions` says, per colliding state made, the checksum named and the
+    colliding state's own (as the twin computes it), and which particles differ."""
+
+    def __init__(self, endpoint: str, session: str, walls: tuple[str, ...]) -> None:
+        self.endpoint, self.name, self.walls = endpoint, session, walls
+        self.keys = SessionKeys(session)
+        self.sent: Counter[str] = Counter()
+        self._lock = threading.Lock()
+        self.collisions: list[dict] = []
+        self._sessions: list[zenoh.Session] = []
+        self._declarations: list = []
+        # (forger's wall, frame, digest) -> the colliding twin of that state, signed by that
+        # forger (None while it is made)
+        self._twins: dict[tuple[str, int, str], list[bytes] | None] = {}
+        self._ready = threading.Condition(self._lock)
+
+    def _count(self, what: str) -> None:
+        with self._lock:
+            self.sent[what] += 1
+
+    def _peer(self) -> zenoh.Session:
+        session = open_session(NetworkSettings(connect=(self.endpoint,)))
+        self._sessions.append(session)
+        return session
+
+    # -- old, misfit and corrupt snapshots ---------------------------------------------------
+
+    def serve_forgeries(self, insiders: list[Credentials], emitters: int) -> None:
+        """One forger per kind of FORGERIES, holding the keys of `insiders` in turn,
+        answering every wall's state queries: one holding the key of the wall asked is
+        refused by what it sends, the others by whose key signed it."""
+        for forgery, member in zip(FORGERIES, itertools.cycle(insiders)):
+            self._declarations.append(self._peer().declare_queryable(
+                self.keys.state(), lambda query, forgery=forgery, member=member: self._forge(
+                    query, forgery, member, emitters)))
+
+    def _forge(self, query: zenoh.Query, forgery: str, member: Credentials,
+               emitters: int) -> None:
+        opened = self._request(query, member)
+        if opened is None:
+            return
+        request, run_id = opened
+        empty = np.zeros(emitters, EMITTER_DTYPE)
+        if forgery == "old":
+            header = SnapshotHeader(max(request.frame - 10, 0), 1, 0, 1, "4" * 32, empty)
+            chunks = []
+        elif forgery == "misfit":
+            header = SnapshotHeader(request.frame, 1, MAX_PARTICLES, MAX_PARTICLES // 64,
+                                    request.digest, empty)  # more than any scene holds
+            chunks = []
+        else:
+            header = SnapshotHeader(request.frame, 1, FORGED_PARTICLES, FORGED_PARTICLES,
+                                    request.digest, empty)
+            chunks = [SnapshotChunk(request.frame, 0, bytes(FORGED_PARTICLES * PARTICLE_BYTES))]
+        self._reply(query, (header, chunks), member, run_id, f"{forgery}-snapshot")
+
+    # -- states that collide with the named checksum -------------------------------------
+
+    def serve_collisions(self, insiders: list[Credentials], victim: str,
+                         frames: tuple[int, ...]) -> None:
+        """A forger per insider, against the wall `victim`, which diverges at `frames` (the
+        insiders made it): on the first report of such a frame from a wall other than its
+        own and the victim's, it fetches that state and makes its colliding twin, so that
+        the twin is ready before the victim asks for that state; it then answers the
+        victim's query with it, signed by its own key (not when the query asks its own
+        wall: that one would be the wall speaking)."""
+        for member in insiders:
+            peer = self._peer()
+            self._declarations += [
+                peer.declare_subscriber(self.keys.report(), lambda sample, member=member,
+                                        peer=peer: self._on_report(sample, member, peer,
+                                                                   victim, frames)),
+                peer.declare_queryable(self.keys.state(), lambda query, member=member:
+                                       self._answer_with_twin(query, member))]
+
+    def _on_report(self, sample: zenoh.Sample, member: Credentials, peer: zenoh.Session,
+                   victim: str, frames: tuple[int, ...]) -> None:
+        try:
+            envelope = decode_envelope(sample.payload.to_bytes(), self.name, member)
+        except ProtocolError:
+            return
+        report = envelope.message
+        if not isinstance(report, ReportMessage) or report.frame not in frames \
+                or report.node in (victim, member.member.name):
+            return
+        twin = (member.member.name, report.frame, report.digest)
+        with self._lock:
+            if any(key[:2] == twin[:2] for key in self._twins):
+                return  # one twin of a frame per forger
+            self._twins[twin] = None  # being made
+        threading.Thread(target=self._make_twin, daemon=True, name="collision forger",
+                         args=(peer, member, envelope.run_id,
+                               StateRequest(report.frame, report.node, report.digest,
+                                            asker=member.member.name))).start()
+
+    def _make_twin(self, peer: zenoh.Session, member: Credentials, run_id: int,
+                   request: StateRequest) -> None:
+        """Fetch the state `request` names under the forger's own key; keep its twin, signed
+        and ready to send (so that it goes out before the wall asked has read its state)."""
+        genuine = self._fetch(peer, member, run_id, request)
+        if genuine is None:
+            log.info("the collision forger got no state of frame %d from %s", request.frame,
+                     request.node)
+            return
+        header, chunks = genuine
+        words = np.frombuffer(b"".join(c.data for c in chunks), np.uint32)
+        emitter_words = header.emitters.view(np.uint32)
+        try:
+            twin = colliding_particles(words)
+        except ValueError as e:
+            log.info("no colliding state of frame %d: %s", request.frame, e)
+            return
+        size = header.chunk_particles * PARTICLE_BYTES
+        data = twin.tobytes()
+        replies = [encode(message, self.name, member, run_id) for message in (
+            header, *(SnapshotChunk(header.frame, i, data[i * size:(i + 1) * size])
+                      for i in range(header.chunks)))]
+        with self._ready:
+            self._twins[(member.member.name, request.frame, request.digest)] = replies
+            log.info("%s's twin of %s's state of frame %d is ready", member.member.name,
+                     request.node, request.frame)
+            self.collisions.append({
+                "frame": request.frame, "fetched_from": request.node,
+                "named_checksum": request.digest,
+                "genuine_checksum": reference_checksum(words, emitter_words, header.seed).digest,
+                "colliding_checksum": reference_checksum(twin, emitter_words,
+                                                         header.seed).digest,
+                "particles_changed": changed_particles(words, twin)})
+            self._ready.notify_all()
+
+    def _fetch(self, peer: zenoh.Session, member: Credentials, run_id: int,
+               request: StateRequest) -> Snapshot | None:
+        header, chunks = None, []
+        deadline = time.monotonic() + FETCH_SECONDS
+        with asking(peer, self.keys.state(request.node), deadline,
+                    MAX_PARTICLES * PARTICLE_BYTES,
+                    payload=encode(request, self.name, member, run_id),
+                    consolidation=zenoh.ConsolidationMode.NONE) as replies:
+            for reply in replies:
+                if reply.ok is None:
+                    continue
+                try:
+                    envelope = decode_envelope(reply.ok.payload.to_bytes(), self.name, member)
+                    envelope.check_signer(WALL, request.node)  # not another forger's twin
+                except ProtocolError:
+                    continue
+                message = envelope.message
+                if isinstance(message, SnapshotHeader):
+                    header = message
+                elif isinstance(message, SnapshotChunk) and header is not None:
+                    chunks.append(message)
+                if header is not None and len(chunks) == header.chunks:
+                    return header, sorted(chunks, key=lambda c: c.index)
+        return None
+
+    def _answer_with_twin(self, query: zenoh.Query, member: Credentials) -> None:
+        """Answer at once when the twin is ready (else from a thread, once it is)."""
+        opened = self._request(query, member)
+        if opened is None:
+            return
+        request, _ = opened
+        if request.node == member.member.name:
+            query.drop()  # the wall asked: what it sends is its own to send
+            return
+        twin = (member.member.name, request.frame, request.digest)
+        with self._lock:
+            replies = self._twins.get(twin)
+        log.info("%s got %s's query for %s's state of frame %d (twin %s)", member.member.name,
+                 request.asker, request.node, request.frame,
+                 "ready" if replies else "not ready")
+        if replies is not None:
+            self._send(query, replies, "colliding-snapshot")
+        else:
+            threading.Thread(target=self._send_when_ready, daemon=True, name="collision forger",
+                             args=(query, twin)).start()
+
+    def _send_when_ready(self, query: zenoh.Query, key: tuple[str, int, str]) -> None:
+        with self._ready:
+            self._ready.wait_for(lambda: self._twins.get(key) is not None, FETCH_SECONDS)
+            replies = self._twins.get(key)
+        if replies is None:
+            query.drop()
+        else:
+            self._send(query, replies, "colliding-snapshot")
+
+    # -- both ----------------------------------------------------------------------------
+
+    def _request(self, query: zenoh.Query, member: Credentials
+                 ) -> tuple[StateRequest, int] | None:
+        """The query's state request and run id (None: the query is dropped)."""
+        try:
+            envelope = decode_envelope(query.payload.to_bytes(), self.name, member)
+        except (ProtocolError, AttributeError):
+            envelope = None
+        if envelope is None or not isinstance(envelope.message, StateRequest):
+            query.drop()
+            return None
+        return envelope.message, envelope.run_id
+
+    def _reply(self, query: zenoh.Query, snapshot: Snapshot, member: Credentials,
+               run_id: int, what: str) -> None:
+        header, chunks = snapshot
+        self._send(query, [encode(message, self.name, member, run_id)
+                           for message in (header, *chunks)], what)
+
+    def _send(self, query: zenoh.Query, replies: list[bytes], what: str) -> None:
+        try:
+            for data in replies:
+                query.reply(str(query.key_expr), data)
+            self._count(what)
+        except zenoh.ZError as e:
+            log.info("a forged reply failed: %s", e)
+        finally:
+            query.drop()
+
+    def close(self) -> None:
+        for declaration in reversed(self._declarations):
+            declaration.undeclare()
+        for session in self._sessions:
+            session.close()
