@@ -31,7 +31,7 @@ import logging
 import queue
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -56,9 +56,11 @@ from cavesim.core.wire import (
     InfoMessage,
     ReportMessage,
     TrackingMessage,
+    WandState,
 )
 from cavesim.core.wire.network import NetworkSettings
 from cavesim.core.wire.payloads.from_nodes import Status
+from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
 from nodes import lockstep
@@ -157,6 +159,7 @@ class Master:
         self.clock = Clock(config.dt, config.realtime, config.max_frame_time,
                            config.max_substeps)
         self.head = ScriptedHead()
+        self.tracking_quiet = False  # the latest tracking message is older than allowed
         self.stopping = False
         self.refused = False  # another master was there first: the nodes are its own
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value)
@@ -316,7 +319,7 @@ class Master:
         """Frame k's inputs, drawn and sampled once: the clock's matrix, the tracked head
         (or the script's when no tracker has spoken), and the scene driver's state."""
         t = k * self.config.dt
-        tracked = self.link.tracking
+        tracked = self._tracked()
         step = self.driver.advance(t, self.config.dt, tracked.wand if tracked else None)
         self.record.clamped_inputs += step.clamped
         if step.flight is not None:
@@ -324,6 +327,23 @@ class Master:
         inputs = FrameInput(self.config.dt, draw_transform(self.matrix_rng, self.texture_size))
         return FrameMessage(k, inputs, step.wand, self.driver.encode(step.frame),
                             tracked.head if tracked else self.head.at(t))
+
+    def _tracked(self) -> TrackingMessage | None:
+        """The latest tracking message, or None before any. One sent longer ago than
+        MAX_TRACKING_AGE (the tracker went quiet) keeps its head but releases the wand:
+        no button stays pressed and no stick stays pushed after the tracker stops."""
+        tracked = self.link.tracking
+        if tracked is None:
+            return None
+        quiet = time.time() - tracked.sent_ns / 1e9 > MAX_TRACKING_AGE
+        if quiet != self.tracking_quiet:
+            self.tracking_quiet = quiet
+            if quiet:
+                log.warning("tracking went quiet (nothing for %.0f s): the head holds its "
+                            "last pose, the wand is released", MAX_TRACKING_AGE)
+            else:
+                log.info("tracking is back")
+        return replace(tracked, wand=WandState()) if quiet else tracked
 
     def _record_final_agreement(self) -> None:
         last = self.record.frames

@@ -1,6 +1,7 @@
 """The master's rules as pure functions, and the master's whole loop in this process over
 walls simulated in memory (tests/support/memory_walls.py): no Zenoh, no GL, no child process."""
 
+import logging
 import threading
 import time
 from pathlib import Path
@@ -14,9 +15,13 @@ from cavesim.core.wire import (
     ControlMessage,
     DisplayMessage,
     FrameMessage,
+    HeadState,
     ReportMessage,
+    TrackingMessage,
+    WandState,
 )
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
+from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
 from nodes import lockstep
 from nodes.lockstep import Membership
 from nodes.master.events import ProcessEnded
@@ -302,3 +307,26 @@ def test_the_swap_book_forgets_late_messages_of_old_frames():
     book.note(DisplayMessage(3, "a", Phase.SWAPPED, 1))  # for a frame it never waits on
     book.released(3 + WINDOW + 1, ("a",), stalled=False)
     assert not book._swapped.get(3)
+
+
+# -- tracking -------------------------------------------------------------------------------
+
+def test_tracking_that_went_quiet_holds_the_head_and_releases_the_wand(caplog):
+    """A tracker that stops leaves no button pressed: once its last message is older than
+    MAX_TRACKING_AGE, frames keep its head but carry an idle wand; a fresh one is used as
+    it is."""
+    caplog.set_level(logging.INFO, "cavesim.master")
+    link = MemoryLink(WALLS)
+    master = Master(MasterConfig(WALLS, MINIMAL, 3), link)
+    pressed = WandState((0.25, 0.5, 1.0), buttons=1, axes=(1.0, 0.0, 0.0, 0.0))
+    head = HeadState((0.5, -0.5, 1.625))
+    link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
+    fresh = master._make_frame(1)
+    assert fresh.head == head and fresh.wand.buttons == 1
+    link.tracking = TrackingMessage(0, head, pressed,
+                                    time.time_ns() - int((MAX_TRACKING_AGE + 1) * 1e9))
+    quiet = master._make_frame(2)
+    assert quiet.head == head and quiet.wand == WandState()
+    assert "tracking went quiet" in caplog.text
+    link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
+    assert master._make_frame(3).wand.buttons == 1 and "tracking is back" in caplog.text
