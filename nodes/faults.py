@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 from dataclasses import dataclass
 
@@ -21,12 +22,18 @@ HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-for
 # a state whose checksum collides with the named one, and send messages larger than the
 # transport takes
 KINDS = NODE_FAULTS + HARNESS_FAULTS
+WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
+                 "tracking-replay", "second-master", "oversize")  # no node's: the others
+# are done to one node (the last wall unless one is named)
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
+SETTLE = 30  # frames after an attack on the whole cluster before its effects are measured
 # the harness makes these kinds' node diverge this many times, DIVERGENCE_GAP frames apart:
 # a query replay captures the first resync's queries and replays them against the second's;
 # a collision's forgers race the wall asked for its state, and win only now and then
-DIVERGENCES = {"query-replay": 2, "snapshot-collision": 8}
+DIVERGENCES = {"query-replay": 2, "snapshot-collision": 5}
 DIVERGENCE_GAP = 10
+EVERY_KIND_SPACING = 90  # frames between the faults of `every_kind`: past a collision's
+# eight divergences and the measurements after them
 FLIPPED_BIT = 20  # of the word a bitflip changes: a mantissa bit of a float32 field
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 
@@ -54,6 +61,21 @@ def divergence_frames(fault: Fault) -> tuple[int, ...]:
     """The frames at which the harness makes the node of `fault` diverge for it."""
     return tuple(fault.frame + i * DIVERGENCE_GAP
                  for i in range(DIVERGENCES.get(fault.kind, 1)))
+
+
+def every_kind(frames: int, walls: tuple[str, ...]) -> tuple[Fault, ...]:
+    """A fault of every kind in `frames` frames: `seed` at frame 1, the others spread evenly
+    (each node's in turn over `walls`), and `master-kill` last, so that every node's fault
+    comes before it. ValueError when the frames cannot keep them EVERY_KIND_SPACING apart."""
+    spread = [kind for kind in KINDS if kind not in ("seed", "master-kill")]
+    gap = frames // (len(spread) + 2)  # the last gap is the new master's run
+    if gap < EVERY_KIND_SPACING:
+        raise ValueError(f"a fault of every kind needs --frames >= "
+                         f"{(len(spread) + 2) * EVERY_KIND_SPACING}")
+    faults, nodes = [Fault("seed", 1, walls[0])], itertools.cycle(walls)
+    for slot, kind in enumerate(spread, start=1):
+        faults.append(Fault(kind, slot * gap, None if kind in WHOLE_CLUSTER else next(nodes)))
+    return (*faults, Fault("master-kill", (len(spread) + 1) * gap))
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
 from nodes.faults import (
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
+    SETTLE,
     Fault,
     bitflip_target,
     divergence_frames,
@@ -43,7 +44,7 @@ def check_report(walls: tuple[str, ...], faults: tuple[Fault, ...], record: RunR
         "all_healed": all(o["healed"] for o in outcomes),
         "all_localised": all(o["localisation"]["exact"] for o in outcomes
                              if "localisation" in o),
-        "divergences": record.divergences.total,
+        "divergences": record.divergences.total + (killed.divergences.total if killed else 0),
         "rogue_messages_sent": harness.sent(),
         "final": summary["final"],
         "run": summary,
@@ -157,7 +158,7 @@ def _forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evi
     """Forged snapshots served to a diverged node: detected when it refused them, healed by
     a resync to the state the master named."""
     forged = {k: n for k, n in harness.forgers.sent.items() if k.endswith("-snapshot")}
-    refused = record.node_rejected.get(fault.node, 0)
+    refused = refused_meanwhile(harness.measured[str(fault)]).get(fault.node, 0)
     detection = {"forged_snapshots_served": forged, "refused_by_node": refused}
     hit = _first_divergence(record, fault)
     if not (hit and refused):
@@ -174,11 +175,13 @@ def _report_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path)
     forged = harness.rogue.sent.get("report-in-another-wall's-name", 0)
     refused = record.master_rejected.get("wrong-signer", 0)
     caught = fault.frame if forged and refused >= forged else None
+    judged = _diverged_at(record, fault.frame)
     return Evidence(
-        caught, healed_at=caught if record.divergences.total == 0 else None,
+        caught, healed_at=caught if not judged else None,
         detection={"forged_reports": forged, "refused_by_master_as_wrong_signer": refused},
-        outcome=f"{record.frames} frames ran to the end with {record.divergences.total} "
-                f"divergence(s): no wall was judged by a report it did not sign")
+        outcome=f"no divergence at frame {fault.frame}: no wall was judged by a report it did "
+                f"not sign" if not judged else f"walls {judged} were judged at frame "
+                                                   f"{fault.frame}")
 
 
 def _flood(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
@@ -187,10 +190,10 @@ def _flood(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evide
     refused = sum(record.node_rejected.values())
     return Evidence(
         fault.frame if refused >= FLOOD_MESSAGES else None,
-        healed_at=fault.frame if not record.losses and record.frames else None,
-        detection={**harness.measured["flood"], "refused_by_nodes": refused},
+        healed_at=fault.frame if _none_lost_since(record, fault.frame) else None,
+        detection={**harness.measured[str(fault)], "refused_by_nodes": refused},
         outcome=f"{FLOOD_MESSAGES:,} junk messages and {FLOOD_QUERIES:,} unsigned state "
-                f"queries in {harness.measured['flood'].get('seconds')} s: counted, logged "
+                f"queries in {harness.measured[str(fault)].get('seconds')} s: counted, logged "
                 f"at a bounded rate, no node lost")
 
 
@@ -227,8 +230,8 @@ def _tracking_replay(fault: Fault, record: RunRecord, harness, killed, out: Path
     caught = all(sent.get(what, 0) and refused.get(reason, 0) >= sent[what]
                  for reason, what in expected.items())
     member = harness.credentials.issue(WALL, record.walls[0])
-    forged = harness.rogue.frames_with_head(FORGED_HEAD, member)
-    taken = harness.rogue.frames_with_head(TAKEN_HEAD, member)
+    forged = harness.rogue.frames_with_head(FORGED_HEAD, member, record.run_id)
+    taken = harness.rogue.frames_with_head(TAKEN_HEAD, member, record.run_id)
     return Evidence(
         fault.frame if caught else None,
         healed_at=fault.frame if forged == 0 and taken else None,
@@ -244,20 +247,22 @@ def _tracking_replay(fault: Fault, record: RunRecord, harness, killed, out: Path
 def _second_master(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """A second master with the same keys: detected when it refused to start with one line
     and the running master counted it (and the one that missed it, by its token); healed
-    when every wall stayed in the first run to the end, without a divergence."""
+    when no wall left the run or diverged while the other run's frames came."""
     second = harness.second_master
     counted = record.master_rejected.get("other-master", 0)
     refused = second.get("refused")
-    stayed = set(record.final.members) == set(record.walls) if record.final else False
+    window = range(fault.frame, fault.frame + SETTLE)
+    stayed = _none_lost_since(record, fault.frame) and not any(
+        _diverged_at(record, k) for k in window)
     return Evidence(
         fault.frame if refused and "\n" not in refused and counted >= 2 else None,
-        healed_at=fault.frame if stayed and record.divergences.total == 0 else None,
+        healed_at=fault.frame if stayed else None,
         detection={"second_master": second, "counted_by_the_master": counted,
                    "frames_signed_for_another_run": harness.sent().get("second-master-frame",
                                                                        0),
                    "refused_by_nodes": sum(record.node_rejected.values())},
-        outcome=f"every wall stayed in run {record.run_id:016x} for its {record.frames} "
-                f"frames" if stayed else "a wall left the run")
+        outcome=f"every wall stayed in run {record.run_id:016x}, in agreement"
+        if stayed else "a wall left the run or diverged")
 
 
 def _collision(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
@@ -268,7 +273,7 @@ def _collision(fault: Fault, record: RunRecord, harness, killed, out: Path) -> E
     collisions = harness.forgers.collisions
     colliding = [c for c in collisions if c["colliding_checksum"] == c["named_checksum"]]
     served = harness.forgers.sent.get("colliding-snapshot", 0)
-    refused = record.node_rejected.get(fault.node, 0)
+    refused = refused_meanwhile(harness.measured[str(fault)]).get(fault.node, 0)
     detection = {"collisions": collisions, "colliding_snapshots_served": served,
                  "refused_by_node": refused}
     hit = _first_divergence(record, fault)
@@ -281,19 +286,19 @@ def _collision(fault: Fault, record: RunRecord, harness, killed, out: Path) -> E
 
 
 def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """Messages larger than the transport takes: detected when none reached a node (each
-    counted the junk under the limit, and no more than that of anything), healed when no
-    node was lost."""
-    sent = harness.sent()
+    """Messages larger than the transport takes: detected when none reached a node (from
+    just before them to the measurement after, each counted the junk under the limit, and
+    no more), healed when no node was lost."""
+    sent, measured = harness.sent(), harness.measured[str(fault)]
     under = sent.get("junk-under-the-limit", 0)
     oversize = sent.get("oversize-message", 0) + sent.get("oversize-query", 0)
-    by_node = dict(record.node_rejected)
+    by_node = refused_meanwhile(measured)
     caught = oversize and by_node and all(under <= n < under + oversize
                                           for n in by_node.values())
     return Evidence(
         fault.frame if caught else None,
-        healed_at=fault.frame if not record.losses and record.frames else None,
-        detection={**harness.measured["oversize"], "oversize_sent": oversize,
+        healed_at=fault.frame if _none_lost_since(record, fault.frame) else None,
+        detection={**measured, "oversize_sent": oversize,
                    "junk_under_the_limit_sent": under, "refused_by_nodes": by_node},
         outcome=f"{oversize} messages and queries over the transport's limit dropped before "
                 f"any was buffered; each node counted only the {under} under it")
@@ -369,6 +374,23 @@ def named_fields(report: dict, node: str | None) -> list[dict]:
                                   "bit": xor.bit_length() - 1 if xor.bit_count() == 1
                                   else None})
     return found
+
+
+def _none_lost_since(record: RunRecord, frame: int) -> bool:
+    """Whether the run went past `frame` and lost no wall from then on."""
+    return record.frames >= frame and not any(loss.frame >= frame for loss in record.losses)
+
+
+def _diverged_at(record: RunRecord, frame: int) -> list[str]:
+    """The walls named by a divergence at `frame`."""
+    return sorted({n for d in record.divergences if d.frame == frame for n in d.nodes})
+
+
+def refused_meanwhile(measured: dict) -> dict[str, int]:
+    """Per node, the messages it refused between a fault's two measurements (none without
+    the second: the run ended first)."""
+    before, after = measured["before"]["refused"], measured.get("after", {}).get("refused", {})
+    return {wall: after[wall] - before.get(wall, 0) for wall in after}
 
 
 def _live_at(record: RunRecord, frame: int) -> int | None:

@@ -36,6 +36,8 @@ from nodes.faults import (
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
     NODE_FAULTS,
+    SETTLE,
+    WHOLE_CLUSTER,
     Fault,
     divergence_frames,
 )
@@ -46,21 +48,21 @@ from nodes.master.link import open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
-WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
-                 "tracking-replay", "second-master", "oversize")  # no node's
 ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-forgery",
                 "query-replay", "tracking-replay", "second-master", "snapshot-collision",
                 "oversize")  # a RoguePeer's
 STATE_FORGERIES = ("snapshot-forgery", "snapshot-collision")  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
-SETTLE = 30  # frames after a flood or oversized messages before the nodes are measured again
+RESYNCED = 5  # frames after a forged state's last divergence before the node is measured
+COLLISION_PACE = 1.2  # s at least between a collision's divergences: a node serves each
+# asker one state a second (burst 2), and the victim and each forger ask once per divergence
 REPLAY_SECONDS, REPLAY_MOST = 3.0, 5_000  # how long and how many queries are replayed
 EARLIER_RUN_QUERIES = 20
 TRACKING_REPLAYS = 100  # tracking messages of each kind the master must refuse
 SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one signs
 OVERSIZE_MESSAGES, OVERSIZE_BYTES, OVERSIZE_QUERIES = 45, 64 * 2**20, 5
-UNDER_LIMIT_JUNK = 3  # junk frames just under the transport's limit, sent with them
+UNDER_LIMIT_JUNK = 1  # junk frames just under the transport's limit, sent with them
 
 
 @dataclass(frozen=True)
@@ -95,14 +97,13 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
                           on_loss=plan.on_loss, check_every=plan.check_every,
                           frame_log=plan.out / "frames.log", forensics=plan.out)
     kill = master_kill_frame(faults)
-    injected = [(f.node, own) for f in faults for own in _injected(f)]
-    cluster = ClusterPlan(master, plan.out, {wall: (*node_args, *(
-        arg for node, own in injected if node == wall for arg in ("--inject", str(own))),
-        *_full_resync(faults, wall)) for wall in plan.walls})
+    cluster = ClusterPlan(master, plan.out, {wall: _node_arguments(faults, node_args, wall)
+                                             for wall in plan.walls})
     harness = _Harness(faults, node_args, master, plan.out)
     try:
         if kill is None:
-            record, killed = run_cluster(cluster, progress, harness.before_frame), None
+            record, killed = run_cluster(cluster, progress, harness.before_frame,
+                                         harness.checkpoint), None
         else:
             record, killed = _past_a_master_kill(cluster, kill, progress, harness)
     finally:
@@ -121,6 +122,17 @@ def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
         raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
                          f"master-kill@{kill} (the new master's run counts frames from 1)")
     return kill
+
+
+def _node_arguments(faults: tuple[Fault, ...], common: tuple[str, ...], wall: str,
+                    after: int = 0) -> tuple[str, ...]:
+    """`wall`'s node's arguments: the `common` ones, what it must do itself for the faults
+    after frame `after` (a restarted node is not given those it has passed) and how it
+    resyncs."""
+    own = [str(f) for fault in faults if fault.node == wall for f in _injected(fault)
+           if f.frame > after]
+    return (*common, *(arg for f in own for arg in ("--inject", f)),
+            *_full_resync(faults, wall))
 
 
 def _full_resync(faults: tuple[Fault, ...], wall: str) -> tuple[str, ...]:
@@ -155,12 +167,13 @@ def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harne
                                     frame_log=plan.out / "frames.killed-master.log")
         with open_master_link(first) as link, cluster.watch(link.events):
             killed = run_master(first, link, progress, lambda k: harness.before_frame(
-                cluster, k), abandon=True)
+                cluster, k), harness.checkpoint, abandon=True)
         harness.master_killed(cluster)
         second = dataclasses.replace(config, frames=config.frames - frame + 1)
         with open_master_link(second) as link, cluster.watch(link.events):
             record = run_master(second, link, lambda k, live: progress(k + frame - 1, live),
-                                lambda k: harness.before_frame(cluster, k + frame - 1))
+                                lambda k: harness.before_frame(cluster, k + frame - 1),
+                                harness.checkpoint)
     return record, killed
 
 
@@ -177,15 +190,23 @@ class _Harness:
         self.rogue: RoguePeer | None = None
         self.forgers: StateForgers | None = None
         self.noticed: list[str] = []  # walls whose log says they saw the master go
-        # a flood's and oversized messages': the nodes' memory and log sizes before and after
+        # per fault (as text) that measures the nodes: their memory, log sizes and refusals
+        # at its frame ("before") and at the frame "until" ("after")
         self.measured: dict[str, dict] = {}
         self.second_master: dict = {}  # what became of a second master's start
+        self.record: RunRecord | None = None  # the running master's record, as it goes
         self._replaying: list[threading.Thread] = []
+        self._paced: dict[str, float] = {}  # fault -> when its last divergence was sent
+
+    def checkpoint(self, record: RunRecord) -> None:
+        self.record = record
 
     def before_frame(self, cluster: LocalCluster, k: int) -> None:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
             self._connect(cluster)
         for fault in self.faults:
+            if fault.kind == "snapshot-collision" and k in divergence_frames(fault):
+                self._pace(fault)
             if fault.kind == "query-replay" and k == divergence_frames(fault)[1]:
                 self._replay_queries()
             if fault.kind == "query-replay" and k == min(divergence_frames(fault)[1]
@@ -194,7 +215,7 @@ class _Harness:
             if fault.frame == k:
                 self._do(fault, cluster, k)
         for measured in self.measured.values():
-            if k == min(measured["frame"] + SETTLE, self.master.frames):
+            if k == measured["until"]:
                 measured["after"] = self._measure(cluster)
 
     def _connect(self, cluster: LocalCluster) -> None:
@@ -211,16 +232,20 @@ class _Harness:
         rogue = self.rogue
         match fault.kind:
             case "kill":
-                cluster.kill_node(fault.node)
-                cluster.start_node(fault.node, extra=self.node_args)  # restarts, rejoins
+                cluster.kill_node(fault.node)  # restarted, it rejoins
+                cluster.start_node(fault.node, extra=_node_arguments(
+                    self.faults, self.node_args, fault.node, after=k))
             case "rogue":
                 self._forge(cluster.session, k)
             case "replay-attack":
                 self._replay(k)
             case "snapshot-forgery":
-                self.forgers.serve_forgeries(self._insiders(fault.node), self.emitters)
+                self._measure_from(fault, cluster, k + RESYNCED)
+                self.forgers.serve_forgeries(self._insiders(fault.node), self.emitters,
+                                             range(k, k + DIVERGENCE_GAP))
                 rogue.flood(0, FORGERY_QUERIES)
             case "snapshot-collision":
+                self._measure_from(fault, cluster, divergence_frames(fault)[-1] + RESYNCED)
                 self.forgers.serve_collisions(self._insiders(fault.node), fault.node,
                                               divergence_frames(fault))
             case "report-forgery":
@@ -233,15 +258,21 @@ class _Harness:
                 self.second_master = self._start_a_second_master(cluster)
                 rogue.as_a_second_master(self.credentials, k, SECOND_MASTER_FRAMES)
             case "flood":
-                self.measured["flood"] = {"frame": k, "before": self._measure(cluster)}
-                self.measured["flood"]["seconds"] = round(
-                    rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
+                measured = self._measure_from(fault, cluster, k + SETTLE)
+                measured["seconds"] = round(rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
             case "oversize":
-                self.measured["oversize"] = {"frame": k, "before": self._measure(cluster)}
+                measured = self._measure_from(fault, cluster, k + SETTLE)
                 started = time.monotonic()
                 rogue.oversize(OVERSIZE_MESSAGES, OVERSIZE_BYTES, UNDER_LIMIT_JUNK,
                                OVERSIZE_QUERIES)
-                self.measured["oversize"]["seconds"] = round(time.monotonic() - started, 3)
+                measured["seconds"] = round(time.monotonic() - started, 3)
+
+    def _pace(self, fault: Fault) -> None:
+        """Wait until COLLISION_PACE has passed since `fault`'s last divergence."""
+        last = self._paced.get(str(fault))
+        if last is not None:
+            time.sleep(max(0.0, last + COLLISION_PACE - time.monotonic()))
+        self._paced[str(fault)] = time.monotonic()
 
     def _insiders(self, node: str) -> list[Credentials]:
         """Keys of the walls other than `node`: what the insiders serving it hold."""
@@ -299,12 +330,23 @@ class _Harness:
             thread.join(REPLAY_SECONDS + 1.0)
         self._replaying.clear()
 
-    @staticmethod
-    def _measure(cluster: LocalCluster) -> dict:
-        """Each node's resident memory (MB) and log size (bytes)."""
+    def _measure_from(self, fault: Fault, cluster: LocalCluster, until: int) -> dict:
+        """Measure the nodes now and again before frame `until` (the last frame at most)."""
+        measured = self.measured[str(fault)] = {"frame": fault.frame,
+                                                "until": min(until, self.master.frames),
+                                                "before": self._measure(cluster)}
+        return measured
+
+    def _measure(self, cluster: LocalCluster) -> dict:
+        """Each node's resident memory and its peak so far (MB), log size (bytes) and the
+        messages it refused so far (as its latest report says)."""
+        refused = self.record.node_rejected if self.record else {}
         return {"rss_mb": {w: round(resident_mb(p.pid) or 0.0, 1)
                            for w, p in cluster.nodes.items()},
-                "log_bytes": {w: cluster.log_path(w).stat().st_size for w in cluster.nodes}}
+                "peak_rss_mb": {w: round(resident_mb(p.pid, peak=True) or 0.0, 1)
+                                for w, p in cluster.nodes.items()},
+                "log_bytes": {w: cluster.log_path(w).stat().st_size for w in cluster.nodes},
+                "refused": {w: refused.get(w, 0) for w in cluster.nodes}}
 
     def master_killed(self, cluster: LocalCluster, timeout: float = 10.0) -> None:
         """Wait until every node has logged the master's loss (they notice it on liveliness)."""

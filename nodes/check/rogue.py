@@ -232,10 +232,9 @@ class RoguePeer:
         self.put("stale-tracking", self.keys.tracking,
                  encode(stale, self.name, tracker, run_id))
 
-    def frames_with_head(self, head: HeadState, member: Credentials) -> int:
-        """How many captured frames of the current run carry `head` (checked as a wall
-        would check them)."""
-        run_id = self.current_run()
+    def frames_with_head(self, head: HeadState, member: Credentials, run_id: int) -> int:
+        """How many captured frames of run `run_id` carry `head` (checked as a wall would
+        check them)."""
         with self._lock:
             frames = [data for _, data in self.captured["frame"] if run_id_of(data) == run_id]
         carrying = 0

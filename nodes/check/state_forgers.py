@@ -36,7 +36,11 @@ from cavesim.core.wire import (
 )
 from cavesim.core.wire.credentials import WALL
 from cavesim.core.wire.network import NetworkSettings, open_session
-from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader
+from cavesim.core.wire.payloads.state_transfer import (
+    MAX_CHUNK_PARTICLES,
+    SnapshotChunk,
+    SnapshotHeader,
+)
 from cavesim.core.wire.replies import asking
 from nodes.check.checksum_collision import changed_particles, colliding_particles
 
@@ -58,7 +62,11 @@ class StateForgers:
         self.sent: Counter[str] = Counter()
         self._lock = threading.Lock()
         self.collisions: list[dict] = []
-        self._sessions: list[zenoh.Session] = []
+        # a peer per forger, opened now: by the time they forge, zenoh's gossip has linked
+        # each to every wall directly (a late peer's replies would go through the master's)
+        self._peers = [open_session(NetworkSettings(connect=(endpoint,)))
+                       for _ in range(len(FORGERIES))]
+        self._idle = list(self._peers)
         self._declarations: list = []
         # (forger's wall, frame, digest) -> the colliding twin of that state, signed by that
         # forger (None while it is made)
@@ -70,33 +78,40 @@ class StateForgers:
             self.sent[what] += 1
 
     def _peer(self) -> zenoh.Session:
+        """A forger's own peer: one opened at the start while there are (else a new one)."""
+        if self._idle:
+            return self._idle.pop()
         session = open_session(NetworkSettings(connect=(self.endpoint,)))
-        self._sessions.append(session)
+        self._peers.append(session)
         return session
 
     # -- old, misfit and corrupt snapshots ---------------------------------------------------
 
-    def serve_forgeries(self, insiders: list[Credentials], emitters: int) -> None:
+    def serve_forgeries(self, insiders: list[Credentials], emitters: int,
+                        frames: range) -> None:
         """One forger per kind of FORGERIES, holding the keys of `insiders` in turn,
-        answering every wall's state queries: one holding the key of the wall asked is
-        refused by what it sends, the others by whose key signed it."""
+        answering every wall's state queries for states of `frames`: one holding the key of
+        the wall asked is refused by what it sends, the others by whose key signed it."""
         for forgery, member in zip(FORGERIES, itertools.cycle(insiders)):
             self._declarations.append(self._peer().declare_queryable(
                 self.keys.state(), lambda query, forgery=forgery, member=member: self._forge(
-                    query, forgery, member, emitters)))
+                    query, forgery, member, emitters, frames)))
 
     def _forge(self, query: zenoh.Query, forgery: str, member: Credentials,
-               emitters: int) -> None:
+               emitters: int, frames: range) -> None:
         opened = self._request(query, member)
         if opened is None:
             return
         request, run_id = opened
+        if request.frame not in frames:
+            query.drop()
+            return
         empty = np.zeros(emitters, EMITTER_DTYPE)
         if forgery == "old":
             header = SnapshotHeader(max(request.frame - 10, 0), 1, 0, 1, "4" * 32, empty)
             chunks = []
         elif forgery == "misfit":
-            header = SnapshotHeader(request.frame, 1, MAX_PARTICLES, MAX_PARTICLES // 64,
+            header = SnapshotHeader(request.frame, 1, MAX_PARTICLES, MAX_CHUNK_PARTICLES,
                                     request.digest, empty)  # more than any scene holds
             chunks = []
         else:
@@ -122,7 +137,7 @@ class StateForgers:
                                         peer=peer: self._on_report(sample, member, peer,
                                                                    victim, frames)),
                 peer.declare_queryable(self.keys.state(), lambda query, member=member:
-                                       self._answer_with_twin(query, member))]
+                                       self._answer_with_twin(query, member, victim))]
 
     def _on_report(self, sample: zenoh.Sample, member: Credentials, peer: zenoh.Session,
                    victim: str, frames: tuple[int, ...]) -> None:
@@ -204,14 +219,16 @@ class StateForgers:
                     return header, sorted(chunks, key=lambda c: c.index)
         return None
 
-    def _answer_with_twin(self, query: zenoh.Query, member: Credentials) -> None:
-        """Answer at once when the twin is ready (else from a thread, once it is)."""
+    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, victim: str
+                          ) -> None:
+        """Answer the victim's query at once when the twin is ready (else from a thread,
+        once it is)."""
         opened = self._request(query, member)
         if opened is None:
             return
         request, _ = opened
-        if request.node == member.member.name:
-            query.drop()  # the wall asked: what it sends is its own to send
+        if request.asker != victim or request.node == member.member.name:
+            query.drop()  # not the victim; or the wall asked, whose state is its own to send
             return
         twin = (member.member.name, request.frame, request.digest)
         with self._lock:
@@ -267,5 +284,5 @@ class StateForgers:
     def close(self) -> None:
         for declaration in reversed(self._declarations):
             declaration.undeclare()
-        for session in self._sessions:
+        for session in self._peers:
             session.close()

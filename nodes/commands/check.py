@@ -24,7 +24,7 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
-from nodes.faults import KINDS, divergence_frames
+from nodes.faults import KINDS, divergence_frames, every_kind
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 
 CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faults show at once
@@ -39,6 +39,9 @@ def add(commands) -> None:
     parser.add_argument("--inject", type=fault_spec, action="append", default=[],
                         metavar="KIND@FRAME[:NODE]",
                         help=f"{', '.join(KINDS)} (repeatable)")
+    parser.add_argument("--every-kind", action="store_true",
+                        help="also inject a fault of every kind, spread evenly over --frames "
+                             "(the master-kill last)")
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
     parser.add_argument("--on-loss", choices=LOSS_POLICIES, default="continue")
     parser.add_argument("--check-every", type=frame_count, default=1)
@@ -56,6 +59,11 @@ def check(args: argparse.Namespace, console) -> int:
     from nodes.check.table import check_table
 
     walls = wall_names(args.walls)
+    if args.every_kind:
+        try:
+            args.inject = [*every_kind(args.frames, walls), *args.inject]
+        except ValueError as e:
+            raise UsageError(f"cavesim check: error: argument --every-kind: {e}") from e
     for f in args.inject:
         if f.node is not None and f.node not in walls:
             raise UsageError(f"cavesim check: error: argument --inject: node {f.node!r} of "

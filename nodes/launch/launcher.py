@@ -190,13 +190,15 @@ def _wait_or_kill(process: subprocess.Popen, patience: float, interrupt: bool = 
     process.wait()
 
 
-def resident_mb(pid: int) -> float | None:
-    """Process `pid`'s resident memory (VmRSS) in MB of 10^6 bytes (None: not readable)."""
+def resident_mb(pid: int, peak: bool = False) -> float | None:
+    """Process `pid`'s resident memory (VmRSS; with `peak`, its highest so far: VmHWM) in
+    MB of 10^6 bytes (None: not readable)."""
     try:
         status = (PROC / str(pid) / "status").read_text()
     except OSError:
         return None
+    field = "VmHWM:" if peak else "VmRSS:"
     for line in status.splitlines():
-        if line.startswith("VmRSS:"):  # "VmRSS:     123456 kB", the kernel's kB being KiB
+        if line.startswith(field):  # "VmRSS:     123456 kB", the kernel's kB being KiB
             return int(line.split()[1]) * 1024 / 1e6
     return None

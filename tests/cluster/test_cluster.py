@@ -86,7 +86,8 @@ def test_attacks_and_a_killed_master_are_refused_and_survived(tmp_path):
     refused = replay["detection"]["refused_by_master"]
     assert refused.get("wrong-run", 0) >= 1 and refused.get("unsent-frame", 0) >= 1
     assert replay["detection"]["refused_by_nodes"] >= 3 * 3  # earlier run's, member's
-    assert report["divergences"] == 0 and report["final"]["agree"]  # in the new run
+    assert report["divergences"] == 2  # the forgery's and the bitflip's, in the killed run
+    assert report["run"]["event_totals"]["divergences"] == 0 and report["final"]["agree"]
 
 
 def test_reports_in_other_walls_names_are_refused_by_their_signer(tmp_path):
@@ -132,7 +133,7 @@ def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
 
 
 def test_a_state_with_the_named_checksum_from_another_wall_is_refused(tmp_path):
-    report = check(tmp_path, ["snapshot-collision@20:right"], frames=100, scene=MINIMAL)
+    report = check(tmp_path, ["snapshot-collision@20:right"], frames=70, scene=MINIMAL)
     assert_each_fault_caught(report, ["snapshot-collision@20:right"])
     (collision,) = report["faults"]
     made = collision["detection"]["collisions"]
@@ -147,8 +148,8 @@ def test_oversized_messages_are_dropped_by_the_transport(tmp_path):
     (oversize,) = report["faults"]
     detection = oversize["detection"]
     assert detection["oversize_sent"] == 50  # 45 messages and 5 queries of 64 MiB
-    for wall in WALLS:  # three junk messages of 8 MiB reach each node, and no more
-        assert detection["after"]["rss_mb"][wall] < detection["before"]["rss_mb"][wall] + 64
+    for wall in WALLS:  # one junk message of 8 MiB reaches each node, none of 64 MiB
+        assert detection["after"]["peak_rss_mb"][wall] < detection["before"]["rss_mb"][wall] + 64
 
 
 def test_a_flood_of_junk_and_queries_is_counted_and_costs_no_memory_and_little_log(tmp_path):

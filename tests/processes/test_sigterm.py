@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from master_process import spawn_master
+from master_process import running, spawn_master
 
 from nodes.arguments import INTERRUPTED
 from nodes.launch.launcher import LocalCluster, free_port
@@ -31,13 +31,6 @@ def cavesim(*args: str) -> subprocess.Popen:
     return subprocess.Popen([sys.executable, "-m", "cavesim", *args], cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
-
-
-def running(session: str) -> list[str]:
-    """Command lines of cavesim processes of `session` still running."""
-    found = subprocess.run(["pgrep", "-af", "--", f"--session {session} "],
-                           capture_output=True, text=True)
-    return found.stdout.splitlines()
 
 
 def report_after(path: Path, frames: int, process: subprocess.Popen, seconds: float) -> dict:

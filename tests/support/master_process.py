@@ -38,3 +38,10 @@ def progress_until(master: subprocess.Popen, frame: int) -> int:
         if json.loads(line)["frame"] >= frame:
             return frame
     raise AssertionError(f"the master ended before frame {frame}")
+
+
+def running(session: str) -> list[str]:
+    """Command lines of cavesim processes of `session` still running."""
+    found = subprocess.run(["pgrep", "-af", "--", f"--session {session} "],
+                           capture_output=True, text=True)
+    return found.stdout.splitlines()

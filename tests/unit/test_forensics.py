@@ -129,7 +129,8 @@ def test_the_check_knows_where_each_fault_kind_leaves_its_evidence():
 
 
 def checked(tmp_path, record, fault) -> dict:
-    return check_report(WALLS, (fault,), record, SimpleNamespace(rogue=None), None, tmp_path)
+    harness = SimpleNamespace(rogue=None, sent=dict)  # a harness that sent nothing
+    return check_report(WALLS, (fault,), record, harness, None, tmp_path)
 
 
 @pytest.mark.parametrize(("path", "wrong"), [
