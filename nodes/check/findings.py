@@ -112,7 +112,7 @@ def _divergence(fault: Fault, record: RunRecord, harness, killed, out: Path) -> 
     """A node that computes something else: the first divergence naming it, healed by its
     resync; a bitflip must also be localised."""
     hit = _first_divergence(record, fault)
-    localisation = localised(fault, hit, _live_at(record, fault.frame), out) \
+    localisation = localised(fault, hit, _live_at(record, fault, hit), out) \
         if fault.kind == "bitflip" else None
     if hit is None:
         return Evidence(localisation=localisation)
@@ -393,10 +393,13 @@ def refused_meanwhile(measured: dict) -> dict[str, int]:
     return {wall: after[wall] - before.get(wall, 0) for wall in after}
 
 
-def _live_at(record: RunRecord, frame: int) -> int | None:
-    """The agreed live count after `frame` (None if the record's series skipped it)."""
+def _live_at(record: RunRecord, fault: Fault, hit: Divergence | None) -> int | None:
+    """The live count of the fault's node after its frame: as its divergence at that frame
+    says, else as the run's series does (None if a long run's series skipped that frame)."""
+    if hit is not None and hit.frame == fault.frame:
+        return hit.particles.get(fault.node)
     series = record.live_particles
-    return dict(zip(series.frames(), series, strict=True)).get(frame)
+    return dict(zip(series.frames(), series, strict=True)).get(fault.frame)
 
 
 def _resynced(record: RunRecord, node: str, frame: int) -> int | None:

@@ -5,6 +5,7 @@ is one line naming the file, and the frames logged before it stay replayable."""
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import io
 import json
@@ -23,6 +24,8 @@ from rich.console import Console
 from cavesim.core.errors import ClusterError, OutputError
 from cavesim.core.framelog import TORN, read_frame_log
 from cavesim.core.output import writing
+from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.key_files import write_key_files
 from cavesim.tools.log_replay import replay
 from nodes import cli
 from nodes.arguments import USAGE_ERROR, UsageError, output_directory
@@ -433,3 +436,23 @@ def test_a_picture_on_a_full_disk_is_an_output_error_naming_it(tmp_path):
     flight = [{"t": t / 60, "altitude": 10.0 - t, "emission_rate": 100.0 * t} for t in range(5)]
     with pytest.raises(OutputError, match=f"^cannot write {plot}: No space left on device$"):
         write_demo_plots({"flight": flight, "live_per_frame": [1, 2, 3, 4, 5]}, tmp_path)
+
+
+def test_a_run_with_a_key_file_leaves_no_secret_in_its_output_folder(tmp_path):
+    """`cavesim run --key-file master.key` issues its walls' keys into a private temporary
+    folder: nothing under --out, logs included, holds a key file or a secret."""
+    keys, out = tmp_path / "keys", tmp_path / "out"
+    master = generate()
+    write_key_files(keys, master, ("front", "left"))
+    done = subprocess.run([sys.executable, "-m", "cavesim", "run", "--walls", "2", "--frames",
+                           "20", "--scene", str(MINIMAL), "--out", str(out), "--session",
+                           f"s{os.getpid()}", "--key-file", str(keys / "master.key")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=180)
+    assert done.returncode == 0, done.stderr[-2000:]
+    files = [path for path in out.rglob("*") if path.is_file()]
+    assert files and not [path for path in files if path.suffix == ".key"]
+    secrets = [master.secret, master.master_private]
+    secrets += [encoded for secret in secrets for encoded in (secret.hex().encode(),
+                                                              base64.b64encode(secret))]
+    assert [path.name for path in files
+            if any(secret in path.read_bytes() for secret in secrets)] == []

@@ -17,6 +17,7 @@ from cavesim.tools.reports.run_tables import forensic_lines
 from nodes.check.findings import EVIDENCE, check_passed, check_report
 from nodes.faults import KINDS, BitFlip, Fault, bitflip_target
 from nodes.master.process import MasterConfig, run_master
+from nodes.master.run_record import LiveCounts
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")
@@ -178,3 +179,12 @@ def test_run_prints_what_differed_at_each_divergence(tmp_path):
     assert lines[0].startswith("frame 5: left differs from front in particle 10 pos.y: ")
     assert lines[0].endswith("(divergences/frame_5.json)")
     assert lines[1] == "... and 1 more in divergences/"
+
+
+def test_a_bitflip_is_localised_by_its_divergences_live_count_in_a_long_run(tmp_path):
+    """A long run's series of live counts keeps only some frames; the bitflip's target comes
+    from the live count its divergence recorded."""
+    record, _ = run(tmp_path, {12: bitflip_target(PARTICLES)})
+    record.live_particles = LiveCounts()  # as if the series had skipped frame 12
+    report = checked(tmp_path, record, Fault("bitflip", 12, "left"))
+    assert report["faults"][0]["localisation"]["exact"] and report["all_localised"]

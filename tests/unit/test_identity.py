@@ -1,5 +1,6 @@
-"""Every wall speaks only for itself: a report, a snapshot or a tracking message counts only
-under the key of the member it speaks for, and a state is taken only from the wall asked.
+"""Every wall speaks only for itself: a report, a snapshot, a block reply or a tracking
+message counts only under the key of the member it speaks for, and a state is taken only
+from the wall asked.
 
 The master's link is fed messages directly (its zenoh session only listens on loopback);
 a resyncing node's fetch is fed replies by a stand-in session and a stand-in GPU state
@@ -19,6 +20,9 @@ from zenoh_doubles import RepliesSession, Reply
 
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire import (
+    BlockQuery,
+    BlockReply,
+    BlockRequest,
     HeadState,
     ReportMessage,
     SnapshotChunk,
@@ -31,6 +35,7 @@ from cavesim.core.wire import (
 from cavesim.core.wire.credentials import generate
 from cavesim.core.wire.network import NetworkSettings, open_session
 from cavesim.core.wire.rejects import RejectCounter
+from nodes.blocks import BlockAsker
 from nodes.master.link import ZenohMasterLink
 from nodes.wall.snapshots import fetch_snapshot
 
@@ -152,3 +157,20 @@ def test_a_colliding_state_from_anyone_but_the_wall_asked_is_refused_unstaged():
     assert state.staged == {} and state.committed is None
     header = fetch_from_left(snapshot_signed_by("left", colliding), state, rejects)
     assert header is not None and state.committed == colliding  # the wall asked: taken
+
+
+def test_a_block_reply_counts_only_from_the_wall_asked():
+    """A resyncing node's delta takes records only from the wall it asked: the same reply
+    signed by another wall's key is refused (`wrong-signer`) and its replier not heard
+    again; the asked wall's is taken."""
+    from cavesim.core.wire import decode_envelope
+
+    request = BlockRequest(7, "left", DIGEST, BlockQuery.RECORDS, 0, (3,), asker="front")
+    records = BlockReply(7, "left", BlockQuery.RECORDS, 0, 1, 64, 1, bytes(PARTICLE_BYTES))
+    session = RepliesSession([Reply("rogue", encode(records, SESSION, KEYS["right"], RUN)),
+                              Reply("left", encode(records, SESSION, KEYS["left"], RUN))])
+    rejects = RejectCounter("front")
+    asker = BlockAsker(session, f"cavesim/{SESSION}/blocks/left", lambda message: b"",
+                       lambda data: decode_envelope(data, SESSION, KEYS["front"]), rejects)
+    assert asker(request) == records
+    assert rejects.counts == {"wrong-signer": 1} and asker.failed == {"rogue"}
