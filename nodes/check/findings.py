@@ -17,6 +17,7 @@ from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire.credentials import WALL
 from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
+from nodes.check.state_forgers import FORGERIES
 from nodes.faults import (
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
@@ -157,7 +158,8 @@ def _attack(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evid
 def _forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """Forged snapshots served to a diverged node: detected when it refused them, healed by
     a resync to the state the master named."""
-    forged = {k: n for k, n in harness.forgers.sent.items() if k.endswith("-snapshot")}
+    forged = {f"{kind}-snapshot": harness.forgers.sent[f"{kind}-snapshot"]
+              for kind in FORGERIES if harness.forgers.sent.get(f"{kind}-snapshot")}
     refused = refused_meanwhile(harness.measured[str(fault)]).get(fault.node, 0)
     detection = {"forged_snapshots_served": forged, "refused_by_node": refused}
     hit = _first_divergence(record, fault)
