@@ -109,6 +109,7 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
     return {"nodes": len(walls), "scene": str(scene), "frames": report["frames"],
             "seconds": report["seconds"], "frames_per_second": report["frames_per_second"],
             "barrier_ms": report["barrier_ms"], "cpu_ms_per_frame": meter.per_frame_ms(),
+            "frame_cost_ms": report["frame_cost_ms"],
             "live_particles_max": report["live_particles"]["max"],
             "divergences": record.divergences.total, "stalls": record.stalls.total,
             "swap": report["swap"], "final_checksum": last.digest, "gpus": report["gpus"],

@@ -8,12 +8,15 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from cavesim.core.frame_cost import FRAME_PHASES, PHASES
+
 BARRIER_HEADERS = ("nodes", "p50 ms", "p99 ms", "max ms", "cpu ms/frame", "cpu floor ms",
                    "frames/s", "live max", "divergences")
 SWAP_HEADERS = ("walls", "skew p50 ms", "skew p99 ms", "skew max ms", "frames",
                 "order violations", "stalls", "incomplete", "barrier p99 ms", "frames/s")
 LOCKSTEP_HEADERS = ("walls", "cluster frames/s", "back-to-back frames/s", "lock-step cost",
                     "same final checksum")
+COST_HEADERS = ("nodes", *(f"{phase} ms" for phase in PHASES))
 
 
 def _ms(value: float | None) -> str:
@@ -25,6 +28,16 @@ def barrier_rows(report: dict) -> list[tuple[str, ...]]:
              _ms((run["cpu_ms_per_frame"] or {}).get("total")), _ms(run["cpu_floor_ms"]),
              f"{run['frames_per_second']:.1f}", f"{run['live_particles_max']:,}",
              str(run["divergences"])) for run in report["barrier"]["runs"]]
+
+
+def cost_rows(report: dict) -> list[tuple[str, ...]]:
+    """Per barrier run, where a node's frame went: each phase's p50 / p99, of the wall
+    slowest in it (the barrier waits for the slowest)."""
+    def cell(cost: dict, phase: str) -> str:
+        return " / ".join(_ms(max(wall[phase][q] for wall in cost.values()))
+                          for q in ("p50", "p99"))
+    return [(str(run["nodes"]), *(cell(run["frame_cost_ms"], phase) for phase in PHASES))
+            for run in report["barrier"]["runs"] if run["frame_cost_ms"]]
 
 
 def swap_rows(report: dict) -> list[tuple[str, ...]]:
@@ -72,6 +85,8 @@ def show(report: dict, console: Console) -> None:
     for title, headers, rows in (
             (f"barrier round trip - {scenes[0]}, {report['frames']} frames", BARRIER_HEADERS,
              barrier_rows(report)),
+            ("where a node's frame goes (p50 / p99, the slowest wall)", COST_HEADERS,
+             cost_rows(report)),
             (swap_title(report), SWAP_HEADERS, swap_rows(report)),
             (f"lock-step vs back to back - {scenes[1]}, {report['frames']} frames",
              LOCKSTEP_HEADERS, [lockstep_row(report)])):
@@ -101,6 +116,9 @@ def markdown(report: dict) -> str:
              f"## Barrier round trip ({report['barrier']['scene']})", "",
              *_markdown_table(BARRIER_HEADERS, barrier_rows(report)), "",
              one_node_line(report), "",
+             "## Where a node's frame goes (p50 / p99 ms, the slowest wall)", "",
+             *_markdown_table(COST_HEADERS, cost_rows(report)), "",
+             *(f"- {phase}: {meaning}" for phase, meaning in FRAME_PHASES.items()), "",
              f"## {swap_title(report)}", "",
              *(_markdown_table(SWAP_HEADERS, swap_rows(report)) if swap_rows(report) else []),
              "",

@@ -196,6 +196,8 @@ class Master:
             case Reported(report):
                 if report.frame == self.frame:
                     self.reports[report.node] = report
+                if report.status is Status.STEPPED:
+                    self.record.frame_cost.add(report.node, report.cost_us)
                 self.last_received[report.node] = max(report.frame,
                                                       self.last_received.get(report.node, 0))
                 self.record.node_rejected[report.node] = report.rejected

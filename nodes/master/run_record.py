@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, field
 
 from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
+from cavesim.core.frame_cost import PHASES
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
@@ -102,6 +103,29 @@ class LiveCounts(DecimatedSeries[int]):
         self.max = max(self.max, live)
 
 
+class FrameCosts:
+    """Per wall, a histogram of each of its frame's phases (FRAME_PHASES), from the times its
+    reports carry."""
+
+    def __init__(self) -> None:
+        self._walls: dict[str, tuple[LogHistogram, ...]] = {}
+
+    def add(self, wall: str, cost_us: tuple[int, ...]) -> None:
+        histograms = self._walls.setdefault(wall, tuple(LogHistogram() for _ in PHASES))
+        for histogram, us in zip(histograms, cost_us, strict=True):
+            histogram.append(us * 1e-6)
+
+    def count(self, wall: str) -> int:
+        """How many of `wall`'s frames were timed."""
+        return self._walls[wall][0].count if wall in self._walls else 0
+
+    def to_json(self) -> dict:
+        """Per wall and phase: p50, p99 and max in milliseconds."""
+        return {wall: {phase: histogram.percentiles_ms()
+                       for phase, histogram in zip(PHASES, histograms, strict=True)}
+                for wall, histograms in self._walls.items()}
+
+
 @dataclass
 class RunRecord:
     walls: tuple[str, ...]
@@ -112,6 +136,7 @@ class RunRecord:
     clock_dropped_seconds: float = 0.0  # real-time mode: wall time given up to hitches
     seconds: float = 0.0
     barrier_seconds: LogHistogram = field(default_factory=LogHistogram)  # one per frame
+    frame_cost: FrameCosts = field(default_factory=FrameCosts)  # the walls' stepped frames
     live_particles: LiveCounts = field(default_factory=LiveCounts)  # after each frame
     divergences: FirstEntries[Divergence] = field(default_factory=FirstEntries)
     resyncs: FirstEntries[Resync] = field(default_factory=FirstEntries)
@@ -159,6 +184,7 @@ class RunRecord:
             "seconds": round(self.seconds, 3),
             "frames_per_second": round(self.frames / self.seconds, 2) if self.seconds else None,
             "barrier_ms": self.barrier_seconds.percentiles_ms(),
+            "frame_cost_ms": self.frame_cost.to_json(),
             "live_particles": {"last": self.live_particles.last or 0,
                                "max": self.live_particles.max},
             # after frames s, 2 s, 3 s, ... for the stride s (1 up to 4,096 frames)

@@ -42,6 +42,7 @@ from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import ClusterError, ContextError, ProtocolError
+from cavesim.core.frame_cost import no_cost
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Engine, load_scene
@@ -80,6 +81,7 @@ from nodes.faults import Fault, bitflip_target
 from nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES, RESYNC_MODES
 from nodes.wall.delta import DeltaRefused, fetch_delta
 from nodes.wall.drift_sample import DRIFT_FAULTS, read_drift_sample
+from nodes.wall.frame_timer import FrameTimer
 from nodes.wall.inbox import (
     BlocksQuery,
     FromMaster,
@@ -166,6 +168,7 @@ class WallNode:
         self.rejects = self.inbox.rejects
         self.last_report: ReportMessage | None = None
         self.previous_inputs: FrameInput | None = None
+        self.timer = FrameTimer()  # the phases of our frame, for our reports
         self.started = self.heard = time.monotonic()  # from the master of our run
         self.master_gone_at: float | None = None
         self.behind_said = 0.0
@@ -264,7 +267,7 @@ class WallNode:
         state = self.system.checksum()
         log.info("%s: joined run %016x at frame %d", self.config.wall, run_id, self.done)
         self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.JOINED))
+                                    state.emitters, no_cost(), self.rejects.total, Status.JOINED))
 
     def _start_over(self) -> None:
         self.system.restart(self.seed)
@@ -319,16 +322,20 @@ class WallNode:
             if self._fault("drop", k):  # lose this copy; the master's retransmit gets through
                 log.warning("%s: fault: dropped frame %d", self.config.wall, k)
                 return
+            self.timer.arrived()
             try:
                 scene = self.driver.decode(message.params)
             except ProtocolError as e:
                 self.rejects.reject(e, f"frame {k}")
                 return
+            self.timer.lap("decode")
             self._step(k, message.inputs, scene)
             if self.live is not None:
                 self.live.show(k, message, scene)
+                self.timer.rendered()
             elif self.painter is not None and k % self.config.render_every == 0:
                 self.painter.paint(k, message, scene)
+                self.timer.rendered()
         elif k > self.done + 1:
             self._behind(k)
 
@@ -342,16 +349,15 @@ class WallNode:
                  self.config.wall, k, self.done)
         state = self.system.checksum()
         self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.BEHIND),
+                                    state.emitters, no_cost(), self.rejects.total, Status.BEHIND),
                       keep=False)
 
     def _step(self, k: int, inputs: FrameInput, scene: SceneFrame) -> None:
         used = inputs
         if self._fault("stale", k) and self.previous_inputs is not None:
             used = FrameInput(inputs.dt, self.previous_inputs.random_transform)
-        started = time.perf_counter()
         self.system.step(used, scene)
-        stepped = time.perf_counter()
+        self.timer.lap("step")
         if self._fault("bitflip", k) and self.system.live_count:
             self._flip_one_bit()
         for kind, perturb in DRIFT_FAULTS.items():
@@ -361,14 +367,15 @@ class WallNode:
         self.previous_inputs = inputs
         self.view.done = k
         state = self.system.checksum()
+        self.timer.lap("checksum")
         self.system.keep_history(k)
-        finished = time.perf_counter()
+        self.timer.lap("history")
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
         self._publish(ReportMessage(k, self.config.wall, state.digest, state.particles,
-                                    state.emitters, int((stepped - started) * 1e6),
-                                    int((finished - stepped) * 1e6), self.rejects.total,
+                                    state.emitters, self.timer.cost_us(), self.rejects.total,
                                     sample=self._sample()))
+        self.timer.reported()
 
     def _flip_one_bit(self) -> None:
         """Flip the bit `bitflip_target` names, in that one record (patched on the GPU)."""
@@ -455,7 +462,7 @@ class WallNode:
                   "state", wall, command.frame, source, deadline - started)
         state = self.system.checksum()  # the master sees at once that the resync failed
         self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
+                                    state.emitters, no_cost(), self.rejects.total, Status.RESYNCED,
                                     self._sample()), keep=False)
 
     def _delta(self, command: ControlMessage, failed: set[str], started: float) -> bool:
@@ -492,7 +499,7 @@ class WallNode:
         log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.wall, frame,
                  source, how, seconds)
         self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
-                                    state.emitters, 0, 0, self.rejects.total, Status.RESYNCED,
+                                    state.emitters, no_cost(), self.rejects.total, Status.RESYNCED,
                                     self._sample()))
 
     def _serve_blocks(self, query: zenoh.Query, request: BlockRequest) -> int:

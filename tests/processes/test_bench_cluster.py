@@ -15,6 +15,7 @@ import sys
 
 import pytest
 
+from cavesim.core.frame_cost import PHASES
 from nodes.cli import main
 from nodes.cluster_bench.barrier import TARGETS, build_report
 from nodes.cluster_bench.tables import target_line
@@ -59,6 +60,22 @@ def test_barrier_figures_per_node_count(cluster_bench):
     one_node = barrier["one_node"]
     assert one_node["systems"] == 1 and positive(*one_node["frame_ms"].values())
     assert one_node["final_checksum"] == run["final_checksum"]  # the same frames
+
+
+@pytest.mark.slow
+def test_where_each_nodes_frame_goes_is_measured_and_shown(cluster_bench):
+    done, out, report = cluster_bench
+    (run,) = report["barrier"]["runs"]
+    cost = run["frame_cost_ms"]
+    assert set(cost) == {"front", "left"} and all(list(cost[w]) == list(PHASES) for w in cost)
+    for wall in cost:
+        assert positive(cost[wall]["step"]["p50"], cost[wall]["checksum"]["p50"],
+                        cost[wall]["input_wait"]["p99"])
+        assert cost[wall]["render"]["max"] == 0  # the barrier's nodes draw nothing
+    assert "where a node's frame goes" in done.stdout
+    markdown = (out / "cluster.md").read_text()
+    assert "## Where a node's frame goes" in markdown
+    assert all(f"- {phase}: " in markdown for phase in PHASES)
 
 
 @pytest.mark.slow

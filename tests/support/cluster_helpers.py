@@ -14,6 +14,7 @@ import numpy as np
 from hypothesis import strategies as st
 
 from cavesim.core.drift import SAMPLE_DTYPE, DriftSample
+from cavesim.core.frame_cost import PHASES
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import ED25519_BYTES, SECRET_BYTES, of_master
@@ -75,9 +76,10 @@ def report_messages(draw) -> ReportMessage:
     sample = None if size is None else DriftSample(draw(st.binary(
         min_size=size * SAMPLE_DTYPE.itemsize, max_size=size * SAMPLE_DTYPE.itemsize)))
     return ReportMessage(draw(frame_numbers), draw(names), draw(digests), particles,
-                         draw(st.integers(0, U32)), draw(st.integers(0, U32)),
-                         draw(st.integers(0, U32)), draw(st.integers(0, U32)),
-                         draw(st.sampled_from(Status)), sample)
+                         draw(st.integers(0, U32)),
+                         tuple(draw(st.lists(st.integers(0, U32), min_size=len(PHASES),
+                                             max_size=len(PHASES)))),
+                         draw(st.integers(0, U32)), draw(st.sampled_from(Status)), sample)
 
 
 optional_names = st.just("") | names

@@ -27,6 +27,7 @@ from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.digest.twin import reference_checksum, reference_levels
 from cavesim.core.drift import DriftSample, sample_size
 from cavesim.core.errors import ProtocolError
+from cavesim.core.frame_cost import PHASES
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.core.scene import load_scene
 from cavesim.core.scene.digest import scene_digest
@@ -48,6 +49,7 @@ from nodes.faults import BitFlip
 from nodes.master.events import Described, Displayed, Reported, WallDown, WallUp
 
 START = "0" * 32
+MEMORY_COST = tuple(1000 * (i + 1) for i in range(len(PHASES)))  # us: phase i takes i + 1 ms
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 
 
@@ -251,7 +253,7 @@ class MemoryLink:
     def _report(self, wall: MemoryWall, status: Status) -> None:
         particles = wall.done if wall.records is None else len(wall.records.particles)
         self.events.put(Reported(ReportMessage(wall.done, wall.name, wall.digest, particles,
-                                               0, 0, 0, status=status,
+                                               0, MEMORY_COST, status=status,
                                                sample=self._sample(wall))))
 
     def _sample(self, wall: MemoryWall) -> DriftSample | None:

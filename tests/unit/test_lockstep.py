@@ -10,6 +10,7 @@ import pytest
 from memory_walls import MemoryLink
 
 from cavesim.core.errors import ClusterError
+from cavesim.core.frame_cost import PHASES, no_cost
 from cavesim.core.wire import (
     Command,
     ControlMessage,
@@ -27,13 +28,14 @@ from nodes.lockstep import Membership
 from nodes.master.events import ProcessEnded
 from nodes.master.process import MAX_RESYNC_FAILURES, Master, MasterConfig, run_master
 from nodes.master.swaps import WINDOW, SwapBook
+from nodes.wall.frame_timer import FrameTimer
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")
 
 
 def report(wall, digest, frame=1, particles=10, status=Status.STEPPED):
-    return ReportMessage(frame, wall, digest * 32, particles, 0, 0, 0, status=status)
+    return ReportMessage(frame, wall, digest * 32, particles, 0, no_cost(), status=status)
 
 
 # -- membership ---------------------------------------------------------------------------
@@ -330,3 +332,38 @@ def test_tracking_that_went_quiet_holds_the_head_and_releases_the_wand(caplog):
     assert "tracking went quiet" in caplog.text
     link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
     assert master._make_frame(3).wand.buttons == 1 and "tracking is back" in caplog.text
+
+
+# -- where a frame goes -------------------------------------------------------------------------
+
+def test_the_walls_frame_costs_reach_the_report_by_wall_and_phase():
+    """Each stepped report's phase times go into the record's histograms; report.json gives
+    their percentiles per wall (a join or a resync times nothing and is not counted)."""
+    link = MemoryLink(WALLS)
+    record = run_master(MasterConfig(WALLS, MINIMAL, 20, "memory"), link)
+    cost = record.summary()["frame_cost_ms"]
+    assert set(cost) == set(WALLS)
+    for wall in WALLS:
+        assert list(cost[wall]) == list(PHASES)
+        for i, phase in enumerate(PHASES):
+            assert cost[wall][phase]["p50"] == pytest.approx(i + 1, rel=1e-3)
+    assert record.frame_cost.count(WALLS[0]) == 20  # stepped frames only, not the join
+
+
+def test_a_nodes_timer_laps_its_phases_and_carries_the_report_and_drawing_over(monkeypatch):
+    clock = iter([0.0, 10.0, 10.5, 12.0, 13.0, 13.25, 14.0, 16.0, 30.0, 30.5]).__next__
+    monkeypatch.setattr(time, "perf_counter", clock)
+    timer = FrameTimer()  # 0.0
+    timer.arrived()  # 10.0: no report before it, no wait
+    for phase in ("decode", "step", "checksum", "history"):  # 10.5, 12.0, 13.0, 13.25
+        timer.lap(phase)
+    first = dict(zip(PHASES, timer.cost_us(), strict=True))
+    assert first == {"input_wait": 0, "decode": 500_000, "step": 1_500_000,
+                     "checksum": 1_000_000, "history": 250_000, "report": 0, "render": 0}
+    timer.reported()  # 14.0
+    timer.rendered()  # 16.0
+    timer.arrived()  # 30.0: 16 s after the report went out
+    timer.lap("decode")  # 30.5
+    second = dict(zip(PHASES, timer.cost_us(), strict=True))
+    assert (second["input_wait"], second["decode"]) == (16_000_000, 500_000)
+    assert (second["report"], second["render"]) == (750_000, 2_000_000)  # of the frame before

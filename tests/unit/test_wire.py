@@ -38,6 +38,7 @@ from hypothesis import strategies as st
 
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
+from cavesim.core.frame_cost import PHASES, no_cost
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.wire import envelope
 from cavesim.core.wire.credentials import Credentials, generate, of_master
@@ -166,10 +167,13 @@ def snapshot_body(particles: int = 3, emitters: int = 0, chunk: int = 2) -> byte
     return struct.pack("<QIII16s", 9, particles, emitters, chunk, bytes.fromhex(DIGEST))
 
 
+COST = tuple(range(3, 3 + len(PHASES)))  # a report's phase times, microseconds
+
+
 def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"",
                 particles: int = 1) -> bytes:
-    return name(node) + struct.pack("<16sIIIIIB", bytes.fromhex(DIGEST), particles, 2, 3, 4,
-                                    5, status) + extra
+    return name(node) + struct.pack(f"<16sII{len(PHASES)}IIB", bytes.fromhex(DIGEST),
+                                    particles, 2, *COST, 5, status) + extra
 
 
 def sample_tail(count: int, records: int | None = None) -> bytes:
@@ -314,16 +318,19 @@ EDGE_MESSAGES = {
         tuple(float(i) - 0.5 for i in range(MAX_PARAMS)),
         HeadState((-3e38, 0.0, 1e-45), (-0.0, 0.0, 0.0, -1.0))),
     "frame-zero": FrameMessage(0, FrameInput(-0.0, IDENTITY)),
-    "report": ReportMessage(7, "front", DIGEST, 1490, 1, 120, 35, 3, Status.STEPPED),
-    "report-edges": ReportMessage(U64, "x" * 32, "f" * 32, 2**32 - 1, 0, 0, 2**32 - 1,
+    "report": ReportMessage(7, "front", DIGEST, 1490, 1, COST, 3, Status.STEPPED),
+    "report-edges": ReportMessage(U64, "x" * 32, "f" * 32, 2**32 - 1, 0,
+                                  (0, 2**32 - 1) * (len(PHASES) // 2) + (0,) * (len(PHASES) % 2),
                                   2**32 - 1, Status.REPEATED),
-    "report-resynced": ReportMessage(2, "wall_7-b", "0" * 32, 0, 0, 0, 0, 0, Status.RESYNCED),
-    "report-joined": ReportMessage(0, "left", DIGEST, 0, 0, 0, 0, 0, Status.JOINED),
-    "report-behind": ReportMessage(U64, "front", "f" * 32, 1, 1, 1, 1, 1, Status.BEHIND),
-    "report-sample": ReportMessage(8, "left", DIGEST, 2, 1, 120, 35, 0, Status.STEPPED, SAMPLE),
-    "report-sample-empty": ReportMessage(1, "left", DIGEST, 0, 0, 0, 0, 0,
+    "report-resynced": ReportMessage(2, "wall_7-b", "0" * 32, 0, 0, no_cost(), 0,
+                                     Status.RESYNCED),
+    "report-joined": ReportMessage(0, "left", DIGEST, 0, 0, no_cost(), 0, Status.JOINED),
+    "report-behind": ReportMessage(U64, "front", "f" * 32, 1, 1, (1,) * len(PHASES), 1,
+                                   Status.BEHIND),
+    "report-sample": ReportMessage(8, "left", DIGEST, 2, 1, COST, 0, Status.STEPPED, SAMPLE),
+    "report-sample-empty": ReportMessage(1, "left", DIGEST, 0, 0, no_cost(), 0,
                                          sample=DriftSample(b"")),
-    "report-sample-largest": ReportMessage(9, "left", DIGEST, 2**32 - 1, 0, 0, 0, 0,
+    "report-sample-largest": ReportMessage(9, "left", DIGEST, 2**32 - 1, 0, no_cost(), 0,
                                            Status.RESYNCED, DriftSample(
                                                bytes(range(256)) * 96)),
     "stop": ControlMessage(400, Command.STOP),
@@ -478,7 +485,7 @@ def test_crafted_signatures_match_encode():
     assert encode(InfoRequest(4, "front", REQUEST_NONCE), SESSION, MASTER, U64) == by_master(
         Kind.INFO_REQUEST, name(b"front") + struct.pack("<Q", REQUEST_NONCE), frame=4,
         run_id=U64)
-    report = ReportMessage(1, "front", DIGEST, 1, 2, 3, 4, 5, Status.BEHIND)
+    report = ReportMessage(1, "front", DIGEST, 1, 2, COST, 5, Status.BEHIND)
     assert encode(report, SESSION, MEMBER, 1) == by_member(Kind.REPORT, report_body(status=4),
                                                            run_id=1)
     assert encode(StateRequest(6, "left", DIGEST, nonce=REQUEST_NONCE), SESSION,
@@ -507,12 +514,13 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
 
 
 @pytest.mark.parametrize("message, match", [
-    (ReportMessage(-1, "front", DIGEST, 0, 0, 0, 0), "frame"),
+    (ReportMessage(-1, "front", DIGEST, 0, 0, no_cost()), "frame"),
     (InfoRequest(2**64, "front"), "frame"),
     (FrameMessage(1, FrameInput(0.0, IDENTITY), params=(0.0,) * (MAX_PARAMS + 1)),
      "at most 32"),
-    (ReportMessage(1, "bad/name", DIGEST, 0, 0, 0, 0), "node name"),
-    (ReportMessage(1, "", DIGEST, 0, 0, 0, 0), "node name"),
+    (ReportMessage(1, "bad/name", DIGEST, 0, 0, no_cost()), "node name"),
+    (ReportMessage(1, "", DIGEST, 0, 0, no_cost()), "node name"),
+    (ReportMessage(1, "front", DIGEST, 0, 0, (0, 0)), "times the 7 phases"),
     (ControlMessage(1, Command.RESYNC, "x" * 33, "front"), "node name"),
     (ControlMessage(1, Command.RESYNC, "left", "front", "XY" * 16), "hex digits"),
     (ControlMessage(1, Command.RESYNC, "left", "front", DIGEST[:-1]), "hex digits"),
@@ -535,7 +543,7 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
     (SnapshotHeader(1, 0, 1, 1, "XY" * 16, np.zeros(0, EMITTER_DTYPE)), "hex digits"),
     (SnapshotChunk(1, 0, bytes(41)), "whole 40-byte records"),
     (SnapshotChunk(1, 0, b""), "whole 40-byte records"),
-    (ReportMessage(1, "front", DIGEST, 1, 0, 0, 0, sample=SAMPLE), "at most the 1 live"),
+    (ReportMessage(1, "front", DIGEST, 1, 0, no_cost(), sample=SAMPLE), "at most the 1 live"),
     (BlockRequest(1, "left", DIGEST, BlockQuery.RECORDS, 0, (5, 3)), "ascending"),
     (BlockRequest(1, "left", DIGEST, BlockQuery.RECORDS, 0, ()), "may name none"),
     (BlockRequest(1, "left", DIGEST, BlockQuery.TREE, 3), "part 3"),

@@ -10,10 +10,12 @@ from enum import IntEnum
 
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
+from cavesim.core.frame_cost import PHASES
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
-_REPORT = struct.Struct("<16sIIIIIB")  # digest, counts, step+checksum us, rejected, status
+# digest, counts, each phase's microseconds (FRAME_PHASES), rejected, status
+_REPORT = struct.Struct(f"<16sII{len(PHASES)}IIB")
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED = 0x01, 0x02
@@ -35,8 +37,7 @@ class ReportMessage:
     digest: str  # 32 hex digits
     particles: int
     emitters: int
-    step_us: int
-    checksum_us: int
+    cost_us: tuple[int, ...]  # microseconds of each of PHASES (cavesim/core/frame_cost.py)
     rejected: int = 0  # messages this node has rejected so far
     status: Status = Status.STEPPED
     sample: DriftSample | None = None  # mixed-hardware mode: its records sample_indices names
@@ -90,9 +91,11 @@ class DisplayMessage:
 
 
 def write_report(m: ReportMessage) -> bytes:
+    if len(m.cost_us) != len(PHASES):
+        raise ValueError(f"a report times the {len(PHASES)} phases {', '.join(PHASES)}, got "
+                         f"{len(m.cost_us)} times")
     body = name_bytes(m.node) + _REPORT.pack(
-        digest_bytes(m.digest), m.particles, m.emitters, m.step_us, m.checksum_us, m.rejected,
-        m.status)
+        digest_bytes(m.digest), m.particles, m.emitters, *m.cost_us, m.rejected, m.status)
     if m.sample is None:  # the bit-exact mode's report: no tail
         return body
     if len(m.sample) > m.particles:
@@ -106,12 +109,11 @@ def read_report(frame: int, payload: bytes) -> ReportMessage:
     if len(rest) < _REPORT.size:
         raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
                                            f"expected {_REPORT.size}")
-    digest, particles, emitters, step_us, checksum_us, rejected, status = \
-        _REPORT.unpack_from(rest)
+    digest, particles, emitters, *cost_us, rejected, status = _REPORT.unpack_from(rest)
     if status not in Status.__members__.values():
         raise ProtocolError("bad-value", f"report status {status} is unknown")
     sample = _read_sample(rest[_REPORT.size:], particles) if len(rest) > _REPORT.size else None
-    return ReportMessage(frame, node, digest.hex(), particles, emitters, step_us, checksum_us,
+    return ReportMessage(frame, node, digest.hex(), particles, emitters, tuple(cost_us),
                          rejected, Status(status), sample)
 
 
