@@ -57,7 +57,8 @@ FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
 RESYNCED = 5  # frames after a forged state's last divergence before the node is measured
 COLLISION_PACE = 1.2  # s at least between a collision's divergences: a node serves each
 # asker one state a second (burst 2), and the victim and each forger ask once per divergence
-REPLAY_SECONDS, REPLAY_MOST = 3.0, 5_000  # how long and how many queries are replayed
+REPLAY_SECONDS, REPLAY_MOST = 3.0, 1_000  # how long and how many queries are replayed
+REPLAY_SETTLE = 1.0  # s the nodes have to count the last replayed queries before going on
 EARLIER_RUN_QUERIES = 20
 TRACKING_REPLAYS = 100  # tracking messages of each kind the master must refuse
 SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one signs
@@ -326,9 +327,11 @@ class _Harness:
                 "seconds": round(time.monotonic() - started, 3)}
 
     def _end_replays(self) -> None:
-        for thread in self._replaying:
-            thread.join(REPLAY_SECONDS + 1.0)
-        self._replaying.clear()
+        if self._replaying:
+            for thread in self._replaying:
+                thread.join(REPLAY_SECONDS + 1.0)
+            self._replaying.clear()
+            time.sleep(REPLAY_SETTLE)  # the nodes' next reports count every one
 
     def _measure_from(self, fault: Fault, cluster: LocalCluster, until: int) -> dict:
         """Measure the nodes now and again before frame `until` (the last frame at most)."""
