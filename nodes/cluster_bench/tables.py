@@ -9,6 +9,7 @@ from rich.console import Console
 from rich.table import Table
 
 from cavesim.core.frame_cost import FRAME_PHASES, PHASES
+from cavesim.tools.bench.display import TARGET_STYLES
 
 BARRIER_HEADERS = ("nodes", "p50 ms", "p99 ms", "max ms", "cpu ms/frame", "cpu floor ms",
                    "frames/s", "live max", "divergences")
@@ -70,10 +71,11 @@ def lockstep_row(report: dict) -> tuple[str, ...]:
 
 
 def target_line(target: dict) -> str:
-    """'barrier_p99_ms < 2 with 4 nodes: measured 3.412 - NOT met'."""
+    """'barrier_p99_ms <= 2 ms with 4 nodes: measured 3.412 ms - NOT met'."""
     measured = (f"{target['measured']:.1%}" if target["name"] == "lockstep_cost"
                 else f"{target['measured']:.3f} ms")
-    verdict = "met" if target["met"] else "NOT met"
+    verdict = {True: "met", False: "NOT met", None: f"not judged ({target.get('why')})"}[
+        target["met"]]
     bound = f"{target['target']:.0%}" if target["name"] == "lockstep_cost" else \
         f"{target['target']:g} ms"
     return (f"{target['name']} {target['comparison']} {bound} with {target['nodes']} nodes: "
@@ -100,7 +102,7 @@ def show(report: dict, console: Console) -> None:
             console.print(one_node_line(report))
     console.print("targets:")
     for target in report["targets"]:
-        console.print(f"  {target_line(target)}", style="green" if target["met"] else "bold red")
+        console.print(f"  {target_line(target)}", style=TARGET_STYLES[target["met"]])
 
 
 def _markdown_table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:

@@ -112,32 +112,54 @@ def test_lockstep_against_back_to_back(cluster_bench):
 def test_targets_are_judged_and_printed(cluster_bench):
     done, out, report = cluster_bench
     assert [(t["name"], t["nodes"]) for t in report["targets"]] == [
-        ("barrier_p99_ms", 2), ("swap_skew_p99_ms", 2), ("swap_skew_p99_ms", 4),
-        ("lockstep_cost", 4)]
+        ("barrier_p99_ms", 2), ("node_cpu_ms", 2), ("swap_skew_p99_ms", 2),
+        ("swap_skew_p99_ms", 4), ("lockstep_cost", 4)]
     for target in report["targets"]:
-        assert isinstance(target["met"], bool) and math.isfinite(target["measured"])
+        assert math.isfinite(target["measured"])
+        assert isinstance(target["met"], bool) or "cores <" in target["why"]
         assert target_line(target) in done.stdout
         assert f"- {target_line(target)}" in (out / "cluster.md").read_text()
     assert f"wrote {out / 'cluster.json'}" in done.stdout
 
 
-def test_targets_follow_the_bounds():
-    def run(nodes, p99, skew=None):
+def bench_report(cores, monkeypatch):
+    """build_report's verdicts on made-up runs, as on a machine of `cores` cores."""
+    def run(nodes, p99, skew=None, node_cpu=(0.25, 0.35)):
         return {"nodes": nodes, "barrier_ms": {"p50": 1.0, "p99": p99, "max": 9.0},
-                "cpu_ms_per_frame": {"master": 0.5, "nodes": {}, "total": 2.0},
+                "cpu_ms_per_frame": {"master": 0.5, "total": 2.0,
+                                     "nodes": dict(zip(("front", "left"), node_cpu, strict=True))},
                 "swap": {"skew_ms": {"p50": 0.1, "p99": skew, "max": 5.0}}}
+    monkeypatch.setattr(os, "cpu_count", lambda: cores)
     cluster = {"nodes": 4, "frames_per_second": 86.0, "final_checksum": "ab"}
     back_to_back = {"frames_per_second": 100.0, "final_checksum": "ab"}
-    barrier = {"scene": "tiny.toml", "runs": [run(2, 1.5), run(8, 2.0)], "one_node": {}}
+    barrier = {"scene": "tiny.toml", "runs": [run(2, 1.0), run(4, 2.5), run(8, 2.0)],
+               "one_node": {}}
     swap = {"runs": [run(2, 3.0, skew=0.5), run(4, 3.0, skew=1.0)]}
-    report = build_report(barrier, swap, cluster, back_to_back, {}, 300)
-    # 2.0 ms is not < 2, nor 1.0 ms < 1
-    assert [t["met"] for t in report["targets"]] == [True, False, True, False, True]
+    return build_report(barrier, swap, cluster, back_to_back, {}, 300)
+
+
+def test_targets_follow_the_bounds(monkeypatch):
+    report = bench_report(16, monkeypatch)
+    judged = [(t["name"], t["nodes"], t["met"]) for t in report["targets"]]
+    assert judged == [("barrier_p99_ms", 2, True),  # 1.0 ms <= 1
+                      ("barrier_p99_ms", 4, False),  # 2.5 ms > 2
+                      ("barrier_p99_ms", 8, True),  # 2.0 ms <= 2
+                      ("node_cpu_ms", 2, False),  # the busier node's 0.35 ms > 0.3
+                      ("swap_skew_p99_ms", 2, True), ("swap_skew_p99_ms", 4, False),  # not < 1
+                      ("lockstep_cost", 4, False)]  # 14% > 10%
     assert report["lockstep"]["lockstep_cost"] == pytest.approx(0.14)
     assert report["lockstep"]["same_final_checksum"]
     assert {t["name"] for t in report["targets"]} == {t.name for t in TARGETS}
-    assert report["barrier"]["runs"][0]["cpu_floor_ms"] == pytest.approx(2.0 / os.cpu_count(),
-                                                                         abs=1e-3)
+    assert report["barrier"]["runs"][0]["cpu_floor_ms"] == pytest.approx(2.0 / 16, abs=1e-3)
+
+
+def test_on_too_few_cores_the_barrier_is_not_judged_and_the_cpu_floor_is_named(monkeypatch):
+    report = bench_report(4, monkeypatch)
+    barrier = [t for t in report["targets"] if t["name"] == "barrier_p99_ms"]
+    assert [t["met"] for t in barrier] == [True, None, None]  # 4 cores: 2 nodes + 2 only
+    assert barrier[1]["why"] == "4 cores < 4 nodes + 2: the CPU floor is 0.5 ms"
+    assert target_line(barrier[1]).endswith(
+        "measured 2.500 ms - not judged (4 cores < 4 nodes + 2: the CPU floor is 0.5 ms)")
 
 
 def test_without_an_x_display_the_swap_targets_are_left_out():
