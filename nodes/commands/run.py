@@ -20,7 +20,13 @@ from cavesim.core.errors import CaveError, ContextError, SceneError
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
-from cavesim.tools.reports.run_tables import demo_table, forensic_lines, gpu_table, summary_table
+from cavesim.tools.reports.run_tables import (
+    demo_table,
+    forensic_lines,
+    frame_cost_table,
+    gpu_table,
+    summary_table,
+)
 from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     DEFAULT_SCENE,
@@ -129,6 +135,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     console.print(summary_table(report))
     for line in forensic_lines(report):
         console.print(line, markup=False, highlight=False, soft_wrap=True)
+    if report["frame_cost_ms"]:
+        console.print(frame_cost_table(report))
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))

@@ -30,6 +30,7 @@ def test_brownout_run_is_consistent_replays_and_plots(tmp_path, ctx):
     assert set(cost) == {"front", "left"}
     assert all(cost[wall]["step"]["p50"] > 0 and cost[wall]["checksum"]["p50"] > 0
                and cost[wall]["input_wait"]["p99"] > 0 for wall in cost)
+    assert "where each wall's frame went" in result.stdout
     assert [Path(p).name for p in report["plots"]] == ["live_and_emission_vs_time.png",
                                                        "emission_vs_altitude.png"]
     result = replay(tmp_path / "frames.log", ROOT / "config/scenes/brownout.toml", ctx=ctx)

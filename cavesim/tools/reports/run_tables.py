@@ -1,8 +1,11 @@
-"""`cavesim run`'s closing tables: the run's figures, each wall's GPU, the demo's peaks."""
+"""`cavesim run`'s closing tables: the run's figures, where each wall's frame went, each
+wall's GPU, the demo's peaks."""
 
 from __future__ import annotations
 
 from rich.table import Table
+
+from cavesim.core.frame_cost import PHASES
 
 
 def summary_table(report: dict) -> Table:
@@ -68,6 +71,18 @@ def gpu_table(report: dict) -> Table:
         else:
             table.add_row(wall, f"{gpu['device']} ({gpu['kind']})", gpu["renderer"],
                           gpu["version"])
+    return table
+
+
+def frame_cost_table(report: dict) -> Table:
+    """Where each wall's frame went: p50 / p99 ms of each phase its reports timed."""
+    table = Table(title="where each wall's frame went (p50 / p99 ms)")
+    table.add_column("wall")
+    for phase in PHASES:
+        table.add_column(phase, justify="right")
+    for wall, cost in report["frame_cost_ms"].items():
+        table.add_row(wall, *(f"{cost[phase]['p50']:.2f} / {cost[phase]['p99']:.2f}"
+                              for phase in PHASES))
     return table
 
 
