@@ -6,8 +6,8 @@ their percentiles per wall (report.json `frame_cost_ms`)."""
 from __future__ import annotations
 
 FRAME_PHASES = {  # name -> what its time covers
-    "input_wait": "from its report of the frame before to this frame's message in hand: the "
-                  "barrier's round trip as the node sees it",
+    "input_wait": "from the frame before reported (and drawn) to this frame's message in "
+                  "hand: what the node waited for the others and the master",
     "decode": "the scene frame read out of the message",
     "step": "the emitter and particle passes issued (a GPU may still be running them)",
     "checksum": "the checksum's passes and the wait for the GPU to finish the frame",

@@ -18,12 +18,11 @@ class FrameTimer:
     def __init__(self) -> None:
         self._seconds = dict.fromkeys(PHASES, 0.0)
         self._mark = time.perf_counter()
-        self._reported_at: float | None = None
+        self._ready_at: float | None = None  # the frame before reported (and drawn)
 
     def arrived(self) -> None:
         now = time.perf_counter()
-        self._seconds["input_wait"] = 0.0 if self._reported_at is None \
-            else now - self._reported_at
+        self._seconds["input_wait"] = 0.0 if self._ready_at is None else now - self._ready_at
         self._mark = now
 
     def lap(self, phase: str) -> None:
@@ -38,8 +37,9 @@ class FrameTimer:
 
     def reported(self) -> None:
         self.lap("report")
-        self._reported_at = self._mark
+        self._ready_at = self._mark
         self._seconds["render"] = 0.0  # a frame not drawn costs nothing to draw
 
     def rendered(self) -> None:
         self.lap("render")
+        self._ready_at = self._mark
