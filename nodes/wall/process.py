@@ -237,7 +237,7 @@ class WallNode:
         swap_locked = self.live is not None and self.live.screen.swap_locked
         message = self._seal(InfoMessage.of_gpu(self.done, self.config.wall, self.gpu,
                                                 swap_locked, self.view.nonce,
-                                                self.scene_digest), run_id)
+                                                self.scene_digest, self.system.engine), run_id)
         try:
             query.reply(self.keys.info(self.config.wall), message)
         except zenoh.ZError as e:  # the master asking went away

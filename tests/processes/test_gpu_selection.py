@@ -123,8 +123,8 @@ def test_run_reports_the_gpu_of_every_wall(tmp_path):
     cave.write_text(CAVE.format(gpu=0))
     out = tmp_path / "out"
     command = [sys.executable, "-m", "cavesim", "run", "--cave", str(cave), "--frames", "5",
-               "--render-every", "0", "--scene", str(MINIMAL), "--out", str(out), "--session",
-               f"gpus{os.getpid()}"]
+               "--render-every", "0", "--scene", str(MINIMAL), "--engine", "compute", "--out",
+               str(out), "--session", f"gpus{os.getpid()}"]
     result = subprocess.run(command, capture_output=True, text=True, timeout=180, cwd=ROOT)
     assert result.returncode == 0, result.stdout + result.stderr
     report = json.loads((out / "report.json").read_text())
@@ -133,6 +133,7 @@ def test_run_reports_the_gpu_of_every_wall(tmp_path):
         described = report["gpus"][wall]
         assert described["device"] == 0 and described["kind"] == device.kind
         assert described["renderer"] and described["vendor"] and described["version"]
+        assert described["engine"] == "compute"  # the path the node ran, as it said
         log = (out / "logs" / f"{wall}.log").read_text()
         assert f"{wall}: up on EGL device 0 ({device.kind}): {described['renderer']}" in log
     assert "GPUs" in result.stdout and described["renderer"] in result.stdout

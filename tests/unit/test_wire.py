@@ -40,6 +40,7 @@ from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame_cost import PHASES, no_cost
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
+from cavesim.core.scene import Engine
 from cavesim.core.wire import envelope
 from cavesim.core.wire.credentials import Credentials, generate, of_master
 from cavesim.core.wire.envelope import VERSION, Kind, decode, decode_envelope, encode, session_id
@@ -433,8 +434,12 @@ def test_info_message_is_made_from_a_gpu_description_and_gives_it_back():
     assert message.renderer == "NVIDIA H100? 80GB" and len(message.version) == MAX_TEXT
     assert (message.swap_locked, message.nonce) == (True, U64)
     assert decode(encode(message, SESSION, MEMBER), SESSION, MEMBER) == message
-    assert message.gpu() == {**gpu, "renderer": message.renderer, "version": message.version}
+    assert message.gpu() == {**gpu, "renderer": message.renderer, "version": message.version,
+                             "engine": "gs_tf"}
     assert InfoMessage.of_gpu(0, "left", {**gpu, "kind": "software"}).gpu()["kind"] == "software"
+    assert message.gpu()["engine"] == "gs_tf"  # the scene's default path
+    compute = InfoMessage.of_gpu(3, "left", gpu, engine=Engine.COMPUTE)
+    assert decode(encode(compute, SESSION, MEMBER), SESSION, MEMBER).gpu()["engine"] == "compute"
 
 
 def test_kind_command_and_status_numbers_are_fixed():
@@ -800,7 +805,7 @@ REJECTIONS = [
     ("param-signed-inf", by_master(Kind.FRAME, frame_body(params=(-math.inf,))), MEMBER,
      "bad-value"),
     ("report-status-5", craft(Kind.REPORT, report_body(status=5)), None, "bad-value"),
-    ("info-flag-4", craft(Kind.INFO, info_body(flags=4)), None, "bad-value"),
+    ("info-flag-8", craft(Kind.INFO, info_body(flags=8)), None, "bad-value"),
     ("info-string-control", craft(Kind.INFO, info_body(texts=(b"r\n", b"v", b"4"))), None,
      "bad-value"),
     ("info-string-utf8", craft(Kind.INFO, info_body(texts=(b"r", "v\u00e9".encode(), b"4"))),

@@ -60,17 +60,17 @@ def forensic_lines(report: dict, shown: int = 10) -> list[str]:
 
 
 def gpu_table(report: dict) -> Table:
-    """What each wall computed on, as its node told the master."""
+    """What each wall computed on, and with which engine path, as its node told the master."""
     table = Table(title="GPUs")
-    for column in ("wall", "EGL device", "renderer", "OpenGL version (driver)"):
+    for column in ("wall", "EGL device", "renderer", "OpenGL version (driver)", "engine"):
         table.add_column(column)
     for wall in report["nodes"]:
         gpu = report["gpus"].get(wall)
         if gpu is None:
-            table.add_row(wall, "?", "did not answer the info query", "")
+            table.add_row(wall, "?", "did not answer the info query", "", "")
         else:
             table.add_row(wall, f"{gpu['device']} ({gpu['kind']})", gpu["renderer"],
-                          gpu["version"])
+                          gpu["version"], gpu["engine"])
     return table
 
 

@@ -11,6 +11,7 @@ from enum import IntEnum
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame_cost import PHASES
+from cavesim.core.scene.model import Engine
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
@@ -18,7 +19,7 @@ MAX_TEXT = 255  # characters of one string of an info message (a one-byte length
 _REPORT = struct.Struct(f"<16sII{len(PHASES)}IIB")
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
-INFO_SOFTWARE, INFO_SWAP_LOCKED = 0x01, 0x02
+INFO_SOFTWARE, INFO_SWAP_LOCKED, INFO_COMPUTE = 0x01, 0x02, 0x04  # COMPUTE: else GS/TF
 _DISPLAY = struct.Struct("<BQ")  # phase, the node's monotonic clock in ns
 
 
@@ -57,22 +58,24 @@ class InfoMessage:
     swap_locked: bool = False  # it shows frames live and swaps only on the master's SWAP
     nonce: int = 0  # fresh after every WELCOME: only a WELCOME naming it admits the node
     scene: str = ""  # the digest of the node's scene (`cavesim.core.scene.digest`)
+    engine: Engine = Engine.GS_TF  # the particle engine path it steps with
 
     @classmethod
     def of_gpu(cls, frame: int, node: str, gpu: Mapping, swap_locked: bool = False,
-               nonce: int = 0, scene: str = "") -> InfoMessage:
+               nonce: int = 0, scene: str = "", engine: Engine = Engine.GS_TF) -> InfoMessage:
         """The message for a GPU as `cavesim.gpu.gl.context.gpu_of` describes it; characters
         the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
         def fit(text: str) -> str:
             return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
 
         return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
-                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce, scene)
+                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce, scene, engine)
 
     def gpu(self) -> dict:
-        """The GPU as `gpu_of` describes it, for report.json."""
+        """The GPU as `gpu_of` describes it, and the engine path it ran, for report.json."""
         return {"device": self.device, "kind": "software" if self.software else "hardware",
-                "renderer": self.renderer, "vendor": self.vendor, "version": self.version}
+                "renderer": self.renderer, "vendor": self.vendor, "version": self.version,
+                "engine": self.engine.value}
 
 
 class Phase(IntEnum):
@@ -138,7 +141,8 @@ def write_info(m: InfoMessage) -> bytes:
         raise ValueError(f"EGL device index must be in [0, 65535], got {m.device}")
     texts = b"".join(_text_bytes(what, getattr(m, what))
                      for what in ("renderer", "vendor", "version"))
-    flags = (INFO_SOFTWARE if m.software else 0) | (INFO_SWAP_LOCKED if m.swap_locked else 0)
+    flags = (INFO_SOFTWARE if m.software else 0) | (INFO_SWAP_LOCKED if m.swap_locked else 0) \
+        | (INFO_COMPUTE if m.engine is Engine.COMPUTE else 0)
     if not 0 <= m.nonce < 2**64:
         raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
     scene = digest_bytes(m.scene) if m.scene else bytes(16)
@@ -150,9 +154,10 @@ def read_info(frame: int, payload: bytes) -> InfoMessage:
     if len(rest) < _INFO.size:
         raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
     device, flags, nonce, scene = _INFO.unpack_from(rest)
-    if flags & ~(INFO_SOFTWARE | INFO_SWAP_LOCKED):
-        raise ProtocolError("bad-value", f"info flags {flags:#x}: only "
-                                         f"{INFO_SOFTWARE | INFO_SWAP_LOCKED:#x} are defined")
+    defined = INFO_SOFTWARE | INFO_SWAP_LOCKED | INFO_COMPUTE
+    if flags & ~defined:
+        raise ProtocolError("bad-value", f"info flags {flags:#x}: only {defined:#x} are "
+                                         f"defined")
     rest = rest[_INFO.size:]
     texts = []
     for _ in range(3):
@@ -162,7 +167,8 @@ def read_info(frame: int, payload: bytes) -> InfoMessage:
         raise ProtocolError("bad-payload", f"{len(rest)} stray bytes after an info message")
     return InfoMessage(frame, node, device, bool(flags & INFO_SOFTWARE), *texts,
                        swap_locked=bool(flags & INFO_SWAP_LOCKED), nonce=nonce,
-                       scene=scene.hex() if any(scene) else "")
+                       scene=scene.hex() if any(scene) else "",
+                       engine=Engine.COMPUTE if flags & INFO_COMPUTE else Engine.GS_TF)
 
 
 def write_display(m: DisplayMessage) -> bytes:
