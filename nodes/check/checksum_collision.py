@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from cavesim.core.digest.shape import WORDS_PER_GROUP, WORKGROUP_SIZE
-from cavesim.core.digest.twin import INDEX_MIX
+from cavesim.core.digest.twin import keyed_words
 from cavesim.core.records import PARTICLE_WORDS
 
 
@@ -21,7 +21,7 @@ def colliding_particles(words: np.ndarray) -> np.ndarray:
     pair of words WORKGROUP_SIZE apart in one work group's block (one invocation reads
     both) whose xor'ed values differ, traded. ValueError when there is no such pair."""
     words = np.asarray(words, dtype=np.uint32).reshape(-1)
-    keyed = words ^ (np.arange(words.size, dtype=np.uint64) * INDEX_MIX).astype(np.uint32)
+    keyed = keyed_words(words)
     for i in range(words.size - WORKGROUP_SIZE):
         j = i + WORKGROUP_SIZE
         if keyed[i] != keyed[j] and i % WORDS_PER_GROUP < WORDS_PER_GROUP - WORKGROUP_SIZE:

@@ -62,12 +62,19 @@ def _streams(particle_words: np.ndarray, emitter_words: np.ndarray
     return particle_words, emitter_words
 
 
-def reference_sums(words: np.ndarray) -> np.ndarray:
-    """The sums pass over one stream: (invocations, 2) uint32, invocation by invocation."""
+def keyed_words(words: np.ndarray) -> np.ndarray:
+    """Each word xor'ed with its index times INDEX_MIX: what the sums pass mixes."""
     words = np.asarray(words, dtype=np.uint32)
     index = np.arange(words.size, dtype=np.uint32)
     with np.errstate(over="ignore"):
-        h = words ^ (index * np.uint32(INDEX_MIX))
+        return words ^ (index * np.uint32(INDEX_MIX))
+
+
+def reference_sums(words: np.ndarray) -> np.ndarray:
+    """The sums pass over one stream: (invocations, 2) uint32, invocation by invocation."""
+    words = np.asarray(words, dtype=np.uint32)
+    h = keyed_words(words)
+    with np.errstate(over="ignore"):
         lanes = np.stack([_fmix32(h), _fmix32(h + np.uint32(0x7F4A7C15))], axis=1)
     groups = group_count(words.size)
     padded = np.zeros((groups * WORDS_PER_GROUP, 2), dtype=np.uint32)
