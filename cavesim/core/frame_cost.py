@@ -17,8 +17,4 @@ FRAME_PHASES = {  # name -> what its time covers
 }
 PHASES = tuple(FRAME_PHASES)
 MAX_PHASE_US = 2**32 - 1  # a phase's time travels as 32-bit microseconds
-
-
-def no_cost() -> tuple[int, ...]:
-    """The times of a report that timed nothing (a join, a resync, a repeat)."""
-    return (0,) * len(PHASES)
+NO_COST = (0,) * len(PHASES)  # the times of a report that timed nothing (a join, a resync)

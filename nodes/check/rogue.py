@@ -27,7 +27,7 @@ import zenoh
 
 from cavesim.core.errors import ClusterError, ProtocolError
 from cavesim.core.frame import FrameInput
-from cavesim.core.frame_cost import no_cost
+from cavesim.core.frame_cost import NO_COST
 from cavesim.core.wire import (
     Command,
     ControlMessage,
@@ -158,7 +158,7 @@ class RoguePeer:
                                 "1" * 32)),
                 ("earlier-run-stop", self.keys.control, ControlMessage(frame, Command.STOP))):
             self.put(what, key, encode(message, self.name, master, earlier))
-        report = ReportMessage(frame, self.walls[0], "2" * 32, 1, 0, no_cost())
+        report = ReportMessage(frame, self.walls[0], "2" * 32, 1, 0, NO_COST)
         self.put("earlier-run-report", self.keys.report(self.walls[0]),
                  encode(report, self.name, master.for_members(), earlier))
 
@@ -172,7 +172,7 @@ class RoguePeer:
         self.put("member-stop", self.keys.control,
                  member_signed(ControlMessage(frame, Command.STOP), self.name, member.secret,
                                run_id))
-        report = ReportMessage(frame + 1000, self.walls[0], "3" * 32, 1, 0, no_cost())
+        report = ReportMessage(frame + 1000, self.walls[0], "3" * 32, 1, 0, NO_COST)
         self.put("unsent-frame-report", self.keys.report(self.walls[0]),
                  encode(report, self.name, member, run_id))
 
@@ -182,7 +182,7 @@ class RoguePeer:
         report counts only under the key of the wall it names)."""
         for wall in self.walls:
             if wall != member.member.name:
-                report = ReportMessage(frame, wall, "5" * 32, 1, 0, no_cost())
+                report = ReportMessage(frame, wall, "5" * 32, 1, 0, NO_COST)
                 self.put("report-in-another-wall's-name", self.keys.report(wall),
                          encode(report, self.name, member, run_id))
 

@@ -42,7 +42,7 @@ from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import ClusterError, ContextError, ProtocolError
-from cavesim.core.frame_cost import no_cost
+from cavesim.core.frame_cost import NO_COST
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Engine, load_scene
@@ -267,7 +267,7 @@ class WallNode:
         state = self.system.checksum()
         log.info("%s: joined run %016x at frame %d", self.config.wall, run_id, self.done)
         self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
-                                    state.emitters, no_cost(), self.rejects.total, Status.JOINED))
+                                    state.emitters, NO_COST, self.rejects.total, Status.JOINED))
 
     def _start_over(self) -> None:
         self.system.restart(self.seed)
@@ -349,7 +349,7 @@ class WallNode:
                  self.config.wall, k, self.done)
         state = self.system.checksum()
         self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
-                                    state.emitters, no_cost(), self.rejects.total, Status.BEHIND),
+                                    state.emitters, NO_COST, self.rejects.total, Status.BEHIND),
                       keep=False)
 
     def _step(self, k: int, inputs: FrameInput, scene: SceneFrame) -> None:
@@ -462,7 +462,7 @@ class WallNode:
                   "state", wall, command.frame, source, deadline - started)
         state = self.system.checksum()  # the master sees at once that the resync failed
         self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
-                                    state.emitters, no_cost(), self.rejects.total, Status.RESYNCED,
+                                    state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
                                     self._sample()), keep=False)
 
     def _delta(self, command: ControlMessage, failed: set[str], started: float) -> bool:
@@ -499,7 +499,7 @@ class WallNode:
         log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.wall, frame,
                  source, how, seconds)
         self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
-                                    state.emitters, no_cost(), self.rejects.total, Status.RESYNCED,
+                                    state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
                                     self._sample()))
 
     def _serve_blocks(self, query: zenoh.Query, request: BlockRequest) -> int:

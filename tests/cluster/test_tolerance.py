@@ -19,7 +19,7 @@ from cavesim.core.drift import (
     measure_drift,
     sample_indices,
 )
-from cavesim.core.frame_cost import no_cost
+from cavesim.core.frame_cost import NO_COST
 from cavesim.core.wire import ReportMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.reports.run_tables import mode_rows
@@ -51,7 +51,7 @@ def sample(x: float, count: int = 4, v: float = 0.0) -> DriftSample:
 
 
 def report(wall, digest, x=0.0, particles=4, v=0.0, with_sample=True, frame=1):
-    return ReportMessage(frame, wall, digest * 32, particles, 0, no_cost(),
+    return ReportMessage(frame, wall, digest * 32, particles, 0, NO_COST,
                          sample=sample(x, min(particles, 4), v) if with_sample else None)
 
 

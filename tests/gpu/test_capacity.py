@@ -12,7 +12,7 @@ from scenes import make_scene
 
 from cavesim.core.digest.shape import group_count
 from cavesim.core.errors import CapacityError
-from cavesim.core.frame_cost import no_cost
+from cavesim.core.frame_cost import NO_COST
 from cavesim.core.framelog import FrameLogWriter, read_frame_log
 from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
@@ -140,5 +140,5 @@ def test_frame_log_and_reports_carry_the_largest_count(tmp_path):
     _, frames = read_frame_log(tmp_path / "frames.log")
     (logged,) = list(frames)
     assert logged.particles == MAX_PARTICLES == 53_687_091
-    report = ReportMessage(1, "front", "ab" * 16, MAX_PARTICLES, 4096, no_cost())
+    report = ReportMessage(1, "front", "ab" * 16, MAX_PARTICLES, 4096, NO_COST)
     assert decode(encode(report, "big"), "big").particles == MAX_PARTICLES

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from zenoh_doubles import RepliesSession, Reply
 
-from cavesim.core.frame_cost import no_cost
+from cavesim.core.frame_cost import NO_COST
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire import (
     BlockQuery,
@@ -70,7 +70,7 @@ def taken(link) -> list:
 
 
 def report(wall: str, frame: int = 5) -> ReportMessage:
-    return ReportMessage(frame, wall, DIGEST, 10, 1, no_cost())
+    return ReportMessage(frame, wall, DIGEST, 10, 1, NO_COST)
 
 
 def test_a_report_counts_only_under_its_own_walls_key(link):

@@ -10,7 +10,7 @@ import pytest
 from memory_walls import MemoryLink
 
 from cavesim.core.errors import ClusterError
-from cavesim.core.frame_cost import PHASES, no_cost
+from cavesim.core.frame_cost import NO_COST, PHASES
 from cavesim.core.wire import (
     Command,
     ControlMessage,
@@ -35,7 +35,7 @@ WALLS = ("front", "left", "right")
 
 
 def report(wall, digest, frame=1, particles=10, status=Status.STEPPED):
-    return ReportMessage(frame, wall, digest * 32, particles, 0, no_cost(), status=status)
+    return ReportMessage(frame, wall, digest * 32, particles, 0, NO_COST, status=status)
 
 
 # -- membership ---------------------------------------------------------------------------

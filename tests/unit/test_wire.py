@@ -38,7 +38,7 @@ from hypothesis import strategies as st
 
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
-from cavesim.core.frame_cost import PHASES, no_cost
+from cavesim.core.frame_cost import NO_COST, PHASES
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
 from cavesim.core.scene import Engine
 from cavesim.core.wire import envelope
@@ -323,15 +323,15 @@ EDGE_MESSAGES = {
     "report-edges": ReportMessage(U64, "x" * 32, "f" * 32, 2**32 - 1, 0,
                                   (0, 2**32 - 1) * (len(PHASES) // 2) + (0,) * (len(PHASES) % 2),
                                   2**32 - 1, Status.REPEATED),
-    "report-resynced": ReportMessage(2, "wall_7-b", "0" * 32, 0, 0, no_cost(), 0,
+    "report-resynced": ReportMessage(2, "wall_7-b", "0" * 32, 0, 0, NO_COST, 0,
                                      Status.RESYNCED),
-    "report-joined": ReportMessage(0, "left", DIGEST, 0, 0, no_cost(), 0, Status.JOINED),
+    "report-joined": ReportMessage(0, "left", DIGEST, 0, 0, NO_COST, 0, Status.JOINED),
     "report-behind": ReportMessage(U64, "front", "f" * 32, 1, 1, (1,) * len(PHASES), 1,
                                    Status.BEHIND),
     "report-sample": ReportMessage(8, "left", DIGEST, 2, 1, COST, 0, Status.STEPPED, SAMPLE),
-    "report-sample-empty": ReportMessage(1, "left", DIGEST, 0, 0, no_cost(), 0,
+    "report-sample-empty": ReportMessage(1, "left", DIGEST, 0, 0, NO_COST, 0,
                                          sample=DriftSample(b"")),
-    "report-sample-largest": ReportMessage(9, "left", DIGEST, 2**32 - 1, 0, no_cost(), 0,
+    "report-sample-largest": ReportMessage(9, "left", DIGEST, 2**32 - 1, 0, NO_COST, 0,
                                            Status.RESYNCED, DriftSample(
                                                bytes(range(256)) * 96)),
     "stop": ControlMessage(400, Command.STOP),
@@ -519,12 +519,12 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
 
 
 @pytest.mark.parametrize("message, match", [
-    (ReportMessage(-1, "front", DIGEST, 0, 0, no_cost()), "frame"),
+    (ReportMessage(-1, "front", DIGEST, 0, 0, NO_COST), "frame"),
     (InfoRequest(2**64, "front"), "frame"),
     (FrameMessage(1, FrameInput(0.0, IDENTITY), params=(0.0,) * (MAX_PARAMS + 1)),
      "at most 32"),
-    (ReportMessage(1, "bad/name", DIGEST, 0, 0, no_cost()), "node name"),
-    (ReportMessage(1, "", DIGEST, 0, 0, no_cost()), "node name"),
+    (ReportMessage(1, "bad/name", DIGEST, 0, 0, NO_COST), "node name"),
+    (ReportMessage(1, "", DIGEST, 0, 0, NO_COST), "node name"),
     (ReportMessage(1, "front", DIGEST, 0, 0, (0, 0)), "times the 7 phases"),
     (ControlMessage(1, Command.RESYNC, "x" * 33, "front"), "node name"),
     (ControlMessage(1, Command.RESYNC, "left", "front", "XY" * 16), "hex digits"),
@@ -548,7 +548,7 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
     (SnapshotHeader(1, 0, 1, 1, "XY" * 16, np.zeros(0, EMITTER_DTYPE)), "hex digits"),
     (SnapshotChunk(1, 0, bytes(41)), "whole 40-byte records"),
     (SnapshotChunk(1, 0, b""), "whole 40-byte records"),
-    (ReportMessage(1, "front", DIGEST, 1, 0, no_cost(), sample=SAMPLE), "at most the 1 live"),
+    (ReportMessage(1, "front", DIGEST, 1, 0, NO_COST, sample=SAMPLE), "at most the 1 live"),
     (BlockRequest(1, "left", DIGEST, BlockQuery.RECORDS, 0, (5, 3)), "ascending"),
     (BlockRequest(1, "left", DIGEST, BlockQuery.RECORDS, 0, ()), "may name none"),
     (BlockRequest(1, "left", DIGEST, BlockQuery.TREE, 3), "part 3"),
