@@ -100,7 +100,7 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     kill = master_kill_frame(faults)
     cluster = ClusterPlan(master, plan.out, {wall: _node_arguments(faults, node_args, wall)
                                              for wall in plan.walls})
-    harness = _Harness(faults, node_args, master, plan.out)
+    harness = _Harness(faults, node_args, master)
     try:
         if kill is None:
             record, killed = run_cluster(cluster, progress, harness.before_frame,
@@ -181,11 +181,10 @@ def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harne
 class _Harness:
     """Does the faults that come from outside the nodes, just before their frame."""
 
-    def __init__(self, faults: tuple[Fault, ...], node_args, master: MasterConfig,
-                 out: Path) -> None:
+    def __init__(self, faults: tuple[Fault, ...], node_args, master: MasterConfig) -> None:
         self.faults = faults
         self.node_args = node_args
-        self.master, self.out = master, out
+        self.master = master
         self.credentials: Credentials = master.credentials
         self.emitters = len(load_scene(master.scene).emitters)
         self.rogue: RoguePeer | None = None
