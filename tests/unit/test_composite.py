@@ -7,6 +7,7 @@ the same room point, within a pixel.
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 from pathlib import Path
 
@@ -242,12 +243,10 @@ def test_write_animation_rejects_bad_input(tmp_path):
         write_animation(frames, tmp_path / "run.avi")
 
 
-def test_mp4_without_imageio_ffmpeg_says_what_to_do(tmp_path):
-    try:
-        import imageio_ffmpeg  # noqa: F401
-    except ImportError:
-        pass
-    else:
-        pytest.skip("imageio-ffmpeg is installed, so .mp4 works here")
+def test_mp4_without_imageio_ffmpeg_says_what_to_do(tmp_path, monkeypatch):
+    find_spec = importlib.util.find_spec  # as on a machine without the package
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *rest: None if name == "imageio_ffmpeg"
+                        else find_spec(name, *rest))
     with pytest.raises(ImportError, match="imageio-ffmpeg.*gif"):
         write_animation(numbered_frames(tmp_path, 2), tmp_path / "run.mp4")
