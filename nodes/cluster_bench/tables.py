@@ -102,7 +102,8 @@ def show(report: dict, console: Console) -> None:
             console.print(one_node_line(report))
     console.print("targets:")
     for target in report["targets"]:
-        console.print(f"  {target_line(target)}", style=TARGET_STYLES[target["met"]])
+        console.print(f"  {target_line(target)}", style=TARGET_STYLES[target["met"]],
+                      soft_wrap=True)  # one line, however long, for a log or a grep
 
 
 def _markdown_table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> list[str]:
