@@ -1,14 +1,16 @@
 #!/usr/bin/env bash
-# Launch a cavesim cluster: a master and N wall nodes, on this machine or on several hosts.
+# Launch a cavesim cluster: a master and its nodes, on this machine or on several hosts. A
+# node draws one wall, or the walls the CAVE file gives it with `node = NAME`.
 #
 #   deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display] [--scene FILE]
-#                    [--frames F] [--out DIR] [--session NAME] [--keys DIR]
+#                    [--group-by cave|wall|gpu] [--frames F] [--out DIR] [--session NAME]
+#                    [--keys DIR]
 #                    [--config FILE] [--realtime] [--mixed-hardware] [--insecure]
 #                    [--dry-run]
 #
 # Without --hosts everything runs here: this execs `.venv/bin/cavesim run --walls N ...`
-# (or `--cave FILE`; after deploy/setup.sh if .venv is missing), which writes
-# OUT/report.json. --display shows every wall live in its window, as the CAVE file's
+# (or `--cave FILE`, and --group-by, as `cavesim run --help` says; after deploy/setup.sh if
+# .venv is missing), which writes OUT/report.json. --display shows every wall live in its window, as the CAVE file's
 # [wall.display] tables say (needs --cave), swap-locked.
 #
 # With --hosts FILE the processes start where the file says. Hosts file format (see
@@ -16,7 +18,8 @@
 # are ignored:
 #
 #   master HOST[:PORT]  [via=COMMAND]    exactly one; PORT defaults to 7447
-#   node   WALL HOST    [via=COMMAND]    one per wall, in wall order; WALL is a wall name
+#   node   NAME HOST    [via=COMMAND]    one per node; NAME is a wall's name, or the name
+#                                        of a node that the CAVE file gives several walls
 #
 # via=COMMAND is how to run a command on that host; the default is
 # `ssh -tt -o BatchMode=yes HOST` (-tt: when the launcher stops its ssh client, the remote
@@ -27,29 +30,30 @@
 # shell characters (the script checks).
 #
 # On each node host it runs
-#   $CAVESIM_REMOTE node --wall WALL --scene S --session NAME --connect tcp/MASTER:PORT
-#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K/wall-WALL.key]
+#   $CAVESIM_REMOTE node --node NAME --scene S --session NAME --connect tcp/MASTER:PORT
+#                        --listen tcp/0.0.0.0:0 --verbose [--key-file K/wall-NAME.key]
 #                        [--config Z]
 #                        [--cave C --display]
 # and on the master host `mkdir -p OUT`, then
-#   $CAVESIM_REMOTE master --walls a,b,c --listen tcp/0.0.0.0:PORT --frames F
+#   $CAVESIM_REMOTE master --walls NAME,NAME,... --listen tcp/0.0.0.0:PORT --frames F
 #                          --report OUT/report.json --frame-log OUT/frames.log ...
 #                          [--realtime]
 # CAVESIM_REMOTE is the cavesim command on the hosts (default: `cavesim` on the PATH).
-# With --display each node opens its wall's window on the X display its [wall.display]
-# x_display names (e.g. ":0"), else on the DISPLAY its command gets (via="ssh -tt HOST
+# With --display each node opens its walls' window (side by side) on the X display the
+# first one's [wall.display] x_display names (e.g. ":0"), else on the DISPLAY its command gets (via="ssh -tt HOST
 # env DISPLAY=:0"); C is the CAVE file's path on the hosts.
 # Hosts mode only: --config Z gives every process that zenoh JSON5 file, e.g.
 # config/zenoh/multihost.json5 (a short lease and fast reconnects for a LAN; the endpoints
 # still come from the hosts file), and --realtime has the master pace frames by the wall
 # clock, as a CAVE's displays need (default: as fast as the barrier allows).
-# --keys DIR signs every message: DIR holds what `cavesim keys --out DIR --walls ...` made;
-# the master reads DIR/master.key (on the master host only), each node its own wall's
-# DIR/wall-WALL.key (which cannot sign frames or commands, nor speak for another wall).
+# --keys DIR signs every message: DIR holds what `cavesim keys --out DIR --walls ...` made
+# for the node names; the master reads DIR/master.key (on the master host only), each node
+# its own DIR/wall-NAME.key (which cannot sign frames or commands, nor speak for another
+# node).
 # With --hosts the messages cross a network, so --keys is required; --insecure runs
 # unsigned anyway (anyone on that network can then steer, stop or forge the run). The scene, OUT, DIR and Z are paths on the hosts (relative ones are resolved by
 # the remote command: the login directory for ssh; a scene also by the cavesim checkout).
-# Node output is collected here in OUT/logs/WALL.log; the master's goes to the terminal.
+# Node output is collected here in OUT/logs/NAME.log; the master's goes to the terminal.
 # The launcher waits for the master, exits with its status, and on exit or Ctrl-C stops
 # every node process it started. --mixed-hardware runs the master and every node in the
 # tolerance mode for walls whose GPUs round differently (README "Mixed hardware"; the first
@@ -62,7 +66,8 @@ DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/processes/
 
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \
-         "[--scene FILE] [--frames F] [--out DIR] [--session NAME] [--keys DIR]" \
+         "[--scene FILE] [--group-by cave|wall|gpu] [--frames F] [--out DIR]" \
+         "[--session NAME] [--keys DIR]" \
          "[--config FILE] [--realtime] [--mixed-hardware] [--insecure] [--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
@@ -75,11 +80,11 @@ die() {  # a usage or input error: one line, exit 2
 
 hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
 session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0 mixed=0
-insecure=0
+insecure=0 group_by=""
 while (($#)); do
     case "$1" in
         --hosts | --walls | --scene | --frames | --out | --session | --keys | --config \
-            | --cave)
+            | --cave | --group-by)
             (($# >= 2)) || die "argument $1: expected a value"
             case "$1" in
                 --hosts) hosts_file="$2" ;;
@@ -91,6 +96,7 @@ while (($#)); do
                 --keys) keys="${2%/}" ;;
                 --config) zenoh_config="$2" ;;
                 --cave) cave="$2" ;;
+                --group-by) group_by="$2" ;;
             esac
             shift 2 ;;
         --realtime) realtime=1; shift ;;
@@ -131,6 +137,7 @@ if [ -z "$hosts_file" ]; then
              --session "$session")
     if [ -n "$cave" ]; then command+=(--cave "$cave"); else command+=(--walls "${walls:-4}"); fi
     ((!display)) || command+=(--display)
+    [ -z "$group_by" ] || command+=(--group-by "$group_by")
     ((!mixed)) || command+=(--mixed-hardware)
     [ -z "$keys" ] || command+=(--key-file "$keys/master.key")
     if ((dry_run)); then
@@ -145,9 +152,11 @@ fi
 # -- several hosts: read and check the hosts file ---------------------------------------------
 
 [ -f "$hosts_file" ] || die "argument --hosts: no such file '$hosts_file'"
+[ -z "$group_by" ] \
+    || die "argument --group-by: only without --hosts (the hosts file names the nodes)"
 
 master_host="" master_port="" master_via=() master_line=0
-node_walls=() node_hosts=() node_lines=() node_vias=()
+node_names=() node_hosts=() node_lines=() node_vias=()
 
 choose_via() {  # choose_via HOST: this line's via= (or ssh to HOST) as words in `via_words`
     via_words=()
@@ -187,16 +196,16 @@ while IFS= read -r raw || [ -n "$raw" ]; do
             ;;
         node)
             ((${#fields[@]} == 3)) \
-                || die "$where: expected 'node WALL HOST [via=COMMAND]', got '$raw'"
-            wall="${fields[1]}" host="${fields[2]}"
-            [[ "$wall" =~ ^[A-Za-z0-9_-]{1,32}$ ]] \
-                || die "$where: wall name must be 1-32 letters, digits, '_' or '-', got '$wall'"
-            for i in "${!node_walls[@]}"; do
-                [ "${node_walls[$i]}" != "$wall" ] \
-                    || die "$where: wall '$wall' appears twice (first on line ${node_lines[$i]})"
+                || die "$where: expected 'node NAME HOST [via=COMMAND]', got '$raw'"
+            name="${fields[1]}" host="${fields[2]}"
+            [[ "$name" =~ ^[A-Za-z0-9_-]{1,32}$ ]] \
+                || die "$where: node name must be 1-32 letters, digits, '_' or '-', got '$name'"
+            for i in "${!node_names[@]}"; do
+                [ "${node_names[$i]}" != "$name" ] \
+                    || die "$where: node '$name' appears twice (first on line ${node_lines[$i]})"
             done
             choose_via "$host"
-            node_walls+=("$wall") node_hosts+=("$host") node_lines+=("$number")
+            node_names+=("$name") node_hosts+=("$host") node_lines+=("$number")
             node_vias+=("$(show "${via_words[@]}")")  # kept as one shell-quoted line
             ;;
         *) die "$where: unknown role '${fields[0]}' (expected 'master' or 'node')" ;;
@@ -204,9 +213,9 @@ while IFS= read -r raw || [ -n "$raw" ]; do
 done <"$hosts_file"
 
 ((master_line)) || die "$hosts_file: no 'master HOST[:PORT]' line"
-((${#node_walls[@]})) || die "$hosts_file: no 'node WALL HOST' line"
-[ -z "$walls" ] || ((walls == ${#node_walls[@]})) \
-    || die "argument --walls: $walls walls, but $hosts_file names ${#node_walls[@]}"
+((${#node_names[@]})) || die "$hosts_file: no 'node NAME HOST' line"
+[ -z "$walls" ] || ((walls == ${#node_names[@]})) \
+    || die "argument --walls: $walls walls, but $hosts_file names ${#node_names[@]}"
 
 remote="${CAVESIM_REMOTE:-cavesim}"
 for pair in "--scene:$scene" "--out:$out" "--session:$session" "--keys:$keys" \
@@ -226,17 +235,17 @@ common=(--scene "$scene" --session "$session")
 [ -n "$keys" ] || ((insecure)) || die "argument --hosts: messages cross a network unsigned;" \
     "give --keys DIR (made by \`cavesim keys --out DIR --walls ...\`), or --insecure to run" \
     "unsigned anyway"
-wall_list="$(IFS=,; echo "${node_walls[*]}")"
-master_command=("${master_via[@]}" "$remote" master --walls "$wall_list" --frames "$frames"
+node_list="$(IFS=,; echo "${node_names[*]}")"
+master_command=("${master_via[@]}" "$remote" master --walls "$node_list" --frames "$frames"
                 "${common[@]}" --listen "tcp/0.0.0.0:$master_port"
                 --report "$out/report.json" --frame-log "$out/frames.log")
 [ -z "$keys" ] || master_command+=(--key-file "$keys/master.key")
 ((!realtime)) || master_command+=(--realtime)
 node_command() {  # node_command I: the command of node I, in the global array `command`
     eval "command=(${node_vias[$1]})"
-    command+=("$remote" node --wall "${node_walls[$1]}" "${common[@]}"
+    command+=("$remote" node --node "${node_names[$1]}" "${common[@]}"
               --connect "tcp/$master_host:$master_port" --listen "tcp/0.0.0.0:0" --verbose)
-    [ -z "$keys" ] || command+=(--key-file "$keys/wall-${node_walls[$1]}.key")
+    [ -z "$keys" ] || command+=(--key-file "$keys/wall-${node_names[$1]}.key")
     ((!display)) || command+=(--cave "$cave" --display)
 }
 
@@ -244,10 +253,10 @@ if ((dry_run)); then
     echo "# master on $master_host:$master_port (hosts file line $master_line)"
     show "${master_via[@]}" mkdir -p "$out"
     show "${master_command[@]}"
-    for i in "${!node_walls[@]}"; do
+    for i in "${!node_names[@]}"; do
         node_command "$i"
-        echo "# node ${node_walls[$i]} on ${node_hosts[$i]} (hosts file line ${node_lines[$i]})," \
-             "output to $out/logs/${node_walls[$i]}.log"
+        echo "# node ${node_names[$i]} on ${node_hosts[$i]} (hosts file line ${node_lines[$i]})," \
+             "output to $out/logs/${node_names[$i]}.log"
         show "${command[@]}"
     done
     exit 0
@@ -305,14 +314,14 @@ interrupt_master() {  # Ctrl-C or TERM: the master stops the cluster in order
 trap stop_nodes EXIT
 trap interrupt_master INT TERM
 
-echo "$me: master on $master_host:$master_port, walls $wall_list; node logs in $out/logs" >&2
+echo "$me: master on $master_host:$master_port, nodes $node_list; node logs in $out/logs" >&2
 mkdir -p "$out/logs"
 "${master_via[@]}" mkdir -p "$out" </dev/null
 "${master_command[@]}" </dev/null &
 master_pid=$!
-for i in "${!node_walls[@]}"; do
+for i in "${!node_names[@]}"; do
     node_command "$i"
-    "${command[@]}" </dev/null >"$out/logs/${node_walls[$i]}.log" 2>&1 &
+    "${command[@]}" </dev/null >"$out/logs/${node_names[$i]}.log" 2>&1 &
     node_pids+=($!)
 done
 

@@ -29,6 +29,8 @@ from cavesim.gpu.render.programs import PRESENT
 
 log = logging.getLogger("cavesim.window")
 GL_BACK, GL_BACK_LEFT, GL_BACK_RIGHT = 0x0405, 0x0402, 0x0403
+Region = tuple[float, float, float, float]  # x, y, width, height: fractions of the window
+WHOLE: Region = (0.0, 0.0, 1.0, 1.0)
 
 
 @dataclass
@@ -53,14 +55,16 @@ class WallWindow:
         glfw.poll_events()
         return bool(glfw.window_should_close(self.window))
 
-    def present(self, picture: moderngl.Texture, eye: str) -> None:
-        """Put an eye's picture ("center", "left" or "right") into the back buffer."""
-        width, height = self.size
-        viewport = (0, 0, width, height)
+    def present(self, picture: moderngl.Texture, eye: str,
+                region: Region = WHOLE) -> None:
+        """Put an eye's picture ("center", "left" or "right") into the back buffer, in
+        `region` of the window (a node of several walls gives each its own)."""
+        x, y, width, height = self._pixels(region)
+        viewport = (x, y, width, height)
         if eye != "center" and self.stereo is StereoMode.SIDE_BY_SIDE:
-            viewport = (0 if eye == "left" else width // 2, 0, width // 2, height)
+            viewport = (x if eye == "left" else x + width // 2, y, width // 2, height)
         elif eye != "center" and self.stereo is StereoMode.TOP_BOTTOM:
-            viewport = (0, height // 2 if eye == "left" else 0, width, height // 2)
+            viewport = (x, y + height // 2 if eye == "left" else y, width, height // 2)
         screen = self.ctx.screen
         screen.use()
         if eye != "center" and self.stereo is StereoMode.QUAD:
@@ -74,15 +78,24 @@ class WallWindow:
         self._triangle.render(moderngl.TRIANGLES, vertices=3)
         if self.stereo is StereoMode.QUAD:
             self._draw_buffer(GL_BACK)
-        screen.viewport = (0, 0, width, height)
+        screen.viewport = (0, 0, *self.size)
         self.ctx.extra["framebuffer"].use()  # the engine's transform feedback needs it bound
 
-    def read(self) -> np.ndarray:
-        """The back buffer as it is about to be shown: (height, width, 3) uint8, row 0 on top."""
-        width, height = self.size
-        pixels = self.ctx.screen.read(components=3)
+    def read(self, region: Region = WHOLE) -> np.ndarray:
+        """The back buffer (in `region`) as it is about to be shown: (height, width, 3)
+        uint8, row 0 on top."""
+        x, y, width, height = self._pixels(region)
+        pixels = self.ctx.screen.read(viewport=(x, y, width, height), components=3)
         self.ctx.extra["framebuffer"].use()
         return np.frombuffer(pixels, np.uint8).reshape(height, width, 3)[::-1].copy()
+
+    def _pixels(self, region: Region) -> tuple[int, int, int, int]:
+        """`region` (fractions of the window, from its lower left) in framebuffer pixels."""
+        width, height = self.size
+        x0, y0 = round(region[0] * width), round(region[1] * height)
+        x1 = round((region[0] + region[2]) * width)
+        y1 = round((region[1] + region[3]) * height)
+        return x0, y0, x1 - x0, y1 - y0
 
     def swap(self) -> int:
         """Show the back buffer; the monotonic clock (ns) when the swap returned."""

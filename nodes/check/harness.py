@@ -15,8 +15,8 @@ import dataclasses
 import threading
 import time
 from collections import Counter
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -80,6 +80,7 @@ class CheckPlan:
     check_every: int = 1
     snapshot_chunk: int | None = None  # particles per snapshot reply (None: the nodes' default)
     resync: str = "delta"  # how the nodes load a resync's state: one of RESYNC_MODES
+    node_walls: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # for the report
 
 
 def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, n: None
@@ -96,7 +97,8 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     master = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
                           credentials=credentials, barrier_timeout=plan.barrier_timeout,
                           on_loss=plan.on_loss, check_every=plan.check_every,
-                          frame_log=plan.out / "frames.log", forensics=plan.out)
+                          frame_log=plan.out / "frames.log", forensics=plan.out,
+                          node_walls=plan.node_walls)
     kill = master_kill_frame(faults)
     cluster = ClusterPlan(master, plan.out, {wall: _node_arguments(faults, node_args, wall)
                                              for wall in plan.walls})

@@ -13,6 +13,7 @@ from cavesim.core.output import check_written, writing
 from nodes.arguments import (
     RUN_ERROR,
     UsageError,
+    cave_file,
     configure_logging,
     fault_spec,
     frame_count,
@@ -33,7 +34,12 @@ CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faul
 def add(commands) -> None:
     parser = commands.add_parser("check", help="consistency harness: inject faults, prove "
                                                "each is detected and healed")
-    parser.add_argument("--walls", type=wall_count, default=3)
+    members = parser.add_mutually_exclusive_group()
+    members.add_argument("--walls", type=wall_count, default=3,
+                         help="N walls, one node each (default 3)")
+    members.add_argument("--cave", type=cave_file,
+                         help="the nodes of this CAVE file instead: a node of several walls "
+                              "(`node = ...`) steps once for them all")
     parser.add_argument("--scene", type=scene_file, default=CHECK_SCENE)
     parser.add_argument("--frames", type=frame_count, default=300)
     parser.add_argument("--inject", type=fault_spec, action="append", default=[],
@@ -58,7 +64,9 @@ def check(args: argparse.Namespace, console) -> int:
     from nodes.check.harness import CheckPlan, master_kill_frame, run_check
     from nodes.check.table import check_table
 
-    walls = wall_names(args.walls)
+    node_walls = _cave_nodes(args.cave) if args.cave else {w: (w,) for w in
+                                                            wall_names(args.walls)}
+    walls = tuple(node_walls)
     if args.every_kind:
         try:
             args.inject = [*every_kind(args.frames, walls), *args.inject]
@@ -67,7 +75,7 @@ def check(args: argparse.Namespace, console) -> int:
     for f in args.inject:
         if f.node is not None and f.node not in walls:
             raise UsageError(f"cavesim check: error: argument --inject: node {f.node!r} of "
-                             f"{f} is not one of the walls {', '.join(walls)}")
+                             f"{f} is not one of the nodes {', '.join(walls)}")
         if f.frame > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
                              f"last frame {args.frames}")
@@ -86,9 +94,10 @@ def check(args: argparse.Namespace, console) -> int:
     configure_logging(False)
     plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
                      args.session, args.barrier_timeout, on_loss=args.on_loss,
-                     check_every=args.check_every, resync=args.resync)
+                     check_every=args.check_every, resync=args.resync,
+                     node_walls=node_walls)
     with Progress(console=console) as progress:
-        task = progress.add_task(f"check, {len(walls)} walls", total=args.frames)
+        task = progress.add_task(f"check, {len(walls)} nodes", total=args.frames)
         report = run_check(plan, lambda k, live: progress.update(task, completed=k))
     path = args.out / "check.json"
     with writing(path):
@@ -97,3 +106,13 @@ def check(args: argparse.Namespace, console) -> int:
     check_written(path)
     console.print(f"wrote {path}")
     return 0 if check_passed(report, bool(args.inject)) else RUN_ERROR
+
+
+def _cave_nodes(path: Path) -> dict[str, tuple[str, ...]]:
+    from cavesim.core.cave.geometry import load_cave
+    from cavesim.core.errors import CaveError
+
+    try:
+        return load_cave(path).nodes
+    except CaveError as e:
+        raise UsageError(f"cavesim check: error: argument --cave: {e}") from e

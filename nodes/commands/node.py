@@ -1,5 +1,6 @@
-"""`cavesim node`: one wall of a cluster of several hosts (`deploy/launch.sh`, the systemd
-unit); flags in, a typed `NodeConfig` out."""
+"""`cavesim node`: one node of a cluster of several hosts (`deploy/launch.sh`, the systemd
+unit), drawing one wall or the walls the CAVE file gives it; flags in, a typed `NodeConfig`
+out."""
 
 from __future__ import annotations
 
@@ -31,13 +32,21 @@ from nodes.mixed_hardware import node_sample_from
 
 
 def add(commands) -> None:
-    parser = commands.add_parser("node", help="one wall: a GL context stepping in lock-step")
-    parser.add_argument("--wall", type=lambda t: wall_list(t)[0], required=True)
+    parser = commands.add_parser("node", help="one node: a GL context stepping in lock-step, "
+                                              "drawing one wall or several")
+    parser.add_argument("--node", "--wall", dest="node", type=lambda t: wall_list(t)[0],
+                        required=True,
+                        help="the node's name in the run: a wall's, or a node that the "
+                             "--cave file's `node = NAME` gives several walls")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--inject", type=fault_spec, action="append", default=[],
                         help="fault to inject into this node, KIND@FRAME (testing)")
     parser.add_argument("--slow-delay", type=seconds, default=1.5)
-    parser.add_argument("--cave", type=cave_file, help="CAVE geometry (.toml) to draw the wall of")
+    parser.add_argument("--cave", type=cave_file,
+                        help="CAVE geometry (.toml) to draw the node's walls of")
+    parser.add_argument("--draws", type=wall_list,
+                        help="the walls of --cave this node draws, comma-separated (default: "
+                             "those whose `node` it is)")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=0,
                         help="draw the wall every K frames (0: never)")
     parser.add_argument("--images", type=output_folder, help="folder for <wall>/frame_<k>.png")
@@ -82,7 +91,7 @@ def run(args: argparse.Namespace, console) -> int:
     from nodes.wall.process import main as run_node
 
     configure_logging(args.verbose)
-    network, credentials = network_and_key(args, "node", WALL, args.wall)
+    network, credentials = network_and_key(args, "node", WALL, args.node)
     if args.render_every and (args.cave is None or args.images is None):
         raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
                          "and --images too")
@@ -95,11 +104,12 @@ def run(args: argparse.Namespace, console) -> int:
     if (args.display or args.preview) and args.gpu is not None:
         raise UsageError("cavesim node: error: argument --gpu: a window computes on its X "
                          "display's GPU; choose the display ([wall.display] x_display)")
-    config = NodeConfig(wall=args.wall, scene=args.scene, session=args.session,
+    config = NodeConfig(name=args.node, scene=args.scene, session=args.session,
                         network=network, credentials=credentials, faults=tuple(args.inject),
                         slow_delay=args.slow_delay, cave=args.cave,
                         render_every=args.render_every, images=args.images,
-                        stereo=args.stereo, chunk_particles=args.snapshot_chunk, gpu=args.gpu,
+                        walls=_walls_of(args), stereo=args.stereo,
+                        chunk_particles=args.snapshot_chunk, gpu=args.gpu,
                         engine=args.engine,
                         display=args.display, preview=args.preview,
                         preview_scale=args.preview_scale, on_master_loss=args.on_master_loss,
@@ -107,3 +117,25 @@ def run(args: argparse.Namespace, console) -> int:
                         drift_sample=node_sample_from(args, "node"))
     with sigterm_as_interrupt():
         return run_node(config)
+
+
+def _walls_of(args: argparse.Namespace) -> tuple[str, ...]:
+    """The walls of --cave that the node draws: --draws, else those whose `node` it is (a
+    wall's own node: that wall); none without --cave or with --preview (every wall)."""
+    if args.cave is None or args.preview:
+        if args.draws:
+            raise UsageError("cavesim node: error: argument --draws: walls of a CAVE: give "
+                             "--cave FILE, without --preview")
+        return ()
+    from cavesim.core.cave.geometry import load_cave
+
+    cave = load_cave(args.cave)
+    if args.draws:
+        if unknown := [w for w in args.draws if w not in cave.names]:
+            raise UsageError(f"cavesim node: error: argument --draws: {args.cave} has no wall "
+                             f"{unknown[0]!r}; its walls are {', '.join(cave.names)}")
+        return tuple(args.draws)
+    if args.node not in cave.nodes:
+        raise UsageError(f"cavesim node: error: argument --node: {args.node!r} draws no wall "
+                         f"of {args.cave}; its nodes are {', '.join(cave.nodes)}")
+    return cave.nodes[args.node]

@@ -1,7 +1,9 @@
-"""`cavesim run`: the master and one node per wall on this machine, with a progress bar.
+"""`cavesim run`: the master and its nodes on this machine, with a progress bar.
 
-Each wall computes on the EGL device its plan gives it (`nodes.launch.gpus`); the summary names
-the GPU every wall reported. report.json is kept current while the master runs (a crash
+A node is a process with its own context that draws one wall (the default) or several:
+those the CAVE file gives one `node`, or, with `--group-by gpu`, those on one GPU. Each node
+computes on the EGL device its plan gives it (`nodes.launch.gpus`); the summary names the
+GPU every node reported. report.json is kept current while the master runs (a crash
 leaves the last checkpoint) and written whole at the end, with the pictures and plots.
 """
 
@@ -45,6 +47,7 @@ from nodes.arguments import (
     wall_names,
 )
 from nodes.launch.cluster import ClusterPlan, run_cluster
+from nodes.launch.gpus import GROUPINGS, by_gpu
 from nodes.lockstep import LOSS_POLICIES
 from nodes.master.process import MasterConfig
 from nodes.master.report_file import ReportFile
@@ -57,7 +60,7 @@ PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
 @dataclass(frozen=True)
 class RunPlan:
-    walls: tuple[str, ...]
+    nodes: Mapping[str, tuple[str, ...]]  # each node's walls
     scene: Path
     frames: int
     out: Path
@@ -67,7 +70,7 @@ class RunPlan:
     cave: Path | None = None  # with render_every > 0: walls are drawn, composites assembled
     render_every: int = 0
     stereo: bool = False
-    gpus: Mapping[str, int] = field(default_factory=dict)  # wall -> EGL device (else default)
+    gpus: Mapping[str, int] = field(default_factory=dict)  # node -> EGL device (else default)
     display: bool = False  # every wall live in its window ([wall.display] of the CAVE)
     preview: bool = False  # a member "preview" shows the CAVE unfolded in a desktop window
     engine: Engine | None = None  # every wall's particle engine path (None: the scene's)
@@ -75,39 +78,38 @@ class RunPlan:
 
     @property
     def members(self) -> tuple[str, ...]:
-        """The walls in lock-step: the CAVE's, and the preview when there is one."""
-        return (*self.walls, PREVIEW) if self.preview else self.walls
+        """The nodes in lock-step: the walls', and the preview when there is one."""
+        return (*self.nodes, PREVIEW) if self.preview else tuple(self.nodes)
 
     @property
     def draws(self) -> bool:
         return self.cave is not None and self.render_every > 0
 
-    def node_args(self, wall: str) -> tuple[str, ...]:
-        """The flags of `wall`'s node beyond the cluster's own: its engine path, drawing, its
-        GPU, its window."""
+    def node_args(self, node: str) -> tuple[str, ...]:
+        """The flags of `node` beyond the cluster's own: its engine path, its walls and how
+        it draws them, its GPU, its window."""
         engine = () if self.engine is None else ("--engine", str(self.engine))
-        if wall == PREVIEW:
+        if node == PREVIEW:
             return ("--preview", "--cave", str(self.cave), *engine)
+        draws = ("--cave", str(self.cave), "--draws", ",".join(self.nodes[node]),
+                 "--render-every", str(self.render_every), "--images", str(self.out / "walls"))
         if self.display:
-            return ("--display", "--cave", str(self.cave), "--render-every",
-                    str(self.render_every), "--images", str(self.out / "walls"), *engine)
-        gpu = ("--gpu", str(self.gpus[wall])) if wall in self.gpus else ()
+            return ("--display", *draws, *engine)
+        gpu = ("--gpu", str(self.gpus[node])) if node in self.gpus else ()
         if not self.draws:
             return (*gpu, *engine)
-        return ("--cave", str(self.cave), "--render-every", str(self.render_every),
-                "--images", str(self.out / "walls"), *(("--stereo",) if self.stereo else ()),
-                *gpu, *engine)
+        return (*draws, *(("--stereo",) if self.stereo else ()), *gpu, *engine)
 
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
                               tolerance=self.tolerance, frame_log=self.out / "frames.log",
-                              forensics=self.out)
+                              forensics=self.out, node_walls=self.nodes)
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
         mixed = node_arguments(self.tolerance)
         return ClusterPlan(master, self.out,
-                           {wall: (*self.node_args(wall), *mixed) for wall in self.members},
+                           {node: (*self.node_args(node), *mixed) for node in self.members},
                            drawing)
 
 
@@ -119,7 +121,9 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
                TextColumn("{task.fields[live]} live"), TimeElapsedColumn())
     with ReportFile(plan.out / "report.json") as report_file:
         with Progress(*columns, console=console, transient=False) as progress:
-            task = progress.add_task(f"{len(plan.members)} walls", total=plan.frames, live=0)
+            walls = sum(len(w) for w in plan.nodes.values())
+            task = progress.add_task(f"{walls} walls on {len(plan.members)} nodes",
+                                     total=plan.frames, live=0)
             record = run_cluster(plan.cluster(), lambda k, live: progress.update(
                 task, completed=k, live=live), checkpoint=report_file.checkpoint)
         if record.interrupted:
@@ -174,11 +178,16 @@ def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
 
 
 def add(commands) -> None:
-    parser = commands.add_parser("run", help="master + one node per wall on this machine")
+    parser = commands.add_parser("run", help="master + the nodes of the walls on this machine")
     walls = parser.add_mutually_exclusive_group()
     walls.add_argument("--cave", type=cave_file, default=DEFAULT_CAVE,
                        help=f"CAVE geometry whose walls are drawn (default: {DEFAULT_CAVE})")
     walls.add_argument("--walls", type=wall_count, help="N undrawn walls instead of a CAVE")
+    parser.add_argument("--group-by", choices=GROUPINGS, default="cave",
+                        help="which walls share a node (one process, one context, one step "
+                             "a frame): as the CAVE file's `node = ...` says, each wall its "
+                             "own where it says none (cave, the default); one node per wall "
+                             "(wall); the walls on one GPU (gpu)")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
                         help="each wall writes its picture every K frames (default 10; 0: never)")
     parser.add_argument("--stereo", action="store_true")
@@ -217,14 +226,14 @@ def run(args: argparse.Namespace, console) -> int:
     if (args.display or args.preview) and args.walls:
         raise UsageError("cavesim run: error: argument --display/--preview: windows show the "
                          "walls of a CAVE; use --cave, not --walls")
-    if PREVIEW in walls:
-        raise UsageError(f"cavesim run: error: argument --cave: a wall may not be called "
-                         f"{PREVIEW!r} (the preview's name)")
-    tolerance = tolerance_from(args, walls, "run")
-    gpus = {} if args.display else _gpus(args, walls, cave)
+    nodes, gpus = _nodes(args, walls, cave)
+    if PREVIEW in walls or PREVIEW in nodes:
+        raise UsageError(f"cavesim run: error: argument --cave: a wall or node may not be "
+                         f"called {PREVIEW!r} (the preview's name)")
+    tolerance = tolerance_from(args, tuple(nodes), "run")
     output_directory(args.out, "run")
     frames = args.frames or default_frames(scene)
-    plan = RunPlan(walls, args.scene, frames, args.out, args.session, credentials,
+    plan = RunPlan(nodes, args.scene, frames, args.out, args.session, credentials,
                    on_loss=args.on_loss or "continue",
                    cave=None if args.walls else args.cave, render_every=args.render_every,
                    stereo=args.stereo, gpus=gpus, display=args.display,
@@ -261,14 +270,22 @@ def _checked_files(args: argparse.Namespace):
         raise UsageError(f"cavesim run: error: argument --cave: {e}") from e
 
 
-def _gpus(args: argparse.Namespace, walls: tuple[str, ...], cave) -> dict[str, int]:
-    """Each wall's EGL device: the CAVE file's `gpu`, else spread over this machine's GPUs."""
+def _nodes(args: argparse.Namespace, walls: tuple[str, ...],
+           cave) -> tuple[dict[str, tuple[str, ...]], dict[str, int]]:
+    """Each node's walls, as --group-by says, and the EGL device of each node that is given
+    one: the CAVE file's `gpu`, else spread over this machine's GPUs (none with --display:
+    a window computes on its X display's GPU)."""
     from cavesim.gpu.gl.devices import list_devices
     from nodes.launch.gpus import spread_walls
 
     pinned = {} if cave is None else {w.name: w.gpu for w in cave.walls if w.gpu is not None}
-    devices = list_devices()  # no EGL at all: its error says what to install
+    devices = () if args.display else list_devices()  # no EGL: its error says what to install
     try:
-        return spread_walls(walls, pinned, devices)
+        if args.group_by == "gpu":
+            return by_gpu(walls, {} if args.display else spread_walls(walls, pinned, devices))
+        nodes = {w: (w,) for w in walls} if cave is None or args.group_by == "wall" \
+            else cave.nodes
+        pinned = {node: pinned[w[0]] for node, w in nodes.items() if w[0] in pinned}
+        return nodes, {} if args.display else spread_walls(tuple(nodes), pinned, devices)
     except ContextError as e:
         raise UsageError(f"cavesim run: error: argument --cave: {args.cave}: {e}") from e

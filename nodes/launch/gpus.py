@@ -1,4 +1,5 @@
-"""Which EGL device each wall of a `cavesim run` computes on, on a machine with several GPUs."""
+"""Which EGL device each node of a `cavesim run` computes on, on a machine with several GPUs,
+and which walls share a node."""
 
 from __future__ import annotations
 
@@ -33,3 +34,20 @@ def spread_walls(walls: Sequence[str], pinned: Mapping[str, int],
             chosen[wall] = min(hardware, key=lambda index: (load[index], index))
             load[chosen[wall]] += 1
     return chosen
+
+
+GROUPINGS = ("cave", "wall", "gpu")  # `cavesim run --group-by`: see its help
+
+
+def by_gpu(walls: Sequence[str], gpus: Mapping[str, int]
+           ) -> tuple[dict[str, tuple[str, ...]], dict[str, int]]:
+    """One node per EGL device, named gpuN, drawing the walls that compute on it (a wall
+    given no device: the default device, 0), and each node's device."""
+    nodes: dict[str, tuple[str, ...]] = {}
+    devices: dict[str, int] = {}
+    for wall in walls:
+        node = f"gpu{gpus.get(wall, 0)}"
+        nodes[node] = (*nodes.get(node, ()), wall)
+        if wall in gpus:
+            devices[node] = gpus[wall]
+    return nodes, devices

@@ -30,8 +30,8 @@ from __future__ import annotations
 import logging
 import queue
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -95,7 +95,7 @@ GONE_GRACE = 1.0  # s to hear why, when every member is gone at once
 
 @dataclass(frozen=True)
 class MasterConfig:
-    walls: tuple[str, ...]
+    walls: tuple[str, ...]  # the members: one node each, named after its wall or its own
     scene: Path
     frames: int
     session: str = "default"
@@ -115,6 +115,8 @@ class MasterConfig:
     realtime: bool = False  # pace frames by the wall clock (see cavesim/core/clock.py)
     max_frame_time: float = 0.1
     max_substeps: int = 4
+    node_walls: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # a node's walls,
+    # for the report, where it draws others than the one named after it
 
 
 class Link(Protocol):
@@ -162,7 +164,8 @@ class Master:
         self.tracking_quiet = False  # the latest tracking message is older than allowed
         self.stopping = False
         self.refused = False  # another master was there first: the nodes are its own
-        self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value)
+        self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
+                                node_walls=dict(config.node_walls))
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
         self.swaps = self.record.swaps

@@ -154,6 +154,7 @@ class RunRecord:
     tolerance: ToleranceMode | None = None  # the mixed-hardware mode's (None: bit-exact)
     arithmetic: str = "native"  # the scene's [simulation] arithmetic: "portable" is the same
     # bits on every GPU, "native" only on identical ones
+    node_walls: dict[str, tuple[str, ...]] = field(default_factory=dict)  # as MasterConfig's
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -181,6 +182,8 @@ class RunRecord:
             "frames": self.frames,
             "interrupted": self.interrupted,
             "nodes": list(self.walls),
+            "walls_of_nodes": {node: list(self.node_walls.get(node, (node,)))
+                               for node in self.walls},
             "seconds": round(self.seconds, 3),
             "frames_per_second": round(self.frames / self.seconds, 2) if self.seconds else None,
             "barrier_ms": self.barrier_seconds.percentiles_ms(),

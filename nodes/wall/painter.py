@@ -1,7 +1,8 @@
-"""A node's pictures of its wall: rendered from the frame's head pose, saved as PNG.
+"""A node's pictures of its walls: rendered from the frame's head pose, saved as PNG.
 
 Drawing happens after the node has reported the frame and only reads the particle
-stream, so it can neither delay the checksum nor change it.
+stream, so it can neither delay the checksum nor change it. A node of several walls
+draws each of them from the one particle state it stepped.
 """
 
 from __future__ import annotations
@@ -26,26 +27,29 @@ class WallPainter:
             raise ValueError("rendering needs both a CAVE file (--cave) and an image folder "
                              "(--images)")
         cave = load_cave(config.cave)
-        if config.wall not in cave.names:
-            raise ValueError(f"wall {config.wall!r} is not in {config.cave}: it has "
+        if unknown := [w for w in config.drawn if w not in cave.names]:
+            raise ValueError(f"wall {unknown[0]!r} is not in {config.cave}: it has "
                              f"{', '.join(cave.names)}")
-        self.renderer = WallRenderer(ctx, system, cave.wall(config.wall))
+        self.renderers = {w: WallRenderer(ctx, system, cave.wall(w)) for w in config.drawn}
         self.eye_separation = cave.eye_separation
-        self.folder = Path(config.images) / config.wall
-        self.folder.mkdir(parents=True, exist_ok=True)
+        self.images = Path(config.images)
+        for wall in self.renderers:
+            (self.images / wall).mkdir(parents=True, exist_ok=True)
         self.stereo = config.stereo
 
     def paint(self, k: int, message: FrameMessage, scene: SceneFrame) -> list[Path]:
-        """Render frame k for each eye; the left (or only) eye is frame_<k>.png."""
+        """Render frame k of each wall for each eye; the left (or only) eye is
+        <wall>/frame_<k>.png."""
         eyes = eye_positions(message.head.position, message.head.orientation,
                              self.eye_separation, self.stereo)
         helicopter = scene.helicopter
         written = []
-        for eye, position in eyes.items():
-            suffix = "_right" if eye == "right" else ""
-            path = self.folder / f"frame_{k:06d}{suffix}.png"
-            picture = Image.fromarray(self.renderer.render(position, helicopter))
-            with writing(path):
-                picture.save(path, compress_level=1)
-            written.append(path)
+        for wall, renderer in self.renderers.items():
+            for eye, position in eyes.items():
+                suffix = "_right" if eye == "right" else ""
+                path = self.images / wall / f"frame_{k:06d}{suffix}.png"
+                picture = Image.fromarray(renderer.render(position, helicopter))
+                with writing(path):
+                    picture.save(path, compress_level=1)
+                written.append(path)
         return written

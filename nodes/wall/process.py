@@ -93,7 +93,7 @@ from nodes.wall.inbox import (
 )
 from nodes.wall.painter import WallPainter
 from nodes.wall.preview_controls import PreviewControls
-from nodes.wall.screen import LiveDisplay, PreviewScreen, WallScreen, scaled
+from nodes.wall.screen import LiveDisplay, PreviewScreen, WallScreen, scaled, window_size
 from nodes.wall.snapshots import fetch_snapshot, send_snapshot
 
 log = logging.getLogger("cavesim.node")
@@ -110,14 +110,15 @@ DELTA_SECONDS = 5.0  # s for all of a delta's questions; then the full snapshot
 
 @dataclass(frozen=True)
 class NodeConfig:
-    wall: str
+    name: str  # the node's, in the run: its wall's, or a node the CAVE file gives walls
     scene: Path
     session: str = "default"
     network: NetworkSettings = NetworkSettings()
-    credentials: Credentials | None = None  # wall-WALL.key: signs as this wall, checks the master's
+    credentials: Credentials | None = None  # wall-NAME.key: signs as this node, checks the master's
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
-    cave: Path | None = None  # draw this node's wall of this CAVE ...
+    cave: Path | None = None  # draw this node's walls of this CAVE ...
+    walls: tuple[str, ...] = ()  # ... these (default: the one called `name`) ...
     render_every: int = 0  # ... every K frames (0: never) ...
     images: Path | None = None  # ... into images/<wall>/frame_<k>.png
     stereo: bool = False
@@ -131,6 +132,11 @@ class NodeConfig:
     master_wait: float = 60.0  # s to wait for a master's WELCOME, or for a new master
     drift_sample: int = 0  # mixed-hardware mode: records sampled into each report (0: none)
     resync: str = "delta"  # how a RESYNC loads the named state: one of RESYNC_MODES
+
+    @property
+    def drawn(self) -> tuple[str, ...]:
+        """The walls this node draws, when it draws."""
+        return self.walls or (self.name,)
 
 
 class WallNode:
@@ -163,7 +169,7 @@ class WallNode:
         self.controls = PreviewControls(window.window) if config.preview else None
         self.painter = WallPainter(config, self.ctx, self.system) \
             if config.render_every and window is None else None
-        self.view = NodeView(config.wall, secrets.randbits(64))
+        self.view = NodeView(config.name, secrets.randbits(64))
         self.inbox = NodeInbox(config.session, config.credentials, self.view)
         self.rejects = self.inbox.rejects
         self.last_report: ReportMessage | None = None
@@ -190,7 +196,7 @@ class WallNode:
 
     def declare(self) -> list:
         """Subscribe and answer queries, then announce ourselves (liveliness last)."""
-        keys, wall = self.keys, self.config.wall
+        keys, wall = self.keys, self.config.name
         self.report_publisher = lockstep_publisher(self.session, keys.report(wall))
         self.display_publisher = lockstep_publisher(self.session, keys.display(wall))
         return [*self.inbox.declare(self.session, keys),
@@ -235,13 +241,13 @@ class WallNode:
         """Our GPU, whether we are swap-locked, and the nonce a WELCOME must name; the bytes
         sent."""
         swap_locked = self.live is not None and self.live.screen.swap_locked
-        message = self._seal(InfoMessage.of_gpu(self.done, self.config.wall, self.gpu,
+        message = self._seal(InfoMessage.of_gpu(self.done, self.config.name, self.gpu,
                                                 swap_locked, self.view.nonce,
                                                 self.scene_digest, self.system.engine), run_id)
         try:
-            query.reply(self.keys.info(self.config.wall), message)
+            query.reply(self.keys.info(self.config.name), message)
         except zenoh.ZError as e:  # the master asking went away
-            log.info("%s: an info reply failed: %s", self.config.wall, zenoh_message(e))
+            log.info("%s: an info reply failed: %s", self.config.name, zenoh_message(e))
             return 0
         finally:
             query.drop()
@@ -251,22 +257,22 @@ class WallNode:
         """The master's WELCOME named our nonce: join its run, from the scene's start state
         if we held another run's; a run of another scene ends the node (ClusterError)."""
         if scene != self.scene_digest:
-            raise ClusterError(f"node {self.config.wall}: the master's run {run_id:016x} is "
+            raise ClusterError(f"node {self.config.name}: the master's run {run_id:016x} is "
                                f"of scene {scene or 'none'}, this node's --scene "
                                f"{self.config.scene} is {self.scene_digest}: give every "
                                f"host the same scene file")
         previous = self.view.run_id
         if previous is not None and previous != run_id:
             log.warning("%s: a new master's run %016x replaces run %016x: starting over "
-                        "from the scene's start state", self.config.wall, run_id, previous)
+                        "from the scene's start state", self.config.name, run_id, previous)
             self._start_over()
         if previous != run_id:
             self.view.heard = 0
         self.view.run_id, self.view.nonce = run_id, secrets.randbits(64)  # nonce used up
         self.master_gone_at = None
         state = self.system.checksum()
-        log.info("%s: joined run %016x at frame %d", self.config.wall, run_id, self.done)
-        self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
+        log.info("%s: joined run %016x at frame %d", self.config.name, run_id, self.done)
+        self._publish(ReportMessage(self.done, self.config.name, state.digest, state.particles,
                                     state.emitters, NO_COST, self.rejects.total, Status.JOINED))
 
     def _start_over(self) -> None:
@@ -286,12 +292,12 @@ class WallNode:
             self.master_gone_at = time.monotonic()
             if self.config.on_master_loss == "wait":
                 log.warning("%s: %s (run %016x); waiting up to %g s for a new master "
-                            "(--on-master-loss wait)", self.config.wall, MASTER_GONE,
+                            "(--on-master-loss wait)", self.config.name, MASTER_GONE,
                             self.view.run_id, self.config.master_wait)
 
     def _check_master(self) -> None:
         """End the node (ClusterError, one line) when no master is there to follow."""
-        now, wall, wait = time.monotonic(), self.config.wall, self.config.master_wait
+        now, wall, wait = time.monotonic(), self.config.name, self.config.master_wait
         if self.view.run_id is None:
             if now - self.started > wait:
                 hint = self.inbox.master_hint() or ("is the master running, with --session "
@@ -320,7 +326,7 @@ class WallNode:
             self._publish(dataclasses.replace(self.last_report, status=Status.REPEATED))
         elif k == self.done + 1:
             if self._fault("drop", k):  # lose this copy; the master's retransmit gets through
-                log.warning("%s: fault: dropped frame %d", self.config.wall, k)
+                log.warning("%s: fault: dropped frame %d", self.config.name, k)
                 return
             self.timer.arrived()
             try:
@@ -346,9 +352,9 @@ class WallNode:
             return
         self.behind_said = now
         log.info("%s: frame %d is ahead of our frame %d; asking for a resync",
-                 self.config.wall, k, self.done)
+                 self.config.name, k, self.done)
         state = self.system.checksum()
-        self._publish(ReportMessage(self.done, self.config.wall, state.digest, state.particles,
+        self._publish(ReportMessage(self.done, self.config.name, state.digest, state.particles,
                                     state.emitters, NO_COST, self.rejects.total, Status.BEHIND),
                       keep=False)
 
@@ -363,7 +369,7 @@ class WallNode:
         for kind, perturb in DRIFT_FAULTS.items():
             if self._fault(kind, k):
                 perturb(self.system)
-                log.warning("%s: fault: %s at frame %d", self.config.wall, kind, k)
+                log.warning("%s: fault: %s at frame %d", self.config.name, kind, k)
         self.previous_inputs = inputs
         self.view.done = k
         state = self.system.checksum()
@@ -372,7 +378,7 @@ class WallNode:
         self.timer.lap("history")
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
-        self._publish(ReportMessage(k, self.config.wall, state.digest, state.particles,
+        self._publish(ReportMessage(k, self.config.name, state.digest, state.particles,
                                     state.emitters, self.timer.cost_us(), self.rejects.total,
                                     sample=self._sample()))
         self.timer.reported()
@@ -386,7 +392,7 @@ class WallNode:
         self.system.write_particle_chunk(target.particle, bytes(record))
         self.system.commit_load()
         field, bit = field_bit(PARTICLE_DTYPE, target.word, target.bit)
-        log.warning("%s: fault: flipped bit %d of particle %d's %s", self.config.wall, bit,
+        log.warning("%s: fault: flipped bit %d of particle %d's %s", self.config.name, bit,
                     target.particle, field.name)
 
     def _sample(self) -> DriftSample | None:
@@ -403,7 +409,7 @@ class WallNode:
 
     def _seal(self, message: Message, run_id: int | None = None) -> bytes:
         if isinstance(message, StateRequest | BlockRequest):  # whose budget it spends there
-            message = dataclasses.replace(message, asker=self.config.wall)
+            message = dataclasses.replace(message, asker=self.config.name)
         return encode(message, self.config.session, self.config.credentials,
                       self.view.run_id or 0 if run_id is None else run_id)
 
@@ -415,13 +421,13 @@ class WallNode:
         if self.live is None:
             return
         if self.live.closed():
-            log.info("%s: the window was closed; leaving", self.config.wall)
+            log.info("%s: the window was closed; leaving", self.config.name)
             self.running = False
         if self.controls is not None and (tracked := self.controls.advance()) is not None:
             self.session.put(self.keys.tracking, self._seal(tracked))
 
     def _display(self, k: int, phase: Phase, time_ns: int) -> None:
-        self.display_publisher.put(self._seal(DisplayMessage(k, self.config.wall, phase,
+        self.display_publisher.put(self._seal(DisplayMessage(k, self.config.name, phase,
                                                              time_ns)))
 
     # -- snapshots ---------------------------------------------------------------------------
@@ -437,7 +443,7 @@ class WallNode:
         a pause and after waiting (on liveliness, up to a second) for the source to be
         reachable.
         """
-        source, wall = command.source, self.config.wall
+        source, wall = command.source, self.config.name
         started = time.monotonic()
         failed_repliers: set[str] = set()
         if self.config.resync == "delta" and self._delta(command, failed_repliers, started):
@@ -477,7 +483,7 @@ class WallNode:
             if e.bad_data and ask.replier is not None:
                 failed.add(ask.replier)
             log.warning("%s: no delta resync from %s (%s); streaming the full snapshot",
-                        self.config.wall, source, e)
+                        self.config.name, source, e)
             return False
         self._loaded(command.frame, source, f"by delta, {delta.records} records under "
                      f"{delta.blocks} differing block(s), {ask.bytes} bytes",
@@ -496,9 +502,9 @@ class WallNode:
         self.view.done = frame
         state = self.system.checksum()
         self.system.keep_history(frame)
-        log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.wall, frame,
+        log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.name, frame,
                  source, how, seconds)
-        self._publish(ReportMessage(frame, self.config.wall, state.digest, state.particles,
+        self._publish(ReportMessage(frame, self.config.name, state.digest, state.particles,
                                     state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
                                     self._sample()))
 
@@ -506,8 +512,8 @@ class WallNode:
         """Answer a question about the state we hold, if it is the one it names; the bytes
         sent."""
         held = self.last_report
-        return serve_blocks(query, self.keys.blocks(self.config.wall), self.system,
-                            self.config.wall,
+        return serve_blocks(query, self.keys.blocks(self.config.name), self.system,
+                            self.config.name,
                             None if held is None else (held.frame, held.digest), request,
                             self._seal)
 
@@ -520,10 +526,10 @@ class WallNode:
                                                           f"{request.frame} "
                                                           f"({request.digest[:8]}); holding "
                                                           f"frame {self.done}"),
-                                self.keys.state(self.config.wall))
+                                self.keys.state(self.config.name))
             query.drop()
             return 0
-        return send_snapshot(query, self.keys.state(self.config.wall), self.system, self.done,
+        return send_snapshot(query, self.keys.state(self.config.name), self.system, self.done,
                       self._seal, self.config.chunk_particles)
 
 
@@ -535,12 +541,12 @@ def main(config: NodeConfig) -> int:
         declarations = node.declare()
         gpu = node.gpu
         log.info("%s: up on EGL device %d (%s): %s, %s, OpenGL %s; engine path %s",
-                 config.wall, gpu["device"], gpu["kind"], gpu["renderer"], gpu["vendor"],
+                 config.name, gpu["device"], gpu["kind"], gpu["renderer"], gpu["vendor"],
                  gpu["version"], node.system.engine)
         try:
             node.run()
         except KeyboardInterrupt:
-            log.info("%s: interrupted", config.wall)
+            log.info("%s: interrupted", config.name)
         finally:
             for declaration in reversed(declarations):
                 declaration.undeclare()
@@ -550,23 +556,28 @@ def main(config: NodeConfig) -> int:
 
 
 def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None:
-    """The node's window (None for a headless node): its wall's, or the preview's."""
+    """The node's window (None for a headless node): its walls', side by side, as the
+    first one's [wall.display] says (a `window` there gives where; its size is theirs);
+    or the preview's."""
     if not (config.display or config.preview):
         return None
     if cave is None:
-        raise ContextError("a window needs the CAVE: which wall to draw and how to show it",
+        raise ContextError("a window needs the CAVE: which walls to draw and how to show them",
                            "give --cave FILE with --display or --preview")
-    title = f"cavesim {config.wall}"
+    title = f"cavesim {config.name}"
     if config.preview:
         size = slots_of(scaled(cave, config.preview_scale))[1]
         return open_window(Display(vsync=False, swap_lock=False), size, title)
-    wall = cave.wall(config.wall)
-    return open_window(wall.display, wall.resolution, title)
+    walls = tuple(cave.wall(w) for w in config.drawn)
+    display, size = walls[0].display, window_size(walls)
+    if len(walls) > 1 and display.window is not None:
+        display = dataclasses.replace(display, window=(*display.window[:2], *size))
+    return open_window(display, size, title)
 
 
 def node_screen(config: NodeConfig, cave: Cave, window: WallWindow,
                 system: ParticleSystem) -> WallScreen | PreviewScreen:
     if config.preview:
         return PreviewScreen(window, system, cave, config.preview_scale)
-    return WallScreen(window, system, cave.wall(config.wall), cave.eye_separation,
-                      config.images, config.render_every)
+    return WallScreen(window, system, tuple(cave.wall(w) for w in config.drawn),
+                      cave.eye_separation, config.images, config.render_every)

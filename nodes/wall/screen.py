@@ -1,5 +1,6 @@
-"""What a node shows live: its wall in a window (`WallScreen`), or every wall of the CAVE
-unfolded in one desktop window (`PreviewScreen`, `cavesim run --preview`).
+"""What a node shows live: its walls in a window, side by side as its viewports
+(`WallScreen`), or every wall of the CAVE unfolded in one desktop window (`PreviewScreen`,
+`cavesim run --preview`).
 
 Both draw with the renderer the headless PNGs use and present its picture into the
 window's back buffer; the node decides when to swap (at once, or on the master's SWAP).
@@ -25,36 +26,56 @@ from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render.composite import compose
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.render.wall_renderer import WallRenderer
-from cavesim.gpu.window import WallWindow
+from cavesim.gpu.window import Region, WallWindow
 
 
 class WallScreen:
-    """One wall, live: every frame drawn for its eyes and presented, PNGs of what the window
-    shows every `render_every` frames when `images` is given."""
+    """A node's walls, live, side by side in one window (one wall: the whole window): every
+    frame drawn for its eyes and presented, PNGs of what the window shows of each wall every
+    `render_every` frames when `images` is given."""
 
-    def __init__(self, window: WallWindow, system: ParticleSystem, wall: Wall,
+    def __init__(self, window: WallWindow, system: ParticleSystem, walls: tuple[Wall, ...],
                  eye_separation: float, images: Path | None = None,
                  render_every: int = 0) -> None:
         self.window = window
-        self.renderer = WallRenderer(window.ctx, system, wall)
+        self.renderers = {w.name: WallRenderer(window.ctx, system, w) for w in walls}
+        self.regions = dict(zip(self.renderers, side_by_side(walls), strict=True))
         self.eye_separation = eye_separation
-        self.swap_locked = wall.display.swap_lock
-        self.folder = None if images is None else Path(images) / wall.name
-        if self.folder is not None:
-            self.folder.mkdir(parents=True, exist_ok=True)
+        self.swap_locked = any(w.display.swap_lock for w in walls)
+        self.images = None if images is None else Path(images)
+        for wall in self.renderers if self.images is not None else ():
+            (self.images / wall).mkdir(parents=True, exist_ok=True)
         self.render_every = render_every
 
     def draw(self, k: int, message: FrameMessage, scene: SceneFrame) -> None:
         stereo = self.window.stereo is not StereoMode.MONO
         eyes = eye_positions(message.head.position, message.head.orientation,
                              self.eye_separation, stereo)
-        for eye, position in eyes.items():
-            self.renderer.draw(position, scene.helicopter)
-            self.window.present(self.renderer.picture, eye)
-        if self.folder is not None and self.render_every and k % self.render_every == 0:
-            path = self.folder / f"frame_{k:06d}.png"
-            with writing(path):
-                Image.fromarray(self.window.read()).save(path, compress_level=1)
+        for wall, renderer in self.renderers.items():
+            for eye, position in eyes.items():
+                renderer.draw(position, scene.helicopter)
+                self.window.present(renderer.picture, eye, self.regions[wall])
+        if self.images is not None and self.render_every and k % self.render_every == 0:
+            for wall, region in self.regions.items():
+                path = self.images / wall / f"frame_{k:06d}.png"
+                with writing(path):
+                    Image.fromarray(self.window.read(region)).save(path, compress_level=1)
+
+
+def side_by_side(walls: tuple[Wall, ...]) -> tuple[Region, ...]:
+    """Each wall's region of a window that shows them left to right at their resolutions,
+    on its bottom edge."""
+    width, height = window_size(walls)
+    regions, x = [], 0
+    for w in walls:
+        regions.append((x / width, 0.0, w.resolution[0] / width, w.resolution[1] / height))
+        x += w.resolution[0]
+    return tuple(regions)
+
+
+def window_size(walls: tuple[Wall, ...]) -> tuple[int, int]:
+    """The pixels of a window with `walls` side by side."""
+    return sum(w.resolution[0] for w in walls), max(w.resolution[1] for w in walls)
 
 
 class PreviewScreen:

@@ -37,6 +37,8 @@ from nodes.master.tolerance import (
 from nodes.mixed_hardware import node_sample_from, tolerance_from
 from nodes.wall import drift_sample as node_drift
 
+TWO_NODES = {"front": ("front",), "left": ("left",)}  # a plan's nodes and their walls
+
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
 WALLS = ("front", "left", "right")
 SMALL, LARGE = 1e-6, 0.5  # m: a nudge within the default tolerance (2 mm), and one beyond
@@ -347,14 +349,14 @@ def test_the_master_takes_the_first_wall_as_authority_and_the_defaults():
 
 
 def test_run_gives_the_master_the_tolerance_and_every_node_the_matching_flags(tmp_path):
-    plan = RunPlan(("front", "left"), MINIMAL, 10, tmp_path, tolerance=Tolerance("left",
+    plan = RunPlan(TWO_NODES, MINIMAL, 10, tmp_path, tolerance=Tolerance("left",
                                                                                  sample=8))
     cluster = plan.cluster()
     assert cluster.master.tolerance == plan.tolerance
     for args in cluster.node_args.values():
         parsed = cli.build_parser().parse_args(["node", "--wall", "front", *args])
         assert node_sample_from(parsed, "node") == 8
-    bit_exact = RunPlan(("front", "left"), MINIMAL, 10, tmp_path).cluster()
+    bit_exact = RunPlan(TWO_NODES, MINIMAL, 10, tmp_path).cluster()
     assert bit_exact.master.tolerance is None
     assert bit_exact.node_args == {"front": (), "left": ()}
 

@@ -28,6 +28,8 @@ from nodes.commands.run import RunPlan
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.master.process import MasterConfig
 
+TWO_NODES = {"front": ("front",), "left": ("left",)}  # a plan's nodes and their walls
+
 SCENES = Path(__file__).parents[2] / "config" / "scenes"
 FRAMES = 500
 DT = 1 / 60
@@ -92,7 +94,7 @@ def test_the_scene_chooses_the_path_and_gs_tf_is_the_default():
 
 def test_a_run_gives_every_node_its_engine_flag(capsys):
     scene = SCENES / "minimal.toml"
-    plain = RunPlan(("front", "left"), scene, 5, Path("out"), gpus={"left": 1})
+    plain = RunPlan(TWO_NODES, scene, 5, Path("out"), gpus={"left": 1})
     assert plain.node_args("front") == ()
     chosen = dataclasses.replace(plain, engine=Engine.COMPUTE)
     assert chosen.node_args("front") == ("--engine", "compute")

@@ -186,6 +186,15 @@ def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monke
      "query-replay@25:front makes its node diverge again at frame 35, after the last frame 30"),
     (["doctor", "--session", "x.y"], "cavesim doctor: error: argument --session: session"),
     (["run", "--cave", "no/such/cave.toml"], "argument --cave: no CAVE file"),
+    (["node", "--node", "ws9", "--cave", "config/cave/flex4.toml"],
+     "argument --node: 'ws9' draws no wall of config/cave/flex4.toml; its nodes are front, "
+     "left, right, floor"),
+    (["node", "--node", "ws1", "--cave", "config/cave/flex4.toml", "--draws", "front,roof"],
+     "argument --draws: config/cave/flex4.toml has no wall 'roof'; its walls are front"),
+    (["node", "--node", "ws1", "--draws", "front"], "argument --draws: walls of a CAVE"),
+    (["run", "--group-by", "projector"], "argument --group-by: invalid choice: 'projector'"),
+    (["check", "--cave", "config/cave/flex4.toml", "--inject", "bitflip@5:ws2"],
+     "node 'ws2' of bitflip@5:ws2 is not one of the nodes front, left, right, floor"),
 ])
 def test_bad_names_and_files_are_usage_errors(args, message):
     done, _ = cavesim(*args)

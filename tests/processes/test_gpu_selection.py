@@ -13,7 +13,9 @@ from cavesim.core.errors import ContextError
 from cavesim.gpu.gl.devices import EglDevice, list_devices
 from nodes.cli import main
 from nodes.commands.run import RunPlan
-from nodes.launch.gpus import spread_walls
+from nodes.launch.gpus import by_gpu, spread_walls
+
+TWO_NODES = {"front": ("front",), "left": ("left",)}  # a plan's nodes and their walls
 
 ROOT = Path(__file__).parents[2]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
@@ -52,6 +54,13 @@ def test_a_pinned_wall_keeps_its_device_and_counts_toward_its_load():
     assert spread_walls(WALLS, {"floor": 0}, [llvmpipe(0)]) == {"floor": 0}
 
 
+def test_grouping_by_gpu_makes_one_node_per_device_with_its_walls():
+    chosen = spread_walls(WALLS, {}, [gpu(0), gpu(1)])
+    assert by_gpu(WALLS, chosen) == ({"gpu0": ("front", "right"), "gpu1": ("left", "floor")},
+                                     {"gpu0": 0, "gpu1": 1})
+    assert by_gpu(WALLS, {}) == ({"gpu0": WALLS}, {})  # no hardware: the default device
+
+
 def test_a_wall_pinned_past_the_devices_is_named_with_the_count():
     with pytest.raises(ContextError) as error:
         spread_walls(WALLS, {"left": 2}, [gpu(0), llvmpipe(1)])
@@ -61,12 +70,16 @@ def test_a_wall_pinned_past_the_devices_is_named_with_the_count():
 
 
 def test_each_node_gets_its_own_gpu_flag_and_the_drawing_flags():
-    plan = RunPlan(("front", "left"), MINIMAL, 5, Path("out"), gpus={"left": 1})
+    plan = RunPlan(TWO_NODES, MINIMAL, 5, Path("out"), gpus={"left": 1})
     assert plan.node_args("front") == () and plan.node_args("left") == ("--gpu", "1")
-    drawn = RunPlan(("front", "left"), MINIMAL, 5, Path("out"), cave=Path("c.toml"),
+    drawn = RunPlan(TWO_NODES, MINIMAL, 5, Path("out"), cave=Path("c.toml"),
                     render_every=5, gpus={"front": 0})
     assert drawn.node_args("front")[-2:] == ("--gpu", "0")
     assert "--gpu" not in drawn.node_args("left") and "--cave" in drawn.node_args("left")
+    grouped = RunPlan({"ws1": ("front", "left")}, MINIMAL, 5, Path("out"), cave=Path("c.toml"),
+                      render_every=5, gpus={"ws1": 1})
+    args = grouped.node_args("ws1")
+    assert args[args.index("--draws") + 1] == "front,left" and args[-2:] == ("--gpu", "1")
 
 
 @pytest.mark.parametrize("value", ["-1", "256", "1.5", "first", ""])

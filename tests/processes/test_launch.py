@@ -57,7 +57,7 @@ def commands(stdout: str) -> dict[str, list[str]]:
         elif "master" in argv:
             found["master"] = argv
         else:
-            found[argv[argv.index("--wall") + 1]] = argv
+            found[argv[argv.index("--node") + 1]] = argv
     return found
 
 
@@ -149,6 +149,19 @@ def test_display_runs_the_cave_live_here_and_on_every_host(tmp_path):
     assert "--display" not in found["master"]
 
 
+def test_nodes_of_several_walls_here_and_on_the_hosts(tmp_path):
+    done = launch("--dry-run", "--cave", "config/cave/flex4.toml", "--group-by", "gpu")
+    assert done.returncode == 0, done.stderr
+    assert flag(shlex.split(done.stdout.splitlines()[-1]), "--group-by") == "gpu"
+    done = launch("--hosts", str(hosts_file(tmp_path, "master m\nnode ws1 a\nnode ws2 b\n")),
+                  "--dry-run", "--insecure", "--cave", "/opt/cave.toml", "--display")
+    assert done.returncode == 0, done.stderr
+    found = commands(done.stdout)
+    assert flag(found["master"], "--walls") == "ws1,ws2"
+    assert flag(found["ws2"], "--node") == "ws2"
+    assert flag(found["ws2"], "--cave") == "/opt/cave.toml"
+
+
 def test_mixed_hardware_reaches_the_master_and_every_node_or_cavesim_run(tmp_path):
     done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure",
                   "--mixed-hardware")
@@ -169,12 +182,12 @@ def test_display_needs_a_cave():
 @pytest.mark.parametrize("text, line, message", [
     ("node front a\nnode left b\n", None, "no 'master HOST[:PORT]' line"),
     ("master a\nnode front b\n\nmaster c\n", 4, "a second master (the first is line 1)"),
-    ("master a\nnode front b\n# x\nnode front c\n", 4, "wall 'front' appears twice"),
+    ("master a\nnode front b\n# x\nnode front c\n", 4, "node 'front' appears twice"),
     ("master a\nrouter b\nnode front c\n", 2, "unknown role 'router'"),
     ("master a:70000\nnode front b\n", 1, "port must be 1..65535"),
-    ("master a\nnode front\n", 2, "expected 'node WALL HOST [via=COMMAND]'"),
-    ("master a\nnode fr;ont b\n", 2, "wall name must be"),
-    ("master a\n", None, "no 'node WALL HOST' line"),
+    ("master a\nnode front\n", 2, "expected 'node NAME HOST [via=COMMAND]'"),
+    ("master a\nnode fr;ont b\n", 2, "node name must be"),
+    ("master a\n", None, "no 'node NAME HOST' line"),
 ])
 def test_a_bad_hosts_file_exits_2_naming_the_line(tmp_path, text, line, message):
     hosts = hosts_file(tmp_path, text)
@@ -200,6 +213,7 @@ def test_hosts_without_keys_refuse_to_run_unsigned_unless_insecure(tmp_path):
     (["--out", "README.md"], "argument --out: 'README.md' is a file; give a folder"),
     (["--session", "a.b"], "argument --session"),
     (["--bogus"], "unknown argument --bogus"),
+    (["--group-by", "gpu"], "argument --group-by: only without --hosts"),
 ])
 def test_bad_arguments_exit_2(tmp_path, args, message):
     done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure", *args)

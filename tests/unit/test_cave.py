@@ -153,6 +153,28 @@ def test_gpu_is_optional_and_part_of_the_wall(tmp_path):
     assert front != other and hash(front) != hash(other)
 
 
+def test_walls_naming_one_node_are_its_walls_and_the_others_are_their_own(tmp_path):
+    walls = [dict(FRONT, node="ws1"), dict(FRONT, name="left", node="ws1"),
+             dict(FRONT, name="right"), dict(FRONT, name="floor", node="ws1")]
+    cave = load_cave(write_cave(tmp_path / "c.toml", walls))
+    assert cave.nodes == {"ws1": ("front", "left", "floor"), "right": ("right",)}
+    assert cave.wall("right").node == "right" and cave.wall("front").node == "ws1"
+    assert load_cave(write_cave(tmp_path / "d.toml", [FRONT])).nodes == {"front": ("front",)}
+
+
+@pytest.mark.parametrize(("walls", "key", "words"), [
+    ([dict(FRONT, node="left"), dict(FRONT, name="left", node="ws2")], "wall[0].node",
+     "'left' is the name of a wall that another node ('ws2') draws"),
+    ([dict(FRONT, node="ws1", gpu=0), dict(FRONT, name="left", node="ws1", gpu=1)],
+     "wall[1].gpu", "must be the gpu of every wall of node 'ws1': wall[0] has 0"),
+    ([dict(FRONT, node="a b")], "wall[0].node", "letter, digit"),
+])
+def test_a_node_is_named_once_and_computes_on_one_gpu(tmp_path, walls, key, words):
+    with pytest.raises(CaveError) as error:
+        load_cave(write_cave(tmp_path / "c.toml", walls))
+    assert key in str(error.value) and words in str(error.value)
+
+
 def _front(**changes):
     w = dict(FRONT, **changes)
     return {k: v for k, v in w.items() if v is not None}

@@ -1,6 +1,7 @@
 """Live walls under a real X server (Xvfb, Mesa, GLFW): a window shows the headless
 render's pixels, four windows swap together, closing one loses that wall, and the preview
-window's keys move the head as a tracker would."""
+window's keys move the head as a tracker would; a node of two walls shows them side by
+side."""
 
 from __future__ import annotations
 
@@ -70,6 +71,32 @@ def test_a_window_shows_the_pixels_of_the_headless_render(xserver, ctx, tmp_path
     assert shown.shape == headless.shape == (96, 96, 3)
     assert np.array_equal(shown, headless), f"{(shown != headless).any(axis=2).sum()} pixels"
     assert headless.std() > 5  # a picture, not a blank
+
+
+@pytest.mark.slow
+@pytest.mark.requires("xvfb")
+def test_a_node_of_two_walls_shows_each_headless_render_in_its_viewport(xserver, ctx,  # noqa: F811
+                                                                        tmp_path):
+    walls = ("front", "left")
+    cave = live_cave(tmp_path, walls, size=80)
+    record = live_run(tmp_path, DUST_DEVIL, ("pair",), 20, lambda node: (
+        "--display", "--cave", str(cave), "--draws", ",".join(walls), "--render-every", "20",
+        "--images", str(tmp_path / "walls")))
+    assert record.frames == 20 and record.swaps.summary()["walls"] == ["pair"]
+
+    scene = load_scene(DUST_DEVIL)
+    system, driver = ParticleSystem(ctx, scene), driver_for(scene)
+    for logged in read_frame_log(tmp_path / "frames.log")[1]:
+        system.step(logged.message.inputs, driver.decode(logged.message.params))
+    message = logged.message
+    (eye,) = eye_positions(message.head.position, message.head.orientation).values()
+    for wall in walls:
+        shown = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000020.png"))
+        renderer = WallRenderer(ctx, system, load_cave(cave).wall(wall))
+        headless = renderer.render(eye, driver.decode(message.params).helicopter)
+        assert shown.shape == headless.shape == (80, 80, 3)
+        assert np.array_equal(shown, headless), wall
+        assert headless.std() > 5, wall
 
 
 @pytest.mark.slow

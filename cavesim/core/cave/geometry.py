@@ -5,8 +5,11 @@ one off-axis projection per `Wall` from the tracked head (`cavesim.core.cave.pro
 Room coordinates are metres, z up, floor at z = 0. A wall is given by three corners
 seen from inside the room: `lower_left`, `lower_right`, `upper_left`; its `normal` points
 from the screen toward the viewer. A wall may name the EGL device (`gpu`) its node computes
-on; `cavesim run` spreads the other walls over the machine's GPUs. The file's tables are
-`CaveFile` and `WallTable`, read by `cavesim.core._schema`; `parse_cave` adds the geometry.
+on; `cavesim run` spreads the other walls over the machine's GPUs. A wall may name the
+`node` that draws it: walls with one node share its context, which steps the particles
+once a frame and draws each of them (default: every wall its own node, named after it).
+The file's tables are `CaveFile` and `WallTable`, read by `cavesim.core._schema`;
+`parse_cave` adds the geometry.
 """
 
 from __future__ import annotations
@@ -90,6 +93,7 @@ class Wall:
     resolution: tuple[int, int]  # (width_px, height_px)
     gpu: int | None = None  # EGL device index (None: `cavesim run` chooses)
     display: Display = field(default_factory=Display)  # how it is shown live
+    node: str = ""  # the node that draws it ("": its own, named after the wall)
 
     def __post_init__(self) -> None:
         for key in ("lower_left", "lower_right", "upper_left"):
@@ -99,12 +103,14 @@ class Wall:
                                  f"got {getattr(self, key)!r}")
             object.__setattr__(self, key, p)
         object.__setattr__(self, "resolution", tuple(int(n) for n in self.resolution))
+        object.__setattr__(self, "node", self.node or self.name)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Wall):
             return NotImplemented
         return (self.name == other.name and self.resolution == other.resolution
                 and self.gpu == other.gpu and self.display == other.display
+                and self.node == other.node
                 and all(np.array_equal(getattr(self, k), getattr(other, k))
                         for k in ("lower_left", "lower_right", "upper_left")))
 
@@ -163,6 +169,14 @@ class Cave:
     def names(self) -> tuple[str, ...]:
         return tuple(w.name for w in self.walls)
 
+    @property
+    def nodes(self) -> dict[str, tuple[str, ...]]:
+        """Each node's walls, both in file order."""
+        nodes: dict[str, tuple[str, ...]] = {}
+        for w in self.walls:
+            nodes[w.node] = (*nodes.get(w.node, ()), w.name)
+        return nodes
+
     def wall(self, name: str) -> Wall:
         """The wall called `name` (KeyError naming the walls there are)."""
         for w in self.walls:
@@ -185,6 +199,8 @@ class WallTable:
     gpu: Annotated[int, Range.within(GPU_RANGE),
                    Note("an EGL device index (`cavesim doctor` lists the devices)")] | None = None
     display: Display | None = None  # default: a window of the wall's resolution, mono
+    node: Annotated[Name, Note("the node that draws it; walls naming one node share its "
+                               "context and GPU")] | None = None
 
 
 @dataclass(frozen=True)
@@ -215,7 +231,23 @@ def parse_cave(data: Mapping[str, Any], source: Path | None = None) -> Cave:
         raise top.source.fail("wall is missing: a cave needs at least one [[wall]] table")
     walls = tuple(_wall(t) for t in tables)
     unique_names(tables, (w.name for w in walls))
+    _one_node_one_context(tables, walls)
     return Cave(name=name, walls=walls, eye_separation=top.get("eye_separation"))
+
+
+def _one_node_one_context(tables: tuple[Table, ...], walls: tuple[Wall, ...]) -> None:
+    """A node is named once: a node called after a wall is that wall's own; the walls of a
+    node share its GPU."""
+    names = {w.name: w for w in walls}
+    first: dict[str, tuple[Table, Wall]] = {}
+    for t, w in zip(tables, walls, strict=True):
+        if w.node in names and names[w.node].node != w.node:
+            raise t.bad("node", f"{w.node!r} is the name of a wall that another node "
+                                f"({names[w.node].node!r}) draws; name the node otherwise")
+        t0, w0 = first.setdefault(w.node, (t, w))
+        if w.gpu != w0.gpu:
+            raise t.bad("gpu", f"must be the gpu of every wall of node {w.node!r}: "
+                               f"{t0.key} has {w0.gpu}, one node computes on one GPU")
 
 
 def _wall(t: Table) -> Wall:
@@ -244,4 +276,5 @@ def _wall(t: Table) -> Wall:
                                   f"but the wall is {width:g} m x {height:g} m (aspect "
                                   f"{m_aspect:.4g}); the two must agree within {ASPECT_TOL:.0%}")
     return Wall(name=w.name, lower_left=ll, lower_right=lr, upper_left=ul,
-                resolution=w.resolution, gpu=w.gpu, display=w.display or Display())
+                resolution=w.resolution, gpu=w.gpu, display=w.display or Display(),
+                node=w.node or "")

@@ -1,5 +1,5 @@
-"""`cavesim run`'s closing tables: the run's figures, where each wall's frame went, each
-wall's GPU, the demo's peaks."""
+"""`cavesim run`'s closing tables: the run's figures, where each node's frame went, each
+node's GPU, the demo's peaks."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from cavesim.core.frame_cost import PHASES
 def summary_table(report: dict) -> Table:
     rows = [
         ("frames", report["frames"]),
-        ("walls", ", ".join(report["nodes"])),
+        ("nodes (their walls)", nodes_and_walls(report)),
         *mode_rows(report),
         ("frames per second", report["frames_per_second"]),
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
@@ -25,6 +25,13 @@ def summary_table(report: dict) -> Table:
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
     return _table("cavesim run", rows)
+
+
+def nodes_and_walls(report: dict) -> str:
+    """Each node, and in brackets the walls it draws where they are not just its own."""
+    drawn = report.get("walls_of_nodes", {})
+    return ", ".join(node if drawn.get(node, [node]) == [node]
+                     else f"{node} ({' '.join(drawn[node])})" for node in report["nodes"])
 
 
 def mode_rows(report: dict) -> list[tuple[str, str]]:
@@ -60,9 +67,9 @@ def forensic_lines(report: dict, shown: int = 10) -> list[str]:
 
 
 def gpu_table(report: dict) -> Table:
-    """What each wall computed on, and with which engine path, as its node told the master."""
+    """What each node computed on, and with which engine path, as it told the master."""
     table = Table(title="GPUs")
-    for column in ("wall", "EGL device", "renderer", "OpenGL version (driver)", "engine"):
+    for column in ("node", "EGL device", "renderer", "OpenGL version (driver)", "engine"):
         table.add_column(column)
     for wall in report["nodes"]:
         gpu = report["gpus"].get(wall)
@@ -75,9 +82,9 @@ def gpu_table(report: dict) -> Table:
 
 
 def frame_cost_table(report: dict) -> Table:
-    """Where each wall's frame went: p50 / p99 ms of each phase its reports timed."""
-    table = Table(title="where each wall's frame went (p50 / p99 ms)")
-    table.add_column("wall")
+    """Where each node's frame went: p50 / p99 ms of each phase its reports timed."""
+    table = Table(title="where each node's frame went (p50 / p99 ms)")
+    table.add_column("node")
     for phase in PHASES:
         table.add_column(phase, justify="right")
     for wall, cost in report["frame_cost_ms"].items():
