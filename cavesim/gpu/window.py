@@ -143,7 +143,7 @@ def open_window(display: Display, size: tuple[int, int], title: str) -> WallWind
         glfw.set_window_pos(window, origin[0] + x, origin[1] + y)
     glfw.make_context_current(window)
     glfw.swap_interval(1 if display.vsync else 0)
-    return WallWindow(window, attach_context(), stereo)
+    return WallWindow(window, attach_context(glfw.get_proc_address), stereo)
 
 
 def _monitor(display: Display):

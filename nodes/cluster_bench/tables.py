@@ -8,7 +8,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from cavesim.core.frame_cost import FRAME_PHASES, PHASES
+from cavesim.core.frame_cost import FRAME_PHASES
 from cavesim.tools.bench.display import TARGET_STYLES
 
 BARRIER_HEADERS = ("nodes", "p50 ms", "p99 ms", "max ms", "cpu ms/frame", "cpu floor ms",
@@ -17,7 +17,6 @@ SWAP_HEADERS = ("walls", "skew p50 ms", "skew p99 ms", "skew max ms", "frames",
                 "order violations", "stalls", "incomplete", "barrier p99 ms", "frames/s")
 LOCKSTEP_HEADERS = ("walls", "cluster frames/s", "back-to-back frames/s", "lock-step cost",
                     "same final checksum")
-COST_HEADERS = ("nodes", *(f"{phase} ms" for phase in PHASES))
 
 
 def _ms(value: float | None) -> str:
@@ -31,14 +30,27 @@ def barrier_rows(report: dict) -> list[tuple[str, ...]]:
              str(run["divergences"])) for run in report["barrier"]["runs"]]
 
 
+def cost_headers(report: dict) -> tuple[str, ...]:
+    return ("phase", "clock", *(f"{run['nodes']} nodes ms" for run in _costed(report)))
+
+
 def cost_rows(report: dict) -> list[tuple[str, ...]]:
-    """Per barrier run, where a node's frame went: each phase's p50 / p99, of the wall
-    slowest in it (the barrier waits for the slowest)."""
+    """Per phase, where a node's frame went in each barrier run: p50 / p99 of the node
+    slowest in it (the barrier waits for the slowest); last, the master's barrier (publish
+    to every report in)."""
     def cell(cost: dict, phase: str) -> str:
-        return " / ".join(_ms(max(wall[phase][q] for wall in cost.values()))
+        return " / ".join(_ms(max((node[phase][q] for node in cost.values()
+                                   if node[phase][q] is not None), default=None))
                           for q in ("p50", "p99"))
-    return [(str(run["nodes"]), *(cell(run["frame_cost_ms"], phase) for phase in PHASES))
-            for run in report["barrier"]["runs"] if run["frame_cost_ms"]]
+    runs = _costed(report)
+    return [*((phase, clock, *(cell(run["frame_cost_ms"], phase) for run in runs))
+              for phase, (clock, _) in FRAME_PHASES.items()),
+            ("barrier (master)", "CPU", *(" / ".join(_ms(run["barrier_ms"][q])
+                                                     for q in ("p50", "p99")) for run in runs))]
+
+
+def _costed(report: dict) -> list[dict]:
+    return [run for run in report["barrier"]["runs"] if run["frame_cost_ms"]]
 
 
 def swap_rows(report: dict) -> list[tuple[str, ...]]:
@@ -87,7 +99,7 @@ def show(report: dict, console: Console) -> None:
     for title, headers, rows in (
             (f"barrier round trip - {scenes[0]}, {report['frames']} frames", BARRIER_HEADERS,
              barrier_rows(report)),
-            ("where a node's frame goes (p50 / p99, the slowest wall)", COST_HEADERS,
+            ("where a node's frame goes (p50 / p99, the slowest node)", cost_headers(report),
              cost_rows(report)),
             (swap_title(report), SWAP_HEADERS, swap_rows(report)),
             (f"lock-step vs back to back - {scenes[1]}, {report['frames']} frames",
@@ -119,9 +131,10 @@ def markdown(report: dict) -> str:
              f"## Barrier round trip ({report['barrier']['scene']})", "",
              *_markdown_table(BARRIER_HEADERS, barrier_rows(report)), "",
              one_node_line(report), "",
-             "## Where a node's frame goes (p50 / p99 ms, the slowest wall)", "",
-             *_markdown_table(COST_HEADERS, cost_rows(report)), "",
-             *(f"- {phase}: {meaning}" for phase, meaning in FRAME_PHASES.items()), "",
+             "## Where a node's frame goes (p50 / p99 ms, the slowest node)", "",
+             *_markdown_table(cost_headers(report), cost_rows(report)), "",
+             *(f"- {phase} ({clock}): {meaning}"
+               for phase, (clock, meaning) in FRAME_PHASES.items()), "",
              f"## {swap_title(report)}", "",
              *(_markdown_table(SWAP_HEADERS, swap_rows(report)) if swap_rows(report) else []),
              "",

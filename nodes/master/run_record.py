@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass, field
 
 from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
-from cavesim.core.frame_cost import PHASES
+from cavesim.core.frame_cost import NOT_TIMED_US, PHASES
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
@@ -104,8 +104,8 @@ class LiveCounts(DecimatedSeries[int]):
 
 
 class FrameCosts:
-    """Per wall, a histogram of each of its frame's phases (FRAME_PHASES), from the times its
-    reports carry."""
+    """Per node, a histogram of each of its frame's phases (FRAME_PHASES), from the times its
+    reports carry (a GPU phase of a frame not timed, NOT_TIMED_US, is left out)."""
 
     def __init__(self) -> None:
         self._walls: dict[str, tuple[LogHistogram, ...]] = {}
@@ -113,10 +113,11 @@ class FrameCosts:
     def add(self, wall: str, cost_us: tuple[int, ...]) -> None:
         histograms = self._walls.setdefault(wall, tuple(LogHistogram() for _ in PHASES))
         for histogram, us in zip(histograms, cost_us, strict=True):
-            histogram.append(us * 1e-6)
+            if us != NOT_TIMED_US:
+                histogram.append(us * 1e-6)
 
     def count(self, wall: str) -> int:
-        """How many of `wall`'s frames were timed."""
+        """How many of `wall`'s frames were timed (on the CPU)."""
         return self._walls[wall][0].count if wall in self._walls else 0
 
     def to_json(self) -> dict:

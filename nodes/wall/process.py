@@ -174,7 +174,7 @@ class WallNode:
         self.rejects = self.inbox.rejects
         self.last_report: ReportMessage | None = None
         self.previous_inputs: FrameInput | None = None
-        self.timer = FrameTimer()  # the phases of our frame, for our reports
+        self.timer = FrameTimer(self.system.fence, self.system.timers)  # for our reports
         self.started = self.heard = time.monotonic()  # from the master of our run
         self.master_gone_at: float | None = None
         self.behind_said = 0.0
@@ -335,6 +335,7 @@ class WallNode:
                 self.rejects.reject(e, f"frame {k}")
                 return
             self.timer.lap("decode")
+            self.timer.arm_gpu(k)
             self._step(k, message.inputs, scene)
             if self.live is not None:
                 self.live.show(k, message, scene)
@@ -374,6 +375,7 @@ class WallNode:
         self.view.done = k
         state = self.system.checksum()
         self.timer.lap("checksum")
+        self.timer.gpu_passes()
         self.system.keep_history(k)
         self.timer.lap("history")
         if self._fault("slow", k):

@@ -10,6 +10,7 @@ from cavesim.core.digest.twin import reference_checksum, reference_levels
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_WORDS
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.engine.checksum import RESULT_BYTES, GpuChecksum
+from cavesim.gpu.gl.fence import GpuFence
 
 SEED = 2**63 + 0x1234_5678_9ABC  # both 32-bit halves matter
 
@@ -21,7 +22,7 @@ class State:
         rng = np.random.default_rng(seed)
         self.particle_words = rng.integers(0, 2**32, particles * PARTICLE_WORDS, np.uint32)
         self.emitter_words = rng.integers(0, 2**32, emitters * EMITTER_WORDS, np.uint32)
-        self.checksum = GpuChecksum(ctx, particles, emitters)
+        self.checksum = GpuChecksum(ctx, particles, emitters, GpuFence(ctx))
         self.buffers = [ctx.buffer(reserve=max(w.nbytes, 4))
                         for w in (self.particle_words, self.emitter_words)]
         self.upload()

@@ -15,7 +15,7 @@ import sys
 
 import pytest
 
-from cavesim.core.frame_cost import PHASES
+from cavesim.core.frame_cost import FRAME_PHASES, PHASES
 from nodes.cli import main
 from nodes.cluster_bench.barrier import TARGETS, build_report
 from nodes.cluster_bench.tables import target_line
@@ -70,12 +70,15 @@ def test_where_each_nodes_frame_goes_is_measured_and_shown(cluster_bench):
     assert set(cost) == {"front", "left"} and all(list(cost[w]) == list(PHASES) for w in cost)
     for wall in cost:
         assert positive(cost[wall]["step"]["p50"], cost[wall]["checksum"]["p50"],
-                        cost[wall]["input_wait"]["p99"])
+                        cost[wall]["input_wait"]["p99"], cost[wall]["gpu_sync"]["max"],
+                        cost[wall]["particle_pass"]["p50"], cost[wall]["checksum_pass"]["p50"])
         assert cost[wall]["render"]["max"] == 0  # the barrier's nodes draw nothing
     assert "where a node's frame goes" in done.stdout
     markdown = (out / "cluster.md").read_text()
     assert "## Where a node's frame goes" in markdown
-    assert all(f"- {phase}: " in markdown for phase in PHASES)
+    assert all(f"- {phase} ({clock}): " in markdown
+               for phase, (clock, _) in FRAME_PHASES.items())
+    assert "| barrier (master) | CPU |" in markdown
 
 
 @pytest.mark.slow

@@ -350,20 +350,41 @@ def test_the_walls_frame_costs_reach_the_report_by_wall_and_phase():
     assert record.frame_cost.count(WALLS[0]) == 20  # stepped frames only, not the join
 
 
+class FakeFence:
+    """Waited `waits` seconds (in turn) before each lap."""
+
+    def __init__(self, *waits: float) -> None:
+        self.waits = list(waits)
+
+    def take_waited(self) -> float:
+        return self.waits.pop(0) if self.waits else 0.0
+
+
+class FakeTimers:
+    def read_us(self) -> dict[str, int]:
+        return {"emitter_pass": 100, "particle_pass": 2_000, "checksum_pass": 300}
+
+
 def test_a_nodes_timer_laps_its_phases_and_carries_the_report_and_drawing_over(monkeypatch):
     clock = iter([0.0, 10.0, 10.5, 12.0, 13.0, 13.25, 14.0, 16.0, 30.0, 30.5]).__next__
     monkeypatch.setattr(time, "perf_counter", clock)
-    timer = FrameTimer()  # 0.0
+    # arriving, then decode, step (0.5 s of it on the GPU's fence), checksum (0.25 s)
+    timer = FrameTimer(FakeFence(0.0, 0.0, 0.5, 0.25), FakeTimers())  # 0.0
     timer.arrived()  # 10.0: no report before it, no wait
-    for phase in ("decode", "step", "checksum", "history"):  # 10.5, 12.0, 13.0, 13.25
+    for phase in ("decode", "step", "checksum"):  # 10.5, 12.0, 13.0
         timer.lap(phase)
+    timer.gpu_passes()
+    timer.lap("history")  # 13.25
     first = dict(zip(PHASES, timer.cost_us(), strict=True))
-    assert first == {"input_wait": 0, "decode": 500_000, "step": 1_500_000,
-                     "checksum": 1_000_000, "history": 250_000, "report": 0, "render": 0}
+    assert first == {"input_wait": 0, "decode": 500_000, "step": 1_000_000,
+                     "emitter_pass": 100, "particle_pass": 2_000, "checksum_pass": 300,
+                     "gpu_sync": 750_000, "checksum": 750_000, "history": 250_000,
+                     "report": 0, "render": 0}
     timer.reported()  # 14.0
     timer.rendered()  # 16.0
     timer.arrived()  # 30.0: 14 s after the wall was drawn, the node ready again
     timer.lap("decode")  # 30.5
     second = dict(zip(PHASES, timer.cost_us(), strict=True))
-    assert (second["input_wait"], second["decode"]) == (14_000_000, 500_000)
+    assert (second["input_wait"], second["decode"], second["gpu_sync"]) == (14_000_000,
+                                                                           500_000, 0)
     assert (second["report"], second["render"]) == (750_000, 2_000_000)  # of the frame before

@@ -525,7 +525,7 @@ def test_encode_refuses_a_run_id_beyond_64_bits(run_id):
      "at most 32"),
     (ReportMessage(1, "bad/name", DIGEST, 0, 0, NO_COST), "node name"),
     (ReportMessage(1, "", DIGEST, 0, 0, NO_COST), "node name"),
-    (ReportMessage(1, "front", DIGEST, 0, 0, (0, 0)), "times the 7 phases"),
+    (ReportMessage(1, "front", DIGEST, 0, 0, (0, 0)), f"times the {len(PHASES)} phases"),
     (ControlMessage(1, Command.RESYNC, "x" * 33, "front"), "node name"),
     (ControlMessage(1, Command.RESYNC, "left", "front", "XY" * 16), "hex digits"),
     (ControlMessage(1, Command.RESYNC, "left", "front", DIGEST[:-1]), "hex digits"),

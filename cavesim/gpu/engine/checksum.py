@@ -44,6 +44,7 @@ import numpy as np
 from cavesim.core.digest.history import HISTORY_FRAMES
 from cavesim.core.digest.shape import ITEM_WORDS, StateChecksum, index_runs, plan
 from cavesim.gpu.engine.programs import checksum_programs
+from cavesim.gpu.gl.fence import GpuFence
 
 COUNTS_BYTES = 8  # std430 { uint particles; uint emitters; }
 RESULT_BYTES = 24  # std430 { uvec4 digest; uint particles; uint emitters; }
@@ -60,8 +61,10 @@ class GpuChecksum:
     `ctx.copy_buffer` into it, before `run()` without counts.
     """
 
-    def __init__(self, ctx: moderngl.Context, max_particles: int, max_emitters: int) -> None:
+    def __init__(self, ctx: moderngl.Context, max_particles: int, max_emitters: int,
+                 fence: GpuFence) -> None:
         self.ctx = ctx
+        self.fence = fence  # the reads wait on it, not inside the driver
         self.max_particles, self.max_emitters = max_particles, max_emitters
         self._programs = checksum_programs(ctx)
         sums, level_1, level_2 = plan(max_particles, max_emitters).items
@@ -110,6 +113,7 @@ class GpuChecksum:
     def read(self) -> StateChecksum:
         """The last `run`'s digest and the counts it covered: one 24-byte read (waits)."""
         self.ctx.memory_barrier(moderngl.BUFFER_UPDATE_BARRIER_BIT)
+        self.fence.wait()
         return StateChecksum.from_result(self.result.read(RESULT_BYTES))
 
     def read_items(self, level: int, indices: np.ndarray) -> np.ndarray:

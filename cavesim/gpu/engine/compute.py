@@ -31,6 +31,7 @@ import numpy as np
 
 from cavesim.core.scene.model import Scene
 from cavesim.gpu.engine.emission import Emission
+from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import (
     BLOCK_WORKGROUP_SIZE,
     append_program,
@@ -41,6 +42,7 @@ from cavesim.gpu.engine.programs import (
 from cavesim.gpu.engine.uniforms import write_uniforms
 from cavesim.gpu.gl import denormal_probe
 from cavesim.gpu.gl.denormals import flushing_denormals
+from cavesim.gpu.gl.fence import GpuFence
 
 log = logging.getLogger(__name__)
 
@@ -62,8 +64,9 @@ class ComputePasses:
     def __init__(self, ctx: moderngl.Context, scene: Scene,
                  particles: Sequence[moderngl.Buffer], emitters: Sequence[moderngl.Buffer],
                  bind_samplers: Callable[[moderngl.Program], None],
-                 buffer: BufferFactory) -> None:
+                 buffer: BufferFactory, fence: GpuFence, timers: PassTimers) -> None:
         self._ctx = ctx
+        self._fence, self._timers = fence, timers
         self._particles = particles
         self._emitters = emitters
         self._bind_samplers = bind_samplers
@@ -103,6 +106,15 @@ class ComputePasses:
 
     def _dispatch(self, blocks: int, segments: int, live: int,
                   emission: Emission | None) -> None:
+        with self._timers.segment("particle_pass"):
+            self._survivors(blocks, segments, live)
+        if segments:
+            with self._timers.segment("emitter_pass"):
+                self._append_new(blocks, segments, emission)
+
+    def _survivors(self, blocks: int, segments: int, live: int) -> None:
+        """Step the live particles, count the survivors and the new ones, and compact the
+        survivors into the back buffer."""
         if blocks:
             self._update(live)
         write_uniforms(self._scan, {"block_count": np.uint32(blocks),
@@ -114,8 +126,6 @@ class ComputePasses:
         if blocks:
             write_uniforms(self._compact, {"block_count": np.uint32(blocks)})
             self._compact.run(-(-blocks // BLOCK_WORKGROUP_SIZE))
-        if segments:
-            self._append_new(blocks, segments, emission)
 
     def particle_pass(self, front: int, back: int, live: int) -> None:
         """Pass 1 alone (the benchmark times it): step the front buffer's `live` particles
@@ -133,6 +143,7 @@ class ComputePasses:
 
     def read_live(self) -> int:
         """The live count the last `advance` left on the GPU (waits for the frame)."""
+        self._fence.wait()
         return int(np.frombuffer(self._counts.read(4), dtype="<u4")[0])
 
     def _bind(self, front: int, back: int) -> None:

@@ -19,8 +19,10 @@ import moderngl
 from cavesim.core.records import EMITTER_VERTEX_FORMAT, PARTICLE_BYTES, PARTICLE_VERTEX_FORMAT
 from cavesim.core.scene.model import Scene
 from cavesim.gpu.engine.emission import Emission
+from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import emit_program, particle_update_program
 from cavesim.gpu.engine.uniforms import write_uniforms
+from cavesim.gpu.gl.fence import GpuFence
 
 
 class GsTfPasses:
@@ -28,8 +30,10 @@ class GsTfPasses:
 
     def __init__(self, ctx: moderngl.Context, scene: Scene,
                  particles: Sequence[moderngl.Buffer], emitters: Sequence[moderngl.Buffer],
-                 bind_samplers: Callable[[moderngl.Program], None]) -> None:
+                 bind_samplers: Callable[[moderngl.Program], None], fence: GpuFence,
+                 timers: PassTimers) -> None:
         self._particles = particles
+        self._fence, self._timers = fence, timers
         self._bind_samplers = bind_samplers
         self._capacity = scene.capacity
         self._query = ctx.query(primitives=True)
@@ -54,9 +58,10 @@ class GsTfPasses:
         if live == 0:
             return 0
         self._bind_samplers(self.program)
-        with self._query:
+        with self._timers.segment("particle_pass"), self._query:
             self._update_vaos[front].transform(self._particles[back], moderngl.POINTS,
                                                vertices=live)
+        self._fence.wait()  # the emission's offset is the survivors' count
         return self._query.primitives
 
     def _emission(self, back: int, survivors: int, emission: Emission) -> int:
@@ -64,9 +69,10 @@ class GsTfPasses:
         self._bind_samplers(self._emit)
         # Transform feedback records only what fits after `buffer_offset`; the query counts
         # every generated particle, including the ones dropped (DESIGN: live = min(...)).
-        with self._query:
+        with self._timers.segment("emitter_pass"), self._query:
             self._emit_vaos[back].transform(self._particles[back], moderngl.POINTS,
                                             vertices=self._emitter_count,
                                             instances=emission.batches,
                                             buffer_offset=survivors * PARTICLE_BYTES)
+        self._fence.wait()
         return min(self._query.primitives, self._capacity - survivors)

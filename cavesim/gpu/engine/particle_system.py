@@ -49,7 +49,9 @@ from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
+from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.uniforms import physics_uniforms, rotor_uniforms, write_uniforms
+from cavesim.gpu.gl.fence import GpuFence
 
 FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
 
@@ -70,6 +72,8 @@ class ParticleSystem:
         # the buffers whose checksum tree the GPU holds, and their checksum
         self._tree: tuple[int, StateChecksum] | None = None
         self.history_ring = HistoryRing()
+        self.fence = GpuFence(ctx)  # every read of the frame's results waits on it
+        self.timers = PassTimers(ctx)  # the GPU time of the frame's passes
         self._particle_buffers = [self._buffer(f"particles_{i}", scene.capacity * PARTICLE_BYTES)
                                   for i in range(PARTICLE_BUFFERS)]
         if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
@@ -86,13 +90,14 @@ class ParticleSystem:
         if scene.engine is Engine.COMPUTE:
             self._passes = ComputePasses(ctx, scene, self._particle_buffers,
                                          self._emitter_buffers, self._bind_samplers,
-                                         self._buffer)
+                                         self._buffer, self.fence, self.timers)
         else:
             self._passes = GsTfPasses(ctx, scene, self._particle_buffers,
-                                      self._emitter_buffers, self._bind_samplers)
+                                      self._emitter_buffers, self._bind_samplers, self.fence,
+                                      self.timers)
         write_uniforms(self._passes.program,
                        physics_uniforms(scene, self.field_grid, self.ground_grid))
-        self._checksum = GpuChecksum(ctx, scene.capacity, len(self.emitters))
+        self._checksum = GpuChecksum(ctx, scene.capacity, len(self.emitters), self.fence)
         self.restart(scene.seed)  # GL leaves a new buffer's content undefined: zero it
 
     # -- construction -----------------------------------------------------------------
@@ -190,8 +195,10 @@ class ParticleSystem:
         live = self.live_count
         front, back = self._current, 1 - self._current
         self._loading = self._tree = None  # the passes overwrite the back buffers
-        emission = None if self._emitter_update is None else \
-            self._emitter_update.run(front, back, frame, rotor)
+        emission = None
+        if self._emitter_update is not None:
+            with self.timers.segment("emitter_pass"):
+                emission = self._emitter_update.run(front, back, frame, rotor)
         program = self._passes.program
         write_uniforms(program, {"dt": frame.dt})
         if rotor is not None:
@@ -246,15 +253,18 @@ class ParticleSystem:
         self.ctx.copy_buffer(counts, self._passes.counts_buffer, size=4)
         counts.write(np.array([len(self.emitters)], "<u4").tobytes(), offset=4)
         emitters = self._emitter_buffers[self._current] if len(self.emitters) else None
-        self._checksum.run(self._particle_buffers[self._current], emitters, self.scene.seed)
+        with self.timers.segment("checksum_pass"):
+            self._checksum.run(self._particle_buffers[self._current], emitters, self.scene.seed)
         state = self._checksum.read()
         self._live, self._tree = state.particles, (self._current, state)
         return state
 
     def _state_checksum(self, index: int, particles: int, seed: int) -> StateChecksum:
         emitters = self._emitter_buffers[index] if len(self.emitters) else None
-        state = self._checksum.state(self._particle_buffers[index], particles, emitters,
-                                     len(self.emitters), seed)
+        with self.timers.segment("checksum_pass"):
+            self._checksum.run(self._particle_buffers[index], emitters, seed,
+                               (particles, len(self.emitters)))
+        state = self._checksum.read()
         self._tree = (index, state) if seed == self.scene.seed else None
         return state
 

@@ -13,6 +13,7 @@ device (GPU) the node was given (`cavesim.gpu.gl.devices`).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 
 import moderngl
 
@@ -46,17 +47,20 @@ def create_context(device: int | None = None, driver: Driver | None = None) -> m
         raise ContextError(f"cannot open a headless OpenGL context through EGL on device "
                            f"{index} ({egl_device.kind}, one of {count}): {message}",
                            f"{fix}; {LIST_HINT}") from e
-    return _ready(ctx, f"EGL device {index}", egl_device.index, egl_device.kind,
+    def load(name: str) -> int:  # glcontext's EGL loader, looked up when first needed
+        return ctx.mglo._context.load(name)
+
+    return _ready(ctx, load, f"EGL device {index}", egl_device.index, egl_device.kind,
                   egl_device.extensions)
 
 
-def attach_context() -> moderngl.Context:
+def attach_context(load: Callable[[str], int]) -> moderngl.Context:
     """The context current on this thread (a window's, `cavesim.gpu.window`, made with GL
-    4.3 core hints), made ready like a headless one. Its GPU is the X display's; device 0
-    in reports."""
+    4.3 core hints, whose GL functions `load` finds), made ready like a headless one. Its
+    GPU is the X display's; device 0 in reports."""
     ctx = moderngl.create_context(require=REQUIRED_GL_VERSION)
     software = any(name in ctx.info["GL_RENDERER"] for name in SOFTWARE_RENDERERS)
-    return _ready(ctx, f"the display {os.environ.get('DISPLAY')!r}", 0,
+    return _ready(ctx, load, f"the display {os.environ.get('DISPLAY')!r}", 0,
                   "software" if software else "hardware")
 
 
@@ -65,10 +69,11 @@ def version_text(code: int) -> str:
     return f"{code // 100}.{code % 100 // 10}"
 
 
-def _ready(ctx: moderngl.Context, where: str, device: int, kind: str,
-           device_extensions: tuple[str, ...] = ()) -> moderngl.Context:
-    """`ctx` checked for GL 4.3, with a tiny framebuffer bound for transform feedback and
-    its device named for `gpu_of`."""
+def _ready(ctx: moderngl.Context, load: Callable[[str], int], where: str, device: int,
+           kind: str, device_extensions: tuple[str, ...] = ()) -> moderngl.Context:
+    """`ctx` checked for GL 4.3, with a tiny framebuffer bound for transform feedback, its
+    device named for `gpu_of` and its GL function loader kept for what moderngl does not
+    wrap (`cavesim.gpu.gl.fence`)."""
     if ctx.version_code < REQUIRED_GL_VERSION:
         found = ctx.info.get("GL_VERSION")
         fix = vendor_of(device_extensions, ctx.info).fix
@@ -78,7 +83,7 @@ def _ready(ctx: moderngl.Context, where: str, device: int, kind: str,
     framebuffer = ctx.simple_framebuffer((1, 1))
     framebuffer.use()
     ctx.extra = {"framebuffer": framebuffer, "device": device, "kind": kind,
-                 "extensions": device_extensions}
+                 "extensions": device_extensions, "load": load}
     return ctx
 
 

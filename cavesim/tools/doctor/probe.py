@@ -27,6 +27,7 @@ from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.gl.context import create_context, describe
 from cavesim.gpu.gl.driver import Driver
+from cavesim.gpu.gl.fence import GpuFence
 from cavesim.gpu.gl.vendors import vendor_of
 
 PROBE_TIMEOUT = 60.0  # s for one device: open a context, compile, run the checksum once
@@ -109,7 +110,7 @@ def _smoke(ctx: moderngl.Context, fix: str) -> tuple[dict, list[tuple[str, str]]
     emitters = rng.integers(0, 2**32, SMOKE_EMITTERS * EMITTER_WORDS, dtype=np.uint32)
     buffers = [ctx.buffer(particles.tobytes()), ctx.buffer(emitters.tobytes())]
     try:
-        checksum = GpuChecksum(ctx, SMOKE_PARTICLES, SMOKE_EMITTERS)
+        checksum = GpuChecksum(ctx, SMOKE_PARTICLES, SMOKE_EMITTERS, GpuFence(ctx))
         from_host = checksum.state(buffers[0], SMOKE_PARTICLES, buffers[1], SMOKE_EMITTERS, 1)
         checksum.run(buffers[0], buffers[1], 1)  # the counts from_host left on the GPU
         from_gpu = checksum.read()

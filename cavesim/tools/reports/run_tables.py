@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from rich.table import Table
 
-from cavesim.core.frame_cost import PHASES
+from cavesim.core.frame_cost import FRAME_PHASES
 
 
 def summary_table(report: dict) -> Table:
@@ -84,12 +84,15 @@ def gpu_table(report: dict) -> Table:
 def frame_cost_table(report: dict) -> Table:
     """Where each node's frame went: p50 / p99 ms of each phase its reports timed."""
     table = Table(title="where each node's frame went (p50 / p99 ms)")
-    table.add_column("node")
-    for phase in PHASES:
-        table.add_column(phase, justify="right")
-    for wall, cost in report["frame_cost_ms"].items():
-        table.add_row(wall, *(f"{cost[phase]['p50']:.2f} / {cost[phase]['p99']:.2f}"
-                              for phase in PHASES))
+    table.add_column("phase")
+    table.add_column("clock")
+    costs = report["frame_cost_ms"]
+    for node in costs:
+        table.add_column(node, justify="right")
+    for phase, (clock, _) in FRAME_PHASES.items():
+        table.add_row(phase, clock, *(" / ".join("-" if (ms := cost[phase][q]) is None
+                                                 else f"{ms:.2f}" for q in ("p50", "p99"))
+                                      for cost in costs.values()))
     return table
 
 
