@@ -56,7 +56,8 @@ def add(commands) -> None:
                              "lists them)")
     parser.add_argument("--engine", type=Engine, choices=list(Engine),
                         help="particle engine path, instead of the scene's [simulation] "
-                             "engine: gs_tf (geometry shader + transform feedback) or compute")
+                             "engine: gs_tf (geometry shader + transform feedback), compute, "
+                             "or auto (timed at start-up; the master names the run's path)")
     parser.add_argument("--snapshot-chunk", type=number_in(int, 1, MAX_CHUNK_PARTICLES,
                                                            "particles"),
                         default=CHUNK_PARTICLES,

@@ -199,9 +199,11 @@ def add(commands) -> None:
                              "mouse and gamepad move the head and fly the wand")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--engine", type=Engine, choices=list(Engine),
-                        help="every wall's particle engine path, instead of the scene's "
+                        help="every node's particle engine path, instead of the scene's "
                              "[simulation] engine: gs_tf (geometry shader + transform "
-                             "feedback, the default) or compute (compute shaders, same bytes)")
+                             "feedback, the default), compute (compute shaders, same bytes) "
+                             "or auto (each node times both at start-up; the run steps with "
+                             "the path most nodes found faster)")
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
     parser.add_argument("--out", type=output_folder, default=Path("out"))

@@ -65,6 +65,7 @@ from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
 from nodes import lockstep
 from nodes.lockstep import LOSS_POLICIES, Membership, Vote
+from nodes.master.engine_choice import EngineChoice
 from nodes.master.events import (
     Described,
     Displayed,
@@ -164,6 +165,7 @@ class Master:
         self.tracking_quiet = False  # the latest tracking message is older than allowed
         self.stopping = False
         self.refused = False  # another master was there first: the nodes are its own
+        self.engines = EngineChoice(config.walls)  # the path of the nodes that probed theirs
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
                                 node_walls=dict(config.node_walls))
         self.record.run_id = link.run_id
@@ -253,8 +255,8 @@ class Master:
     def _welcome(self, info: InfoMessage) -> None:
         """A wall described itself: note its GPU and swap lock, and welcome it into the run
         with its own nonce and the run's scene (it then starts this run and reports JOINED;
-        a wall of another scene is refused here, and refuses the WELCOME)."""
-        self.record.gpus[info.node] = info.gpu()
+        a wall of another scene is refused here, and refuses the WELCOME); a node that
+        probed its engine path waits for the run's (`engine_choice.py`)."""
         self.swap_locked[info.node] = info.swap_locked
         if info.scene != self.scene_digest:
             refusal = (f"wall {info.node} holds scene {info.scene or 'none'}, this run's "
@@ -265,8 +267,13 @@ class Master:
             self.wrong_scene[info.node] = refusal
         else:
             self.wrong_scene.pop(info.node, None)
-        self.link.send(ControlMessage(self.frame, Command.WELCOME, info.node,
-                                      digest=self.scene_digest, nonce=info.nonce))
+        for ready in self.engines.described(info, started=self.frame > 0):
+            engine = self.engines.welcome_engine(ready)
+            self.record.gpus[ready.node] = ready.gpu() | (
+                {} if engine is None else {"engine": engine.value})
+            self.link.send(ControlMessage(self.frame, Command.WELCOME, ready.node,
+                                          digest=self.scene_digest, nonce=ready.nonce,
+                                          engine=engine))
 
     # -- the run ---------------------------------------------------------------------------
 

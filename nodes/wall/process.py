@@ -76,6 +76,7 @@ from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
+from cavesim.tools.bench.engine_probe import probe_engines
 from nodes.blocks import BlockAsker, serve_blocks
 from nodes.faults import Fault, bitflip_target
 from nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES, RESYNC_MODES
@@ -162,6 +163,11 @@ class WallNode:
         window = open_node_window(config, cave)
         self.ctx = window.ctx if window is not None else create_context(device=config.gpu)
         self.gpu = gpu_of(self.ctx)
+        self.engine_probed = scene.engine is Engine.AUTO  # then the run's path is the master's
+        if self.engine_probed:
+            probe = probe_engines(self.ctx, scene)
+            log.info("%s: %s", config.name, probe.line())
+            scene = dataclasses.replace(scene, engine=probe.faster)
         self.system = ParticleSystem(self.ctx, scene)
         self.driver = driver_for(scene)
         self.live = None if window is None else LiveDisplay(
@@ -227,7 +233,7 @@ class WallNode:
             # the inbox checked it, but a second master's WELCOME may have been queued
             # before the first one's was joined
             if not self.inbox.refuses_hop(run_id, self.keys.control):
-                self._join(run_id, message.digest)
+                self._join(run_id, message.digest, message.engine)
         elif message.command is Command.STOP:
             self.running = False
         elif message.command is Command.SWAP and self.live is not None:
@@ -243,7 +249,8 @@ class WallNode:
         swap_locked = self.live is not None and self.live.screen.swap_locked
         message = self._seal(InfoMessage.of_gpu(self.done, self.config.name, self.gpu,
                                                 swap_locked, self.view.nonce,
-                                                self.scene_digest, self.system.engine), run_id)
+                                                self.scene_digest, self.system.engine,
+                                                self.engine_probed), run_id)
         try:
             query.reply(self.keys.info(self.config.name), message)
         except zenoh.ZError as e:  # the master asking went away
@@ -253,9 +260,10 @@ class WallNode:
             query.drop()
         return len(message)
 
-    def _join(self, run_id: int, scene: str) -> None:
+    def _join(self, run_id: int, scene: str, engine: Engine | None) -> None:
         """The master's WELCOME named our nonce: join its run, from the scene's start state
-        if we held another run's; a run of another scene ends the node (ClusterError)."""
+        if we held another run's, stepping with the run's engine path if we probed ours; a
+        run of another scene ends the node (ClusterError)."""
         if scene != self.scene_digest:
             raise ClusterError(f"node {self.config.name}: the master's run {run_id:016x} is "
                                f"of scene {scene or 'none'}, this node's --scene "
@@ -268,6 +276,10 @@ class WallNode:
             self._start_over()
         if previous != run_id:
             self.view.heard = 0
+        if engine is not None and self.engine_probed and engine is not self.system.engine:
+            log.info("%s: the run steps with %s: switching from %s", self.config.name, engine,
+                     self.system.engine)
+            self.system.use_engine(engine)
         self.view.run_id, self.view.nonce = run_id, secrets.randbits(64)  # nonce used up
         self.master_gone_at = None
         state = self.system.checksum()

@@ -21,8 +21,10 @@ from cavesim.core.drivers import driver_for
 from cavesim.core.errors import SceneError
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import Engine, load_scene, parse_scene
+from cavesim.core.scene.model import ENGINE_PATHS
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.denormal_probe import probe
+from cavesim.tools.bench.engine_probe import EngineProbe, probe_engines
 from nodes.cli import main
 from nodes.commands.run import RunPlan
 from nodes.launch.cluster import ClusterPlan, run_cluster
@@ -88,8 +90,34 @@ def test_the_scene_chooses_the_path_and_gs_tf_is_the_default():
     assert parse_scene(data).engine is Engine.COMPUTE
     data["simulation"]["engine"] = "cuda"
     with pytest.raises(SceneError, match=r"simulation.engine = 'cuda' is not allowed: must be "
-                                         r"one of 'gs_tf', 'compute'"):
+                                         r"one of 'gs_tf', 'compute', 'auto'"):
         parse_scene(data)
+    data["simulation"]["engine"] = "auto"
+    assert parse_scene(data).engine is Engine.AUTO
+
+
+def test_a_system_steps_with_a_path_and_may_switch_keeping_its_bytes(ctx, pair):
+    scene = make_scene(emitters=[FOUNTAIN])
+    with pytest.raises(ValueError, match="probe `auto` first"):
+        ParticleSystem(ctx, dataclasses.replace(scene, engine=Engine.AUTO))
+    both = pair(scene)
+    for _ in range(30):
+        both.step()
+    both.gs_tf.use_engine(Engine.COMPUTE)  # now both step with compute ...
+    both.compute.use_engine(Engine.GS_TF)  # ... and with GS/TF, swapped
+    assert (both.gs_tf.engine, both.compute.engine) == (Engine.COMPUTE, Engine.GS_TF)
+    for _ in range(30):
+        both.step()
+    both.assert_same_bytes()
+
+
+def test_the_probe_times_both_paths_and_prefers_gs_tf_within_its_margin(ctx):
+    probe_result = probe_engines(ctx, load_scene(SCENES / "minimal.toml"))
+    assert set(probe_result.seconds) == set(ENGINE_PATHS) and probe_result.particles == 10_000
+    assert all(seconds > 0 for seconds in probe_result.seconds.values())
+    tie = EngineProbe({Engine.GS_TF: 1.0, Engine.COMPUTE: 0.96}, 10)
+    assert tie.faster is Engine.GS_TF
+    assert EngineProbe({Engine.GS_TF: 1.0, Engine.COMPUTE: 0.9}, 10).faster is Engine.COMPUTE
 
 
 def test_a_run_gives_every_node_its_engine_flag(capsys):

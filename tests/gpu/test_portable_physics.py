@@ -28,7 +28,8 @@ from cavesim.core.heightfield import HeightGrid, save_heightfield
 from cavesim.core.portable import constants
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.record_diff import differences
-from cavesim.core.scene import Arithmetic, Engine, Integrator, Scene, parse_scene
+from cavesim.core.scene import Arithmetic, Integrator, Scene, parse_scene
+from cavesim.core.scene.model import ENGINE_PATHS
 from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.kernels import PORTABLE
 from cavesim.gpu.engine import ParticleSystem
@@ -73,7 +74,7 @@ class Lockstep:
         self.twin = TwinSystem(scene)
         assert self.twin.kernels is PORTABLE
         self.gpus = {engine: ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
-                     for engine in Engine}
+                     for engine in ENGINE_PATHS}
         self.driver = driver_for(scene)
         self.rng = np.random.Generator(np.random.PCG64(0))
         self.size = scene.random_texture_size

@@ -3,6 +3,7 @@ file's `gpu` key, and the GPU each wall names in `cavesim run`'s report."""
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -150,3 +151,24 @@ def test_run_reports_the_gpu_of_every_wall(tmp_path):
         log = (out / "logs" / f"{wall}.log").read_text()
         assert f"{wall}: up on EGL device 0 ({device.kind}): {described['renderer']}" in log
     assert "GPUs" in result.stdout and described["renderer"] in result.stdout
+
+
+def test_engine_auto_probes_on_every_node_and_the_run_steps_with_one_path(tmp_path):
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "cavesim", "run", "--walls", "3", "--frames", "10",
+               "--scene", str(MINIMAL), "--engine", "auto", "--out", str(out), "--session",
+               f"auto{os.getpid()}"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=180, cwd=ROOT)
+    assert result.returncode == 0, result.stdout + result.stderr
+    report = json.loads((out / "report.json").read_text())
+    paths = {report["gpus"][node]["engine"] for node in report["nodes"]}
+    assert len(paths) == 1 and paths <= {"gs_tf", "compute"}
+    assert all(report["gpus"][node]["engine_probed"] for node in report["nodes"])
+    (path,) = paths
+    for node in report["nodes"]:
+        log = (out / "logs" / f"{node}.log").read_text()
+        probed = re.search(r"engine auto: gs_tf [\d.]+ ms, compute [\d.]+ ms a frame of "
+                           r"10,000 particles: (\w+)", log)
+        assert probed is not None, log
+        assert (probed.group(1) != path) == (f"the run steps with {path}" in log)
+    assert f"{path} (probed)" in result.stdout

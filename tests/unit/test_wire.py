@@ -155,9 +155,11 @@ def name(text: bytes) -> bytes:
 
 
 def control_body(command: int = Command.STOP, target: bytes = b"", source: bytes = b"",
-                 digest: bytes = bytes(16), nonce: int = 0) -> bytes:
-    """A control payload: command, target, source, the digest (zeros: none), the nonce."""
-    return bytes([command]) + name(target) + name(source) + digest + struct.pack("<Q", nonce)
+                 digest: bytes = bytes(16), nonce: int = 0, engine: int = 0) -> bytes:
+    """A control payload: command, target, source, the digest (zeros: none), the nonce, the
+    engine (0: none, 1: gs_tf, 2: compute)."""
+    return bytes([command]) + name(target) + name(source) + digest + struct.pack(
+        "<QB", nonce, engine)
 
 
 STOP_BODY = control_body()
@@ -340,6 +342,8 @@ EDGE_MESSAGES = {
     "resync-long-names": ControlMessage(3, Command.RESYNC, "a" * 32, "B-_9" * 8, "f" * 32),
     "welcome": ControlMessage(0, Command.WELCOME, "front", nonce=U64),
     "welcome-nonce-1": ControlMessage(1, Command.WELCOME, "x" * 32, nonce=1),
+    "welcome-engine": ControlMessage(1, Command.WELCOME, "front", nonce=2,
+                                     engine=Engine.COMPUTE),
     "snapshot-empty": SnapshotHeader(5, 1, 0, 1, DIGEST, np.zeros(0, EMITTER_DTYPE)),
     "snapshot": SnapshotHeader(U64, U64, 3, 2, DIGEST,
                                np.arange(2 * 4, dtype="<u4").view(EMITTER_DTYPE)),
@@ -435,11 +439,13 @@ def test_info_message_is_made_from_a_gpu_description_and_gives_it_back():
     assert (message.swap_locked, message.nonce) == (True, U64)
     assert decode(encode(message, SESSION, MEMBER), SESSION, MEMBER) == message
     assert message.gpu() == {**gpu, "renderer": message.renderer, "version": message.version,
-                             "engine": "gs_tf"}
+                             "engine": "gs_tf", "engine_probed": False}
     assert InfoMessage.of_gpu(0, "left", {**gpu, "kind": "software"}).gpu()["kind"] == "software"
     assert message.gpu()["engine"] == "gs_tf"  # the scene's default path
     compute = InfoMessage.of_gpu(3, "left", gpu, engine=Engine.COMPUTE)
     assert decode(encode(compute, SESSION, MEMBER), SESSION, MEMBER).gpu()["engine"] == "compute"
+    probed = InfoMessage.of_gpu(3, "left", gpu, engine=Engine.COMPUTE, auto=True)
+    assert decode(encode(probed, SESSION, MEMBER), SESSION, MEMBER).gpu()["engine_probed"]
 
 
 def test_kind_command_and_status_numbers_are_fixed():
@@ -805,7 +811,9 @@ REJECTIONS = [
     ("param-signed-inf", by_master(Kind.FRAME, frame_body(params=(-math.inf,))), MEMBER,
      "bad-value"),
     ("report-status-5", craft(Kind.REPORT, report_body(status=5)), None, "bad-value"),
-    ("info-flag-8", craft(Kind.INFO, info_body(flags=8)), None, "bad-value"),
+    ("info-flag-16", craft(Kind.INFO, info_body(flags=16)), None, "bad-value"),
+    ("control-engine-3", craft(Kind.CONTROL, control_body(Command.WELCOME, b"front",
+                                                         engine=3)), None, "bad-value"),
     ("info-string-control", craft(Kind.INFO, info_body(texts=(b"r\n", b"v", b"4"))), None,
      "bad-value"),
     ("info-string-utf8", craft(Kind.INFO, info_body(texts=(b"r", "v\u00e9".encode(), b"4"))),

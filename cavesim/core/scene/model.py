@@ -66,10 +66,15 @@ class Integrator(StrEnum):
 
 
 class Engine(StrEnum):
-    """How a node steps the particle stream; both give the same bytes on one driver."""
+    """How a node steps the particle stream; both paths give the same bytes on one driver."""
 
     GS_TF = "gs_tf"  # geometry shader + transform feedback: the paper's method, the reference
     COMPUTE = "compute"  # compute shaders: in-place update, ordered compaction, append
+    AUTO = "auto"  # the faster path on the node's context, by a timed probe at start-up;
+    # the master has every node of a run step with one (nodes/master/engine_choice.py)
+
+
+ENGINE_PATHS = (Engine.GS_TF, Engine.COMPUTE)  # the paths a system steps with (not AUTO)
 
 
 class Arithmetic(StrEnum):

@@ -42,7 +42,14 @@ from cavesim.core.records import (
     PARTICLE_BYTES,
     PARTICLE_DTYPE,
 )
-from cavesim.core.scene.model import CollisionKind, Engine, FieldKind, FieldSampling, Scene
+from cavesim.core.scene.model import (
+    ENGINE_PATHS,
+    CollisionKind,
+    Engine,
+    FieldKind,
+    FieldSampling,
+    Scene,
+)
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.gpu.engine.checksum import GpuChecksum
@@ -60,6 +67,9 @@ class ParticleSystem:
     """Emitter and particle streams of one scene, stepped frame by frame on the GPU."""
 
     def __init__(self, ctx: moderngl.Context, scene: Scene) -> None:
+        if scene.engine not in ENGINE_PATHS:
+            raise ValueError(f"a system steps with one of {', '.join(ENGINE_PATHS)}, not "
+                             f"{scene.engine!r}: probe `auto` first (engine_probe.py)")
         limits = capacity_limits(ctx.info)
         limits.check(scene.capacity)
         self.ctx = ctx
@@ -87,20 +97,35 @@ class ParticleSystem:
             self._random_texture()
         self._emitter_buffers: list[moderngl.Buffer] = []
         self._emitter_update = self._build_emission() if len(self.emitters) else None
-        if scene.engine is Engine.COMPUTE:
-            self._passes = ComputePasses(ctx, scene, self._particle_buffers,
-                                         self._emitter_buffers, self._bind_samplers,
-                                         self._buffer, self.fence, self.timers)
-        else:
-            self._passes = GsTfPasses(ctx, scene, self._particle_buffers,
-                                      self._emitter_buffers, self._bind_samplers, self.fence,
-                                      self.timers)
-        write_uniforms(self._passes.program,
-                       physics_uniforms(scene, self.field_grid, self.ground_grid))
+        self._passes = self._passes_for(scene.engine)
         self._checksum = GpuChecksum(ctx, scene.capacity, len(self.emitters), self.fence)
         self.restart(scene.seed)  # GL leaves a new buffer's content undefined: zero it
 
     # -- construction -----------------------------------------------------------------
+
+    def _passes_for(self, engine: Engine) -> ComputePasses | GsTfPasses:
+        """The particle passes of an engine path, over this system's buffers."""
+        if engine is Engine.COMPUTE:
+            passes = ComputePasses(self.ctx, self.scene, self._particle_buffers,
+                                   self._emitter_buffers, self._bind_samplers, self._buffer,
+                                   self.fence, self.timers)
+        else:
+            passes = GsTfPasses(self.ctx, self.scene, self._particle_buffers,
+                                self._emitter_buffers, self._bind_samplers, self.fence,
+                                self.timers)
+        write_uniforms(passes.program,
+                       physics_uniforms(self.scene, self.field_grid, self.ground_grid))
+        return passes
+
+    def use_engine(self, engine: Engine) -> None:
+        """Step with `engine` from now on, the state kept (both paths read and write the
+        same buffers, and give the same bytes). Its programs are compiled now."""
+        if engine is self.engine:
+            return
+        live = self.live_count  # the compute path may leave it on the GPU
+        self.scene = dataclasses.replace(self.scene, engine=engine)
+        self._passes = self._passes_for(engine)
+        self._live = live
 
     def _buffer(self, name: str, size: int) -> moderngl.Buffer:
         buffer = self.ctx.buffer(reserve=max(size, 4))  # GL has no empty buffers

@@ -21,7 +21,7 @@ import numpy as np
 from cavesim.core.errors import CavesimError
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.scene.model import Arithmetic, CollisionKind, Engine, Scene
+from cavesim.core.scene.model import ENGINE_PATHS, Arithmetic, CollisionKind, Engine, Scene
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine.particle_system import ParticleSystem
 from cavesim.tools.bench.figures import SizeFigures
@@ -79,7 +79,7 @@ def measure_size(ctx: moderngl.Context, scene: Scene, count: int, plan: BenchPla
     """Time every path on a full pool of `count` particles of `scene`, handing each path's
     timing to `measured` as soon as it is taken."""
     scene = dataclasses.replace(scene, capacity=count)
-    records = preload(scene, count, _ground_grid(scene))
+    records = preload(scene, count, ground_grid(scene))
     timings: dict[str, Timing | None] = {}
 
     def keep(path: str, timing: Timing | None) -> None:
@@ -87,8 +87,8 @@ def measure_size(ctx: moderngl.Context, scene: Scene, count: int, plan: BenchPla
         measured(path, timing)
 
     live_after = min(_time_engine(ctx, scene, engine, records, plan, keep)
-                     for engine in (Engine.GS_TF, Engine.COMPUTE))
-    for engine in (Engine.GS_TF, Engine.COMPUTE):
+                     for engine in ENGINE_PATHS)
+    for engine in ENGINE_PATHS:
         keep(f"{engine}_portable_frame", _time_portable_frame(ctx, scene, engine, records, plan))
     keep("copy", _time_copy(ctx, records, plan))
     numpy_timed = count <= plan.numpy_up_to
@@ -100,7 +100,7 @@ def measure_size(ctx: moderngl.Context, scene: Scene, count: int, plan: BenchPla
     return SizeFigures(count, **seconds, frames=frames, live_after=live_after)
 
 
-def _ground_grid(scene: Scene) -> HeightGrid | None:
+def ground_grid(scene: Scene) -> HeightGrid | None:
     """The scene's height field, if it has one: where the preloaded pool starts."""
     collision = scene.collision
     if collision is None or collision.kind is not CollisionKind.HEIGHTFIELD:
@@ -114,7 +114,7 @@ def _time_engine(ctx: moderngl.Context, scene: Scene, engine: Engine, records: n
     then its particle pass alone; returns the live count after the frames."""
     system = ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
     try:
-        keep(f"{engine}_frame", _time_whole_frames(system, scene, records, plan))
+        keep(f"{engine}_frame", time_whole_frames(system, scene, records, plan))
         live_after = system.live_count
         if engine is Engine.GS_TF:
             keep("checksum", time_frames(system.checksum, WARMUP_FRAMES, plan.frames,
@@ -133,12 +133,12 @@ def _time_portable_frame(ctx: moderngl.Context, scene: Scene, engine: Engine,
     portable = dataclasses.replace(scene, engine=engine, arithmetic=Arithmetic.PORTABLE)
     system = ParticleSystem(ctx, portable)
     try:
-        return _time_whole_frames(system, scene, records, plan)
+        return time_whole_frames(system, scene, records, plan)
     finally:
         system.release()
 
 
-def _time_whole_frames(system: ParticleSystem, scene: Scene, records: np.ndarray,
+def time_whole_frames(system: ParticleSystem, scene: Scene, records: np.ndarray,
                        plan: BenchPlan) -> Timing:
     """Whole frames (step, then the checksum that waits for it) from `records`."""
     system.write_particles(records)

@@ -76,8 +76,9 @@ def gpu_table(report: dict) -> Table:
         if gpu is None:
             table.add_row(wall, "?", "did not answer the info query", "", "")
         else:
+            engine = f"{gpu['engine']} (probed)" if gpu["engine_probed"] else gpu["engine"]
             table.add_row(wall, f"{gpu['device']} ({gpu['kind']})", gpu["renderer"],
-                          gpu["version"], gpu["engine"])
+                          gpu["version"], engine)
     return table
 
 

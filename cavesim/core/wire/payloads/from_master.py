@@ -13,12 +13,15 @@ import numpy as np
 
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame import FrameInput
+from cavesim.core.scene.model import Engine
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 from cavesim.core.wire.payloads.poses import HeadState, WandState
 
 MAX_PARAMS = 32
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
-_CONTROL_TAIL = struct.Struct("<16sQ")  # a digest (RESYNC, WELCOME), nonce (WELCOME)
+_CONTROL_TAIL = struct.Struct("<16sQB")  # a digest (RESYNC, WELCOME), nonce and engine
+# (WELCOME)
+_ENGINE_CODES = {None: 0, Engine.GS_TF: 1, Engine.COMPUTE: 2}  # a WELCOME's engine byte
 _INFO_NONCE = struct.Struct("<Q")  # an info request's own nonce, after the node's name
 
 
@@ -27,7 +30,7 @@ class Command(IntEnum):
     STOP = 2  # every node ends cleanly
     SWAP = 3  # every swap-locked wall has drawn the frame: show it
     WELCOME = 4  # target joins this run (the header's run id) of the scene `digest` names;
-    # `nonce` is its own, fresh
+    # `nonce` is its own, fresh; `engine`: the path a node of `engine = "auto"` steps with
 
 
 @dataclass(frozen=True)
@@ -47,6 +50,7 @@ class ControlMessage:
     source: str = ""
     digest: str = ""  # RESYNC: the state to load's checksum; WELCOME: the scene's digest
     nonce: int = 0  # WELCOME: the nonce the target last sent in its info
+    engine: Engine | None = None  # WELCOME of a node that probed its path: the run's path
 
 
 @dataclass(frozen=True)
@@ -104,7 +108,7 @@ def write_control(m: ControlMessage) -> bytes:
     if not 0 <= m.nonce < 2**64:
         raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
     return bytes([m.command]) + name_bytes(m.target, True) + name_bytes(
-        m.source, True) + _CONTROL_TAIL.pack(digest, m.nonce)
+        m.source, True) + _CONTROL_TAIL.pack(digest, m.nonce, _ENGINE_CODES[m.engine])
 
 
 def read_control(frame: int, payload: bytes) -> ControlMessage:
@@ -115,9 +119,13 @@ def read_control(frame: int, payload: bytes) -> ControlMessage:
     if len(rest) != _CONTROL_TAIL.size:
         raise ProtocolError("bad-payload", f"control message ends in {len(rest)} bytes, "
                                            f"expected {_CONTROL_TAIL.size}")
-    digest, nonce = _CONTROL_TAIL.unpack(rest)
+    digest, nonce, engine = _CONTROL_TAIL.unpack(rest)
+    engines = {code: path for path, code in _ENGINE_CODES.items()}
+    if engine not in engines:
+        raise ProtocolError("bad-value", f"control message names engine {engine}: only "
+                                         f"{', '.join(map(str, engines))} are defined")
     return ControlMessage(frame, Command(payload[0]), target, source,
-                          digest.hex() if any(digest) else "", nonce)
+                          digest.hex() if any(digest) else "", nonce, engines[engine])
 
 
 def write_info_request(m: InfoRequest) -> bytes:

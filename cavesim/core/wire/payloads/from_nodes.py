@@ -20,6 +20,7 @@ _REPORT = struct.Struct(f"<16sII{len(PHASES)}IIB")
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED, INFO_COMPUTE = 0x01, 0x02, 0x04  # COMPUTE: else GS/TF
+INFO_AUTO = 0x08  # the node probed its engine path (`auto`) and steps with the run's
 _DISPLAY = struct.Struct("<BQ")  # phase, the node's monotonic clock in ns
 
 
@@ -59,23 +60,26 @@ class InfoMessage:
     nonce: int = 0  # fresh after every WELCOME: only a WELCOME naming it admits the node
     scene: str = ""  # the digest of the node's scene (`cavesim.core.scene.digest`)
     engine: Engine = Engine.GS_TF  # the particle engine path it steps with
+    auto: bool = False  # `engine` is its probe's choice: it steps with the run's path
 
     @classmethod
     def of_gpu(cls, frame: int, node: str, gpu: Mapping, swap_locked: bool = False,
-               nonce: int = 0, scene: str = "", engine: Engine = Engine.GS_TF) -> InfoMessage:
+               nonce: int = 0, scene: str = "", engine: Engine = Engine.GS_TF,
+               auto: bool = False) -> InfoMessage:
         """The message for a GPU as `cavesim.gpu.gl.context.gpu_of` describes it; characters
         the wire cannot carry become '?', and long strings are cut to MAX_TEXT."""
         def fit(text: str) -> str:
             return "".join(c if " " <= c <= "~" else "?" for c in text)[:MAX_TEXT]
 
         return cls(frame, node, gpu["device"], gpu["kind"] == "software", fit(gpu["renderer"]),
-                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce, scene, engine)
+                   fit(gpu["vendor"]), fit(gpu["version"]), swap_locked, nonce, scene, engine,
+                   auto)
 
     def gpu(self) -> dict:
         """The GPU as `gpu_of` describes it, and the engine path it ran, for report.json."""
         return {"device": self.device, "kind": "software" if self.software else "hardware",
                 "renderer": self.renderer, "vendor": self.vendor, "version": self.version,
-                "engine": self.engine.value}
+                "engine": self.engine.value, "engine_probed": self.auto}
 
 
 class Phase(IntEnum):
@@ -142,7 +146,7 @@ def write_info(m: InfoMessage) -> bytes:
     texts = b"".join(_text_bytes(what, getattr(m, what))
                      for what in ("renderer", "vendor", "version"))
     flags = (INFO_SOFTWARE if m.software else 0) | (INFO_SWAP_LOCKED if m.swap_locked else 0) \
-        | (INFO_COMPUTE if m.engine is Engine.COMPUTE else 0)
+        | (INFO_COMPUTE if m.engine is Engine.COMPUTE else 0) | (INFO_AUTO if m.auto else 0)
     if not 0 <= m.nonce < 2**64:
         raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
     scene = digest_bytes(m.scene) if m.scene else bytes(16)
@@ -154,7 +158,7 @@ def read_info(frame: int, payload: bytes) -> InfoMessage:
     if len(rest) < _INFO.size:
         raise ProtocolError("bad-payload", f"info body of {len(rest)} bytes is too short")
     device, flags, nonce, scene = _INFO.unpack_from(rest)
-    defined = INFO_SOFTWARE | INFO_SWAP_LOCKED | INFO_COMPUTE
+    defined = INFO_SOFTWARE | INFO_SWAP_LOCKED | INFO_COMPUTE | INFO_AUTO
     if flags & ~defined:
         raise ProtocolError("bad-value", f"info flags {flags:#x}: only {defined:#x} are "
                                          f"defined")
@@ -168,7 +172,8 @@ def read_info(frame: int, payload: bytes) -> InfoMessage:
     return InfoMessage(frame, node, device, bool(flags & INFO_SOFTWARE), *texts,
                        swap_locked=bool(flags & INFO_SWAP_LOCKED), nonce=nonce,
                        scene=scene.hex() if any(scene) else "",
-                       engine=Engine.COMPUTE if flags & INFO_COMPUTE else Engine.GS_TF)
+                       engine=Engine.COMPUTE if flags & INFO_COMPUTE else Engine.GS_TF,
+                       auto=bool(flags & INFO_AUTO))
 
 
 def write_display(m: DisplayMessage) -> bytes:
