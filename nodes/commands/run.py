@@ -122,7 +122,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     with ReportFile(plan.out / "report.json") as report_file:
         with Progress(*columns, console=console, transient=False) as progress:
             walls = sum(len(w) for w in plan.nodes.values())
-            task = progress.add_task(f"{walls} walls on {len(plan.members)} nodes",
+            nodes = len(plan.members)
+            task = progress.add_task(f"{walls} walls on {nodes} node{'s' * (nodes != 1)}",
                                      total=plan.frames, live=0)
             record = run_cluster(plan.cluster(), lambda k, live: progress.update(
                 task, completed=k, live=live), checkpoint=report_file.checkpoint)
