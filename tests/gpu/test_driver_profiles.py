@@ -18,6 +18,7 @@ from cavesim.core.wire.network import NetworkSettings
 from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
+from cavesim.gpu.gl.fence import FIRST_WAIT_NS, WAIT_LIMIT_SECONDS, first_wait_ns
 from cavesim.gpu.gl.vendors import UNKNOWN, VENDORS, vendor_of
 from cavesim.gpu.shader_source import ShaderSource
 from cavesim.tools.doctor.probe import examine
@@ -113,6 +114,14 @@ def test_the_vendor_is_known_before_and_after_a_context_opens(profile):
     context = profile["contexts"][0]["asked"]["430"]
     assert vendor_of(tuple(device["extensions"])).name == profile["expect"]["vendor"]
     assert vendor_of((), context).name == profile["expect"]["vendor"]
+
+
+def test_a_driver_whose_waits_spin_is_polled_and_one_that_sleeps_is_left_to_wait(profile):
+    device = profile["egl"]["devices"][0]
+    context = profile["contexts"][0]["asked"]["430"]
+    waited_ns = first_wait_ns(tuple(device["extensions"]), context)
+    assert (waited_ns == FIRST_WAIT_NS) == profile["expect"]["waits_spin"]
+    assert waited_ns in (FIRST_WAIT_NS, WAIT_LIMIT_SECONDS * 1e9)
 
 
 def test_the_doctor_reaches_the_right_verdict(profile):

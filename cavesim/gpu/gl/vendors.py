@@ -1,8 +1,12 @@
-"""Whose driver a device runs, and so which fix fits it when it cannot run cavesim.
+"""Whose driver a device runs, and so which fix fits it when it cannot run cavesim, and
+how it waits.
 
 One table: a vendor is recognised by a device extension only its EGL offers (before any
 context exists) or by a word of its GL strings (after), and it has one fix. An NVIDIA
-GPU is never told to install Mesa, and llvmpipe never to update a GPU driver.
+GPU is never told to install Mesa, and llvmpipe never to update a GPU driver. Whether a
+blocking GL wait spins a core is the vendor's too (`cavesim.gpu.gl.fence` polls where it
+does): NVIDIA's does (DESIGN.md); Mesa's sleeps on a condition; an unknown driver is
+polled, to be safe.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ class Vendor:
     device_extension: str | None  # an EGL device extension that names this vendor's driver
     gl_word: str  # a word of GL_VENDOR, GL_RENDERER or GL_VERSION that names it
     fix: str  # what to install when its driver cannot give what cavesim needs
+    waits_spin: bool = True  # its blocking waits (glFinish, reads, glClientWaitSync) spin
 
 
 VENDORS = (  # first match wins: NVIDIA also lists EGL_EXT_device_drm, llvmpipe says "Mesa"
@@ -26,10 +31,11 @@ VENDORS = (  # first match wins: NVIDIA also lists EGL_EXT_device_drm, llvmpipe 
            "install NVIDIA's current driver for this GPU (it brings its EGL and OpenGL 4.6; "
            "`nvidia-smi` shows the one installed)"),
     Vendor("Mesa llvmpipe", "EGL_MESA_device_software", "llvmpipe",
-           f"install Mesa 20 or newer ({MESA_PACKAGES}): llvmpipe gives OpenGL 4.5"),
+           f"install Mesa 20 or newer ({MESA_PACKAGES}): llvmpipe gives OpenGL 4.5",
+           waits_spin=False),
     Vendor("Mesa", "EGL_EXT_device_drm", "Mesa",
            f"install Mesa 20 or newer ({MESA_PACKAGES}): its AMD (radeonsi) and Intel (iris) "
-           f"drivers give OpenGL 4.6"),
+           f"drivers give OpenGL 4.6", waits_spin=False),
 )
 UNKNOWN = Vendor("unknown", None, "", "install the GPU vendor's current OpenGL driver with "
                                       "its EGL library")
