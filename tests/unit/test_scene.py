@@ -194,6 +194,39 @@ def test_bench() -> None:
     assert scene.collision is not None and scene.collision.kind is CollisionKind.PLANE
 
 
+def test_a_scene_extends_its_base_key_by_key_and_scales_its_emitters(tmp_path: Path) -> None:
+    write(tmp_path, FULL_TOML, "full.toml")
+    path = write(tmp_path, 'base = "full.toml"\nname = "more"\nemission_scale = 3.0\n'
+                           '[simulation]\ncapacity = 5000\n[forces]\ngravity = [0, 0, -1]\n',
+                 "more.toml")
+    full, more = load_scene(tmp_path / "full.toml"), load_scene(path)
+    assert (more.name, more.capacity) == ("more", 5000)
+    assert (more.seed, more.integrator) == (full.seed, full.integrator)  # [simulation] merged
+    assert more.forces.gravity == (0.0, 0.0, -1.0) and more.forces.drag == full.forces.drag
+    assert [e.rate for e in more.emitters] == [3 * e.rate for e in full.emitters]
+    assert more.emitters[0].position == full.emitters[0].position
+
+
+@pytest.mark.parametrize(("text", "needles"), [
+    ('base = 3\n', ("base = 3 is not allowed", "path of a scene file")),
+    ('base = "nowhere.toml"\n', ("nowhere.toml", "cannot read base scene file")),
+    ('base = "twice.toml"\n', ("has a base of its own", "one file at most")),
+    ('base = "full.toml"\nemission_scale = 2e6\n', ("emission_scale", "<= 1e+06")),
+    ('base = "fast.toml"\nemission_scale = 1e6\n', ("emission_scale", "rate 5e+09 per second",
+                                                     "at most 1e+09")),
+    ('base = "full.toml"\nemission_scale = 0\n', ("emission_scale", "> 0")),
+])
+def test_a_bad_base_or_scale_is_one_line(tmp_path: Path, text: str,
+                                         needles: tuple[str, ...]) -> None:
+    write(tmp_path, FULL_TOML.replace("rate = 500.0", "rate = 5000.0"), "fast.toml")
+    write(tmp_path, FULL_TOML, "full.toml")
+    write(tmp_path, 'base = "full.toml"\n', "twice.toml")
+    with pytest.raises(SceneError) as error:
+        load_scene(write(tmp_path, text, "child.toml"))
+    assert "\n" not in str(error.value)
+    assert all(needle in str(error.value) for needle in needles), str(error.value)
+
+
 def test_dust_relaxation_time() -> None:
     dust = ParticleClass("dust", diameter=10e-6, density=2650.0)
     assert dust.relaxation_time() == pytest.approx(0.8e-3, rel=0.05)

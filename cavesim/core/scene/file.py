@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated
 
-from cavesim.core._schema import Range
+from cavesim.core._schema import Note, Range
 from cavesim.core.scene.model import (
     Collision,
     Emitter,
@@ -31,6 +31,11 @@ class SceneFile:
     keys that depend on their kind)."""
 
     name: str | None = None  # default: the file's stem
+    base: Annotated[str, Note("a scene file (relative to this one) whose tables this one "
+                              "extends: a key or table given here replaces the base's")
+                    ] | None = None
+    emission_scale: Annotated[float, Range(gt=0.0, le=1e6),
+                              Note("every emitter's rate times this")] = 1.0
     simulation: Simulation
     particle_class: tuple[ParticleClass, ...] = ()
     emitter: tuple[Emitter, ...] = ()

@@ -28,6 +28,7 @@ from cavesim.core.limits import (
     MAX_EMITTERS,
     MAX_FIELD_NODES,
     MAX_PARTICLE_CLASSES,
+    MAX_RATE,
 )
 from cavesim.core.random_texture import WORDS_PER_TEXEL
 from cavesim.core.scene.drag_choice import chosen_law, flow_scales
@@ -49,9 +50,37 @@ from cavesim.core.scene.model import (
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and check the scene file at `path`; `Scene.source` is `path` as given."""
+    """Read and check the scene file at `path`; `Scene.source` is `path` as given. A file
+    with a `base` extends that scene file: its top-level keys replace the base's, its
+    tables are merged key by key into the base's, its arrays of tables replace the base's."""
     path = Path(path)
-    return parse_scene(read_toml(path, SceneError, "scene file"), path, path.stem)
+    data = read_toml(path, SceneError, "scene file")
+    if "base" in data:
+        data = _extended(path, data)
+    return parse_scene(data, path, path.stem)
+
+
+def _extended(path: Path, data: dict[str, Any]) -> dict[str, Any]:
+    """`data` laid over the scene file its `base` names (which may not have a base)."""
+    base = data["base"]
+    if not isinstance(base, str) or not base:
+        raise SceneError(f"{path}: base = {base!r} is not allowed: must be the path of a scene "
+                         f"file, relative to this one")
+    base_path = path.parent / base
+    under = read_toml(base_path, SceneError, f"base scene file of {path}")
+    if "base" in under:
+        raise SceneError(f"{path}: base = {base!r} is not allowed: {base_path} has a base of "
+                         f"its own; a scene extends one file at most")
+    return _merged(under, {key: value for key, value in data.items() if key != "base"})
+
+
+def _merged(under: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    merged = dict(under)
+    for key, value in over.items():
+        below = merged.get(key)
+        merged[key] = _merged(below, value) if isinstance(below, dict) and isinstance(
+            value, dict) else value
+    return merged
 
 
 def parse_scene(data: Mapping[str, Any], source: Path | None = None,
@@ -73,6 +102,7 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
     emitter_tables = top.tables("emitter")
     emitters = tuple(_emitter(t, class_index) for t in emitter_tables)
     unique_names(emitter_tables, (e.name for e in emitters))
+    emitters = _scaled(top, emitters)
     for key, tables, most in (("particle_class", classes, MAX_PARTICLE_CLASSES),
                               ("emitter", emitters, MAX_EMITTERS)):
         if len(tables) > most:
@@ -140,6 +170,16 @@ def _check_dispersion(top: Table, forces: Forces, collision: Collision | None, s
                         f"particle a frame, {WORDS_PER_TEXEL} per texel of the "
                         f"{sim.random_texture_size}² random texture (raise "
                         "simulation.random_texture_size)")
+
+
+def _scaled(top: Table, emitters: tuple[Emitter, ...]) -> tuple[Emitter, ...]:
+    """The emitters with their rates times the file's `emission_scale`."""
+    scale = top.get("emission_scale")
+    if too_fast := [e for e in emitters if e.rate * scale > MAX_RATE]:
+        raise top.bad("emission_scale", f"makes emitter {too_fast[0].name!r}'s rate "
+                                         f"{too_fast[0].rate * scale:g} per second; at most "
+                                         f"{MAX_RATE:g} allowed")
+    return tuple(dataclasses.replace(e, rate=e.rate * scale) for e in emitters)
 
 
 def _emitter(t: Table, class_index: Mapping[str, int]) -> Emitter:
