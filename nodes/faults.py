@@ -30,7 +30,7 @@ SETTLE = 30  # frames after an attack on the whole cluster before its effects ar
 # the harness makes these kinds' node diverge this many times, DIVERGENCE_GAP frames apart:
 # a query replay captures the first resync's queries and replays them against the second's;
 # a collision's forgers race the wall asked for its state, and win only now and then
-DIVERGENCES = {"query-replay": 2, "snapshot-collision": 5}
+DIVERGENCES = {"query-replay": 2, "snapshot-collision": 8}
 DIVERGENCE_GAP = 10
 EVERY_KIND_SPACING = 90  # frames between the faults of `every_kind`: past a collision's
 # eight divergences and the measurements after them

@@ -133,7 +133,7 @@ def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
 
 
 def test_a_state_with_the_named_checksum_from_another_wall_is_refused(tmp_path):
-    report = check(tmp_path, ["snapshot-collision@20:right"], frames=70, scene=MINIMAL)
+    report = check(tmp_path, ["snapshot-collision@20:right"], frames=100, scene=MINIMAL)
     assert_each_fault_caught(report, ["snapshot-collision@20:right"])
     (collision,) = report["faults"]
     made = collision["detection"]["collisions"]

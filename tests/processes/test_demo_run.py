@@ -26,11 +26,11 @@ def test_brownout_run_is_consistent_replays_and_plots(tmp_path, ctx):
     assert flight[-1]["emission_rate"] > flight[0]["emission_rate"] > 0, "more dust lower down"
     assert flight[-1]["altitude"] < flight[0]["altitude"]
     assert report["live_particles"]["max"] > 1000
-    cost = report["frame_cost_ms"]  # where each wall's frame went
+    cost = report["frame_cost_ms"]  # where each node's frame went
     assert set(cost) == {"front", "left"}
     assert all(cost[wall]["step"]["p50"] > 0 and cost[wall]["checksum"]["p50"] > 0
                and cost[wall]["input_wait"]["p99"] > 0 for wall in cost)
-    assert "where each wall's frame went" in result.stdout
+    assert "where each node's frame went" in result.stdout
     assert [Path(p).name for p in report["plots"]] == ["live_and_emission_vs_time.png",
                                                        "emission_vs_altitude.png"]
     result = replay(tmp_path / "frames.log", ROOT / "config/scenes/brownout.toml", ctx=ctx)
