@@ -1,8 +1,10 @@
-"""A wall node: one GL context, one ParticleSystem, stepped in lock-step with the cluster.
+"""A node: one GL context, one ParticleSystem, stepped in lock-step with the cluster, and
+the one wall or the several walls it draws from it (`NodeConfig.drawn`).
 
 The context is opened on the EGL device the node was given (`--gpu`, default device 0),
-or, with `--display`, is the context of the wall's window on its X display (`--preview`:
-one window showing every wall). Zenoh's threads check every message before it reaches the
+or, with `--display`, is the context of its walls' window on its X display (`--preview`:
+one window showing every wall). With `engine = "auto"` the node first times both engine
+paths on its context and steps with the path the master's WELCOME names. Zenoh's threads check every message before it reaches the
 main thread (`nodes/wall/inbox.py`); the main thread, which owns the GL context, does
 all work:
 an info query -> answer with our GPU and a fresh nonce; the master's WELCOME naming that
