@@ -12,7 +12,7 @@ from pathlib import Path
 import moderngl
 from PIL import Image
 
-from cavesim.core.cave.geometry import load_cave
+from cavesim.core.cave.geometry import Cave
 from cavesim.core.cave.projection import eye_positions
 from cavesim.core.output import writing
 from cavesim.core.scene_frame import SceneFrame
@@ -22,11 +22,11 @@ from cavesim.gpu.render.wall_renderer import WallRenderer
 
 
 class WallPainter:
-    def __init__(self, config, ctx: moderngl.Context, system: ParticleSystem) -> None:
-        if config.cave is None or config.images is None:
+    def __init__(self, config, cave: Cave | None, ctx: moderngl.Context,
+                 system: ParticleSystem) -> None:
+        if cave is None or config.images is None:
             raise ValueError("rendering needs both a CAVE file (--cave) and an image folder "
                              "(--images)")
-        cave = load_cave(config.cave)
         if unknown := [w for w in config.drawn if w not in cave.names]:
             raise ValueError(f"wall {unknown[0]!r} is not in {config.cave}: it has "
                              f"{', '.join(cave.names)}")

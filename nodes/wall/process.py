@@ -4,9 +4,9 @@ the one wall or the several walls it draws from it (`NodeConfig.drawn`).
 The context is opened on the EGL device the node was given (`--gpu`, default device 0),
 or, with `--display`, is the context of its walls' window on its X display (`--preview`:
 one window showing every wall). With `engine = "auto"` the node first times both engine
-paths on its context and steps with the path the master's WELCOME names. Zenoh's threads check every message before it reaches the
-main thread (`nodes/wall/inbox.py`); the main thread, which owns the GL context, does
-all work:
+paths on its context and steps with the path the master's WELCOME names. Zenoh's threads
+check every message before it reaches the main thread (`nodes/wall/inbox.py`); the main
+thread, which owns the GL context, does all work:
 an info query -> answer with our GPU and a fresh nonce; the master's WELCOME naming that
 nonce -> join its run (a node that held another run, whose master is gone, starts over
 from the scene's start state; while that master is alive, the WELCOME is refused) and
@@ -175,7 +175,7 @@ class WallNode:
         self.live = None if window is None else LiveDisplay(
             node_screen(config, cave, window, self.system), self._display)
         self.controls = PreviewControls(window.window) if config.preview else None
-        self.painter = WallPainter(config, self.ctx, self.system) \
+        self.painter = WallPainter(config, cave, self.ctx, self.system) \
             if config.render_every and window is None else None
         self.view = NodeView(config.name, secrets.randbits(64))
         self.inbox = NodeInbox(config.session, config.credentials, self.view)

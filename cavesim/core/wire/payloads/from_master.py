@@ -22,6 +22,7 @@ _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, butto
 _CONTROL_TAIL = struct.Struct("<16sQB")  # a digest (RESYNC, WELCOME), nonce and engine
 # (WELCOME)
 _ENGINE_CODES = {None: 0, Engine.GS_TF: 1, Engine.COMPUTE: 2}  # a WELCOME's engine byte
+_ENGINES = {code: engine for engine, code in _ENGINE_CODES.items()}
 _INFO_NONCE = struct.Struct("<Q")  # an info request's own nonce, after the node's name
 
 
@@ -120,12 +121,11 @@ def read_control(frame: int, payload: bytes) -> ControlMessage:
         raise ProtocolError("bad-payload", f"control message ends in {len(rest)} bytes, "
                                            f"expected {_CONTROL_TAIL.size}")
     digest, nonce, engine = _CONTROL_TAIL.unpack(rest)
-    engines = {code: path for path, code in _ENGINE_CODES.items()}
-    if engine not in engines:
+    if engine not in _ENGINES:
         raise ProtocolError("bad-value", f"control message names engine {engine}: only "
-                                         f"{', '.join(map(str, engines))} are defined")
+                                         f"{', '.join(map(str, _ENGINES))} are defined")
     return ControlMessage(frame, Command(payload[0]), target, source,
-                          digest.hex() if any(digest) else "", nonce, engines[engine])
+                          digest.hex() if any(digest) else "", nonce, _ENGINES[engine])
 
 
 def write_info_request(m: InfoRequest) -> bytes:
