@@ -19,6 +19,7 @@ from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
 from cavesim.gpu.gl.fence import FIRST_WAIT_NS, WAIT_LIMIT_SECONDS, first_wait_ns
+from cavesim.gpu.gl.primitive_counts import query_buffers_offered
 from cavesim.gpu.gl.vendors import UNKNOWN, VENDORS, vendor_of
 from cavesim.gpu.shader_source import ShaderSource
 from cavesim.tools.doctor.probe import examine
@@ -212,3 +213,23 @@ def test_the_scan_lets_a_creation_that_asks_pass():
     assert opener_problems("moderngl.create_context(require=REQUIRED_GL_VERSION)\n"
                            "create_context(device=1)\n", "snippet") == []
 
+
+
+@pytest.mark.parametrize(("version_code", "extensions", "offered"), [
+    (450, set(), True),  # llvmpipe, radeonsi: core from 4.4
+    (430, {"GL_ARB_query_buffer_object"}, True),  # a 4.3 context that lists the extension
+    (430, set(), False),  # one that does not: the host reads the counts
+])
+def test_query_buffers_come_from_the_version_or_the_extension(version_code, extensions,
+                                                              offered):
+    assert query_buffers_offered(version_code, extensions) is offered
+
+
+def test_each_recorded_context_says_whether_gs_tf_counts_stay_on_the_gpu(profile):
+    """The context cavesim asks for (4.3): Mesa's say 4.5 and 4.6; NVIDIA's says 4.3.0 and
+    keeps the counts on the GPU only where it lists the extension, which the recording does
+    not hold."""
+    for context in profile["contexts"]:
+        asked = context["asked"][str(REQUIRED_GL_VERSION)]
+        assert query_buffers_offered(asked["version_code"], set()) is \
+            profile["expect"]["query_buffers"]

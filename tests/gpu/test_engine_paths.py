@@ -190,7 +190,9 @@ def test_a_frame_with_more_emission_segments_than_one_dispatch_allows(pair):
     # max_emit is capped at the capacity: 4000 / 64 -> 63 batches x 2 emitters = 126 segments
     burst = dict(FOUNTAIN, rate=1e9)
     both = pair(make_scene(emitters=[burst, dict(burst, name="second")], capacity=4000))
-    both.compute._passes._max_groups = 5  # as if the driver allowed 5 work groups per dispatch
+    # as if the driver allowed 5 work groups per dispatch: the compute path's append and
+    # the GS/TF splice each take more than one
+    both.compute._passes._max_groups = both.gs_tf._passes._max_groups = 5
     for _ in range(3):
         both.step()
     both.assert_same_bytes()

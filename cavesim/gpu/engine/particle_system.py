@@ -3,9 +3,11 @@
 A frame (`step`) updates the emitter stream (`emission.py`), then steps the particle stream
 into the back buffers by the scene's engine path, then swaps:
   - gs_tf (`gs_tf.py`, the paper's method): a transform-feedback particle pass streams out
-    the survivors in input order, and the emitters append their new particles after them;
+    the survivors in input order, and the emitters' new particles go after them;
   - compute (`compute.py`): an in-place compute update, an ordered stream compaction and an
-    append, giving the same bytes with one wait per frame.
+    append, giving the same bytes.
+Both leave the new live count on the GPU: the frame waits once, when the checksum reads it
+back with the digest (GS/TF also once per count where the context has no query buffers).
 Only the scene's features are compiled in and allocated (see `programs.py`). The capacity
 is checked against the context's limits (`capacity.py`) before anything is allocated.
 
@@ -111,8 +113,8 @@ class ParticleSystem:
                                    self.fence, self.timers)
         else:
             passes = GsTfPasses(self.ctx, self.scene, self._particle_buffers,
-                                self._emitter_buffers, self._bind_samplers, self.fence,
-                                self.timers)
+                                self._emitter_buffers, self._bind_samplers, self._buffer,
+                                self.fence, self.timers)
         write_uniforms(passes.program,
                        physics_uniforms(self.scene, self.field_grid, self.ground_grid))
         return passes
@@ -202,7 +204,7 @@ class ParticleSystem:
 
     @property
     def live_count(self) -> int:
-        """Live particles; after a compute-path frame, the first call reads them back."""
+        """Live particles; after a frame, the first call reads them back (waits)."""
         if self._live is None:
             self._live = self._passes.read_live()
         return self._live
@@ -268,8 +270,8 @@ class ParticleSystem:
 
     def checksum(self) -> StateChecksum:
         """Digest of the live particle and emitter streams, computed on the GPU. After a
-        compute-path frame the live count is still on the GPU: the checksum takes it from
-        there, and its one 24-byte read brings back the digest and the count together (the
+        frame the live count is still on the GPU: the checksum takes it from there, and its
+        one 24-byte read brings back the digest and the count together (the
         frame's only wait)."""
         if self._live is not None:
             return self._state_checksum(self._current, self._live, self.scene.seed)

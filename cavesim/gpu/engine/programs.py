@@ -103,6 +103,8 @@ BLOCK_UPDATE = ProgramSpec("particles/update_blocks.glsl", ("compute",),
 SCAN = ProgramSpec("particles/scan.glsl", ("compute",), tuple(SCAN_DEFINES))
 COMPACT = ProgramSpec("particles/compact.glsl", ("compute",), tuple(BLOCK_DEFINES))
 APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATURES))
+# the GS/TF path's move of the emission after the survivors (cavesim/gpu/engine/gs_tf.py)
+SPLICE = ProgramSpec("particles/splice.glsl", ("compute",), tuple(BLOCK_DEFINES))
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
@@ -145,7 +147,8 @@ def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
                 *((spec, defines) for _, spec, defines in CHECKSUM_PROGRAMS)]
     if scene.emitters:
         emission = emission_defines(scene)
-        programs += [(EMITTER_UPDATE, emission), (EMIT, emission), (APPEND, emission)]
+        programs += [(EMITTER_UPDATE, emission), (EMIT, emission), (APPEND, emission),
+                     (SPLICE, BLOCK_DEFINES)]
     return programs
 
 
@@ -158,7 +161,7 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
     for spec in (EMITTER_UPDATE, EMIT, APPEND):
         for values in itertools.product(*EMISSION_FEATURES.values()):
             yield spec, dict(zip(EMISSION_FEATURES, values, strict=True))
-    for spec, defines in ((SCAN, SCAN_DEFINES), (COMPACT, BLOCK_DEFINES),
+    for spec, defines in ((SCAN, SCAN_DEFINES), (COMPACT, BLOCK_DEFINES), (SPLICE, BLOCK_DEFINES),
                           *((spec, defines) for _, spec, defines in CHECKSUM_PROGRAMS)):
         yield spec, dict(defines)
 
@@ -255,4 +258,8 @@ def compact_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
 
 def append_program(ctx: moderngl.Context, scene: Scene) -> moderngl.ComputeShader:
     return APPEND.build(ctx, emission_defines(scene))
+
+
+def splice_program(ctx: moderngl.Context) -> moderngl.ComputeShader:
+    return SPLICE.build(ctx, BLOCK_DEFINES)
 
