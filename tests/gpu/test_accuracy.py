@@ -35,6 +35,7 @@ from cavesim.tools.numerics.cases import (
     HELICOPTER_SCENE,
     QUICK_PARTICLES,
     REPORT_DT,
+    SAND_METHODS,
     TAU,
     smooth_vortex_case,
     uniform_case,
@@ -55,6 +56,7 @@ from nodes.arguments import REPO_ROOT
 from nodes.cli import main
 
 CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline", "downwash")
+SAND_CASES = ("vortex_sand", "downwash_sand")  # measured with SAND_METHODS only
 SMOOTH_CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline")
 FLOAT32_FLOOR = 1e-4  # m: what float32 arithmetic may add to a GPU error over T = 1 s
 GPU_TO_TWIN_FACTOR = 2.0
@@ -323,16 +325,17 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert printed.count("Reference error at most") == len(result.reference_accuracy) > 0
     with (out / "accuracy.csv").open(newline="") as file:
         rows = list(csv.DictReader(file))
-    assert len(rows) == len(CASES) * len(METHODS) * len(QUICK_DTS)
+    measured = len(CASES) * len(METHODS) + len(SAND_CASES) * len(SAND_METHODS)
+    assert len(rows) == measured * len(QUICK_DTS)
     assert {r["dt_label"] for r in rows} == {"1/15", "1/30", "1/60", "1/120", "1/240"}
     report = json.loads((out / "accuracy.json").read_text())
     assert report["command"] == "accuracy" and report["particles"] == QUICK_PARTICLES
-    assert len(report["summary"]) == len(CASES) * len(METHODS)
+    assert len(report["summary"]) == measured
     assert len(report["sweep"]) == len(report["cases"]) * len(TOLERANCES)
     assert report["final_time"] / report["tau"] >= 10
-    assert [c["name"] for c in report["cases"]] == list(CASES)
+    assert [c["name"] for c in report["cases"]] == [*CASES, *SAND_CASES]
     text = (out / "accuracy.md").read_text()
-    for heading in (*(f"## {case}" for case in CASES), "observed (f64)", "portable cost",
+    for heading in (*(f"## {case}" for case in (*CASES, *SAND_CASES)), "observed (f64)", "portable cost",
                     "evals per step", "GPU vel RMS (m/s)", "GPU cloud", "Reference check",
                     "Reference error at most", "= 10 tau"):
         assert heading in text
@@ -372,3 +375,21 @@ def test_bad_flags_end_with_a_usage_error(capsys, argv, flag):
     assert main(argv) == 2
     message = capsys.readouterr().err
     assert flag in message and "Traceback" not in message
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("case", ["vortex_sand", "downwash_sand"])
+def test_etd2rk_is_second_order_under_schiller_naumann_drag(quick_run, case):
+    """The demo's sand, whose drag rate follows the slip: ETD2RK observed at order 2 within
+    0.1, the exponential step (the rate held over the step) at order 1; and the GPU follows
+    its twin."""
+    result, _, _ = quick_run
+    etd2rk = next(m for m in METHODS if m.integrator is Integrator.ETD2RK)
+    exponential = next(m for m in METHODS if m.integrator is Integrator.EXPONENTIAL)
+    for method, order in ((etd2rk, 2), (exponential, 1)):
+        summary = summary_of(result, case, method)
+        assert summary.expected == order and summary.verdict == "ok", summary
+        assert abs(summary.observed - order) <= 0.1, (case, method.name, summary.observed)
+        assert summary.gpu_rms <= GPU_TO_TWIN_FACTOR * summary.twin_rms + FLOAT32_FLOOR
+    assert [s.integrator for s in result.summaries if s.case == case] == [
+        "exponential", "etd2rk"]

@@ -73,9 +73,17 @@ class PortableForces:
             f = f_add(f, self.gravity)
         return f
 
-    def forcing(self, p: np.ndarray, drag: np.ndarray) -> np.ndarray:
-        """`forcing_at` of physics.glsl: f at p for the drag rate `drag` (N, 1)."""
-        return self._forcing(None if self.flow is None else self.flow(p), drag)
+    def remainder(self, p: np.ndarray, v: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """`remainder_at` of physics.glsl: what the linear part with the drag rate `held`
+        (N, 1) leaves of the acceleration at (p, v) (the float64 twin's `remainder`)."""
+        if self.flow is None:
+            return self._forcing(None, held)
+        u = self.flow(p)
+        drag = self.drag_rate(f_sub(u, v))
+        remainder = self._forcing(u, drag)
+        if self.reynolds_per_speed is None:
+            return remainder
+        return f_sub(remainder, f_mul(f_sub(drag, held), v))
 
     def linear_parts(self, p: np.ndarray, v: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -136,7 +136,9 @@ def etd2rk(p, v, h, forces):
     phi3 = phi3_weight(x, phi2)
     r = f_sub(f, f_mul(lam, v))
     w = f_add(v, f_mul(f_mul(h, phi2), r))
-    d = f_sub(forces.forcing(f_add(p, f_mul(h, w)), drag), f)
+    pa = f_add(p, f_mul(h, w))
+    va = f_add(v, f_mul(f_mul(h, phi1), r))
+    d = f_sub(forces.remainder(pa, va, drag), f)
     p = forces.move(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))))
     return p, f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))))
 

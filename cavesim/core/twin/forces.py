@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -10,6 +11,7 @@ import numpy as np
 from cavesim.core.drag import drag_factor
 
 FlowSampler = Callable[[np.ndarray], np.ndarray]
+PER_PARTICLE = ("inv_tau", "reynolds_per_speed", "turbulence")  # ForceModel's (N, k) columns
 
 
 @dataclass(frozen=True)
@@ -25,6 +27,12 @@ class ForceModel:
     flow: FlowSampler | None  # u(p) for points (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
+
+    def of_rows(self, rows: np.ndarray) -> ForceModel:
+        """The model of the particles in `rows`: its per-particle columns taken there."""
+        return dataclasses.replace(self, **{
+            name: getattr(self, name)[rows] for name in PER_PARTICLE
+            if getattr(self, name) is not None})
 
     def drag_rate(self, slip: np.ndarray) -> np.ndarray:
         """lambda (N, 1) at the slip u - v (N, 3)."""
@@ -54,10 +62,19 @@ class ForceModel:
             f = f + self.gravity
         return f
 
-    def forcing(self, p: np.ndarray, drag: np.ndarray) -> np.ndarray:
-        """f = (u(p) + u_t) lambda_d + g of dv/dt = f - lambda v for the drag rate lambda_d
-        (N, 1) held over the step (ETD2RK's second stage)."""
-        return self._forcing(None if self.flow is None else self.flow(p), drag)
+    def remainder(self, p: np.ndarray, v: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """N(p, v) = a(p, v) + (held + k) v: what the linear part -(held + k) v, its drag rate
+        `held` (N, 1) taken at the step's start, leaves of the acceleration (ETD2RK's second
+        stage). With the drag rate lambda_d at (p, v) itself, that is
+        (u(p) + u_t) lambda_d + g - (lambda_d - held) v; for Stokes drag lambda_d = held."""
+        if self.flow is None:
+            return self._forcing(None, held)
+        u = self.flow(p)
+        drag = self.drag_rate(u - v)
+        remainder = self._forcing(u, drag)
+        if self.reynolds_per_speed is None:
+            return remainder
+        return remainder - (drag - held) * v
 
     def linear_parts(self, p: np.ndarray, v: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

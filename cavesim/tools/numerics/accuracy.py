@@ -33,7 +33,7 @@ from cavesim.tools.numerics.cases import (
     build_cases,
 )
 from cavesim.tools.numerics.display import progress_bar, show
-from cavesim.tools.numerics.methods import METHODS
+from cavesim.tools.numerics.methods import METHODS, Method
 from cavesim.tools.numerics.reference import (
     REFINEMENT,
     TOLERANCES,
@@ -114,7 +114,7 @@ def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, conso
     workers = workers or min(os.cpu_count() or 1, MAX_WORKERS)
     gl = describe(ctx)
     jobs = _float64_jobs(cases, dts, final_time, workers)
-    gpu_total = sum(len(dts) * len(METHODS) * len(_variants(c)) for c in cases)
+    gpu_total = sum(len(dts) * len(_methods(c)) * len(_variants(c)) for c in cases)
     with progress_bar(console) as progress:
         task = progress.add_task("accuracy", total=gpu_total + len(jobs))
 
@@ -132,6 +132,11 @@ def run_accuracy(cases: list[Case], dts: tuple[float, ...], out_dir: Path, conso
     return AccuracyResult(rows, summaries, sweep, accuracies, report, paths)
 
 
+def _methods(case: Case) -> list[Method]:
+    """The rows of METHODS the case is measured with."""
+    return [m for m in METHODS if m.integrator in case.integrators]
+
+
 def _variants(case: Case) -> list[GpuVariant]:
     """Manual trilinear and portable arithmetic always, hardware filtering where asked."""
     return [MANUAL, PORTABLE] + ([HARDWARE] if case.filtering else [])
@@ -143,7 +148,7 @@ def _gpu_phase(ctx: moderngl.Context, cases: list[Case], dts: tuple[float, ...],
     """GPU runs by (case, integrator, variant name)."""
     runs = {}
     for case in cases:
-        for method in METHODS:
+        for method in _methods(case):
             for variant in _variants(case):
                 label = f"GPU {case.name} {method.name} ({variant.name})"
                 runs[case.name, method.name, variant.name] = gpu_runs(
@@ -178,7 +183,7 @@ def _float64_jobs(cases: list[Case], dts: tuple[float, ...], final_time: float,
                       (case, final_time, tolerance)) for case in cases]
     for case in cases:
         jobs += [_Job(("twin", case.name, m.name), twin_runs,
-                      (case, m.integrator, dts, final_time)) for m in METHODS]
+                      (case, m.integrator, dts, final_time)) for m in _methods(case)]
     return jobs
 
 
@@ -221,7 +226,7 @@ def _evaluate(cases: list[Case], gpu: dict, done: dict, final_time: float
         reference = _reference(case, done, final_time)
         scale = float(np.sqrt(np.mean(np.sum(reference.pos**2, axis=1))))
         case_rows, case_summaries = [], []
-        for method in METHODS:
+        for method in _methods(case):
             hardware = gpu.get((case.name, method.name, HARDWARE.name))
             method_rows = make_rows(case, method, reference,
                                     gpu[case.name, method.name, MANUAL.name],

@@ -14,7 +14,6 @@ II.4 eqs. (4.11)-(4.13).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,13 +58,6 @@ class AdaptiveRun:
         return 1 + NEW_STAGES * (self.accepted + self.rejected)
 
 
-def _rows(forces: ForceModel, rows: np.ndarray) -> ForceModel:
-    """The force model of the particles in `rows` (only the drag rate is per particle)."""
-    if forces.inv_tau is None:
-        return forces
-    return dataclasses.replace(forces, inv_tau=forces.inv_tau[rows])
-
-
 def _stages(p, v, h, kp1, kv1, forces):
     """All seven stages of one step; h is (M, 1). Returns (kp, kv) lists."""
     return runge_kutta_stages(p, v, h, DP54_A[1:], forces, [kp1], [kv1])
@@ -92,7 +84,7 @@ def dormand_prince(pos: np.ndarray, vel: np.ndarray, forces: ForceModel, end_tim
         step = np.minimum(h[active], end_time - t[active])
         last = step >= end_time - t[active]
         hs = step[:, None]
-        pa, va, model = p[active], v[active], _rows(forces, active)
+        pa, va, model = p[active], v[active], forces.of_rows(active)
         kp, kv = _stages(pa, va, hs, kp1[active], kv1[active], model)
         p5, v5 = _combine(pa, hs, kp, DP54_B5), _combine(va, hs, kv, DP54_B5)
         p4, v4 = _combine(pa, hs, kp, DP54_B4), _combine(va, hs, kv, DP54_B4)

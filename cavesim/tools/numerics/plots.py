@@ -47,7 +47,7 @@ def work_precision(rows: list[Row], cases: list[str], cost: Cost, path: Path) ->
         ax.set_xlabel(cost.label)
         ax.grid(True, which="major", linewidth=0.4, alpha=0.5)
     axes[0][0].set_ylabel("GPU RMS position error (m)")
-    axes[0][-1].legend(fontsize=7, loc="best")
+    axes[0][0].legend(fontsize=7, loc="best")  # the first case runs every method
     figure.suptitle("work-precision: dt from 1/15 s (left) halving to the finest (right)",
                     fontsize=9)
     figure.tight_layout()

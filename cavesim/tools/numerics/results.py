@@ -169,7 +169,8 @@ def summarize(case: Case, method: Method, rows: list[Row], report_dt: float) -> 
     elif expected is None:
         verdict = "-"
     else:
-        verdict = "ok" if fit.found and abs(fit.order - expected) <= method.tolerance else "OFF"
+        tolerance = method.tolerance if case.order_tolerance is None else case.order_tolerance
+        verdict = "ok" if fit.found and abs(fit.order - expected) <= tolerance else "OFF"
     return Summary(
         case=case.name, integrator=method.name, order=method.order, expected=expected,
         observed=fit.order, fit_dts=tuple(dt_label(dt) for dt in fit.dts), exact=exact,

@@ -135,12 +135,21 @@ vec3 forcing(vec3 u, float drag) {
     return f;
 }
 
-// ... at the point p
-vec3 forcing_at(vec3 p, float drag) {
+// What the linear part -(held + k) v leaves of the acceleration at (p, v), its drag rate
+// `held` taken at the step's start: (u + u_t) lambda_d + g - (lambda_d - held) v with
+// lambda_d the rate at (p, v) itself (= held for Stokes drag). ETD2RK's second stage (twin:
+// ForceModel.remainder).
+vec3 remainder_at(vec3 p, vec3 v, float held, float inv_tau_p) {
 #if HAS_DRAG
-    return forcing(flow_at(p), drag);
+    vec3 u = flow_at(p);
+    float drag = drag_rate(f_sub(u, v), inv_tau_p);
+    vec3 remainder = forcing(u, drag);
+#if HAS_SCHILLER_NAUMANN
+    remainder = f_sub(remainder, f_mul(f_sub(drag, held), v));
+#endif
+    return remainder;
 #else
-    return forcing(vec3(0.0), drag);
+    return forcing(vec3(0.0), held);
 #endif
 }
 
@@ -287,10 +296,10 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     p = move(p, f_mul(h, f_add(v, f_mul(f_mul(h, phi2), r))));
     v = f_add(v, f_mul(f_mul(h, phi1), r));
 #elif INTEGRATOR == INTEGRATOR_ETD2RK
-    // ETD2RK (Cox & Matthews 2002), order 2 and stable for any step: the exponential step
-    // predicts pa, the forcing is taken linear in time from f(p) to f(pa) (d = f(pa) - f(p)),
-    // and the linear part is solved exactly against it (twin: etd2rk in
-    // cavesim/core/twin/integrators.py, which derives the position's weights):
+    // ETD2RK (Cox & Matthews 2002), order 2 for every drag law and stable for any step:
+    // the exponential step predicts (pa, va), the remainder N of the linear part is taken
+    // linear in time from N(p, v) = f to N(pa, va), and the linear part is solved exactly
+    // against it (twin: etd2rk in cavesim/core/twin/integrators.py, which derives it):
     //   p' = p + h (v + h phi2 r + h phi3 d),  v' = v + h (phi1 r + phi2 d)
     vec3 f;
     float lambda;
@@ -301,8 +310,9 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     float phi3 = phi3_weight(x, phi2);
     vec3 r = f_sub(f, f_mul(lambda, v));
     vec3 w = f_add(v, f_mul(f_mul(h, phi2), r));
-    // the drag rate held over the step (Schiller-Naumann's from the slip at its start)
-    vec3 d = f_sub(forcing_at(f_add(p, f_mul(h, w)), drag), f);
+    vec3 pa = f_add(p, f_mul(h, w));
+    vec3 va = f_add(v, f_mul(f_mul(h, phi1), r));
+    vec3 d = f_sub(remainder_at(pa, va, drag, inv_tau_p), f);
     p = move(p, f_mul(h, f_add(w, f_mul(f_mul(h, phi3), d))));
     v = f_add(v, f_mul(h, f_add(f_mul(phi1, r), f_mul(phi2, d))));
 #else
