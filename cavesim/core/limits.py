@@ -33,3 +33,15 @@ NAME_RE = re.compile(r"[A-Za-z0-9_-]{1,32}")  # session and wall names: safe in 
 WALL_RESOLUTION_RANGE = (16, 8192)  # pixels per axis of one wall
 GPU_RANGE = (0, 255)  # EGL device indices a wall (or `cavesim node --gpu`) may name
 DEFAULT_MASTER_PORT = 7447  # deploy/launch.sh and config/ write it as a literal
+
+# --- what a particle's state may hold (shaders/include/physics.glsl holds the same two) ---
+# Past these the particle pass drops a particle, the same way on every node and in both
+# twins. A component of the position at or beyond RUNAWAY is lost to overflow. SPEED_LIMIT
+# bounds a velocity component before and after each step (an unstable integrator, an absurd
+# field, a state written so): the drag step's increment v + h phi1 (f - lambda v) cancels
+# to about 1e-7 of the speed in float32, so a particle at 1e14 m/s would leave one step at
+# some 1e7 m/s, of either sign. No flow cavesim models comes near it (the brownout's wall
+# jet: 30 m/s; the stability report's absurd field: 1e6 m/s).
+RUNAWAY = 1e15
+SPEED_LIMIT = 1e7  # m/s
+MAX_LAUNCH_SPEED = SPEED_LIMIT / 4  # m/s, an emitter's speed: speed ± spread stays inside

@@ -335,9 +335,9 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert report["final_time"] / report["tau"] >= 10
     assert [c["name"] for c in report["cases"]] == [*CASES, *SAND_CASES]
     text = (out / "accuracy.md").read_text()
-    for heading in (*(f"## {case}" for case in (*CASES, *SAND_CASES)), "observed (f64)", "portable cost",
-                    "evals per step", "GPU vel RMS (m/s)", "GPU cloud", "Reference check",
-                    "Reference error at most", "= 10 tau"):
+    for heading in (*(f"## {case}" for case in (*CASES, *SAND_CASES)), "observed (f64)",
+                    "portable cost", "evals per step", "GPU vel RMS (m/s)", "GPU cloud",
+                    "Reference check", "Reference error at most", "= 10 tau"):
         assert heading in text
     assert all(f"| {m.name} |" in text for m in METHODS)
     for name in ("work_precision.png", "work_precision_evaluations.png"):

@@ -10,7 +10,9 @@ from cavesim.core.scene import Integrator
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.stability.extremes import run_extremes
 from cavesim.tools.stability.sweep import (
+    BRACKET,
     DRAG_CASES,
+    EXPLICIT_LIMITS,
     SCHILLER_NAUMANN,
     STEPS,
     STOKES,
@@ -31,8 +33,8 @@ def sweep(gl_session):
 
 def test_every_stiff_outcome_matches_theory(sweep):
     assert len(sweep) == len(DRAG_CASES) * len(Integrator) * len(STEPS) * len(TAUS)
-    for drag in DRAG_CASES:  # the seven older integrators' 238, and ETD2RK's 34
-        assert sum(r["drag"] == drag.name for r in sweep) == 238 + 34
+    for drag in DRAG_CASES:
+        assert sum(r["drag"] == drag.name for r in sweep) == len(Integrator) * 2 * 25
     disagreements = [r for r in sweep if not r["agrees"]]
     assert not disagreements, disagreements[:3]
     assert all(r["state_finite"] for r in sweep), "no NaN or Inf in the GPU state"
@@ -90,6 +92,21 @@ def test_schiller_naumann_on_the_gpu_diverges_at_a_slip_stokes_survives(gl_sessi
     assert speeds["schiller_naumann"][0] < 4 or speeds["schiller_naumann"][1] > 1e3, speeds
 
 
+@pytest.mark.parametrize("limit", EXPLICIT_LIMITS)
+@pytest.mark.parametrize("dt", STEPS)
+def test_each_explicit_limit_is_bracketed_within_five_percent_at_every_dt(sweep, dt, limit):
+    """At h = 0.95 and 1.05 times a limit, every method with that limit is bounded and
+    divergent as theory says (Stokes drag: one stiffness)."""
+    methods = [i.value for i in Integrator if i.stability_limit == limit]
+    rows = [r for r in sweep if r["drag"] == STOKES.name and r["dt"] == dt
+            and r["integrator"] in methods]
+    for side, outcome in ((-1, "bounded"), (1, "divergent")):
+        h = limit * (1 + side * BRACKET)
+        at = [r for r in rows if r["stiffness"] == pytest.approx(h)]
+        assert len(at) == len(methods)
+        assert all(r["outcome"] == r["theory"] == outcome for r in at), at
+
+
 def test_rk4_reaches_further_than_rk2(sweep):
     at = {(r["integrator"], r["dt"]): r for r in sweep
           if r["drag"] == STOKES.name and 2.3 < r["dt_over_tau"] < 2.5}
@@ -121,6 +138,7 @@ EXPECTED = {
     "dt spike of 1 s (engine, etd2rk)": "stable",
     "dt = 0": "stable", "field of 1e6 m/s": "stable",
     "particles 1e6 m outside the domain": "stable",
+    "emitter launching at 1e14 m/s": "rejected", "dust launched at 1e14 m/s": "dropped",
     "emission of 1e9/s beyond capacity": "stable", "zero capacity": "stable",
     "empty scene": "stable",
 }
@@ -135,3 +153,9 @@ def test_each_extreme_case_has_its_outcome_and_stays_finite(gl_session):
     assert rows["dt = 0"]["unchanged"]
     assert rows["emission of 1e9/s beyond capacity"]["live"] == 1000
     assert rows["particles 1e6 m outside the domain"]["live"] == 100
+    assert rows["dust launched at 1e14 m/s"]["live"] == 0
+    assert "speed" in rows["emitter launching at 1e14 m/s"]["user_sees"]
+    for name in ("explicit_euler", "exponential", "etd2rk"):
+        row = rows[f"dt spike of 1 s (engine, {name})"]
+        said = "ran away and were dropped" in row["user_sees"]
+        assert said == (row["ran_away"] > 0) and row["particles"] > 1000, row

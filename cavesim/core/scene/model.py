@@ -19,6 +19,7 @@ from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_DIAMETER,
     MAX_FIELD_NODES,
+    MAX_LAUNCH_SPEED,
     MAX_LIFETIME,
     MAX_PARTICLES,
     MAX_RATE,
@@ -160,7 +161,7 @@ class Emitter:
     # full edge lengths of the emission box (0 = a point along that axis)
     extent: Annotated[Vec3, Range(ge=0.0)] = (0.0, 0.0, 0.0)
     rate: Annotated[float, Range(ge=0.0, le=MAX_RATE)]  # particles per second
-    speed: Annotated[float, Range(ge=0.0)] = 0.0  # mean initial speed, m/s
+    speed: Annotated[float, Range(ge=0.0, le=MAX_LAUNCH_SPEED)] = 0.0  # mean initial speed, m/s
     # initial speed is uniform in [speed - spread, speed + spread]: spread <= speed
     speed_spread: Annotated[float, Range(ge=0.0)] = 0.0
     # unit vector of the mean initial velocity (the loader normalizes the file's vector)

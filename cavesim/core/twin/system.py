@@ -18,6 +18,7 @@ from cavesim.core.fields import FieldGrid, build_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
+from cavesim.core.limits import RUNAWAY, SPEED_LIMIT
 from cavesim.core.portable.forces import PortableForces
 from cavesim.core.position import low_code, low_part, split_position
 from cavesim.core.random_texture import random_words
@@ -69,14 +70,11 @@ class TwinParticles:
 _FIELDS = ("pos", "pos_low", "vel", "age", "lifetime", "class_id")
 
 
-# as in physics.glsl, whose float32 bits it compares: a particle at or beyond it (or not
-# finite) is dropped
-RUNAWAY = np.float32(1e15)
-
-
-def sane(x: np.ndarray) -> np.ndarray:
+def below(x: np.ndarray, limit: float) -> np.ndarray:
+    """Rows of x whose every component is below `limit` as float32 (physics.glsl's `below`:
+    NaN is not)."""
     with np.errstate(invalid="ignore"):
-        return (np.abs(x) < RUNAWAY).all(axis=1)
+        return (np.abs(x) < np.float32(limit)).all(axis=1)
 
 
 class TwinSystem:
@@ -153,8 +151,9 @@ class TwinSystem:
         forces = self.forces_for(q.class_id, rotor)
         if self.scene.forces.dispersion is not None:
             forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces))
+        alive &= below(q.vel, SPEED_LIMIT)
         pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
-        alive &= sane(pos) & sane(vel)
+        alive &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)
         moved = TwinParticles(pos, low, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])

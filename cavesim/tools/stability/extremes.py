@@ -1,8 +1,10 @@
 """Extreme inputs: what each one does, what the user sees, and that no NaN reaches the GPU.
 
 Each case returns a row: `outcome` is one of
-  rejected - refused where it enters (the master, the decoder), with an error that names it;
+  rejected - refused where it enters (the master, the decoder, the scene loader), with an
+             error that names it;
   clamped  - pulled back into range, with a logged warning;
+  dropped  - the particle pass drops the particles, for the reason `user_sees` names;
   stable   - run as given, and the state stays finite.
 """
 
@@ -15,8 +17,9 @@ from collections.abc import Callable
 import numpy as np
 
 from cavesim.core.clock import Clock, check_dt
-from cavesim.core.errors import ProtocolError
+from cavesim.core.errors import ProtocolError, SceneError
 from cavesim.core.helicopter.flight import clamp_wand
+from cavesim.core.limits import SPEED_LIMIT
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Integrator, parse_scene
 from cavesim.core.wire import HeadState, TrackingMessage, WandState, decode, encode
@@ -30,7 +33,14 @@ IDENTITY = np.eye(3, dtype=np.float32)
 def busy_scene(integrator=Integrator.EXPLICIT_EULER, capacity=4000, rate=3000.0, speed=1.0,
                emitters=True):
     """Sand and fine dust in a uniform wind, over a ground plane, fed by one emitter."""
-    return parse_scene({
+    return parse_scene(busy_scene_data(integrator, capacity, rate, speed, emitters),
+                       name="extreme")
+
+
+def busy_scene_data(integrator=Integrator.EXPLICIT_EULER, capacity=4000, rate=3000.0,
+                    speed=1.0, emitters=True) -> dict:
+    """`busy_scene` as the dict a scene file gives."""
+    return {
         "simulation": {"capacity": capacity, "seed": 3, "integrator": integrator.value,
                        "random_texture_size": 16},
         "particle_class": [{"name": "sand", "diameter": 150e-6, "density": 2650.0},
@@ -43,7 +53,7 @@ def busy_scene(integrator=Integrator.EXPLICIT_EULER, capacity=4000, rate=3000.0,
         "field": {"kind": "uniform", "box_min": [-50, -50, 0], "box_max": [50, 50, 50],
                   "resolution": [2, 2, 2], "params": {"velocity": [speed, 0.0, 0.0]}},
         "collision": {"kind": "plane", "friction": 0.3, "resilience": 0.3},
-    }, name="extreme")
+    }
 
 
 def finite_state(system: ParticleSystem) -> bool:
@@ -79,12 +89,51 @@ def dt_spike(ctx) -> list[dict]:
     for integrator in (Integrator.EXPLICIT_EULER, Integrator.EXPONENTIAL, Integrator.ETD2RK):
         system = ParticleSystem(ctx, busy_scene(integrator))
         _steps(system, 1 / 60, 30)
-        before = system.live_count
-        _steps(system, 1.0, 1)  # a 1 s frame reaching the engine anyway
-        rows.append(_row(f"dt spike of 1 s (engine, {integrator.value})", "stable",
-                         "particles whose step ran away are dropped; the rest moves on",
-                         finite_state(system), live_before=before, live_after=system.live_count))
+        cloud = system.read_particles()
         system.release()
+        # the same cloud, none expiring and nothing emitted: every particle the 1 s frame
+        # (one reaching the engine anyway) loses ran away
+        cloud["lifetime"] = 1e6
+        system = ParticleSystem(ctx, busy_scene(integrator, emitters=False))
+        system.write_particles(cloud)
+        _steps(system, 1.0, 1)
+        ran_away = len(cloud) - system.live_count
+        fastest = float(np.abs(system.read_particles()["vel"]).max(initial=0.0))
+        sees = (f"{ran_away} of {len(cloud)} particles ran away and were dropped; the rest "
+                f"moved on" if ran_away else
+                f"no particle ran away: all {len(cloud)} moved on, the fastest at "
+                f"{fastest:.3g} m/s")
+        rows.append(_row(f"dt spike of 1 s (engine, {integrator.value})", "stable", sees,
+                         finite_state(system), particles=len(cloud), ran_away=ran_away,
+                         fastest=fastest))
+        system.release()
+    return rows
+
+
+def launch_speed(ctx) -> list[dict]:
+    """Particles launched far beyond any flow: an emitter is refused, a written state is
+    dropped at its first step."""
+    data = busy_scene_data()
+    data["emitter"][0]["speed"] = 1e14
+    try:
+        parse_scene(data, name="extreme")
+        rows = [_row("emitter launching at 1e14 m/s", "ACCEPTED", "nothing")]
+    except SceneError as e:
+        rows = [_row("emitter launching at 1e14 m/s", "rejected", str(e))]
+    system = ParticleSystem(ctx, busy_scene(Integrator.ETD2RK, emitters=False))
+    launched = np.zeros(100, dtype=PARTICLE_DTYPE)
+    launched["pos"] = (0.0, 0.0, 1.0)
+    launched["vel"] = (1e14, 0.0, 0.0)
+    launched["lifetime"] = 1e6
+    launched["class_id"] = 1  # dust
+    system.write_particles(launched)
+    _steps(system, 1 / 60, 1)
+    rows.append(_row("dust launched at 1e14 m/s", "dropped",
+                     f"faster than the speed limit ({SPEED_LIMIT:g} m/s per component), which "
+                     f"float32 cannot step: dropped at the first step, "
+                     f"{len(launched) - system.live_count} of {len(launched)}",
+                     finite_state(system), live=system.live_count))
+    system.release()
     return rows
 
 
@@ -181,7 +230,8 @@ def empty(ctx) -> list[dict]:
     return rows
 
 
-CASES: tuple[Callable, ...] = (dt_spike, zero_dt, huge_field, far_outside, flood, empty)
+CASES: tuple[Callable, ...] = (dt_spike, zero_dt, huge_field, far_outside, launch_speed, flood,
+                               empty)
 PURE_CASES: tuple[Callable, ...] = (bad_dt, bad_wand)
 
 

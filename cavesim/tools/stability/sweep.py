@@ -35,15 +35,23 @@ from cavesim.core.scene import Integrator, parse_scene
 from cavesim.core.scene.model import AIR_VISCOSITY, Drag, ParticleClass
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 
-# 10 s to 1 µs, plus the two taus that put dt/tau at 2.4 (between RK2's and RK4's limits)
-TAUS = tuple(sorted([float(t) for t in np.logspace(1, -6, 15)] + [1 / 60 / 2.4, 1 / 30 / 2.4],
-                    reverse=True))
 STEPS = (1 / 60, 1 / 30)
+# The explicit methods' limits on h = dt/tau (their `Integrator` rows), each bracketed at
+# every dt: a class BRACKET below it (bounded) and one BRACKET above (divergent)
+EXPLICIT_LIMITS = tuple(sorted({i.stability_limit for i in Integrator
+                                if math.isfinite(i.stability_limit)}))
+BRACKET = 0.05
+# 10 s to 1 µs; the two taus that put dt/tau at 2.4 (between RK2's and RK4's limits); the
+# brackets
+TAUS = tuple(sorted([float(t) for t in np.logspace(1, -6, 15)]
+                    + [dt / 2.4 for dt in STEPS]
+                    + [dt / (limit * (1.0 + side * BRACKET)) for dt in STEPS
+                       for limit in EXPLICIT_LIMITS for side in (-1, 1)], reverse=True))
 DENSITY = 2650.0
 FLOW = (1.0, 0.0, 0.2)
 GRAVITY = 9.81
 AIR = Drag()  # the sweep's [forces.drag] = {}: the default air
-MARGIN = 0.05  # within 5% of a limit either outcome agrees with theory
+MARGIN = 0.02  # within 2% of a limit either outcome agrees with theory (inside the brackets)
 
 
 @dataclass(frozen=True)

@@ -360,22 +360,31 @@ void collide(inout vec3 p, inout vec3 v) {
 #include "dispersion.glsl"
 #endif
 
-// Beyond this a state is lost to overflow; such a particle is dropped, never stored.
+// Beyond RUNAWAY a state is lost to overflow; a velocity beyond SPEED_LIMIT is one float32
+// cannot step (cavesim/core/limits.py says why). Such a particle is dropped, never stored.
 const float RUNAWAY = 1e15;
+const float SPEED_LIMIT = 1e7;
 
-// Compared as bits: the magnitude bits of non-negative floats order as their values, and
-// NaN and Inf lie above every finite one. A driver may fold isnan() to false (GLSL does
-// not require NaNs) or treat float compares with NaN loosely; integer compares are exact.
-bool finite(vec3 x) {
+// Every component of x below `limit`, compared as bits: the magnitude bits of non-negative
+// floats order as their values, and NaN and Inf lie above every finite one. A driver may
+// fold isnan() to false (GLSL does not require NaNs) or treat float compares with NaN
+// loosely; integer compares are exact.
+bool below(vec3 x, float limit) {
     uvec3 magnitude = floatBitsToUint(x) & uvec3(0x7FFFFFFFu);
-    return all(lessThan(magnitude, uvec3(floatBitsToUint(RUNAWAY))));
+    return all(lessThan(magnitude, uvec3(floatBitsToUint(limit))));
 }
 
-// One step of one particle's motion. Returns false when the step ran away (an unstable
-// integrator, an absurd field): the particle pass drops it, so NaN or Inf never reach the
-// GPU state (a status, not a crash).
+bool finite(vec3 x) {
+    return below(x, RUNAWAY);
+}
+
+// One step of one particle's motion. Returns false when the particle starts or ends it
+// faster than SPEED_LIMIT (a state written so; an unstable integrator, an absurd field) or
+// its position ran away: the particle pass drops it, so NaN or Inf never reach the GPU
+// state (a status, not a crash), and no stored velocity is one a step cannot take.
 // `index`: the particle's place in the stream, the same on every node (its random draws).
 bool advance(inout Particle q, float h, uint index) {
+    bool steppable = below(q.vel, SPEED_LIMIT);
     float inv_tau_p = inverse_relaxation_time(q.class_id);
 #if HAS_SCHILLER_NAUMANN
     uint drag_class = min(q.class_id, uint(CLASS_COUNT - 1));
@@ -390,7 +399,7 @@ bool advance(inout Particle q, float h, uint index) {
     collide(q.pos, q.vel);
 #endif
     q.pos_low = step_position_low;
-    return finite(q.pos) && finite(q.vel);
+    return steppable && finite(q.pos) && below(q.vel, SPEED_LIMIT);
 }
 
 // One frame of the particle at `index` in the stream, the arithmetic both engine paths'
