@@ -22,7 +22,8 @@ from numpy.lib import format as npy_format
 
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
-from cavesim.core.errors import SceneError
+from cavesim.core.errors import FieldError, SceneError
+from cavesim.core.field_files import read_flow_file
 from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_EMITTERS,
@@ -216,13 +217,19 @@ def _field(t: Table) -> Field:
     if kind is FieldKind.FILE:
         t.forbid("resolution", 'not allowed with kind = "file": the file decides')
         given["file"] = t.get("file", required=True)
-        given["resolution"] = _file_resolution(t, given["file"])
-    elif kind is FieldKind.ROTOR:  # no grid: evaluated on the GPU from the frame's rotor
-        for key in ("file", "resolution", "interpolation"):
+        if given["file"].suffix == ".npz":
+            for key in FLOW_FILE_KEYS:
+                t.forbid(key, "only allowed with a .nc or .vti file: an .npz is in m and m/s")
+            given["resolution"] = _file_resolution(t, given["file"])
+        else:
+            given.update(_flow_file_grid(t, given["file"]))
+    else:
+        for key in ("file", *FLOW_FILE_KEYS):
+            t.forbid(key, f'only allowed with kind = "file", not {kind.value!r}')
+    if kind is FieldKind.ROTOR:  # no grid: evaluated on the GPU from the frame's rotor
+        for key in ("resolution", "interpolation"):
             t.forbid(key, 'not allowed with kind = "rotor": the flow has no grid')
         given["resolution"] = (2, 2, 2)
-    else:
-        t.forbid("file", f'only allowed with kind = "file", not {kind.value!r}')
     params_table = t.table("params", FIELD_PARAMS[kind])
     params = params_table.build()
     if kind is FieldKind.DOWNWASH and params.rotor_center[2] <= params.ground_height:
@@ -258,6 +265,22 @@ def _npy_shape(path: Path, array: str) -> tuple[int, ...]:
         if version == (2, 0):
             return npy_format.read_array_header_2_0(f)[0]
         raise ValueError(f"unsupported .npy format version {version}")
+
+
+FLOW_FILE_KEYS = ("variables", "velocity_units", "length_units")  # of a .nc or .vti field
+
+
+def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
+    """The resolution and box of a .nc or .vti field, from the file; the scene gives no box."""
+    for key in ("box_min", "box_max"):
+        t.forbid(key, f"not allowed with a {path.suffix} file: its coordinates give the box")
+    try:
+        flow = read_flow_file(path, t.get("variables"), t.get("velocity_units"),
+                              t.get("length_units"))
+    except FieldError as e:
+        raise t.bad("file", str(e)) from e
+    nz, ny, nx = flow.velocity.shape[:3]
+    return {"resolution": (nx, ny, nz), "box_min": flow.box_min, "box_max": flow.box_max}
 
 
 def _file_resolution(t: Table, path: Path) -> tuple[int, int, int]:

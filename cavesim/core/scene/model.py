@@ -217,7 +217,14 @@ class Field:
     sampling: FieldSampling = FieldSampling.MANUAL
     interpolation: FieldInterpolation = FieldInterpolation.TRILINEAR
     params: dict[str, object] = field(default_factory=dict)  # file.FIELD_PARAMS[kind] as a dict
-    file: Path | None = None  # for FILE: .npz with array "velocity" (nz, ny, nx, 3)
+    # for FILE: .npz with array "velocity" (nz, ny, nx, 3); .nc (NetCDF, CF conventions)
+    # or .vti (VTK XML ImageData), whose coordinates give the box (cavesim.core.field_files)
+    file: Path | None = None
+    # .nc: the x, y and z velocity variables (default: by CF standard_name, else u, v, w);
+    # .vti: the first is the 3-component point array (default: the file's Vectors array)
+    variables: tuple[str, str, str] | None = None
+    velocity_units: str | None = None  # .nc, .vti: overrides the file's (default m/s)
+    length_units: str | None = None  # .nc, .vti: of the coordinates (default metres)
 
 
 @dataclass(frozen=True)
