@@ -39,6 +39,7 @@ LENGTH_UNITS = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1
                 "km": 1000.0, "kilometer": 1000.0, "kilometers": 1000.0,
                 "kilometre": 1000.0, "kilometres": 1000.0}
 SPACING_RTOL = 1e-6  # of the spacing: how far a coordinate step may stray from uniform
+FLOW_FILE_SUFFIXES = (".nc", ".vti")  # NetCDF, VTK XML ImageData (others: cavesim's .npz)
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,7 +64,7 @@ def read_flow_file(path: Path, variables: tuple[str, str, str] | None = None,
     attributes. VTK files have no units: their values are m/s and positions metres unless
     these say otherwise.
     """
-    readers = {".nc": _read_netcdf, ".vti": _read_vti}
+    readers = dict(zip(FLOW_FILE_SUFFIXES, (_read_netcdf, _read_vti), strict=True))
     if path.suffix.lower() not in readers:
         raise FieldError(f"{path}: unknown field file type {path.suffix!r}; expected .nc "
                          "(NetCDF, CF conventions), .vti (VTK XML ImageData) or .npz (cavesim)")

@@ -27,7 +27,7 @@ from cavesim.core._grids import (
     read_npz,
 )
 from cavesim.core.errors import FieldError
-from cavesim.core.field_files import read_flow_file
+from cavesim.core.field_files import FLOW_FILE_SUFFIXES, read_flow_file
 from cavesim.core.flows import MODELS
 from cavesim.core.interpolation import is_cubic, texels, weights
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
@@ -96,7 +96,7 @@ def build_field(field: Field) -> FieldGrid:
     if kind is FieldKind.FILE:
         if field.file is None:
             raise FieldError("field of kind 'file' names no file")
-        if Path(field.file).suffix != ".npz":
+        if Path(field.file).suffix.lower() in FLOW_FILE_SUFFIXES:
             flow = read_flow_file(Path(field.file), field.variables, field.velocity_units,
                                   field.length_units)
             return FieldGrid(flow.velocity, flow.box_min, flow.box_max, field.interpolation)

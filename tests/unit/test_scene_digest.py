@@ -4,6 +4,7 @@ frame log's header names it for the replay."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 from pathlib import Path
@@ -15,7 +16,7 @@ from memory_walls import MemoryLink
 from cavesim.core.errors import ClusterError
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
-from cavesim.core.scene.digest import scene_digest
+from cavesim.core.scene.digest import _canonical, scene_digest
 from cavesim.core.wire import Command, ControlMessage, InfoMessage, decode, encode
 from cavesim.tools.log_replay import scene_warnings
 from nodes.master.process import MasterConfig, run_master
@@ -45,6 +46,15 @@ def test_the_digest_is_of_the_content_not_the_path_or_the_layout(tmp_path):
     changed = tmp_path / "changed.toml"
     changed.write_text(MINIMAL.read_text().replace("seed = 1", "seed = 2"))
     assert digest_of(changed) != digest_of(MINIMAL)
+
+
+def test_an_optional_key_left_unset_leaves_the_digest_as_it_was():
+    """A key a later version adds with an unset default (None) must not change the digest
+    of a scene that does not use it: recorded frame logs still name their scene."""
+    field = dataclasses.make_dataclass("LaterField", [("kind", str), ("added", object, None)])
+    assert _canonical(field("uniform")) == _canonical(field("uniform", None)) == {
+        "kind": "uniform"}
+    assert _canonical(field("uniform", 1.5)) == {"kind": "uniform", "added": "1.5"}
 
 
 def test_the_digest_holds_the_bytes_of_the_files_the_scene_names(tmp_path):

@@ -39,7 +39,7 @@ def test_the_scene_names_units_and_variables():
     ({"file": str(FIELDS / "vortex.nc"), "velocity_units": "furlongs/fortnight"},
      r"field\.file .*vortex\.nc: .*furlongs/fortnight"),
     ({"file": str(FIELDS / "make_sample_fields.py")},
-     r"field\.file .*unknown field file type '\.py'; expected \.nc"),
+     r"field\.file .*must be a \.nc \(NetCDF\) or \.vti \(VTK image\) file, or an \.npz"),
 ])
 def test_a_bad_flow_file_or_key_is_one_line_naming_it(field, message):
     with pytest.raises(SceneError, match=message) as caught:

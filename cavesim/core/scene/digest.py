@@ -7,7 +7,7 @@ simulation, and hosts keep the file wherever they like; but the .npz files a fie
 heightfield names do, so each is in by the SHA-256 of its bytes, not by its path. The
 engine path is left out (both paths compute the same bits, and `--engine` overrides it).
 It is SHA-256 over a canonical JSON of the rest (sorted keys, floats by their exact
-`repr`), cut to 128 bits like every other digest on the wire.
+`repr`, fields left unset out), cut to 128 bits like every other digest on the wire.
 """
 
 from __future__ import annotations
@@ -34,8 +34,10 @@ def scene_digest(scene: Scene) -> str:
 
 
 def _canonical(value: Any) -> Any:
-    if dataclasses.is_dataclass(value):
-        return {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if dataclasses.is_dataclass(value):  # a field left unset (None) is left out: a new
+        # optional key leaves every digest, and every recorded frame log, as it was
+        return {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)
+                if getattr(value, f.name) is not None}
     if isinstance(value, Enum):
         return _canonical(value.value)
     if isinstance(value, Path):

@@ -23,7 +23,7 @@ from numpy.lib import format as npy_format
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
-from cavesim.core.field_files import read_flow_file
+from cavesim.core.field_files import FLOW_FILE_SUFFIXES, read_flow_file
 from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_EMITTERS,
@@ -217,12 +217,12 @@ def _field(t: Table) -> Field:
     if kind is FieldKind.FILE:
         t.forbid("resolution", 'not allowed with kind = "file": the file decides')
         given["file"] = t.get("file", required=True)
-        if given["file"].suffix == ".npz":
+        if given["file"].suffix.lower() in FLOW_FILE_SUFFIXES:
+            given.update(_flow_file_grid(t, given["file"]))
+        else:
             for key in FLOW_FILE_KEYS:
                 t.forbid(key, "only allowed with a .nc or .vti file: an .npz is in m and m/s")
             given["resolution"] = _file_resolution(t, given["file"])
-        else:
-            given.update(_flow_file_grid(t, given["file"]))
     else:
         for key in ("file", *FLOW_FILE_KEYS):
             t.forbid(key, f'only allowed with kind = "file", not {kind.value!r}')
@@ -290,7 +290,8 @@ def _file_resolution(t: Table, path: Path) -> tuple[int, int, int]:
     texture. Values (dtype, finiteness) are checked there, when the grid is built.
     """
     lo, hi = FIELD_RESOLUTION_RANGE
-    allowed = (f"must be an .npz holding an array 'velocity' of shape (nz, ny, nx, 3), "
+    allowed = (f"must be a .nc (NetCDF) or .vti (VTK image) file, or an .npz holding an "
+               f"array 'velocity' of shape (nz, ny, nx, 3), "
                f"each n in {lo}..{hi}, nx*ny*nz <= {MAX_FIELD_NODES}")
     try:
         shape = _npy_shape(path, "velocity")
