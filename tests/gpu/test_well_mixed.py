@@ -40,7 +40,7 @@ def log_layer(z: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="the walk's drift omits the correction for the "
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="the walk's drift omits the correction for the "
                                        "dust's smoothed noise (module docstring)")
 def test_a_uniform_tracer_stays_uniform_over_the_ground(ctx, tmp_path):
     heights = np.linspace(0.0, TOP, 81)
