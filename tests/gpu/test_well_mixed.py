@@ -40,8 +40,9 @@ def log_layer(z: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="the walk's drift omits the correction for the "
-                                       "dust's smoothed noise (module docstring)")
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="the walk's drift omits the correction for the dust's smoothed "
+                          "noise (module docstring)")
 def test_a_uniform_tracer_stays_uniform_over_the_ground(ctx, tmp_path):
     heights = np.linspace(0.0, TOP, 81)
     velocity = np.zeros((len(heights), 2, 2, 3), np.float32)
