@@ -63,13 +63,19 @@ class HeightGrid:
         return index_scale(self.box_min, self.box_max, self.resolution)
 
 
-def load_heightfield(path) -> HeightGrid:
-    """Read an .npz with "height" (ny, nx) of floats and "box_min", "box_max" (x, y) each."""
+def load_heightfield(path, origin=None) -> HeightGrid:
+    """Read an .npz with "height" (ny, nx) of floats and "box_min", "box_max" (x, y) each,
+    in world coordinates, relative to the scene's `origin` (None: the world's; see
+    cavesim.core.scene.origin)."""
     path = Path(path)
     arrays = read_npz(path, required=("height", "box_min", "box_max"))
     height = float_grid(path, "height", arrays["height"], "(ny, nx)", MAX_HEIGHT_NODES)
-    box_min = corner_of(path, "box_min", arrays["box_min"], 2)
-    box_max = corner_of(path, "box_max", arrays["box_max"], 2)
+    origin = origin or (0.0, 0.0, 0.0)
+    if origin[2]:
+        height = (height.astype(np.float64) - origin[2]).astype(np.float32)
+    box_min, box_max = (tuple(c - o for c, o in zip(corner_of(path, name, arrays[name], 2),
+                                                    origin[:2], strict=True))
+                        for name in ("box_min", "box_max"))
     if not all(a < b for a, b in zip(box_min, box_max, strict=True)):
         raise FieldError(f"{path}: arrays 'box_min' = {box_min} and 'box_max' = {box_max}, "
                          "expected box_max > box_min on both axes")

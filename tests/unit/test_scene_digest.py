@@ -55,6 +55,11 @@ def test_an_optional_key_left_unset_leaves_the_digest_as_it_was():
     assert _canonical(field("uniform")) == _canonical(field("uniform", None)) == {
         "kind": "uniform"}
     assert _canonical(field("uniform", 1.5)) == {"kind": "uniform", "added": "1.5"}
+    scene = load_scene(MINIMAL)
+    assert scene.origin is None  # a key of [simulation] itself, unset
+    assert scene_digest(scene) == scene_digest(dataclasses.replace(scene, origin=None))
+    assert scene_digest(dataclasses.replace(scene, origin=(0.0, 0.0, 0.0))) != \
+        scene_digest(scene)
 
 
 def test_the_digest_holds_the_bytes_of_the_files_the_scene_names(tmp_path):

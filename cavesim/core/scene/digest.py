@@ -27,8 +27,8 @@ NOT_CONTENT = ("name", "source", "engine")  # fields of a Scene that change no b
 
 def scene_digest(scene: Scene) -> str:
     """32 hex digits naming the scene's content (SceneError if a file it names is gone)."""
-    content = {f.name: _canonical(getattr(scene, f.name))
-               for f in dataclasses.fields(scene) if f.name not in NOT_CONTENT}
+    content = {name: value for name, value in _canonical(scene).items()
+               if name not in NOT_CONTENT}
     text = json.dumps(content, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 

@@ -48,6 +48,7 @@ from cavesim.core.scene.model import (
     ParticleClass,
     Scene,
 )
+from cavesim.core.scene.origin import relative_to_origin
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -137,9 +138,10 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         _check_dispersion(top, forces, collision, sim)
     classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
 
-    return Scene(name=scene_name, source=source, **asdict(sim), particle_classes=classes,
-                 emitters=emitters, forces=forces, field=field, collision=collision,
-                 helicopter=helicopter)
+    return relative_to_origin(Scene(
+        name=scene_name, source=source, **asdict(sim), particle_classes=classes,
+        emitters=emitters, forces=forces, field=field, collision=collision,
+        helicopter=helicopter))
 
 
 def _with_drag_law(particle: ParticleClass, forces: Forces, field: Field | None,

@@ -293,6 +293,9 @@ class Simulation:
     engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
     # "portable": every GPU computes the same bits, at a cost (README: portable arithmetic)
     arithmetic: Arithmetic = Arithmetic.NATIVE
+    # world position of the scene's own origin, positions kept relative to it (None: the
+    # world's; cavesim.core.scene.origin): a scene kilometres out keeps the floor of one at 0
+    origin: Vec3 | None = None
 
 
 @dataclass(frozen=True, kw_only=True)

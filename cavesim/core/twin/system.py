@@ -97,7 +97,7 @@ class TwinSystem:
         self.field: FieldGrid | None = build_field(scene.field) if grid_field else None
         self.heights: HeightGrid | None = None
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
-            self.heights = load_heightfield(scene.collision.file)
+            self.heights = load_heightfield(scene.collision.file, scene.origin)
         drawn = len(self.table) or scene.forces.dispersion is not None
         self.random = random_words(scene.seed, scene.random_texture_size) if drawn else None
         taus = scene.relaxation_times() or (np.inf,)

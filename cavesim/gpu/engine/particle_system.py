@@ -146,7 +146,7 @@ class ParticleSystem:
             self.resources["flow_field"] = texture
             self.field_grid = grid
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
-            ground = load_heightfield(scene.collision.file)
+            ground = load_heightfield(scene.collision.file, scene.origin)
             ny, nx = ground.height.shape
             texture = self.ctx.texture((nx, ny), 1, ground.height.tobytes(), dtype="f4")
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)

@@ -105,7 +105,7 @@ def ground_grid(scene: Scene) -> HeightGrid | None:
     collision = scene.collision
     if collision is None or collision.kind is not CollisionKind.HEIGHTFIELD:
         return None
-    return load_heightfield(collision.file)
+    return load_heightfield(collision.file, scene.origin)
 
 
 def _time_engine(ctx: moderngl.Context, scene: Scene, engine: Engine, records: np.ndarray,
