@@ -40,6 +40,7 @@ LENGTH_UNITS = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1
                 "kilometre": 1000.0, "kilometres": 1000.0}
 SPACING_RTOL = 1e-6  # of the spacing: how far a coordinate step may stray from uniform
 FLOW_FILE_SUFFIXES = (".nc", ".vti")  # NetCDF, VTK XML ImageData (others: cavesim's .npz)
+VARIABLES_NAMED = {".nc": 3, ".vti": 1}  # how many names `variables` gives for each
 
 
 @dataclass(frozen=True, eq=False)
@@ -52,23 +53,28 @@ class GriddedFlow:
     box_max: tuple[float, float, float]  # metres: the last node on each axis
 
 
-def read_flow_file(path: Path, variables: tuple[str, str, str] | None = None,
+def read_flow_file(path: Path, variables: tuple[str, ...] | None = None,
                    velocity_units: str | None = None,
                    length_units: str | None = None) -> GriddedFlow:
     """The flow of a .nc (NetCDF, CF conventions) or .vti (VTK XML ImageData) file.
 
     `variables` names the x, y and z velocity variables of a NetCDF file (else found by CF
-    standard_name, else u, v, w); of a .vti file only the first is used, the name of its
-    3-component point array (else the PointData's Vectors, else its only 3-component array).
+    standard_name, else u, v, w), or the one 3-component point array of a .vti file (else
+    the PointData's Vectors, else its only 3-component array).
     `velocity_units` and `length_units`, named by the scene, override the file's units
     attributes. VTK files have no units: their values are m/s and positions metres unless
     these say otherwise.
     """
     readers = dict(zip(FLOW_FILE_SUFFIXES, (_read_netcdf, _read_vti), strict=True))
-    if path.suffix.lower() not in readers:
+    suffix = path.suffix.lower()
+    if suffix not in readers:
         raise FieldError(f"{path}: unknown field file type {path.suffix!r}; expected .nc "
                          "(NetCDF, CF conventions), .vti (VTK XML ImageData) or .npz (cavesim)")
-    return readers[path.suffix.lower()](path, variables, velocity_units, length_units)
+    if variables is not None and len(variables) != VARIABLES_NAMED[suffix]:
+        raise FieldError(f"{path}: variables {list(variables)} names {len(variables)}; "
+                         "expected 3 for a .nc file (its x, y and z velocity variables) or 1 "
+                         "for a .vti file (its 3-component point array)")
+    return readers[suffix](path, variables, velocity_units, length_units)
 
 
 def _read_netcdf(path, variables, velocity_units, length_units) -> GriddedFlow:

@@ -97,8 +97,8 @@ def build_field(field: Field) -> FieldGrid:
         if field.file is None:
             raise FieldError("field of kind 'file' names no file")
         if Path(field.file).suffix.lower() in FLOW_FILE_SUFFIXES:
-            flow = read_flow_file(Path(field.file), field.variables, field.velocity_units,
-                                  field.length_units)
+            flow = read_flow_file(Path(field.file), field.named_variables,
+                                  field.velocity_units, field.length_units)
             return FieldGrid(flow.velocity, flow.box_min, flow.box_max, field.interpolation)
         return _load_field_file(Path(field.file), box_min, box_max, field.interpolation)
     res = tuple(field.resolution)

@@ -269,16 +269,21 @@ def _npy_shape(path: Path, array: str) -> tuple[int, ...]:
         raise ValueError(f"unsupported .npy format version {version}")
 
 
-FLOW_FILE_KEYS = ("variables", "velocity_units", "length_units")  # of a .nc or .vti field
+FLOW_FILE_KEYS = ("variables", "vector", "velocity_units", "length_units")  # .nc, .vti
 
 
 def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
     """The resolution and box of a .nc or .vti field, from the file; the scene gives no box."""
     for key in ("box_min", "box_max"):
         t.forbid(key, f"not allowed with a {path.suffix} file: its coordinates give the box")
+    if path.suffix.lower() == ".vti":
+        t.forbid("variables", "only allowed with a .nc file; a .vti file's array is `vector`")
+        named = None if t.get("vector") is None else (t.get("vector"),)
+    else:
+        t.forbid("vector", "only allowed with a .vti file; a .nc file's are `variables`")
+        named = t.get("variables")
     try:
-        flow = read_flow_file(path, t.get("variables"), t.get("velocity_units"),
-                              t.get("length_units"))
+        flow = read_flow_file(path, named, t.get("velocity_units"), t.get("length_units"))
     except FieldError as e:
         raise t.bad("file", str(e)) from e
     nz, ny, nx = flow.velocity.shape[:3]

@@ -220,11 +220,17 @@ class Field:
     # for FILE: .npz with array "velocity" (nz, ny, nx, 3); .nc (NetCDF, CF conventions)
     # or .vti (VTK XML ImageData), whose coordinates give the box (cavesim.core.field_files)
     file: Path | None = None
-    # .nc: the x, y and z velocity variables (default: by CF standard_name, else u, v, w);
-    # .vti: the first is the 3-component point array (default: the file's Vectors array)
+    # .nc: the x, y and z velocity variables (default: by CF standard_name, else u, v, w)
     variables: tuple[str, str, str] | None = None
+    vector: str | None = None  # .vti: its 3-component point array (default: its Vectors)
     velocity_units: str | None = None  # .nc, .vti: overrides the file's (default m/s)
     length_units: str | None = None  # .nc, .vti: of the coordinates (default metres)
+
+    @property
+    def named_variables(self) -> tuple[str, ...] | None:
+        """What the file is read for (`cavesim.core.field_files.read_flow_file`): a .nc's
+        three velocity variables or a .vti's vector array, if the scene names them."""
+        return self.variables if self.vector is None else (self.vector,)
 
 
 @dataclass(frozen=True)
