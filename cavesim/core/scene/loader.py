@@ -278,7 +278,8 @@ def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
         t.forbid(key, f"not allowed with a {path.suffix} file: its coordinates give the box")
     if path.suffix.lower() == ".vti":
         t.forbid("variables", "only allowed with a .nc file; a .vti file's array is `vector`")
-        named = None if t.get("vector") is None else (t.get("vector"),)
+        vector = t.get("vector")
+        named = None if vector is None else (vector,)
     else:
         t.forbid("vector", "only allowed with a .vti file; a .nc file's are `variables`")
         named = t.get("variables")

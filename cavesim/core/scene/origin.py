@@ -15,9 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from cavesim.core.scene.model import Scene
-
-Vec3 = tuple[float, float, float]
+from cavesim.core.scene.model import Scene, Vec3
 
 
 def relative_to_origin(scene: Scene) -> Scene:

@@ -18,7 +18,7 @@ The order is the one transform feedback writes, and no step uses an unordered at
 draws run (`cavesim.gpu.gl.denormals`); a driver on which they still differ is named in
 the log when the path is built. Dispatch sizes come from what the host knows: the previous
 live count and the emission's bound. The counts stay on the GPU; the host reads the live
-count once, when it needs it (`read_live`): the frame's only wait.
+count once, when it needs it (`ParticleSystem.live_count`): the frame's only wait.
 """
 
 from __future__ import annotations
@@ -42,7 +42,6 @@ from cavesim.gpu.engine.programs import (
 from cavesim.gpu.engine.uniforms import write_uniforms
 from cavesim.gpu.gl import denormal_probe
 from cavesim.gpu.gl.denormals import flushing_denormals
-from cavesim.gpu.gl.fence import GpuFence
 
 log = logging.getLogger(__name__)
 
@@ -64,9 +63,9 @@ class ComputePasses:
     def __init__(self, ctx: moderngl.Context, scene: Scene,
                  particles: Sequence[moderngl.Buffer], emitters: Sequence[moderngl.Buffer],
                  bind_samplers: Callable[[moderngl.Program], None],
-                 buffer: BufferFactory, fence: GpuFence, timers: PassTimers) -> None:
+                 buffer: BufferFactory, timers: PassTimers) -> None:
         self._ctx = ctx
-        self._fence, self._timers = fence, timers
+        self._timers = timers
         self._particles = particles
         self._emitters = emitters
         self._bind_samplers = bind_samplers
@@ -92,7 +91,7 @@ class ComputePasses:
     def advance(self, front: int, back: int, live: int, emission: Emission | None) -> None:
         """Survivors of the `live` front particles, then the new ones, into the back buffer.
 
-        The new live count stays on the GPU until `read_live`.
+        The new live count stays on the GPU, in `counts_buffer`.
         """
         blocks = block_count(live)
         segments = 0 if emission is None else emission.batches * self._emitter_count
@@ -140,11 +139,6 @@ class ComputePasses:
         self._bind_samplers(self.program)
         self.program.run(-(-block_count(live) // BLOCK_WORKGROUP_SIZE))
         self._ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT)
-
-    def read_live(self) -> int:
-        """The live count the last `advance` left on the GPU (waits for the frame)."""
-        self._fence.wait()
-        return int(np.frombuffer(self._counts.read(4), dtype="<u4")[0])
 
     def _bind(self, front: int, back: int) -> None:
         for buffer, binding in ((self._particles[front], FRONT), (self._particles[back], BACK),

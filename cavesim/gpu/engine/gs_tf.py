@@ -53,7 +53,7 @@ class GsTfPasses:
                  fence: GpuFence, timers: PassTimers) -> None:
         self._ctx = ctx
         self._particles = particles
-        self._fence, self._timers = fence, timers
+        self._timers = timers
         self._bind_samplers = bind_samplers
         self._buffer = buffer
         self._capacity = scene.capacity
@@ -80,7 +80,7 @@ class GsTfPasses:
     def advance(self, front: int, back: int, live: int, emission: Emission | None) -> None:
         """Survivors of the `live` front particles, then the new ones, into the back buffer.
 
-        The new live count stays in the counts buffer until `read_live`.
+        The new live count stays on the GPU, in `counts_buffer`.
         """
         if emission is None or emission.batches == 0:
             self._particle_pass(front, back, live, LIVE)
@@ -92,12 +92,6 @@ class GsTfPasses:
     def particle_pass(self, front: int, back: int, live: int) -> None:
         """The particle pass alone (the benchmark times it)."""
         self._particle_pass(front, back, live, SURVIVORS)
-
-    def read_live(self) -> int:
-        """The live count the last `advance` left in the counts buffer (waits for the
-        frame)."""
-        self._fence.wait()
-        return int(np.frombuffer(self._counts.read(4), dtype="<u4")[0])
 
     def _particle_pass(self, front: int, back: int, live: int, survivors_at: int) -> None:
         if live == 0:

@@ -110,7 +110,7 @@ class ParticleSystem:
         if engine is Engine.COMPUTE:
             passes = ComputePasses(self.ctx, self.scene, self._particle_buffers,
                                    self._emitter_buffers, self._bind_samplers, self._buffer,
-                                   self.fence, self.timers)
+                                   self.timers)
         else:
             passes = GsTfPasses(self.ctx, self.scene, self._particle_buffers,
                                 self._emitter_buffers, self._bind_samplers, self._buffer,
@@ -206,7 +206,8 @@ class ParticleSystem:
     def live_count(self) -> int:
         """Live particles; after a frame, the first call reads them back (waits)."""
         if self._live is None:
-            self._live = self._passes.read_live()
+            self.fence.wait()  # the frame's passes left it in their counts buffer
+            self._live = int(np.frombuffer(self._passes.counts_buffer.read(4), "<u4")[0])
         return self._live
 
     @property
