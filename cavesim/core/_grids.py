@@ -99,3 +99,17 @@ def index_scale(box_min, box_max, resolution) -> np.ndarray:
     """
     size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
     return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)
+
+
+def npz_times(path: Path, times: np.ndarray, velocity_shape: tuple[int, ...]
+              ) -> tuple[float, ...]:
+    """An .npz series' "times" (nt,) as seconds from the first: finite, strictly increasing,
+    one per snapshot of its "velocity" (nt, nz, ny, nx, 3)."""
+    if (times.ndim != 1 or times.dtype.kind not in "iuf" or not np.isfinite(times).all()
+            or len(times) < 2 or len(velocity_shape) != 5 or velocity_shape[0] != len(times)
+            or not (np.diff(times.astype(np.float64)) > 0).all()):
+        raise FieldError(f"{path}: array 'times' has shape {times.shape} and values "
+                         f"{times.ravel()[:6].tolist()!r} with 'velocity' of shape "
+                         f"{tuple(velocity_shape)}; expected 2 or more finite, strictly increasing "
+                         "seconds, one per snapshot of a 'velocity' (nt, nz, ny, nx, 3)")
+    return tuple((times.astype(np.float64) - float(times[0])).tolist())

@@ -34,14 +34,11 @@ beyond WORDS_PER_TEXEL × size² particles: the loader holds the capacity below 
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
+from cavesim.core.field_time import START, FlowSampler
 from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import WORDS_PER_TEXEL, moved_texel
-
-FlowSampler = Callable[[np.ndarray], np.ndarray]
 
 SHEAR_STEP = 0.1  # m: the flow is sampled this far above and below a particle
 FIELD_BITS = 10  # bits of a word per draw
@@ -71,10 +68,10 @@ def mixing_length(height: np.ndarray, longest: float) -> np.ndarray:
 
 
 def shear_samples(flow: FlowSampler, p: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The flow SHEAR_STEP below, at and above points p (N, 3)."""
+    """The flow SHEAR_STEP below, at and above points p (N, 3), at the step's start."""
     lift = np.zeros(3, dtype=p.dtype)
     lift[2] = SHEAR_STEP
-    return flow(p - lift), flow(p), flow(p + lift)
+    return flow(p - lift, START), flow(p, START), flow(p + lift, START)
 
 
 def particle_diffusivity(below: np.ndarray, here: np.ndarray, above: np.ndarray,

@@ -1,9 +1,10 @@
 """Gridded velocity fields from NetCDF (CF conventions) and VTK XML ImageData (.vti) files.
 
 `read_flow_file` turns one such file into a `GriddedFlow`: the velocity in m/s at the nodes of
-a regular grid, x varying fastest, and the box of its first and last nodes in metres. The
-caller reads cavesim's own .npz archives itself (`cavesim.core.fields`). Every bad input
-becomes one FieldError naming the file, the variable or attribute and what was expected.
+a regular grid, x varying fastest, the box of its first and last nodes in metres, and for a
+NetCDF time series its snapshot times. The caller reads cavesim's own .npz archives itself
+(`cavesim.core.fields`). Every bad input becomes one FieldError naming the file, the
+variable or attribute and what was expected.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from cavesim.core._vtk_image import point_vectors, read_image_data
 from cavesim.core.errors import FieldError
-from cavesim.core.limits import FIELD_RESOLUTION_RANGE, MAX_FIELD_NODES
+from cavesim.core.limits import FIELD_RESOLUTION_RANGE, MAX_FIELD_NODES, MAX_FIELD_SERIES_NODES
 
 # The velocity components: axis, the variable name used when no standard_name matches, and
 # the CF standard names (wind and sea water) that identify the component.
@@ -38,6 +39,10 @@ VELOCITY_UNITS = {"m/s": 1.0, "m s-1": 1.0, "m s**-1": 1.0, "m.s-1": 1.0, "m s^-
 LENGTH_UNITS = {"m": 1.0, "meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0,
                 "km": 1000.0, "kilometer": 1000.0, "kilometers": 1000.0,
                 "kilometre": 1000.0, "kilometres": 1000.0}
+# A time coordinate's units, before any " since <date>": seconds per unit
+TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "min": 60.0,
+              "minute": 60.0, "minutes": 60.0, "h": 3600.0, "hour": 3600.0, "hours": 3600.0,
+              "day": 86400.0, "days": 86400.0}
 SPACING_RTOL = 1e-6  # of the spacing: how far a coordinate step may stray from uniform
 FLOW_FILE_SUFFIXES = (".nc", ".vti")  # NetCDF, VTK XML ImageData (others: cavesim's .npz)
 VARIABLES_NAMED = {".nc": 3, ".vti": 1}  # how many names `variables` gives for each
@@ -45,25 +50,27 @@ VARIABLES_NAMED = {".nc": 3, ".vti": 1}  # how many names `variables` gives for 
 
 @dataclass(frozen=True, eq=False)
 class GriddedFlow:
-    """Velocity (m/s) at the nodes of a regular grid; `velocity[k, j, i]` is the flow at
-    box_min + (i, j, k) · (box_max − box_min) / (res − 1), float32 and C-contiguous."""
+    """Velocity (m/s) at the nodes of a regular grid at one or more times;
+    `velocity[n, k, j, i]` is the flow at box_min + (i, j, k) · (box_max − box_min) / (res − 1)
+    at times[n], float32 and C-contiguous."""
 
-    velocity: np.ndarray  # (nz, ny, nx, 3), x varying fastest
+    velocity: np.ndarray  # (nt, nz, ny, nx, 3), x varying fastest
     box_min: tuple[float, float, float]  # metres: the first node on each axis
     box_max: tuple[float, float, float]  # metres: the last node on each axis
+    times: tuple[float, ...] = (0.0,)  # s from the first snapshot, increasing
 
 
 def read_flow_file(path: Path, variables: tuple[str, ...] | None = None,
-                   velocity_units: str | None = None,
-                   length_units: str | None = None) -> GriddedFlow:
+                   velocity_units: str | None = None, length_units: str | None = None,
+                   time_units: str | None = None) -> GriddedFlow:
     """The flow of a .nc (NetCDF, CF conventions) or .vti (VTK XML ImageData) file.
 
     `variables` names the x, y and z velocity variables of a NetCDF file (else found by CF
     standard_name, else u, v, w), or the one 3-component point array of a .vti file (else
     the PointData's Vectors, else its only 3-component array).
-    `velocity_units` and `length_units`, named by the scene, override the file's units
-    attributes. VTK files have no units: their values are m/s and positions metres unless
-    these say otherwise.
+    `velocity_units`, `length_units` and `time_units`, named by the scene, override the
+    file's units attributes. VTK files have no units: their values are m/s and positions
+    metres unless these say otherwise, and they hold one snapshot.
     """
     readers = dict(zip(FLOW_FILE_SUFFIXES, (_read_netcdf, _read_vti), strict=True))
     suffix = path.suffix.lower()
@@ -74,10 +81,13 @@ def read_flow_file(path: Path, variables: tuple[str, ...] | None = None,
         raise FieldError(f"{path}: variables {list(variables)} names {len(variables)}; "
                          "expected 3 for a .nc file (its x, y and z velocity variables) or 1 "
                          "for a .vti file (its 3-component point array)")
-    return readers[suffix](path, variables, velocity_units, length_units)
+    if time_units is not None and suffix != ".nc":
+        raise FieldError(f"{path}: time_units names the units of a NetCDF time coordinate; a "
+                         f"{suffix} file holds one snapshot")
+    return readers[suffix](path, variables, velocity_units, length_units, time_units)
 
 
-def _read_netcdf(path, variables, velocity_units, length_units) -> GriddedFlow:
+def _read_netcdf(path, variables, velocity_units, length_units, time_units) -> GriddedFlow:
     import xarray as xr  # here: it brings pandas, which only NetCDF files need
 
     try:
@@ -99,11 +109,22 @@ def _read_netcdf(path, variables, velocity_units, length_units) -> GriddedFlow:
                              "same units on all three")
         scale = _unit_scale(path, f"variable {names[0]!r}", velocity_units or units[names[0]],
                             velocity_units is not None, VELOCITY_UNITS, "velocity_units")
+        times = {time for _, time in layouts}
+        if len(times) > 1:
+            raise FieldError(f"{path}: variables {names} have different time dimensions "
+                             f"{sorted(map(str, times))}; expected the same time, or none")
+        time = times.pop()
+        snapshots = dataset.sizes[time] if time else 1
+        grid_nodes = math.prod(dataset.sizes[d] for d in dims)
+        if grid_nodes * snapshots > MAX_FIELD_SERIES_NODES:
+            raise FieldError(f"{path}: {snapshots} snapshots of {grid_nodes} nodes; expected at "
+                             f"most {MAX_FIELD_SERIES_NODES} nodes in all snapshots together")
         components = [_finite_float32(path, f"variable {name!r}",
                                       _values(path, dataset, name, dims, time) * scale)
-                      for name, (_, time) in zip(names, layouts, strict=True)]
+                      for name in names]
+        seconds = (0.0,) if snapshots == 1 else _snapshot_times(path, dataset, time, time_units)
     box_min, box_max = zip(*nodes, strict=True)
-    return GriddedFlow(np.stack(components, axis=-1), box_min, box_max)
+    return GriddedFlow(np.stack(components, axis=-1), box_min, box_max, seconds)
 
 
 def _velocity_names(path, dataset, variables) -> tuple[str, ...]:
@@ -140,12 +161,8 @@ def _layout(path, dataset, name) -> tuple[tuple[str, str, str], str | None]:
         axes[axis] = dim
     if {"x", "y", "z"} - set(axes):
         raise FieldError(f"{path}: variable {name!r} has dimensions {dims}; expected x, y and z "
-                         "(and at most a time of length 1)")
-    time = axes.get("t")
-    if time is not None and dataset.sizes[time] != 1:
-        raise FieldError(f"{path}: variable {name!r} holds {dataset.sizes[time]} times (dimension "
-                         f"{time!r}); a field here is one snapshot: select one time")
-    return (axes["z"], axes["y"], axes["x"]), time
+                         "(and at most a time)")
+    return (axes["z"], axes["y"], axes["x"]), axes.get("t")
 
 
 def _axis_of(path, dataset, name, dim) -> str:
@@ -188,11 +205,33 @@ def _axis_nodes(path, dataset, dim, length_units) -> tuple[float, float]:
     return float(values[0]) * scale, float(values[-1]) * scale
 
 
+def _snapshot_times(path, dataset, dim, time_units) -> tuple[float, ...]:
+    """The time coordinate in seconds from its first value: strictly increasing and finite,
+    in units such as "seconds since 2026-01-01" (or the scene's time_units)."""
+    if dim not in dataset.coords:
+        raise FieldError(f"{path}: time dimension {dim!r} has no coordinate variable; expected "
+                         f"a 1-D variable {dim!r} of snapshot times")
+    values = np.asarray(dataset[dim].values)
+    if values.ndim != 1 or values.dtype.kind not in "iuf" or not np.isfinite(values).all():
+        raise FieldError(f"{path}: time coordinate {dim!r} has shape {values.shape}, dtype "
+                         f"{values.dtype}; expected 1-D finite numbers")
+    unit = time_units or dataset[dim].attrs.get("units")
+    named = time_units is not None
+    word = None if unit is None else str(unit).split(" since ")[0]
+    scale = _unit_scale(path, f"time coordinate {dim!r}", word, named, TIME_UNITS, "time_units")
+    seconds = (values.astype(np.float64) - float(values[0])) * scale
+    if len(seconds) > 1 and not (np.diff(seconds) > 0).all():
+        raise FieldError(f"{path}: time coordinate {dim!r} is {values.tolist()[:6]}...; "
+                         "expected strictly increasing snapshot times")
+    return tuple(seconds.tolist())
+
+
 def _values(path, dataset, name, dims, time) -> np.ndarray:
-    """The variable as float64 (z, y, x), its one time squeezed; fill values become NaN."""
-    variable = dataset[name].isel({time: 0}) if time else dataset[name]
+    """The variable as float64 (t, z, y, x), t of length 1 when it has no time; fill
+    values become NaN."""
+    variable = dataset[name] if time else dataset[name].expand_dims("_snapshot")
     try:
-        values = variable.transpose(*dims).values
+        values = variable.transpose(time or "_snapshot", *dims).values
     except (OSError, ValueError, RuntimeError) as e:
         raise FieldError(f"{path}: cannot read variable {name!r}: {e}") from e
     if values.dtype.kind not in "iuf":
@@ -200,7 +239,7 @@ def _values(path, dataset, name, dims, time) -> np.ndarray:
     return values.astype(np.float64)
 
 
-def _read_vti(path, variables, velocity_units, length_units) -> GriddedFlow:
+def _read_vti(path, variables, velocity_units, length_units, _time_units) -> GriddedFlow:
     image = read_image_data(path)
     _check_nodes(path, "ImageData WholeExtent", image.shape)
     where, values = point_vectors(path, image, variables[0] if variables else None)
@@ -208,7 +247,7 @@ def _read_vti(path, variables, velocity_units, length_units) -> GriddedFlow:
                         VELOCITY_UNITS, "velocity_units")
     length = _unit_scale(path, "ImageData", length_units or "m", length_units is not None,
                          LENGTH_UNITS, "length_units")
-    velocity = _finite_float32(path, where, values * scale)
+    velocity = _finite_float32(path, where, values[np.newaxis] * scale)
     box_min, box_max = (tuple(length * v for v in corner) for corner in image.corners)
     return GriddedFlow(velocity, box_min, box_max)
 
@@ -234,14 +273,16 @@ def _unit_scale(path, what, unit, named, table, argument) -> float:
 
 
 def _finite_float32(path, what, values) -> np.ndarray:
-    """`values` (nodes (z, y, x) first) as C-contiguous float32; FieldError on a missing,
+    """`values` (nodes (t, z, y, x) first) as C-contiguous float32; FieldError on a missing,
     non-finite or float32-overflowing node."""
     with np.errstate(over="ignore", invalid="ignore"):
         grid = np.ascontiguousarray(values, dtype=np.float32)
-    bad = ~np.isfinite(grid).reshape(*grid.shape[:3], -1).all(axis=-1)
+    bad = ~np.isfinite(grid).reshape(*grid.shape[:4], -1).all(axis=-1)
     if bad.any():
         first = tuple(int(i) for i in np.argwhere(bad)[0])
+        axes = "(t, z, y, x)" if len(grid) > 1 else "(z, y, x)"
+        first = first if len(grid) > 1 else first[1:]
         raise FieldError(f"{path}: {what} has {int(bad.sum())} node(s) missing (_FillValue) or "
-                         "not finite (NaN, inf or beyond float32), the first at (z, y, x) "
+                         f"not finite (NaN, inf or beyond float32), the first at {axes} "
                          f"{first}; expected a finite value at every node")
     return grid

@@ -1,10 +1,12 @@
-"""The flow field on the CPU: builds the velocity grid that the GPU samples as a 3D texture.
+"""The flow field on the CPU: builds the velocity grids that the GPU samples as a 3D texture.
 
-Data flow: the scene loader gives a `Field`; `build_field` turns it into a `FieldGrid` once
-per scene (an analytic model evaluated at the nodes, or an .npz file checked at the door);
-the GL engine uploads `grid.texels.tobytes()` as a 3-component 3D texture (the nodes, or for
-a cubic interpolation the texels of `cavesim.core.interpolation`), and every frame the drag
-stage samples it. `sample_field` is the numpy twin of that shader lookup.
+Data flow: the scene loader gives a `Field`; `build_series` turns it into a `FieldSeries`
+once per scene: one `FieldGrid` for a steady field (an analytic model evaluated at the
+nodes, or a file checked at the door), or one per snapshot of a time series. The GL engine
+uploads `series.texels().tobytes()` as a 3-component 3D texture (the nodes, or for a cubic
+interpolation the texels of `cavesim.core.interpolation`; a series' snapshots stacked along
+z), and every frame the drag stage samples it. `sample_field` is the numpy twin of that
+shader lookup on one snapshot; `cavesim.core.field_time` says how snapshots mix in time.
 """
 
 from __future__ import annotations
@@ -24,11 +26,12 @@ from cavesim.core._grids import (
     float_grid,
     index_scale,
     mix,
+    npz_times,
     read_npz,
 )
 from cavesim.core.errors import FieldError
 from cavesim.core.field_files import FLOW_FILE_SUFFIXES, read_flow_file
-from cavesim.core.flows import MODELS
+from cavesim.core.flows import MODELS, rotating_velocity
 from cavesim.core.interpolation import is_cubic, texels, weights
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
 from cavesim.core.scene.model import Field, FieldInterpolation, FieldKind, OutOfDomain
@@ -86,21 +89,83 @@ class FieldGrid:
         return index_scale(self.box_min, self.box_max, self.resolution)
 
 
+@dataclass(frozen=True, eq=False)
+class FieldSeries:
+    """A field's snapshots on one grid and the times they hold at (s from the first,
+    increasing); one snapshot at (0.0,) is a steady field."""
+
+    snapshots: tuple[FieldGrid, ...]
+    times: tuple[float, ...] = (0.0,)
+
+    def __post_init__(self) -> None:
+        first = self.snapshots[0]
+        if len(self.times) != len(self.snapshots):
+            raise FieldError(f"{len(self.snapshots)} snapshots with {len(self.times)} times; "
+                             "expected one time each")
+        times = np.asarray(self.times, dtype=np.float64)
+        if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
+            raise FieldError(f"snapshot times {list(self.times)[:6]}...: expected finite and "
+                             "strictly increasing")
+        if any((g.resolution, g.box_min, g.box_max, g.interpolation) != (
+                first.resolution, first.box_min, first.box_max, first.interpolation)
+                for g in self.snapshots):
+            raise FieldError("a time series' snapshots must share one grid and interpolation")
+
+    @property
+    def first(self) -> FieldGrid:
+        """Snapshot 0: its grid (box, resolution, interpolation) is every snapshot's."""
+        return self.snapshots[0]
+
+    @property
+    def steady(self) -> bool:
+        return len(self.snapshots) == 1
+
+    @property
+    def texture_size(self) -> tuple[int, int, int]:
+        """Texels per axis of the stacked texture: a snapshot's, z times the snapshots."""
+        nx, ny, nz = self.first.texture_size
+        return nx, ny, nz * len(self.snapshots)
+
+    def texels(self) -> np.ndarray:
+        """Every snapshot's texels stacked along z, snapshot 0 first (a new array)."""
+        return np.concatenate([g.texels for g in self.snapshots], axis=0)
+
+
+def build_series(field: Field) -> FieldSeries:
+    """The snapshots of a scene's field: a file's (NetCDF holds a time series; .npz with
+    "times"), a rotating flow's, or the one grid of a steady field (`build_field`)."""
+    kind = FieldKind(field.kind)
+    if kind is FieldKind.ROTATING:
+        box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
+        nx, ny, nz = field.resolution
+        grids = tuple(FieldGrid(np.broadcast_to(rotating_velocity(t, field.params),
+                                                (nz, ny, nx, 3)).astype(np.float32),
+                                box_min, box_max, field.interpolation)
+                      for t in field.times)
+        return FieldSeries(grids, field.times)
+    if kind is FieldKind.FILE and field.times is not None:
+        velocity, box_min, box_max, times = _read_flow(field)
+        return FieldSeries(tuple(FieldGrid(v, box_min, box_max, field.interpolation)
+                                 for v in velocity), times)
+    return FieldSeries((build_field(field),))
+
+
 def build_field(field: Field) -> FieldGrid:
-    """The grid of a scene's field: the .npz file for FILE, else the analytic model at the nodes.
+    """The grid of a steady field: its file's for FILE, else the analytic model at the nodes.
 
     For FILE the resolution comes from the file and `field.resolution` is not used.
     """
     kind = FieldKind(field.kind)
+    if field.times is not None:
+        raise FieldError(f"the {kind.value} field is a time series of {len(field.times)} "
+                         "snapshots; its grids come from build_series")
     box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
     if kind is FieldKind.FILE:
-        if field.file is None:
-            raise FieldError("field of kind 'file' names no file")
-        if Path(field.file).suffix.lower() in FLOW_FILE_SUFFIXES:
-            flow = read_flow_file(Path(field.file), field.named_variables,
-                                  field.velocity_units, field.length_units)
-            return FieldGrid(flow.velocity, flow.box_min, flow.box_max, field.interpolation)
-        return _load_field_file(Path(field.file), box_min, box_max, field.interpolation)
+        velocity, box_min, box_max, times = _read_flow(field)
+        if len(times) > 1:
+            raise FieldError(f"{field.file}: holds {len(times)} snapshots, but the field was "
+                             "given as steady (a scene the loader did not read)")
+        return FieldGrid(velocity[0], box_min, box_max, field.interpolation)
     res = tuple(field.resolution)
     low, high = FIELD_RESOLUTION_RANGE
     in_range = (isinstance(n, int | np.integer) and low <= n <= high for n in res)
@@ -180,11 +245,33 @@ def save_field(path, grid: FieldGrid) -> None:
                  box_max=np.asarray(grid.box_max))
 
 
-def _load_field_file(path: Path, box_min, box_max,
-                     interpolation: FieldInterpolation) -> FieldGrid:
-    arrays = read_npz(path, required=("velocity",), optional=("box_min", "box_max"))
-    velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
-                           FIELD_RESOLUTION_RANGE[1], components=3)
+def _read_flow(field: Field) -> tuple[np.ndarray, tuple, tuple, tuple[float, ...]]:
+    """A FILE field's (velocity (nt, nz, ny, nx, 3), box_min, box_max, times)."""
+    if field.file is None:
+        raise FieldError("field of kind 'file' names no file")
+    path = Path(field.file)
+    if path.suffix.lower() in FLOW_FILE_SUFFIXES:
+        flow = read_flow_file(path, field.named_variables, field.velocity_units,
+                              field.length_units, field.time_units)
+        return flow.velocity, flow.box_min, flow.box_max, flow.times
+    box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
+    velocity, times = _load_field_file(path, box_min, box_max)
+    return velocity, box_min, box_max, times
+
+
+def _load_field_file(path: Path, box_min, box_max) -> tuple[np.ndarray, tuple[float, ...]]:
+    """An .npz field's velocity (nt, nz, ny, nx, 3) and times: "velocity" (nz, ny, nx, 3),
+    or with "times" (nt,) in seconds a series (nt, nz, ny, nx, 3)."""
+    arrays = read_npz(path, required=("velocity",), optional=("box_min", "box_max", "times"))
+    if "times" in arrays:
+        times = npz_times(path, arrays["times"], arrays["velocity"].shape)
+        velocity = np.stack([float_grid(path, f"velocity[{n}]", snapshot, "(nz, ny, nx, 3)",
+                                        FIELD_RESOLUTION_RANGE[1], components=3)
+                             for n, snapshot in enumerate(arrays["velocity"])])
+    else:
+        times = (0.0,)
+        velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
+                              FIELD_RESOLUTION_RANGE[1], components=3)[np.newaxis]
     for name, scene_corner in (("box_min", box_min), ("box_max", box_max)):
         if name not in arrays:
             continue
@@ -194,4 +281,5 @@ def _load_field_file(path: Path, box_min, box_max,
                    for f, s, e in zip(file_corner, scene_corner, extents, strict=True)):
             raise FieldError(f"{path}: array {name!r} is {file_corner}, but the scene's field box "
                              f"has {name} = {scene_corner}; they must agree to 1e-9 relative")
-    return FieldGrid(velocity, box_min, box_max, interpolation)
+    return velocity, times
+

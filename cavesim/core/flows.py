@@ -76,6 +76,16 @@ def downwash_velocity(x, y, z, params: Mapping[str, object]) -> np.ndarray:
     return _stack((x, y, z), u_r * dx / safe_r, u_r * dy / safe_r, w)
 
 
+def rotating_velocity(t: float, params: Mapping[str, object]) -> np.ndarray:
+    """The uniform flow params["velocity"] turned about z by params["angular_speed"] × t
+    (rad/s, counter-clockwise seen from above); shape (3,). The closed form a time series
+    of `rotating` snapshots interpolates."""
+    vx, vy, vz = _param(params, "velocity", sizes=(3,))
+    angle = _param(params, "angular_speed") * t
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([c * vx - s * vy, s * vx + c * vy, vz])
+
+
 MODELS = {
     FieldKind.UNIFORM: uniform_velocity,
     FieldKind.VORTEX: vortex_velocity,

@@ -21,6 +21,7 @@ MAX_EMITTERS = 4096  # columns of the emitter table texture (GL 4.3: at least 16
 RANDOM_TEXTURE_SIZE_RANGE = (16, 4096)  # a power of two; 4096 is below every GL 4.3 limit
 FIELD_RESOLUTION_RANGE = (2, 256)  # nodes per axis: 256³ × 3 × float32 is already 200 MB
 MAX_FIELD_NODES = 2**22  # nodes of a field in all: a 64 MiB RGBA32F texture at most
+MAX_FIELD_SERIES_NODES = 2**25  # nodes of a time series' snapshots in all: 384 MiB of float32
 
 # --- what a scene may ask for ------------------------------------------------------------
 MAX_RATE = 1e9  # particles/s of one emitter

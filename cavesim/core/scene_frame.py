@@ -2,8 +2,8 @@
 
 The master's scene driver makes a `SceneFrame` once per frame; it travels as the frame
 message's float32 parameters (each driver's `encode`/`decode`), so every node steps and
-draws from the same bits (determinism rule 1): the engine reads `rotor`, the renderer
-`helicopter`.
+draws from the same bits (determinism rule 1): the engine reads `rotor` and `field_time`,
+the renderer `helicopter`.
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from cavesim.core.field_time import FieldTime
 
 MESH_HUB_HEIGHT = 1.3  # m from the skids up to the rotor hub of the drawn model (meshes.py)
 MESH_ROTOR_RADIUS = 5.0  # m, the drawn rotor's radius before scaling
@@ -54,6 +56,7 @@ class RotorFrame:
 class SceneFrame:
     helicopter: HelicopterPose | None = None  # what the walls draw
     rotor: RotorFrame | None = None  # what blows the dust (helicopter scenes)
+    field_time: FieldTime | None = None  # where a time-series field stands this step
 
 
 NOTHING_MOVES = SceneFrame()  # a frame of a scene whose state does not change over time

@@ -1,8 +1,11 @@
-"""Write the sample flow files vortex.nc (NetCDF, CF-1.8) and vortex.vti (VTK XML ImageData).
+"""Write the sample flow files vortex.nc (NetCDF, CF-1.8), vortex.vti (VTK XML ImageData)
+and the time series pulsing_vortex.nc (NetCDF, CF-1.8).
 
-Both hold the same Lamb–Oseen vortex (cavesim.core.flows.vortex_velocity): circulation
-20 m²/s, core radius 1 m, axis through (0, 0), axial flow 0.5 m/s upward, on 25 × 25 × 3
-nodes over x, y in [-6, 6] m and z in [0, 10] m. Run from the repository root:
+The first two hold the same Lamb–Oseen vortex (cavesim.core.flows.vortex_velocity):
+circulation 20 m²/s, core radius 1 m, axis through (0, 0), axial flow 0.5 m/s upward, on
+25 × 25 × 3 nodes over x, y in [-6, 6] m and z in [0, 10] m. pulsing_vortex.nc holds that
+vortex at 9 times, every 0.5 s, its circulation 20 (1 + 0.5 sin(2π t / 4 s)) m²/s.
+Run from the repository root:
     python config/fields/make_sample_fields.py
 """
 
@@ -22,15 +25,22 @@ BOX_MIN, BOX_MAX = (-6.0, -6.0, 0.0), (6.0, 6.0, 10.0)
 RESOLUTION = (25, 25, 3)  # nodes along x, y, z
 
 
-def vortex_nodes() -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+PULSE_TIMES = tuple(0.5 * k for k in range(9))  # s
+PULSE_PERIOD = 4.0  # s
+
+
+def vortex_nodes(circulation: float = VORTEX["circulation"]
+                 ) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
     """The node coordinates (x, y, z) and the float32 velocity (nz, ny, nx, 3) there."""
     x, y, z = (np.linspace(a, b, n) for a, b, n in zip(BOX_MIN, BOX_MAX, RESOLUTION, strict=True))
-    velocity = vortex_velocity(x[None, None, :], y[None, :, None], z[:, None, None], VORTEX)
+    velocity = vortex_velocity(x[None, None, :], y[None, :, None], z[:, None, None],
+                               {**VORTEX, "circulation": circulation})
     return (x, y, z), velocity.astype(np.float32)
 
 
-def write_netcdf(path: Path) -> None:
-    """CF-1.8 NetCDF: coordinates x, y, z and variables u, v, w on dimensions (z, y, x)."""
+def write_netcdf(path: Path, times: tuple[float, ...] | None = None) -> None:
+    """CF-1.8 NetCDF: coordinates x, y, z and variables u, v, w on dimensions (z, y, x);
+    with `times`, the pulsing vortex at each, on dimensions (time, z, y, x)."""
     (x, y, z), velocity = vortex_nodes()
     coordinates = {
         "x": ("x", x, {"axis": "X", "units": "m", "standard_name": "projection_x_coordinate"}),
@@ -38,15 +48,26 @@ def write_netcdf(path: Path) -> None:
         "z": ("z", z, {"axis": "Z", "units": "m", "standard_name": "height",
                        "positive": "up"}),
     }
+    dims = ("z", "y", "x")
+    if times is not None:
+        velocity = np.stack([vortex_nodes(pulsing_circulation(t))[1] for t in times])
+        coordinates["time"] = ("time", np.array(times), {
+            "axis": "T", "standard_name": "time", "units": "seconds since 2026-01-01 00:00:00"})
+        dims = ("time", *dims)
     names = {"u": "eastward_wind", "v": "northward_wind", "w": "upward_air_velocity"}
-    variables = {name: (("z", "y", "x"), velocity[..., i], {"units": "m s-1",
-                                                            "standard_name": standard_name})
+    variables = {name: (dims, velocity[..., i], {"units": "m s-1",
+                                                 "standard_name": standard_name})
                  for i, (name, standard_name) in enumerate(names.items())}
     dataset = xr.Dataset(variables, coords=coordinates, attrs={
         "Conventions": "CF-1.8", "title": "Lamb-Oseen vortex, cavesim sample field",
         "source": "config/fields/make_sample_fields.py"})
     encoding = {name: {"_FillValue": None} for name in (*coordinates, *names)}
     dataset.to_netcdf(path, engine="netcdf4", encoding=encoding)
+
+
+def pulsing_circulation(t: float) -> float:
+    """m²/s at t: the sample vortex's, swelling and easing by half over PULSE_PERIOD."""
+    return VORTEX["circulation"] * (1.0 + 0.5 * np.sin(2.0 * np.pi * t / PULSE_PERIOD))
 
 
 def write_vti(path: Path) -> None:
@@ -76,6 +97,7 @@ def write_vti(path: Path) -> None:
 def main() -> None:
     write_netcdf(HERE / "vortex.nc")
     write_vti(HERE / "vortex.vti")
+    write_netcdf(HERE / "pulsing_vortex.nc", PULSE_TIMES)
 
 
 if __name__ == "__main__":

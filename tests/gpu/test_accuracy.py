@@ -37,6 +37,7 @@ from cavesim.tools.numerics.cases import (
     REPORT_DT,
     SAND_METHODS,
     TAU,
+    rotating_case,
     smooth_vortex_case,
     uniform_case,
     vortex_case,
@@ -49,6 +50,7 @@ from cavesim.tools.numerics.reference import (
     TOLERANCES,
     closed_form,
     fine_rk4,
+    rotating_closed_form,
     twin_forces,
 )
 from cavesim.tools.numerics.report import OUTPUT_NAMES
@@ -96,9 +98,9 @@ def test_the_evaluations_column_counts_the_twins_flow_samples(method):
     forces = twin_forces(case)
     calls = []
 
-    def counted(p):
+    def counted(p, stage):
         calls.append(len(p))
-        return forces.flow(p)
+        return forces.flow(p, stage)
 
     p, v = case.particles["pos"].astype(float), case.particles["vel"].astype(float)
     INTEGRATORS[method.integrator](p, v, 1 / 60, dataclasses.replace(forces, flow=counted))
@@ -393,3 +395,44 @@ def test_etd2rk_is_second_order_under_schiller_naumann_drag(quick_run, case):
         assert summary.gpu_rms <= GPU_TO_TWIN_FACTOR * summary.twin_rms + FLOAT32_FLOOR
     assert [s.integrator for s in result.summaries if s.case == case] == [
         "exponential", "etd2rk"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
+def test_a_time_series_holds_linear_interpolations_order(quick_run, method):
+    """The rotating flow given as snapshots two steps apart: against the closed form of the
+    smooth turning flow, every method of order 2 or more shows order 2 within 0.1 (linear
+    interpolation in time), the first-order ones 1; and the GPU follows its twin."""
+    result, _, _ = quick_run
+    summary = summary_of(result, "rotating", method)
+    expected = min(method.order, 2)
+    assert summary.expected == expected and summary.verdict == "ok", summary
+    assert abs(summary.observed - expected) <= 0.1, (method.name, summary.observed)
+    assert summary.gpu_rms <= GPU_TO_TWIN_FACTOR * summary.twin_rms + FLOAT32_FLOOR
+
+
+def test_the_rotating_closed_form_starts_at_the_particles_and_turns_with_the_flow():
+    case = rotating_case(50)
+    start = rotating_closed_form(case, 0.0)
+    np.testing.assert_allclose(start.pos, case.particles["pos"].astype(np.float64), atol=1e-12)
+    np.testing.assert_allclose(start.vel, case.particles["vel"].astype(np.float64), atol=1e-12)
+    t = 60 * TAU  # long after the start: they turn with the flow, lagging by atan(omega tau)
+    late = rotating_closed_form(case, t)
+    scene = case.scene(Integrator.RK4)
+    omega, tau = scene.field.params["angular_speed"], scene.relaxation_times()[0]
+    flow = 3.0 * np.exp(1j * omega * t)
+    lagging = late.vel[:, 0] + 1j * late.vel[:, 1]
+    np.testing.assert_allclose(lagging, flow / (1 + 1j * omega * tau), rtol=1e-6)
+    np.testing.assert_allclose(late.vel[:, 2], 0.5 - 9.81 * tau, rtol=1e-6)
+    derivative = (rotating_closed_form(case, t + 1e-6).pos - late.pos) / 1e-6
+    np.testing.assert_allclose(derivative, late.vel, rtol=1e-5, atol=1e-5)
+
+
+def test_each_dt_of_a_time_series_case_has_its_own_snapshots():
+    case = rotating_case(4)
+    for dt in (1 / 15, 1 / 240):
+        times = case.scene(Integrator.RK4, dt=dt).field.times
+        assert times[1] == pytest.approx(2 * dt) and times[-1] >= FINAL_TIME
+        field_time = case.frame_at(case.scene(Integrator.RK4, dt=dt), 3, dt).field_time
+        where = [p + w for p, w in zip(field_time.pairs, field_time.weights, strict=True)]
+        assert where == pytest.approx([1.5, 1.75, 2.0], abs=1e-6)  # step 3: 3, 3.5, 4 dt

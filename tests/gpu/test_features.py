@@ -142,7 +142,7 @@ def test_a_cubic_field_texture_holds_the_padded_texels(ctx):
     texture = system.resources["flow_field"]
     nx, ny, nz = scene.field.resolution
     assert texture.size == (nx + 2, ny + 2, nz + 2)
-    assert texture.read() == system.field_grid.texels.tobytes()
+    assert texture.read() == system.field_series.texels().tobytes()
 
 
 def test_minimal_scene_allocates_no_field_ground_or_extra_uniforms(ctx):

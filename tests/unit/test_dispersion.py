@@ -14,6 +14,7 @@ from cavesim.core.dispersion import (
     seen_turbulence,
     shear_samples,
 )
+from cavesim.core.field_time import START
 from cavesim.core.fields import FieldGrid, save_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.helicopter.downwash import KARMAN
@@ -31,7 +32,7 @@ TRACER = 1e9  # 1/s: a drag rate far above any shear here
 
 def log_law(z0: float):
     """The neutral surface layer: u = (u*/kappa) ln(z/z0) along x."""
-    def flow(points: np.ndarray) -> np.ndarray:
+    def flow(points: np.ndarray, stage: int = START) -> np.ndarray:
         out = np.zeros_like(points)
         out[:, 0] = U_STAR / KARMAN * np.log(np.maximum(points[:, 2], z0) / z0)
         return out
@@ -82,7 +83,7 @@ def test_heavy_grains_follow_the_eddies_in_part():
 def test_the_turbulence_does_not_vanish_at_a_jets_velocity_maximum():
     """At the peak of u = 8 (1 - (z - 1)²) the shear is zero, but not K: a tenth of the
     speed times the mixing length (Launder & Rodi's wall jets)."""
-    def jet(points):
+    def jet(points, stage=START):
         out = np.zeros_like(points)
         out[:, 0] = 8.0 * (1.0 - (points[:, 2] - 1.0) ** 2)
         return out

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from cavesim.core.drag import STOKES_REYNOLDS_LIMIT, drag_factor, terminal_speed
+from cavesim.core.field_time import END
 from cavesim.core.scene import (
     AIR_VISCOSITY,
     Drag,
@@ -88,7 +89,7 @@ def test_etd2rk_takes_the_drag_rate_of_the_predicted_state_in_its_second_stage()
     is first order (tests/gpu/test_accuracy.py holds the order)."""
     twin = TwinSystem(still_air_scene(Integrator.ETD2RK))
     base = twin.forces_for(np.zeros(1, np.uint32))
-    forces = dataclasses.replace(base, flow=lambda p: np.stack(
+    forces = dataclasses.replace(base, flow=lambda p, stage: np.stack(
         [3.0 * p[:, 2], np.zeros(len(p)), np.zeros(len(p))], axis=1))
     p, v, h = np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 5.0]]), 1 / 60
     f, lam, drag = forces.linear_parts(p, v)
@@ -97,10 +98,10 @@ def test_etd2rk_takes_the_drag_rate_of_the_predicted_state_in_its_second_stage()
     _, phi1, phi2 = exponential_weights(lam * h)
     pa = p + h * (v + h * phi2 * (f - lam * v))
     va = v + h * phi1 * (f - lam * v)
-    slip = forces.flow(pa) - va
+    slip = forces.flow(pa, END) - va
     drag_a = drag_factor(np.linalg.norm(slip) * SAND.diameter / NU) / SAND.relaxation_time(MU)
     assert abs(drag_a / drag[0, 0] - 1) > 0.01, "the rate changes over the step"
-    d = forces.flow(pa) * drag_a + forces.gravity - (drag_a - drag) * va - f
+    d = forces.flow(pa, END) * drag_a + forces.gravity - (drag_a - drag) * va - f
     expected = v + h * (phi1 * (f - lam * v) + phi2 * d)
     _, v1 = INTEGRATORS[Integrator.ETD2RK](p, v, h, forces)
     # the twin's constants are float32-rounded (as the GPU's): 1e-6, against a 5% change

@@ -55,15 +55,15 @@ def test_samples_hold_the_lamb_oseen_vortex(name):
     scale = 20 / (2 * math.pi) * per_r2
     expected = np.stack([-scale * yy, scale * xx, np.full_like(xx, 0.5)], axis=-1)
     flow = read_flow_file(SAMPLES / name)
-    assert flow.velocity.dtype == np.float32 and flow.velocity.flags["C_CONTIGUOUS"]
-    np.testing.assert_allclose(flow.velocity, expected.astype(np.float32), rtol=1e-6, atol=1e-6)
+    assert flow.velocity[0].dtype == np.float32 and flow.velocity[0].flags["C_CONTIGUOUS"]
+    np.testing.assert_allclose(flow.velocity[0], expected.astype(np.float32), rtol=1e-6, atol=1e-6)
     assert flow.box_min == (-6.0, -6.0, 0.0) and flow.box_max == (6.0, 6.0, 10.0)
 
 
 def test_netcdf_dims_in_any_order_read_the_same(tmp_path):
     flow = read_flow_file(write_nc(tmp_path, linear_dataset().transpose("x", "z", "y")))
-    np.testing.assert_array_equal(flow.velocity, linear_velocity())
-    assert flow.velocity.flags["C_CONTIGUOUS"]
+    np.testing.assert_array_equal(flow.velocity[0], linear_velocity())
+    assert flow.velocity[0].flags["C_CONTIGUOUS"]
     assert (flow.box_min, flow.box_max) == (BOX_MIN, BOX_MAX)
 
 
@@ -75,7 +75,7 @@ def test_netcdf_km_and_cm_per_s_are_converted(tmp_path):
         dataset[name] = dataset[name] * 100
         dataset[name].attrs["units"] = "cm s-1"
     flow = read_flow_file(write_nc(tmp_path, dataset))
-    np.testing.assert_allclose(flow.velocity, linear_velocity(), rtol=1e-6)
+    np.testing.assert_allclose(flow.velocity[0], linear_velocity(), rtol=1e-6)
     np.testing.assert_allclose([flow.box_min, flow.box_max], [BOX_MIN, BOX_MAX], rtol=1e-12)
 
 
@@ -86,17 +86,15 @@ def test_netcdf_variables_by_standard_name_and_by_name(tmp_path):
     for name, standard_name in zip(("ue", "vn", "wu"), standard_names, strict=True):
         dataset[name].attrs["standard_name"] = standard_name
     path = write_nc(tmp_path, dataset)
-    np.testing.assert_array_equal(read_flow_file(path).velocity, linear_velocity())
-    swapped = read_flow_file(path, variables=("vn", "ue", "wu")).velocity
+    np.testing.assert_array_equal(read_flow_file(path).velocity[0], linear_velocity())
+    swapped = read_flow_file(path, variables=("vn", "ue", "wu")).velocity[0]
     np.testing.assert_array_equal(swapped, linear_velocity()[..., [1, 0, 2]])
 
 
-def test_netcdf_time_of_length_one_is_squeezed_and_two_are_refused(tmp_path):
+def test_netcdf_time_of_length_one_is_one_snapshot(tmp_path):
     one = linear_dataset().expand_dims(time=[0.0])
-    assert read_flow_file(write_nc(tmp_path, one)).velocity.shape == (2, 3, 4, 3)
-    path = write_nc(tmp_path, linear_dataset().expand_dims(time=[0.0, 60.0]))
-    with raises(path, "'u' holds 2 times.*one snapshot"):
-        read_flow_file(path)
+    flow = read_flow_file(write_nc(tmp_path, one))
+    assert flow.velocity.shape == (1, 2, 3, 4, 3) and flow.times == (0.0,)
 
 
 def longitude(dataset: xr.Dataset) -> xr.Dataset:
@@ -133,7 +131,7 @@ def test_netcdf_refusals_name_the_file_and_the_fault(tmp_path, change, what):
 def test_netcdf_units_named_by_the_scene_stand_in_for_the_file(tmp_path):
     path = write_nc(tmp_path, without_velocity_units(linear_dataset()))
     flow = read_flow_file(path, velocity_units="km/h")
-    np.testing.assert_allclose(flow.velocity, linear_velocity() / 3.6, rtol=1e-6)
+    np.testing.assert_allclose(flow.velocity[0], linear_velocity() / 3.6, rtol=1e-6)
 
 
 def test_a_file_that_is_not_netcdf_is_refused(tmp_path):
@@ -174,13 +172,13 @@ def write_vti(tmp_path: Path, storage="binary", header="UInt32", order="LittleEn
 ])
 def test_vti_ascii_and_binary_read_the_same(tmp_path, storage, header, order):
     flow = read_flow_file(write_vti(tmp_path, storage, header, order))
-    np.testing.assert_array_equal(flow.velocity, linear_velocity())
+    np.testing.assert_array_equal(flow.velocity[0], linear_velocity())
     assert (flow.box_min, flow.box_max) == VTI_BOX
 
 
 def test_vti_units_named_by_the_scene_scale_positions_and_values(tmp_path):
     flow = read_flow_file(write_vti(tmp_path), velocity_units="knots", length_units="km")
-    np.testing.assert_allclose(flow.velocity, linear_velocity() * 0.514444, rtol=1e-6)
+    np.testing.assert_allclose(flow.velocity[0], linear_velocity() * 0.514444, rtol=1e-6)
     np.testing.assert_allclose([flow.box_min, flow.box_max], np.array(VTI_BOX) * 1000)
 
 

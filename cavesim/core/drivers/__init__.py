@@ -8,6 +8,7 @@ branches on the scene kind and no node derives a value another way (determinism 
 
 from __future__ import annotations
 
+from cavesim.core.drivers.field_clock import FieldClock
 from cavesim.core.drivers.helicopter import HelicopterDriver
 from cavesim.core.drivers.scene_driver import DriverStep, FlightSample, SceneDriver
 from cavesim.core.drivers.still import StillDriver
@@ -16,9 +17,12 @@ from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame
 
 
 def driver_for(scene: Scene) -> SceneDriver:
-    """The driver of `scene`'s kind."""
-    return HelicopterDriver(scene) if scene.helicopter is not None else StillDriver()
+    """The driver of `scene`'s kind, with the field's clock where its field is a time series."""
+    driver = HelicopterDriver(scene) if scene.helicopter is not None else StillDriver()
+    if scene.field is not None and scene.field.times is not None:
+        return FieldClock(driver, scene.field.times)
+    return driver
 
 
-__all__ = ["DriverStep", "FlightSample", "HelicopterDriver", "HelicopterPose", "RotorFrame",
-           "SceneDriver", "SceneFrame", "StillDriver", "driver_for"]
+__all__ = ["DriverStep", "FieldClock", "FlightSample", "HelicopterDriver", "HelicopterPose",
+           "RotorFrame", "SceneDriver", "SceneFrame", "StillDriver", "driver_for"]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from cavesim.core.field_time import START
 from cavesim.core.portable.arithmetic import f_add, f_div, f_length, f_mul, f_sqrt, f_sub
 from cavesim.core.portable.builtins import glsl_max
 from cavesim.core.portable.constants import (
@@ -42,7 +43,8 @@ def turbulence(forces, p: np.ndarray, v: np.ndarray, ground: np.ndarray, longest
                xi: np.ndarray, h: np.float32) -> np.ndarray:
     """What particles at p moving at v see besides u(p) over a step h (N, 3)."""
     lift = np.array([0.0, 0.0, SHEAR_STEP], dtype=np.float32)
-    below, here, above = forces.flow(f_sub(p, lift)), forces.flow(p), forces.flow(f_add(p, lift))
+    below, here, above = (forces.flow(f_sub(p, lift), START), forces.flow(p, START),
+                           forces.flow(f_add(p, lift), START))
     rate = forces.drag_rate(f_sub(here, v))[:, 0]
     height = f_sub(p[:, 2], ground)
     longest = np.float32(longest)

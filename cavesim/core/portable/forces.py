@@ -7,11 +7,11 @@ float scales a vec3 in GLSL.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.core.field_time import END, START, FlowSampler
 from cavesim.core.portable.arithmetic import f_add, f_length, f_mul, f_pow, f_sub
 from cavesim.core.portable.constants import (
     SCHILLER_NAUMANN_COEFFICIENT,
@@ -31,7 +31,7 @@ class PortableForces:
     gravity: np.ndarray | None  # (3,) float32
     damping: np.float32 | None  # k, 1/s
     inv_tau: np.ndarray | None  # (N, 1) float32 per particle; None without drag
-    flow: Callable[[np.ndarray], np.ndarray] | None  # u(p) for (N, 3); None without drag
+    flow: FlowSampler | None  # u(p, stage) for (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
     position_low: np.ndarray | None = None  # (N, 3) float32, set before a step
@@ -54,10 +54,10 @@ class PortableForces:
     def seen_flow(self, u: np.ndarray) -> np.ndarray:
         return u if self.turbulence is None else f_add(u, self.turbulence)
 
-    def acceleration(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def acceleration(self, p: np.ndarray, v: np.ndarray, stage: int = START) -> np.ndarray:
         a = np.zeros_like(v)
         if self.flow is not None:
-            u = self.flow(p)
+            u = self.flow(p, stage)
             a = f_add(a, f_mul(f_sub(self.seen_flow(u), v), self.drag_rate(f_sub(u, v))))
         if self.gravity is not None:
             a = f_add(a, self.gravity)
@@ -78,7 +78,7 @@ class PortableForces:
         (N, 1) leaves of the acceleration at (p, v) (the float64 twin's `remainder`)."""
         if self.flow is None:
             return self._forcing(None, held)
-        u = self.flow(p)
+        u = self.flow(p, END)
         drag = self.drag_rate(f_sub(u, v))
         remainder = self._forcing(u, drag)
         if self.reynolds_per_speed is None:
@@ -92,7 +92,7 @@ class PortableForces:
         drag = np.zeros((len(p), 1), dtype=np.float32)
         u = None
         if self.flow is not None:
-            u = self.flow(p)
+            u = self.flow(p, START)
             drag = self.drag_rate(f_sub(u, v))
         lam = drag if self.damping is None else f_add(drag, self.damping)
         return self._forcing(u, drag), lam, drag

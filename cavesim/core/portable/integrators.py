@@ -14,6 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cavesim.core.field_time import END, MIDDLE
 from cavesim.core.portable.arithmetic import f_add, f_div, f_exp, f_mul, f_sub
 from cavesim.core.portable.constants import (
     INV_FACTORIAL_3,
@@ -59,7 +60,7 @@ def verlet(p, v, h, forces):
     half_h = f_mul(HALF, h)
     a0 = forces.acceleration(p, v)
     p = forces.move(p, f_mul(h, f_add(v, f_mul(half_h, a0))))
-    a1 = forces.acceleration(p, f_add(v, f_mul(h, a0)))
+    a1 = forces.acceleration(p, f_add(v, f_mul(h, a0)), END)
     return p, f_add(v, f_mul(half_h, f_add(a0, a1)))
 
 
@@ -69,7 +70,7 @@ def rk2(p, v, h, forces):
     a0 = forces.acceleration(p, v)
     pm = f_add(p, f_mul(half_h, v))
     vm = f_add(v, f_mul(half_h, a0))
-    return forces.move(p, f_mul(h, vm)), f_add(v, f_mul(h, forces.acceleration(pm, vm)))
+    return forces.move(p, f_mul(h, vm)), f_add(v, f_mul(h, forces.acceleration(pm, vm, MIDDLE)))
 
 
 def rk4(p, v, h, forces):
@@ -78,11 +79,11 @@ def rk4(p, v, h, forces):
     k1p = v
     k1v = forces.acceleration(p, v)
     k2p = f_add(v, f_mul(half_h, k1v))
-    k2v = forces.acceleration(f_add(p, f_mul(half_h, k1p)), k2p)
+    k2v = forces.acceleration(f_add(p, f_mul(half_h, k1p)), k2p, MIDDLE)
     k3p = f_add(v, f_mul(half_h, k2v))
-    k3v = forces.acceleration(f_add(p, f_mul(half_h, k2p)), k3p)
+    k3v = forces.acceleration(f_add(p, f_mul(half_h, k2p)), k3p, MIDDLE)
     k4p = f_add(v, f_mul(h, k3v))
-    k4v = forces.acceleration(f_add(p, f_mul(h, k3p)), k4p)
+    k4v = forces.acceleration(f_add(p, f_mul(h, k3p)), k4p, END)
     dp = f_add(f_add(f_add(k1p, f_mul(TWO, k2p)), f_mul(TWO, k3p)), k4p)
     dv = f_add(f_add(f_add(k1v, f_mul(TWO, k2v)), f_mul(TWO, k3v)), k4v)
     sixth_h = f_div(h, SIX)

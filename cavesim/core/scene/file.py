@@ -67,6 +67,21 @@ class DownwashParams:
 
 
 @dataclass(frozen=True)
+class RotatingParams:
+    """velocity turned about z by angular_speed × t, given as `snapshots` snapshots every
+    `snapshot_interval` seconds from t = 0 (a test of interpolation in time)."""
+
+    velocity: Vec3  # m/s at t = 0
+    angular_speed: float  # rad/s, counter-clockwise seen from above
+    snapshot_interval: Annotated[float, Range(gt=0.0, le=3600.0)]  # s
+    snapshots: Annotated[int, Range(ge=2, le=100_000)]
+
+    def times(self) -> tuple[float, ...]:
+        """The snapshot times: every snapshot_interval from 0."""
+        return tuple(k * self.snapshot_interval for k in range(self.snapshots))
+
+
+@dataclass(frozen=True)
 class NoParams:
     """The [field.params] of a kind that takes none (a file, the helicopter's rotor)."""
 
@@ -77,4 +92,5 @@ FIELD_PARAMS: dict[FieldKind, type] = {  # the [field.params] of each kind
     FieldKind.DOWNWASH: DownwashParams,
     FieldKind.FILE: NoParams,
     FieldKind.ROTOR: NoParams,
+    FieldKind.ROTATING: RotatingParams,
 }

@@ -18,8 +18,10 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from numpy.lib import format as npy_format
 
+from cavesim.core._grids import npz_times
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
@@ -28,6 +30,7 @@ from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_EMITTERS,
     MAX_FIELD_NODES,
+    MAX_FIELD_SERIES_NODES,
     MAX_PARTICLE_CLASSES,
     MAX_RATE,
 )
@@ -215,6 +218,8 @@ def _helicopter(t: Table) -> Helicopter:
 def _field(t: Table) -> Field:
     """The [field] table: which keys it takes and its [field.params] depend on its kind."""
     kind = t.get("kind")
+    t.forbid("times", "not a key: a file's time coordinate, or a rotating field's snapshots, "
+                      "give a time series its times")
     given: dict[str, Any] = {}
     if kind is FieldKind.FILE:
         t.forbid("resolution", 'not allowed with kind = "file": the file decides')
@@ -223,8 +228,8 @@ def _field(t: Table) -> Field:
             given.update(_flow_file_grid(t, given["file"]))
         else:
             for key in FLOW_FILE_KEYS:
-                t.forbid(key, "only allowed with a .nc or .vti file: an .npz is in m and m/s")
-            given["resolution"] = _file_resolution(t, given["file"])
+                t.forbid(key, "only allowed with a .nc or .vti file: an .npz is in m, s and m/s")
+            given["resolution"], given["times"] = _file_resolution(t, given["file"])
     else:
         for key in ("file", *FLOW_FILE_KEYS):
             t.forbid(key, f'only allowed with kind = "file", not {kind.value!r}')
@@ -234,6 +239,8 @@ def _field(t: Table) -> Field:
         given["resolution"] = (2, 2, 2)
     params_table = t.table("params", FIELD_PARAMS[kind])
     params = params_table.build()
+    if kind is FieldKind.ROTATING:
+        given["times"] = params.times()
     if kind is FieldKind.DOWNWASH and params.rotor_center[2] <= params.ground_height:
         raise params_table.bad("rotor_center", f"must have z > {params_table.sub('ground_height')}"
                                                f" = {params.ground_height!r}: the rotor is "
@@ -269,7 +276,8 @@ def _npy_shape(path: Path, array: str) -> tuple[int, ...]:
         raise ValueError(f"unsupported .npy format version {version}")
 
 
-FLOW_FILE_KEYS = ("variables", "vector", "velocity_units", "length_units")  # .nc, .vti
+FLOW_FILE_KEYS = ("variables", "vector", "velocity_units", "length_units",  # .nc, .vti
+                  "time_units")
 
 
 def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
@@ -278,35 +286,51 @@ def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
         t.forbid(key, f"not allowed with a {path.suffix} file: its coordinates give the box")
     if path.suffix.lower() == ".vti":
         t.forbid("variables", "only allowed with a .nc file; a .vti file's array is `vector`")
+        t.forbid("time_units", "only allowed with a .nc file; a .vti file holds one snapshot")
         vector = t.get("vector")
         named = None if vector is None else (vector,)
     else:
         t.forbid("vector", "only allowed with a .vti file; a .nc file's are `variables`")
         named = t.get("variables")
     try:
-        flow = read_flow_file(path, named, t.get("velocity_units"), t.get("length_units"))
+        flow = read_flow_file(path, named, t.get("velocity_units"), t.get("length_units"),
+                              t.get("time_units"))
     except FieldError as e:
         raise t.bad("file", str(e)) from e
-    nz, ny, nx = flow.velocity.shape[:3]
-    return {"resolution": (nx, ny, nz), "box_min": flow.box_min, "box_max": flow.box_max}
+    nz, ny, nx = flow.velocity.shape[1:4]
+    return {"resolution": (nx, ny, nz), "box_min": flow.box_min, "box_max": flow.box_max,
+            "times": flow.times if len(flow.times) > 1 else None}
 
 
-def _file_resolution(t: Table, path: Path) -> tuple[int, int, int]:
-    """The (nx, ny, nz) of a kind="file" field, from its "velocity" array (nz, ny, nx, 3).
+def _file_resolution(t: Table, path: Path
+                     ) -> tuple[tuple[int, int, int], tuple[float, ...] | None]:
+    """The (nx, ny, nz) of a kind="file" .npz field, from its "velocity" array (nz, ny, nx, 3),
+    and its times: None, or with an array "times" (nt,) of a series (nt, nz, ny, nx, 3).
 
     The layout is the one `cavesim.core.fields` reads and writes: x varies fastest, as in the 3D
     texture. Values (dtype, finiteness) are checked there, when the grid is built.
     """
     lo, hi = FIELD_RESOLUTION_RANGE
     allowed = (f"must be a .nc (NetCDF) or .vti (VTK image) file, or an .npz holding an "
-               f"array 'velocity' of shape (nz, ny, nx, 3), "
-               f"each n in {lo}..{hi}, nx*ny*nz <= {MAX_FIELD_NODES}")
+               f"array 'velocity' of shape (nz, ny, nx, 3), each n in {lo}..{hi}, "
+               f"nx*ny*nz <= {MAX_FIELD_NODES} (a series: (nt, nz, ny, nx, 3) with 'times', "
+               f"nt*nx*ny*nz <= {MAX_FIELD_SERIES_NODES})")
+    errors = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile)
     try:
         shape = _npy_shape(path, "velocity")
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as e:
+        with np.load(path, allow_pickle=False) as archive:
+            times = archive["times"] if "times" in archive.files else None
+    except errors as e:
         raise t.bad("file", f"{allowed} ({path}: {type(e).__name__}: {e})") from e
-    if (len(shape) != 4 or shape[3] != 3 or not all(lo <= n <= hi for n in shape[:3])
-            or math.prod(shape[:3]) > MAX_FIELD_NODES):
+    grid = shape if times is None else shape[1:]
+    snapshots = 1 if times is None else shape[0] if shape else 0
+    if (len(grid) != 4 or grid[3] != 3 or not all(lo <= n <= hi for n in grid[:3])
+            or math.prod(grid[:3]) > MAX_FIELD_NODES
+            or snapshots * math.prod(grid[:3]) > MAX_FIELD_SERIES_NODES):
         raise t.bad("file", f"{allowed} ({path} holds shape {shape})")
-    nz, ny, nx = shape[:3]
-    return nx, ny, nz
+    try:
+        seconds = None if times is None else npz_times(path, times, shape)
+    except FieldError as e:
+        raise t.bad("file", str(e)) from e
+    nz, ny, nx = grid[:3]
+    return (nx, ny, nz), seconds

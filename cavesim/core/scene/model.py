@@ -109,6 +109,7 @@ class FieldKind(StrEnum):
     DOWNWASH = "downwash"
     FILE = "file"
     ROTOR = "rotor"  # the scene's helicopter's downwash, evaluated on the GPU each frame
+    ROTATING = "rotating"  # a uniform flow turning about z, as a time series of snapshots
 
 
 class DragLaw(StrEnum):
@@ -225,6 +226,10 @@ class Field:
     vector: str | None = None  # .vti: its 3-component point array (default: its Vectors)
     velocity_units: str | None = None  # .nc, .vti: overrides the file's (default m/s)
     length_units: str | None = None  # .nc, .vti: of the coordinates (default metres)
+    time_units: str | None = None  # .nc: of the time coordinate (default: its units attribute)
+    # A time series' snapshot times, s from the first (the file's, or ROTATING's params);
+    # None: a steady field. Not a key of the scene file: the loader fills it in.
+    times: tuple[float, ...] | None = None
 
     @property
     def named_variables(self) -> tuple[str, ...] | None:

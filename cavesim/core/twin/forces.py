@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from cavesim.core.drag import drag_factor
+from cavesim.core.field_time import END, START, FlowSampler
 
-FlowSampler = Callable[[np.ndarray], np.ndarray]
 PER_PARTICLE = ("inv_tau", "reynolds_per_speed", "turbulence")  # ForceModel's (N, k) columns
 
 
@@ -41,10 +40,11 @@ class ForceModel:
         speed = np.linalg.norm(slip, axis=1, keepdims=True)
         return self.inv_tau * drag_factor(speed * self.reynolds_per_speed)
 
-    def acceleration(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def acceleration(self, p: np.ndarray, v: np.ndarray, stage: int = START) -> np.ndarray:
+        """a(p, v) with the flow at the step's `stage`."""
         a = np.zeros_like(v)
         if self.flow is not None:
-            u = self.flow(p)
+            u = self.flow(p, stage)
             seen = u if self.turbulence is None else u + self.turbulence
             a += (seen - v) * self.drag_rate(u - v)
         if self.gravity is not None:
@@ -65,11 +65,12 @@ class ForceModel:
     def remainder(self, p: np.ndarray, v: np.ndarray, held: np.ndarray) -> np.ndarray:
         """N(p, v) = a(p, v) + (held + k) v: what the linear part -(held + k) v, its drag rate
         `held` (N, 1) taken at the step's start, leaves of the acceleration (ETD2RK's second
-        stage). With the drag rate lambda_d at (p, v) itself, that is
-        (u(p) + u_t) lambda_d + g - (lambda_d - held) v; for Stokes drag lambda_d = held."""
+        stage, the flow at the step's end). With the drag rate lambda_d at (p, v) itself,
+        that is (u(p) + u_t) lambda_d + g - (lambda_d - held) v; for Stokes drag
+        lambda_d = held."""
         if self.flow is None:
             return self._forcing(None, held)
-        u = self.flow(p)
+        u = self.flow(p, END)
         drag = self.drag_rate(u - v)
         remainder = self._forcing(u, drag)
         if self.reynolds_per_speed is None:
@@ -79,12 +80,12 @@ class ForceModel:
     def linear_parts(self, p: np.ndarray, v: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(f, lambda, lambda_d) of dv/dt = f - lambda v with the flow and the drag rate
-        lambda_d held at their values at (p, v) (the exponential integrators); lambda =
-        lambda_d + k, each (N, 1)."""
+        lambda_d held at their values at (p, v) at the step's start (the exponential
+        integrators); lambda = lambda_d + k, each (N, 1)."""
         drag = np.zeros((len(p), 1), dtype=p.dtype)
         u = None
         if self.flow is not None:
-            u = self.flow(p)
+            u = self.flow(p, START)
             drag = self.drag_rate(u - v)
         lam = drag if self.damping is None else drag + self.damping
         return self._forcing(u, drag), lam, drag

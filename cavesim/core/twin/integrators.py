@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from cavesim.core.field_time import END, STAGE_OF_FRACTION
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin.forces import ForceModel
 
@@ -46,13 +47,15 @@ def verlet(p, v, h, forces):
     """Velocity Verlet with an Euler-predicted velocity for the drag, order 2."""
     a0 = forces.acceleration(p, v)
     p = p + h * (v + (0.5 * h) * a0)
-    a1 = forces.acceleration(p, v + h * a0)
+    a1 = forces.acceleration(p, v + h * a0, END)
     return p, v + (0.5 * h) * (a0 + a1)
 
 
 def runge_kutta_stages(p, v, h, a_rows, forces, kp=(), kv=()):
     """The stages (kp, kv lists) of an explicit Runge-Kutta tableau's rows `a_rows`, after
-    the stages already given (an embedded pair's first stage, reused from the last step)."""
+    the stages already given (an embedded pair's first stage, reused from the last step).
+    Each stage takes the flow at its time c = sum(row) of the step: START, MIDDLE or END,
+    else None (Dormand-Prince's other times: a steady flow's only)."""
     kp, kv = list(kp), list(kv)
     for row in a_rows:
         ps, vs = p, v
@@ -61,7 +64,7 @@ def runge_kutta_stages(p, v, h, a_rows, forces, kp=(), kv=()):
                 ps = ps + (coefficient * h) * dp
                 vs = vs + (coefficient * h) * dv
         kp.append(vs)
-        kv.append(forces.acceleration(ps, vs))
+        kv.append(forces.acceleration(ps, vs, STAGE_OF_FRACTION.get(sum(row))))
     return kp, kv
 
 

@@ -14,13 +14,16 @@ from functools import partial
 import numpy as np
 
 from cavesim.core import dispersion
-from cavesim.core.fields import sample_field
+from cavesim.core._grids import mix
+from cavesim.core.field_time import FieldTime
+from cavesim.core.fields import FieldSeries, sample_field
 from cavesim.core.helicopter.downwash import downwash
 from cavesim.core.portable import dispersion as portable_dispersion
 from cavesim.core.portable import field as portable_field
 from cavesim.core.portable import ground as portable_ground
 from cavesim.core.portable import rotor as portable_rotor
 from cavesim.core.portable import spawn as portable_spawn
+from cavesim.core.portable.arithmetic import f_mix
 from cavesim.core.portable.forces import PortableForces
 from cavesim.core.portable.integrators import INTEGRATORS as PORTABLE_INTEGRATORS
 from cavesim.core.scene.model import Integrator
@@ -38,19 +41,34 @@ class Kernels:
     forces: Callable
     rotor_flow: Callable  # (p, hub, v_i, rotor_radius, ground_z) -> u(p)
     field_flow: Callable  # (grid, p, out_of_domain) -> u(p)
+    mix: Callable  # (a, b, t) -> GLSL's mix: the shader's f_mix in either arithmetic
     ground: Callable  # (collision, heights, xy) -> (height, normal)
     collide: Callable  # (p, v, collision, heights) -> (p, v)
     turbulence: Callable  # (forces, p, v, ground, mixing_length, xi, h) -> u_t
     spawn: Callable  # (table, e, serials, random, transform, origin) -> records
 
+    def series_flow(self, series: FieldSeries, p: np.ndarray, out_of_domain,
+                    field_time: FieldTime, stage: int | None) -> np.ndarray:
+        """u(p) at a stage of the step: flow_at of shaders/include/field.glsl (a steady
+        field's one snapshot, else the stage's pair mixed by its weight)."""
+        if series.steady:
+            return self.field_flow(series.first, p, out_of_domain)
+        if stage is None:
+            raise ValueError("a time series' flow is known at a step's start, middle and end")
+        pair, weight = field_time.pairs[stage], self.dtype(field_time.weights[stage])
+        first, second = series.snapshots[pair], series.snapshots[pair + 1]
+        return self.mix(self.field_flow(first, p, out_of_domain),
+                        self.field_flow(second, p, out_of_domain), weight)
+
 
 def reference_kernels(dtype) -> Kernels:
     """The twin's own arithmetic in `dtype`."""
     return Kernels(dtype, INTEGRATORS, ForceModel, partial(downwash, dtype=dtype),
-                   partial(sample_field, dtype=dtype), partial(collision.ground, dtype=dtype),
+                   partial(sample_field, dtype=dtype), mix, partial(collision.ground, dtype=dtype),
                    collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype))
 
 
 PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PortableForces, portable_rotor.flow_at,
-                   portable_field.flow_at, portable_ground.ground_at, portable_ground.collide,
+                   portable_field.flow_at, f_mix, portable_ground.ground_at,
+                   portable_ground.collide,
                    portable_dispersion.turbulence, portable_spawn.spawn)

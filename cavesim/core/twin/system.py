@@ -14,7 +14,8 @@ import numpy as np
 
 from cavesim.core.dispersion import draws
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
-from cavesim.core.fields import FieldGrid, build_field
+from cavesim.core.field_time import FIRST_SNAPSHOT, FieldTime
+from cavesim.core.fields import FieldSeries, build_series
 from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
@@ -94,7 +95,7 @@ class TwinSystem:
         self.table = EmitterTable.from_scene(scene)
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         grid_field = scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR
-        self.field: FieldGrid | None = build_field(scene.field) if grid_field else None
+        self.field: FieldSeries | None = build_series(scene.field) if grid_field else None
         self.heights: HeightGrid | None = None
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
             self.heights = load_heightfield(scene.collision.file, scene.origin)
@@ -117,9 +118,10 @@ class TwinSystem:
         self.particles = TwinParticles.from_records(records, self.dtype)
 
     def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None,
-                   turbulence: np.ndarray | None = None) -> ForceModel | PortableForces:
+                   turbulence: np.ndarray | None = None,
+                   field_time: FieldTime = FIRST_SNAPSHOT) -> ForceModel | PortableForces:
         """The force model of particles of the given classes (in this frame's rotor wash,
-        seeing `turbulence` besides the flow)."""
+        seeing `turbulence` besides the flow, a time-series field where `field_time` says)."""
         f = self.scene.forces
         dtype, kernels = self.dtype, self.kernels
         flow = None
@@ -127,12 +129,13 @@ class TwinSystem:
         if rotor is not None and f.drag is not None:
             radius, ground_z = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
 
-            def flow(p):
+            def flow(p, stage):
                 return kernels.rotor_flow(p, rotor.hub, float(rotor.induced_velocity), radius,
                                           ground_z)
         elif self.field is not None:
-            def flow(p):
-                return kernels.field_flow(self.field, p, self.scene.field.out_of_domain)
+            def flow(p, stage):
+                return kernels.series_flow(self.field, p, self.scene.field.out_of_domain,
+                                           field_time, stage)
         if flow is not None:
             index = np.minimum(class_id, len(self.inv_tau) - 1)
             inv_tau = self.inv_tau[index].astype(dtype)[:, None]
@@ -148,9 +151,11 @@ class TwinSystem:
         q = self.particles
         age = q.age + np.float64(frame.dt)
         alive = age < q.lifetime.astype(np.float64)
-        forces = self.forces_for(q.class_id, rotor)
+        field_time = scene.field_time or FIRST_SNAPSHOT
+        forces = self.forces_for(q.class_id, rotor, field_time=field_time)
         if self.scene.forces.dispersion is not None:
-            forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces))
+            forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces),
+                                     field_time)
         alive &= below(q.vel, SPEED_LIMIT)
         pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
         alive &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)

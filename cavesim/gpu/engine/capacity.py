@@ -17,7 +17,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from cavesim.core.digest.shape import WORDS_PER_GROUP
-from cavesim.core.errors import CapacityError
+from cavesim.core.errors import CapacityError, FieldError
 from cavesim.core.limits import MAX_BYTE_OFFSET, MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
 
@@ -81,3 +81,15 @@ def capacity_limits(info: Mapping[str, object]) -> CapacityLimits:
         Bound("the engine's addressing bound", MAX_BYTE_OFFSET, "bytes",
               "moderngl passes transform feedback's byte offset as a C int", MAX_PARTICLES),
     ), f"{info['GL_RENDERER']}, OpenGL {info['GL_VERSION']}")
+
+
+def check_field_texture(info: Mapping[str, object], texture_size: tuple[int, int, int],
+                        snapshots: int) -> None:
+    """FieldError unless the field's 3D texture (a series' snapshots stacked along z) fits
+    the context's GL_MAX_3D_TEXTURE_SIZE on every axis."""
+    largest = int(info["GL_MAX_3D_TEXTURE_SIZE"])
+    if max(texture_size) > largest:
+        nx, ny, nz = texture_size
+        raise FieldError(f"the field's texture would be {nx} x {ny} x {nz} texels ({snapshots} "
+                         f"snapshot(s) stacked along z), beyond GL_MAX_3D_TEXTURE_SIZE = "
+                         f"{largest} on {info['GL_RENDERER']}; use fewer snapshots or nodes")

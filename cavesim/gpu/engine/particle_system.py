@@ -33,7 +33,8 @@ from cavesim.core.digest.history import HistoryEntry, HistoryRing
 from cavesim.core.digest.shape import EMITTERS, PARTICLES, StateChecksum, index_runs
 from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.core.errors import StateError
-from cavesim.core.fields import FieldGrid, build_field
+from cavesim.core.field_time import FIRST_SNAPSHOT
+from cavesim.core.fields import FieldSeries, build_series
 from cavesim.core.frame import FrameInput
 from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import RotorInputs
@@ -53,13 +54,18 @@ from cavesim.core.scene.model import (
     Scene,
 )
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
-from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
+from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
-from cavesim.gpu.engine.uniforms import physics_uniforms, rotor_uniforms, write_uniforms
+from cavesim.gpu.engine.uniforms import (
+    field_time_uniforms,
+    physics_uniforms,
+    rotor_uniforms,
+    write_uniforms,
+)
 from cavesim.gpu.gl.fence import GpuFence
 
 FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
@@ -91,7 +97,7 @@ class ParticleSystem:
         if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
             self.release()
             raise limits.allocation_error(scene.capacity, error)
-        self.field_grid: FieldGrid | None = None
+        self.field_series: FieldSeries | None = None
         self.ground_grid: HeightGrid | None = None
         self._textures_for_physics()
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
@@ -116,7 +122,7 @@ class ParticleSystem:
                                 self._emitter_buffers, self._bind_samplers, self._buffer,
                                 self.fence, self.timers)
         write_uniforms(passes.program,
-                       physics_uniforms(self.scene, self.field_grid, self.ground_grid))
+                       physics_uniforms(self.scene, self.field_series, self.ground_grid))
         return passes
 
     def use_engine(self, engine: Engine) -> None:
@@ -137,14 +143,16 @@ class ParticleSystem:
     def _textures_for_physics(self) -> None:
         scene = self.scene
         if scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR:
-            grid = build_field(scene.field)
-            texture = self.ctx.texture3d(grid.texture_size, 3, grid.texels.tobytes(), dtype="f4")
+            series = build_series(scene.field)
+            check_field_texture(self.ctx.info, series.texture_size, len(series.snapshots))
+            texture = self.ctx.texture3d(series.texture_size, 3, series.texels().tobytes(),
+                                         dtype="f4")
             hardware = scene.field.sampling is FieldSampling.HARDWARE
             texture.filter = (moderngl.LINEAR, moderngl.LINEAR) if hardware else (
                 moderngl.NEAREST, moderngl.NEAREST)
             texture.repeat_x = texture.repeat_y = texture.repeat_z = False
             self.resources["flow_field"] = texture
-            self.field_grid = grid
+            self.field_series = series
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
             ground = load_heightfield(scene.collision.file, scene.origin)
             ny, nx = ground.height.shape
@@ -231,6 +239,8 @@ class ParticleSystem:
         write_uniforms(program, {"dt": frame.dt})
         if rotor is not None:
             write_uniforms(program, rotor_uniforms(rotor))
+        if self.field_series is not None and not self.field_series.steady:
+            write_uniforms(program, field_time_uniforms(scene.field_time or FIRST_SNAPSHOT))
         if self.scene.forces.dispersion is not None:  # its draws move with the frame's map
             write_uniforms(program, {"random_transform": frame.random_transform.T})
         self._live = self._passes.advance(front, back, live, emission)

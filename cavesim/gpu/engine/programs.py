@@ -55,11 +55,13 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "FIELD_INTERPOLATION": tuple(INTERPOLATION_IDS.values()),
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
-# Drag beyond Stokes and dispersion (with the random texture's size it reads), checked
-# by the gate in the variants `physics_variants` names, not in the full product
+# Drag beyond Stokes, dispersion (with the random texture's size it reads) and a field
+# given as a time series, checked by the gate in the variants `physics_variants` names,
+# not in the full product
 TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
     "HAS_SCHILLER_NAUMANN": (0, 1),
     "HAS_DISPERSION": (0, 1),
+    "FIELD_TIME_SERIES": (0, 1),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
 }
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
@@ -125,6 +127,7 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
         "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
         "HAS_DISPERSION": int(scene.forces.dispersion is not None),
+        "FIELD_TIME_SERIES": int(scene.forces.drag is not None and field.times is not None),
         "RANDOM_SIZE": scene.random_texture_size,
     }
 
@@ -169,12 +172,13 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
 def physics_variants() -> Iterator[dict[str, int]]:
     """The particle pass's defines the gate checks, each once, as `physics_defines` could
     give them (`reachable`). Native: every combination of PHYSICS_FEATURES with the
-    transport features off, and each transport combination with every integrator, both
-    flows and both grounds (all else on). Portable, whose inlined arithmetic makes a
-    program many times larger (the full product would take the reference front-end
-    minutes): every integrator with every feature on (the flow from a B-spline grid), and
-    with each other feature switched one at a time, which together hold every line and every
-    #if of the portable code. Hardware sampling is not among them: the loader refuses it."""
+    transport features off, and each drag law and dispersion with every integrator, both
+    flows and both grounds (all else on, a time series only with both: its code is apart
+    from theirs). Portable, whose inlined arithmetic makes a program many times larger (the
+    full product would take the reference front-end minutes): every integrator with every
+    feature on but the time series (the flow from a B-spline grid), and with each other
+    feature switched one at a time, which together hold every line and every #if of the
+    portable code. Hardware sampling is not among them: the loader refuses it."""
     seen = set()
 
     def once(defines: dict[str, int]) -> Iterator[dict[str, int]]:
@@ -191,16 +195,18 @@ def physics_variants() -> Iterator[dict[str, int]]:
     every_feature = {name: values[-1] for name, values in native.items()}
     for integrator, rotor, collision in itertools.product(
             PHYSICS_FEATURES["INTEGRATOR"], (0, 1), (1, 2)):
-        for drag_law, dispersion in ((1, 0), (0, 1), (1, 1)):
+        for drag_law, dispersion, series in ((1, 0, 0), (0, 1, 0), (1, 1, 0), (1, 1, 1)):
             yield from once({**every_feature, **on, "INTEGRATOR": integrator,
                              "FIELD_IS_ROTOR": rotor, "COLLISION": collision,
-                             "HAS_SCHILLER_NAUMANN": drag_law, "HAS_DISPERSION": dispersion})
+                             "HAS_SCHILLER_NAUMANN": drag_law, "HAS_DISPERSION": dispersion,
+                             "FIELD_TIME_SERIES": series})
     fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
              "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
     features = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
     switched = {name: values for name, values in features.items()
                 if name not in (*fixed, "INTEGRATOR")}
     every_feature = {name: values[-1] for name, values in switched.items()}
+    every_feature["FIELD_TIME_SERIES"] = 0  # switched on below, one variant per integrator
     for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
         base = {**every_feature, **fixed, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": 0}
         yield from once(base)
@@ -212,10 +218,12 @@ def physics_variants() -> Iterator[dict[str, int]]:
 
 def reachable(defines: dict[str, int]) -> dict[str, int]:
     """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
-    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; drag laws
-    beyond Stokes and dispersion need drag, dispersion a ground too (physics.glsl's
-    #errors)."""
+    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; only a
+    grid is a time series; drag laws beyond Stokes and dispersion need drag, dispersion a
+    ground too (physics.glsl's #errors)."""
     out = dict(defines)
+    if not out["HAS_DRAG"] or out["FIELD_IS_ROTOR"]:
+        out["FIELD_TIME_SERIES"] = 0
     grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
             and out["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
     if not grid:

@@ -8,14 +8,15 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import ShaderError
-from cavesim.core.fields import FieldGrid
+from cavesim.core.field_time import FIRST_SNAPSHOT, FieldTime
+from cavesim.core.fields import FieldSeries
 from cavesim.core.heightfield import HeightGrid
 from cavesim.core.helicopter.flight import ground_height
 from cavesim.core.helicopter.inputs import FrameRotor
 from cavesim.core.scene.model import CollisionKind, Scene
 
 
-def physics_uniforms(scene: Scene, field: FieldGrid | None,
+def physics_uniforms(scene: Scene, field: FieldSeries | None,
                      ground: HeightGrid | None) -> dict[str, object]:
     """The particle pass's constants for the scene's compiled-in features."""
     values: dict[str, object] = {}
@@ -32,9 +33,12 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
             values["reynolds_per_speed"] = np.pad(per_class, (0, -len(per_class) % 4))
         if forces.dispersion is not None:
             values["mixing_length"] = np.float32(forces.dispersion.mixing_length)
-        if field is not None:  # a grid
-            values["field_box_min"] = np.array(field.box_min, dtype=np.float32)
-            values["field_index_scale"] = field.index_scale
+        if field is not None:  # a grid, or a series of them
+            values["field_box_min"] = np.array(field.first.box_min, dtype=np.float32)
+            values["field_index_scale"] = field.first.index_scale
+            if not field.steady:
+                values["field_snapshots"] = np.int32(len(field.snapshots))
+                values.update(field_time_uniforms(FIRST_SNAPSHOT))
         else:  # the rotor's downwash: its size and the ground it blows against
             values["rotor_radius"] = np.float32(scene.helicopter.rotor_radius)
             values["rotor_ground_z"] = np.float32(ground_height(scene))
@@ -54,6 +58,12 @@ def physics_uniforms(scene: Scene, field: FieldGrid | None,
 def rotor_uniforms(rotor: FrameRotor) -> dict[str, object]:
     """The downwash's per-frame uniforms (a helicopter scene's rotor this frame)."""
     return {"rotor_hub": rotor.hub, "induced_velocity": rotor.induced_velocity}
+
+
+def field_time_uniforms(field_time: FieldTime) -> dict[str, object]:
+    """A time-series field's per-frame uniforms: each stage's pair and weight."""
+    return {"field_pair": np.array(field_time.pairs, dtype=np.int32),
+            "field_weight": np.array(field_time.weights, dtype=np.float32)}
 
 
 def write_uniforms(program: moderngl.Program, values: Mapping[str, object]) -> None:

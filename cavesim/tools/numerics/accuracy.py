@@ -35,11 +35,11 @@ from cavesim.tools.numerics.cases import (
 from cavesim.tools.numerics.display import progress_bar, show
 from cavesim.tools.numerics.methods import METHODS, Method
 from cavesim.tools.numerics.reference import (
+    CLOSED_FORMS,
     REFINEMENT,
     TOLERANCES,
     Reference,
     adaptive,
-    closed_form,
     concatenate,
     fine_rk4,
 )
@@ -178,9 +178,10 @@ def _float64_jobs(cases: list[Case], dts: tuple[float, ...], final_time: float,
                           (case.subset(slice(a, b)), final_time, step))
                      for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True))
                      if b > a]
-    for tolerance in sorted(TOLERANCES):
+    for tolerance in sorted(TOLERANCES):  # Dormand-Prince's stage times: a steady field's
         jobs += [_Job(("adaptive", case.name, f"{tolerance:g}"), adaptive,
-                      (case, final_time, tolerance)) for case in cases]
+                      (case, final_time, tolerance)) for case in cases
+                 if case.snapshot_steps is None]
     for case in cases:
         jobs += [_Job(("twin", case.name, m.name), twin_runs,
                       (case, m.integrator, dts, final_time)) for m in _methods(case)]
@@ -213,7 +214,7 @@ def _run_jobs(jobs: list[_Job], workers: int,
 
 def _reference(case: Case, done, final_time: float) -> Reference:
     if case.closed_form:
-        return closed_form(case, final_time)
+        return CLOSED_FORMS[case.closed_form](case, final_time)
     parts = sorted((int(k[2]), r) for k, r in done.items()
                    if k[0] == "reference" and k[1] == case.name)
     return concatenate([r for _, r in parts])

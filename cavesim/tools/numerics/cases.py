@@ -9,6 +9,8 @@ the real loader), a fixed seeded particle set and the frame parameters of every 
   vortex_sand, downwash_sand
             the vortex and the downwash carrying the demo's sand, under Schiller-Naumann
             drag: the drag rate changes with the slip along each path
+  rotating  a uniform flow turning at a steady rate, given as a time series of snapshots
+            two steps apart and interpolated linearly in time: a closed form exists
 
 One particle class with tau = 0.1 s, so a run lasts T = 10 tau: the particles forget how
 they started and follow the flow, the regime of the demo's cloud (the sand: tau = 0.18 s,
@@ -28,6 +30,7 @@ import numpy as np
 
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import SceneError
+from cavesim.core.field_time import field_time_at
 from cavesim.core.helicopter.rotor import induced_velocity
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
@@ -66,7 +69,12 @@ SAND = {"name": "sand", "density": 2650.0, "diameter": 150e-6, "drag": "schiller
 # The methods a drag law whose rate depends on the slip is measured with: the exponential
 # step holds the rate over the step (order 1), ETD2RK takes it at its second stage too
 SAND_METHODS = (Integrator.EXPONENTIAL, Integrator.ETD2RK)
-SAND_ORDER_TOLERANCE = 0.1
+HELD_ORDER_TOLERANCE = 0.1
+# The rotating case: 3 m/s turning at 2 rad/s, snapshots SNAPSHOT_STEPS steps apart. Linear
+# interpolation in time errs by O(interval²), so every method of order 2 or more shows 2
+ROTATION = 2.0  # rad/s
+SNAPSHOT_STEPS = 2
+TIME_INTERPOLATION_ORDER = 2
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,7 +84,12 @@ class Case:
     data: dict[str, Any]  # the scene as the dict tomllib would give; integrator set per run
     particles: np.ndarray  # PARTICLE_DTYPE: the fixed start of every run
     frame: SceneFrame = SceneFrame()  # the scene's state (a rotor), the same every step
-    closed_form: bool = False  # reference: the closed form, else a fine float64 RK4 run
+    # reference: the closed form of this name (reference.CLOSED_FORMS), else a fine
+    # float64 RK4 run
+    closed_form: str | None = None
+    # a time series: its snapshots this many of the run's steps apart (each dt its own
+    # scene); None: a steady field
+    snapshot_steps: int | None = None
     # observed orders are held to the table (tests, report verdicts); False where the
     # errors reach their asymptotic order only below the quick run's dts
     held_to_order: bool = True
@@ -93,14 +106,30 @@ class Case:
     order_tolerance: float | None = None  # on the observed order; None: each method's own
 
     def scene(self, integrator: Integrator, sampling: FieldSampling = FieldSampling.MANUAL,
-              arithmetic: Arithmetic = Arithmetic.NATIVE) -> Scene:
+              arithmetic: Arithmetic = Arithmetic.NATIVE, dt: float = REPORT_DT,
+              final_time: float = FINAL_TIME) -> Scene:
+        """The case's scene for a method (a time series: with its snapshots for steps of dt
+        to final_time)."""
         data = copy.deepcopy(self.data)
+        if self.snapshot_steps is not None:
+            interval = self.snapshot_steps * dt
+            data["field"]["params"].update(snapshot_interval=interval,
+                                           snapshots=round(final_time / interval) + 2)
         data["simulation"]["integrator"] = integrator.value
         if arithmetic is not Arithmetic.NATIVE:
             data["simulation"]["arithmetic"] = arithmetic.value
         if sampling is not FieldSampling.MANUAL:
             data["field"]["sampling"] = sampling.value
         return parse_scene(data, self.source, self.name)
+
+    def frame_at(self, scene: Scene, step: int, dt: float) -> SceneFrame:
+        """The scene's state in step `step` of dt (from 0): the case's frame, and where a
+        time series stands, as the master's clock puts it (`cavesim.core.drivers`)."""
+        if scene.field.times is None:
+            return self.frame
+        h = float(np.float32(dt))  # the engine's step
+        return dataclasses.replace(self.frame,
+                                   field_time=field_time_at(scene.field.times, step * h, h))
 
     def subset(self, rows: slice) -> Case:
         """The same case with only the particles in `rows` (particles never interact)."""
@@ -137,7 +166,21 @@ def uniform_case(count: int) -> Case:
              "box_max": [100.0, 100.0, 100.0], "resolution": [2, 2, 2], "out_of_domain": "clamp",
              "params": {"velocity": [3.0, -1.0, 0.5]}}
     return Case("uniform", "uniform flow (3, -1, 0.5) m/s + gravity + drag: closed form",
-                _analytic_scene(field, count), _box_particles(count, SEED), closed_form=True)
+                _analytic_scene(field, count), _box_particles(count, SEED),
+                closed_form="uniform")
+
+
+def rotating_case(count: int) -> Case:
+    """Uniform flow turning about z, snapshots SNAPSHOT_STEPS steps apart, linear between."""
+    field = {"kind": "rotating", "box_min": [-100.0, -100.0, -100.0],
+             "box_max": [100.0, 100.0, 100.0], "resolution": [2, 2, 2], "out_of_domain": "clamp",
+             "params": {"velocity": [3.0, 0.0, 0.5], "angular_speed": ROTATION,
+                        "snapshot_interval": SNAPSHOT_STEPS * REPORT_DT, "snapshots": 2}}
+    return Case("rotating", f"uniform flow (3, 0, 0.5) m/s turning at {ROTATION:g} rad/s, "
+                f"snapshots {SNAPSHOT_STEPS} steps apart, linear in time + gravity + drag: "
+                "closed form", _analytic_scene(field, count), _box_particles(count, SEED + 3),
+                closed_form="rotating", snapshot_steps=SNAPSHOT_STEPS,
+                order_limit=TIME_INTERPOLATION_ORDER, order_tolerance=HELD_ORDER_TOLERANCE)
 
 
 def vortex_case(count: int) -> Case:
@@ -198,19 +241,19 @@ def downwash_case(helicopter_scene: Path, count: int) -> Case:
 
 def sand_case(case: Case) -> Case:
     """`case`'s flow and particles, carrying sand under Schiller-Naumann drag, measured with
-    SAND_METHODS and held to their orders within SAND_ORDER_TOLERANCE."""
+    SAND_METHODS and held to their orders within HELD_ORDER_TOLERANCE."""
     data = copy.deepcopy(case.data)
     data["particle_class"] = [dict(SAND)]
     return dataclasses.replace(
         case, name=f"{case.name}_sand", data=data, held_to_order=True, filtering=False,
-        cloud=False, integrators=SAND_METHODS, order_tolerance=SAND_ORDER_TOLERANCE,
+        cloud=False, integrators=SAND_METHODS, order_tolerance=HELD_ORDER_TOLERANCE,
         description=f"{case.description}; 150 µm sand, Schiller-Naumann drag")
 
 
 def build_cases(helicopter_scene: Path, count: int) -> list[Case]:
-    """The seven cases with `count` particles each."""
+    """The eight cases with `count` particles each."""
     downwash = downwash_case(helicopter_scene, count)
-    return [uniform_case(count), vortex_case(count),
+    return [uniform_case(count), rotating_case(count), vortex_case(count),
             smooth_vortex_case(count, FieldInterpolation.CATMULL_ROM, CATMULL_ROM_ORDER_LIMIT),
             smooth_vortex_case(count, FieldInterpolation.BSPLINE, BSPLINE_ORDER_LIMIT),
             downwash, sand_case(vortex_case(count)), sand_case(downwash)]

@@ -6,6 +6,7 @@ to each run's end by a Taylor step of the gap: p + v gap + a gap²/2 and v + a g
 is below 1e-7 s, the neglected terms, of order (da/dt) gap², below 1e-10 m/s.
 
   uniform flow: the closed form of dv/dt = f - lambda v with f, lambda constant;
+  rotating flow: the closed form with the uniform flow turning at a steady rate;
   other cases:  the float64 twin's RK4 on the same field (the same interpolated grid, the
                 same float32-rounded constants) with REFINEMENT-times smaller steps than
                 the finest dt measured.
@@ -21,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.core.flows import rotating_velocity
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.forces import ForceModel
@@ -68,6 +70,40 @@ def closed_form(case: Case, t: float) -> Reference:
     grown = -np.expm1(-lam * t) / lam
     v = v_inf + (v0 - v_inf) * decay
     return Reference(t, p0 + v_inf * t + (v0 - v_inf) * grown, v, f - lam * v, None)
+
+
+def rotating_closed_form(case: Case, t: float) -> Reference:
+    """Exact state at t of linear drag toward the uniform flow u(t) = R(omega t) U turning
+    about z, with gravity (Stokes drag, no damping). Horizontally, as complex numbers
+    x + iy, with V = lambda U / (lambda + i omega) the velocity that turns with the flow:
+      v(t) = V e^(i omega t) + (v0 - V) e^(-lambda t)
+      x(t) = x0 + V (e^(i omega t) - 1) / (i omega) + (v0 - V) (1 - e^(-lambda t)) / lambda
+    and vertically the uniform flow's closed form. The snapshots hold float32 values of
+    u; the reference takes the exact flow, its own closed form."""
+    scene = case.scene(Integrator.RK4)
+    params = scene.field.params
+    lam = float(np.float32(1.0 / scene.relaxation_times()[0]))  # the engine's 1/tau
+    omega = params["angular_speed"]
+    g = float(np.float32(scene.forces.gravity[2]))
+    p0 = case.particles["pos"].astype(np.float64)
+    v0 = case.particles["vel"].astype(np.float64)
+    ux, uy, uz = rotating_velocity(0.0, params)
+    turning = lam * complex(ux, uy) / (lam + 1j * omega)
+    start = v0[:, 0] + 1j * v0[:, 1]
+    spin, decay, grown = np.exp(1j * omega * t), np.exp(-lam * t), -np.expm1(-lam * t) / lam
+    v_xy = turning * spin + (start - turning) * decay
+    x_xy = (p0[:, 0] + 1j * p0[:, 1] + turning * (spin - 1) / (1j * omega)
+            + (start - turning) * grown)
+    v_inf = uz + g / lam
+    v_z = v_inf + (v0[:, 2] - v_inf) * decay
+    x_z = p0[:, 2] + v_inf * t + (v0[:, 2] - v_inf) * grown
+    pos = np.stack([x_xy.real, x_xy.imag, x_z], axis=1)
+    vel = np.stack([v_xy.real, v_xy.imag, v_z], axis=1)
+    u = rotating_velocity(t, params)
+    return Reference(t, pos, vel, lam * (u - vel) + np.array([0.0, 0.0, g]), None)
+
+
+CLOSED_FORMS = {"uniform": closed_form, "rotating": rotating_closed_form}  # Case.closed_form
 
 
 def fine_rk4(case: Case, t: float, step: float) -> Reference:

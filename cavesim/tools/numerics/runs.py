@@ -2,7 +2,9 @@
 
 Both start each dt from the case's particle set and take round(T / dt) frames of the same
 FrameInput, so they end at the same time, n * float32(dt). GL calls are asynchronous:
-every timed step ends in `ctx.finish()`; the median step time is kept.
+every timed step ends in `ctx.finish()`; the median step time is kept. A case whose field is
+a time series has a scene per dt (its snapshots a number of steps apart), and a scene
+frame per step (where the series stands).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 
 from cavesim.core.errors import CavesimError
 from cavesim.core.position import extended_position
-from cavesim.core.scene.model import Arithmetic, FieldSampling, Integrator
+from cavesim.core.scene.model import Arithmetic, FieldSampling, Integrator, Scene
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.numerics.cases import Case
@@ -66,22 +68,34 @@ def gpu_runs(ctx: moderngl.Context, case: Case, integrator: Integrator, variant:
              dts: tuple[float, ...], final_time: float,
              tick: Callable[[], None] = lambda: None) -> list[Run]:
     """Final states and step times of the GPU engine, one run per dt."""
-    system = ParticleSystem(ctx, case.scene(integrator, variant.sampling, variant.arithmetic))
-    try:
-        system.write_particles(case.particles)
-        for _ in range(WARMUP_STEPS):
-            system.step(FrameInput(dts[0], IDENTITY), case.frame)
-        ctx.finish()
-        runs = []
-        for dt in dts:
-            runs.append(_timed_run(ctx, system, case, dt, final_time))
-            tick()
-    finally:
-        system.release()
+    runs = []
+    for scene, group in _scenes(case, integrator, variant, dts, final_time):
+        system = ParticleSystem(ctx, scene)
+        try:
+            system.write_particles(case.particles)
+            for k in range(WARMUP_STEPS):
+                system.step(FrameInput(group[0], IDENTITY), case.frame_at(scene, k, group[0]))
+            ctx.finish()
+            for dt in group:
+                runs.append(_timed_run(ctx, system, case, dt, final_time))
+                tick()
+        finally:
+            system.release()
     if (error := ctx.error) != "GL_NO_ERROR":
         raise AccuracyError(f"GL reported {error} running {case.name} with {integrator.value} "
                             f"({variant.name})")
     return runs
+
+
+def _scenes(case: Case, integrator: Integrator, variant: GpuVariant, dts: tuple[float, ...],
+            final_time: float) -> list[tuple[Scene, tuple[float, ...]]]:
+    """The scenes to run and the dts of each: one for every dt, or a time series' per dt."""
+    def scene(dt: float) -> Scene:
+        return case.scene(integrator, variant.sampling, variant.arithmetic, dt, final_time)
+
+    if case.snapshot_steps is None:
+        return [(scene(dts[0]), dts)]
+    return [(scene(dt), (dt,)) for dt in dts]
 
 
 def _timed_run(ctx: moderngl.Context, system: ParticleSystem, case: Case, dt: float,
@@ -89,9 +103,10 @@ def _timed_run(ctx: moderngl.Context, system: ParticleSystem, case: Case, dt: fl
     system.write_particles(case.particles)
     frame, steps = FrameInput(dt, IDENTITY), steps_to(final_time, dt)
     seconds = []
-    for _ in range(steps):
+    for k in range(steps):
+        scene_frame = case.frame_at(system.scene, k, dt)
         start = time.perf_counter()
-        system.step(frame, case.frame)
+        system.step(frame, scene_frame)
         ctx.finish()
         seconds.append(time.perf_counter() - start)
     _check_count(system.live_count, case, f"GPU, dt={dt:.6g}")
@@ -103,17 +118,23 @@ def _timed_run(ctx: moderngl.Context, system: ParticleSystem, case: Case, dt: fl
 def twin_runs(case: Case, integrator: Integrator, dts: tuple[float, ...],
               final_time: float) -> list[Run]:
     """Final states of the float64 twin, one run per dt."""
-    twin = TwinSystem(case.scene(integrator), np.float64)
     runs = []
-    for dt in dts:
-        twin.write_particles(case.particles)
-        frame, steps = FrameInput(dt, IDENTITY), steps_to(final_time, dt)
-        for _ in range(steps):
-            twin.step(frame, case.frame)
-        _check_count(twin.live_count, case, f"float64 twin, {integrator.value}, dt={dt:.6g}")
-        runs.append(Run(dt, steps, end_time(final_time, dt), twin.particles.position(),
-                        twin.particles.vel.copy()))
+    for scene, group in _scenes(case, integrator, MANUAL, dts, final_time):
+        twin = TwinSystem(scene, np.float64)
+        for dt in group:
+            runs.append(_twin_run(twin, case, integrator, dt, final_time))
     return runs
+
+
+def _twin_run(twin: TwinSystem, case: Case, integrator: Integrator, dt: float,
+              final_time: float) -> Run:
+    twin.write_particles(case.particles)
+    frame, steps = FrameInput(dt, IDENTITY), steps_to(final_time, dt)
+    for k in range(steps):
+        twin.step(frame, case.frame_at(twin.scene, k, dt))
+    _check_count(twin.live_count, case, f"float64 twin, {integrator.value}, dt={dt:.6g}")
+    return Run(dt, steps, end_time(final_time, dt), twin.particles.position(),
+               twin.particles.vel.copy())
 
 
 def _check_count(live: int, case: Case, what: str) -> None:

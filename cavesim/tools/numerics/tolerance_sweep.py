@@ -61,7 +61,10 @@ class ReferenceAccuracy:
 
 
 def sweep_rows(case: str, reference: Reference, states: list[AdaptiveState]) -> list[SweepRow]:
-    """One row per tolerance, loosest first; every state ends at the reference's time."""
+    """One row per tolerance, loosest first; every state ends at the reference's time. None
+    for a case that runs no sweep."""
+    if not states:
+        return []
     states = sorted(states, key=lambda s: -s.tolerance)
     tightest = states[-1]
     rows = []

@@ -55,9 +55,9 @@ float particle_diffusivity(vec3 lower, vec3 upper, float z, float rate) {
 // step h: drift plus random velocity; nothing in a step of no time.
 vec3 turbulence_seen(vec3 p, vec3 v, float inv_tau_p, uint index, float h) {
     vec3 lift = vec3(0.0, 0.0, SHEAR_STEP);
-    vec3 below = flow_at(f_sub(p, lift));
-    vec3 here = flow_at(p);
-    vec3 above = flow_at(f_add(p, lift));
+    vec3 below = flow_at(f_sub(p, lift), STAGE_START);
+    vec3 here = flow_at(p, STAGE_START);
+    vec3 above = flow_at(f_add(p, lift), STAGE_START);
     float rate = drag_rate(f_sub(here, v), inv_tau_p);
     float ground;
     vec3 normal;

@@ -5,12 +5,20 @@
 // trilinear (8 nodes), or with FIELD_INTERPOLATION a C1 Catmull-Rom or C2 cubic B-spline
 // (64 texels). HARDWARE uses the texture unit's trilinear filter (faster, but vendors differ
 // in filter weights, so the scene loader refuses it with portable arithmetic or a cubic).
+// FIELD_TIME_SERIES: the snapshots of a time series stacked along z, each the same texels
+// deep; the flow at a stage of the step mixes the stage's pair linearly in time
+// (cavesim/core/field_time.py).
 #pragma once
 #include "arithmetic.glsl"
 
 uniform sampler3D flow_field;
 uniform vec3 field_box_min;
 uniform vec3 field_index_scale;  // (resolution - 1) / (box_max - box_min)
+#if FIELD_TIME_SERIES
+uniform int field_snapshots;
+uniform ivec3 field_pair;  // per stage: the first snapshot of the pair it lies between
+uniform vec3 field_weight;  // per stage: the weight of the pair's second snapshot
+#endif
 
 #if FIELD_INTERPOLATION != INTERPOLATION_TRILINEAR
 // Smooth interpolation (cavesim/core/interpolation.py): 4 texels per axis, 64 in all, with
@@ -63,12 +71,20 @@ vec3 cubic_flow(ivec3 i0, vec3 t) {
 }
 #endif
 
-vec3 flow_at(vec3 p) {
-#if FIELD_INTERPOLATION == INTERPOLATION_TRILINEAR
-    ivec3 res = textureSize(flow_field, 0);
+// The flow of one snapshot: its texels start `depth` * snapshot deep
+vec3 snapshot_flow(vec3 p, int snapshot) {
+    ivec3 size = textureSize(flow_field, 0);
+#if FIELD_TIME_SERIES
+    int depth = size.z / field_snapshots;
 #else
-    ivec3 res = textureSize(flow_field, 0) - 2;  // nodes: the texels less the ghosts
+    int depth = size.z;
 #endif
+#if FIELD_INTERPOLATION == INTERPOLATION_TRILINEAR
+    ivec3 res = ivec3(size.xy, depth);
+#else
+    ivec3 res = ivec3(size.xy, depth) - 2;  // nodes: the texels less the ghosts
+#endif
+    ivec3 first = ivec3(0, 0, depth * snapshot);
     vec3 last = vec3(res - 1);
     vec3 f = f_mul(f_sub(p, field_box_min), field_index_scale);
 #if FIELD_OUT_OF_DOMAIN == OUT_OF_DOMAIN_ZERO
@@ -78,10 +94,11 @@ vec3 flow_at(vec3 p) {
 #endif
     f = clamp(f, vec3(0.0), last);
 #if FIELD_SAMPLING == SAMPLING_HARDWARE
-    return texture(flow_field, (f + 0.5) / vec3(res)).xyz;
+    return texture(flow_field, (f + vec3(first) + 0.5) / vec3(size)).xyz;
 #else
-    ivec3 i0 = min(ivec3(floor(f)), res - 2);
-    vec3 t = f_sub(f, vec3(i0));
+    ivec3 cell = min(ivec3(floor(f)), res - 2);
+    vec3 t = f_sub(f, vec3(cell));
+    ivec3 i0 = cell + first;
 #if FIELD_INTERPOLATION != INTERPOLATION_TRILINEAR
     return cubic_flow(i0, t);
 #else
@@ -99,5 +116,18 @@ vec3 flow_at(vec3 p) {
     vec3 c11 = f_mix(c011, c111, t.x);
     return f_mix(f_mix(c00, c10, t.y), f_mix(c01, c11, t.y), t.z);
 #endif
+#endif
+}
+
+// The flow at p at a stage of the step (STAGE_START, STAGE_MIDDLE, STAGE_END)
+vec3 flow_at(vec3 p, int stage) {
+#if FIELD_TIME_SERIES
+    vec3 ends[2];
+    for (int k = 0; k < 2; ++k) {  // one call site: RK4 inlines flow_at four times
+        ends[k] = snapshot_flow(p, field_pair[stage] + k);
+    }
+    return f_mix(ends[0], ends[1], field_weight[stage]);
+#else
+    return snapshot_flow(p, 0);
 #endif
 }

@@ -27,6 +27,10 @@
 #define INTERPOLATION_TRILINEAR 0
 #define INTERPOLATION_CATMULL_ROM 1
 #define INTERPOLATION_BSPLINE 2
+// where in its step an integrator takes the flow (a time-series field moves between them)
+#define STAGE_START 0
+#define STAGE_MIDDLE 1
+#define STAGE_END 2
 
 uniform float dt;
 
@@ -106,11 +110,12 @@ vec3 seen_flow(vec3 u) {
 #endif
 
 // a = (u(p) + u_t - v) lambda + g - k v   (Kolb et al.: drag toward the flow texture;
-// lambda = 1/tau for Stokes drag, from the slip u(p) - v for Schiller-Naumann's)
-vec3 acceleration(vec3 p, vec3 v, float inv_tau_p) {
+// lambda = 1/tau for Stokes drag, from the slip u(p) - v for Schiller-Naumann's), with the
+// flow at the step's `stage`
+vec3 acceleration(vec3 p, vec3 v, float inv_tau_p, int stage) {
     vec3 a = vec3(0.0);
 #if HAS_DRAG
-    vec3 u = flow_at(p);
+    vec3 u = flow_at(p, stage);
     a = f_add(a, f_mul(f_sub(seen_flow(u), v), drag_rate(f_sub(u, v), inv_tau_p)));
 #endif
 #if HAS_GRAVITY
@@ -137,11 +142,11 @@ vec3 forcing(vec3 u, float drag) {
 
 // What the linear part -(held + k) v leaves of the acceleration at (p, v), its drag rate
 // `held` taken at the step's start: (u + u_t) lambda_d + g - (lambda_d - held) v with
-// lambda_d the rate at (p, v) itself (= held for Stokes drag). ETD2RK's second stage (twin:
-// ForceModel.remainder).
+// lambda_d the rate at (p, v) itself (= held for Stokes drag), the flow at the step's end.
+// ETD2RK's second stage (twin: ForceModel.remainder).
 vec3 remainder_at(vec3 p, vec3 v, float held, float inv_tau_p) {
 #if HAS_DRAG
-    vec3 u = flow_at(p);
+    vec3 u = flow_at(p, STAGE_END);
     float drag = drag_rate(f_sub(u, v), inv_tau_p);
     vec3 remainder = forcing(u, drag);
 #if HAS_SCHILLER_NAUMANN
@@ -153,13 +158,14 @@ vec3 remainder_at(vec3 p, vec3 v, float held, float inv_tau_p) {
 #endif
 }
 
-// a = f - lambda v with the flow and the drag rate held at their values at (p, v): the
-// forcing f and lambda = lambda_d + k. Returns the drag rate lambda_d it held.
+// a = f - lambda v with the flow and the drag rate held at their values at (p, v) at the
+// step's start: the forcing f and lambda = lambda_d + k. Returns the drag rate lambda_d it
+// held.
 float linear_parts(vec3 p, vec3 v, float inv_tau_p, out vec3 f, out float lambda) {
     vec3 u = vec3(0.0);
     float drag = 0.0;
 #if HAS_DRAG
-    u = flow_at(p);
+    u = flow_at(p, STAGE_START);
     drag = drag_rate(f_sub(u, v), inv_tau_p);
 #endif
     f = forcing(u, drag);
@@ -235,7 +241,7 @@ float phi3_weight(float x, float phi2) {
 // (README: the float32 floor).
 void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #if INTEGRATOR == INTEGRATOR_EXPLICIT_EULER
-    vec3 a = acceleration(p, v, inv_tau_p);
+    vec3 a = acceleration(p, v, inv_tau_p, STAGE_START);
     p = move(p, f_mul(h, v));
     v = f_add(v, f_mul(h, a));
 #elif INTEGRATOR == INTEGRATOR_SEMI_IMPLICIT_EULER
@@ -250,34 +256,34 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #elif INTEGRATOR == INTEGRATOR_TRAPEZOID
     // UberFlow eq. (1)-(2): Euler velocity, position from the mean of old and new velocity
     float half_h = f_mul(0.5, h);
-    vec3 v1 = f_add(v, f_mul(h, acceleration(p, v, inv_tau_p)));
+    vec3 v1 = f_add(v, f_mul(h, acceleration(p, v, inv_tau_p, STAGE_START)));
     p = move(p, f_mul(half_h, f_add(v, v1)));
     v = v1;
 #elif INTEGRATOR == INTEGRATOR_VERLET
     // velocity Verlet; the drag's velocity dependence is met with an Euler-predicted velocity
     float half_h = f_mul(0.5, h);
-    vec3 a0 = acceleration(p, v, inv_tau_p);
+    vec3 a0 = acceleration(p, v, inv_tau_p, STAGE_START);
     p = move(p, f_mul(h, f_add(v, f_mul(half_h, a0))));
-    vec3 a1 = acceleration(p, f_add(v, f_mul(h, a0)), inv_tau_p);
+    vec3 a1 = acceleration(p, f_add(v, f_mul(h, a0)), inv_tau_p, STAGE_END);
     v = f_add(v, f_mul(half_h, f_add(a0, a1)));
 #elif INTEGRATOR == INTEGRATOR_RK2
     // explicit midpoint
     float half_h = f_mul(0.5, h);
-    vec3 a0 = acceleration(p, v, inv_tau_p);
+    vec3 a0 = acceleration(p, v, inv_tau_p, STAGE_START);
     vec3 pm = f_add(p, f_mul(half_h, v));
     vec3 vm = f_add(v, f_mul(half_h, a0));
     p = move(p, f_mul(h, vm));
-    v = f_add(v, f_mul(h, acceleration(pm, vm, inv_tau_p)));
+    v = f_add(v, f_mul(h, acceleration(pm, vm, inv_tau_p, STAGE_MIDDLE)));
 #elif INTEGRATOR == INTEGRATOR_RK4
     float half_h = f_mul(0.5, h);
     vec3 k1p = v;
-    vec3 k1v = acceleration(p, v, inv_tau_p);
+    vec3 k1v = acceleration(p, v, inv_tau_p, STAGE_START);
     vec3 k2p = f_add(v, f_mul(half_h, k1v));
-    vec3 k2v = acceleration(f_add(p, f_mul(half_h, k1p)), k2p, inv_tau_p);
+    vec3 k2v = acceleration(f_add(p, f_mul(half_h, k1p)), k2p, inv_tau_p, STAGE_MIDDLE);
     vec3 k3p = f_add(v, f_mul(half_h, k2v));
-    vec3 k3v = acceleration(f_add(p, f_mul(half_h, k2p)), k3p, inv_tau_p);
+    vec3 k3v = acceleration(f_add(p, f_mul(half_h, k2p)), k3p, inv_tau_p, STAGE_MIDDLE);
     vec3 k4p = f_add(v, f_mul(h, k3v));
-    vec3 k4v = acceleration(f_add(p, f_mul(h, k3p)), k4p, inv_tau_p);
+    vec3 k4v = acceleration(f_add(p, f_mul(h, k3p)), k4p, inv_tau_p, STAGE_END);
     vec3 dp = f_add(f_add(f_add(k1p, f_mul(2.0, k2p)), f_mul(2.0, k3p)), k4p);
     vec3 dv = f_add(f_add(f_add(k1v, f_mul(2.0, k2v)), f_mul(2.0, k3v)), k4v);
     float sixth_h = f_div(h, 6.0);

@@ -133,7 +133,8 @@ vec3 layer(float q, float z, WallJet jet, float R) {
     return vec3(t.x, f_div(t.y, width.x), -f_div(f_mul(f_mul(t.y, eta), width.y), width.x));
 }
 
-vec3 flow_at(vec3 p) {
+// the same at every stage of a step: the rotor moves once a frame
+vec3 flow_at(vec3 p, int stage) {
     float R = rotor_radius;
     float vi = induced_velocity;
     if (vi <= 0.0) {
