@@ -210,9 +210,17 @@ def sample_field(grid: FieldGrid, points, out_of_domain: OutOfDomain,
     interpolate = _cubic if is_cubic(grid.interpolation) else _trilinear
     out = interpolate(grid, i0, t, dtype)
     if out_of_domain is OutOfDomain.ZERO:
-        out[((flat < lo) | (flat > hi)).any(axis=1)] = 0
+        out[outside_box(grid, flat, dtype)] = 0
     out[np.isnan(flat).any(axis=1)] = np.nan
     return out.reshape(p.shape)
+
+
+def outside_box(grid: FieldGrid, points, dtype=np.float64) -> np.ndarray:
+    """Whether each point (N, 3) lies outside the grid's closed box, as `sample_field`'s
+    ZERO sees it; (N,) bool, NaN not outside."""
+    p = np.asarray(points, dtype=dtype)
+    lo, hi = np.asarray(grid.box_min, dtype), np.asarray(grid.box_max, dtype)
+    return ((p < lo) | (p > hi)).any(axis=1)
 
 
 def _trilinear(grid: FieldGrid, i0: np.ndarray, t: np.ndarray, dtype) -> np.ndarray:

@@ -76,6 +76,7 @@ from nodes.master.events import (
     WallDown,
     WallUp,
 )
+from nodes.master.exit_book import DomainExitBook
 from nodes.master.forensics import (
     ForensicsError,
     Side,
@@ -167,7 +168,8 @@ class Master:
         self.refused = False  # another master was there first: the nodes are its own
         self.engines = EngineChoice(config.walls)  # the path of the nodes that probed theirs
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
-                                node_walls=dict(config.node_walls))
+                                node_walls=dict(config.node_walls),
+                                domain_exits=DomainExitBook(scene))
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
         self.swaps = self.record.swaps
@@ -311,6 +313,7 @@ class Master:
                 message = self._make_frame(k)
                 barrier = self._barrier(k, message)
                 vote = self._agree(k)
+                self.record.domain_exits.add(k, self.reports[vote.source].domain_exits)
                 self._admit_joiners(k, vote)
                 self._release_swap(k)
                 if log_writer is not None:

@@ -12,10 +12,14 @@ from pathlib import Path
 
 import pytest
 from driver_doubles import RecordedDriver, load_profile, profile_names
+from scenes import scene_dict
 
-from cavesim.core.errors import ContextError
+from cavesim.core.errors import ContextError, FieldError
+from cavesim.core.scene import load_scene, parse_scene
+from cavesim.core.scene.model import ENGINE_PATHS, Engine
 from cavesim.core.wire.network import NetworkSettings
-from cavesim.gpu.engine.capacity import capacity_limits
+from cavesim.gpu.engine.capacity import capacity_limits, check_field_texture
+from cavesim.gpu.engine.domain_exits import counts_exits
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
 from cavesim.gpu.gl.fence import FIRST_WAIT_NS, WAIT_LIMIT_SECONDS, first_wait_ns
@@ -223,6 +227,40 @@ def test_the_scan_lets_a_creation_that_asks_pass():
 def test_query_buffers_come_from_the_version_or_the_extension(version_code, extensions,
                                                               offered):
     assert query_buffers_offered(version_code, extensions) is offered
+
+
+def test_each_recorded_context_says_whether_gs_tf_counts_domain_exits(profile):
+    """GS/TF steps in its vertex stage, which counts exits only where the context lets it
+    write storage: the recordings predate that limit, so none of them counts on GS/TF (the
+    compute path always does); this context, read live, does."""
+    scene = parse_scene(scene_dict(), name="grid")
+    for context in profile["contexts"]:
+        asked = context["asked"][str(REQUIRED_GL_VERSION)]
+        assert counts_exits(scene, Engine.GS_TF, asked) is profile["expect"]["gs_tf_counts_exits"]
+        assert counts_exits(scene, Engine.COMPUTE, asked)
+
+
+def test_this_context_counts_domain_exits_on_both_paths_where_the_flow_has_a_grid(ctx):
+    assert ctx.info["GL_MAX_VERTEX_SHADER_STORAGE_BLOCKS"] >= 1
+    grid = parse_scene(scene_dict(), name="grid")
+    rotor = load_scene(ROOT / "config" / "scenes" / "brownout.toml")
+    assert all(counts_exits(grid, engine, ctx.info) for engine in ENGINE_PATHS)
+    assert not any(counts_exits(rotor, engine, ctx.info) for engine in ENGINE_PATHS)
+
+
+def test_a_time_series_fits_the_3d_texture_size_each_context_reports(profile):
+    """200 snapshots 32 texels deep stack to 6,400: beyond llvmpipe's 2,048, within the
+    H100's 16,384; the refusal names the limit and the driver."""
+    for context in profile["contexts"]:
+        asked = context["asked"][str(REQUIRED_GL_VERSION)]
+        largest = asked["GL_MAX_3D_TEXTURE_SIZE"]
+        if largest >= 6400:
+            check_field_texture(asked, (32, 32, 6400), 200)
+        else:
+            with pytest.raises(FieldError, match=f"32 x 32 x 6400 texels \\(200 snapshot\\(s\\) "
+                                                 f"stacked along z\\), beyond "
+                                                 f"GL_MAX_3D_TEXTURE_SIZE = {largest} on "):
+                check_field_texture(asked, (32, 32, 6400), 200)
 
 
 def test_each_recorded_context_says_whether_gs_tf_counts_stay_on_the_gpu(profile):

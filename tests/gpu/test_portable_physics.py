@@ -80,6 +80,7 @@ class Lockstep:
         self.size = scene.random_texture_size
         self.frames = 0
         self.counts: list[int] = []
+        self.exits = np.zeros(len(scene.particle_classes), dtype=np.int64)  # the twin's
         if start is not None:
             for system in (self.twin, *self.gpus.values()):
                 system.write_particles(start)
@@ -96,7 +97,12 @@ class Lockstep:
             if gpu.checksum() != expected:
                 pytest.fail(f"frame {self.frames}, {engine.value} path: "
                             f"{first_difference(gpu, self.twin)}")
+            exits = gpu.domain_exits()
+            if exits is not None and exits != tuple(self.twin.domain_exits):
+                pytest.fail(f"frame {self.frames}, {engine.value} path: {exits} particles per "
+                            f"class left the field's box, the twin {self.twin.domain_exits}")
         self.counts.append(expected.particles)
+        self.exits += self.twin.domain_exits
 
     def release(self) -> None:
         for gpu in self.gpus.values():
@@ -215,6 +221,7 @@ def test_still_air_outside_the_field_has_the_portable_twins_bits(lockstep):
     for _ in range(SMALL_FRAMES):
         run.step()
     assert (run.twin.particles.pos[:, 2] > 1.5).any()
+    assert run.exits.sum() > 100, "each frame's count of those leaving the box is checked"
 
 
 @pytest.mark.parametrize(("interpolation", "out_of_domain"),

@@ -39,7 +39,7 @@ from hypothesis import strategies as st
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame_cost import NO_COST, PHASES
-from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
+from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES, MAX_PARTICLES
 from cavesim.core.scene import Engine
 from cavesim.core.wire import envelope
 from cavesim.core.wire.credentials import Credentials, generate, of_master
@@ -174,9 +174,10 @@ COST = tuple(range(3, 3 + len(PHASES)))  # a report's phase times, microseconds
 
 
 def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"",
-                particles: int = 1) -> bytes:
+                particles: int = 1, exits: bytes = b"\x00") -> bytes:
+    """A report: name, the fixed fields, the domain exits (by default: none counted)."""
     return name(node) + struct.pack(f"<16sII{len(PHASES)}IIB", bytes.fromhex(DIGEST),
-                                    particles, 2, *COST, 5, status) + extra
+                                    particles, 2, *COST, 5, status) + exits + extra
 
 
 def sample_tail(count: int, records: int | None = None) -> bytes:
@@ -702,6 +703,11 @@ REJECTIONS = [
     ("report-stray-byte", craft(Kind.REPORT, report_body(extra=b"\x00")), None,
      "bad-payload"),
     ("report-short", craft(Kind.REPORT, report_body()[:-1]), None, "bad-payload"),
+    ("report-exits-beyond-max", craft(Kind.REPORT, report_body(
+        exits=bytes([MAX_PARTICLE_CLASSES + 1]) + bytes(4 * (MAX_PARTICLE_CLASSES + 1)))),
+     None, "bad-payload"),
+    ("report-exits-short", craft(Kind.REPORT, report_body(exits=b"\x02" + bytes(7))), None,
+     "bad-payload"),
     ("report-sample-beyond-live", craft(Kind.REPORT, report_body(extra=sample_tail(2))),
      None, "bad-payload"),
     ("report-sample-beyond-max", craft(Kind.REPORT, report_body(

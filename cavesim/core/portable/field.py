@@ -18,11 +18,23 @@ CORNERS = ((0, 0, 0), (1, 0, 0), (0, 1, 0), (1, 1, 0),
            (0, 0, 1), (1, 0, 1), (0, 1, 1), (1, 1, 1))  # (x, y, z) offsets: c000, c100, ...
 
 
+def field_coordinates(grid: FieldGrid, p: np.ndarray) -> np.ndarray:
+    """field.glsl's `field_coordinates`: the grid coordinates (N, 3) of points (N, 3)."""
+    return f_mul(f_sub(p, np.asarray(grid.box_min, np.float32)), grid.index_scale)
+
+
+def outside_field(grid: FieldGrid, p: np.ndarray) -> np.ndarray:
+    """field.glsl's `outside_field` at points (N, 3): (N,) bool, NaN not outside."""
+    f = field_coordinates(grid, p)
+    last = (np.asarray(grid.resolution) - 1).astype(np.float32)
+    return ((f < 0) | (f > last)).any(axis=1)
+
+
 def flow_at(grid: FieldGrid, p: np.ndarray, out_of_domain: OutOfDomain) -> np.ndarray:
     """The grid's flow (N, 3) at points (N, 3); ZERO: still air outside the closed box."""
     res = np.asarray(grid.resolution)
     last = (res - 1).astype(np.float32)
-    f = f_mul(f_sub(p, np.asarray(grid.box_min, np.float32)), grid.index_scale)
+    f = field_coordinates(grid, p)
     outside = ((f < 0) | (f > last)).any(axis=1)
     f = glsl_clamp(f, np.float32(0.0), last)
     i0 = first_node(f, res)

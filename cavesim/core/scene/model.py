@@ -322,6 +322,12 @@ class Scene(Simulation):
     collision: Collision | None
     helicopter: Helicopter | None = None
 
+    @property
+    def gridded_flow(self) -> bool:
+        """Whether drag carries the particles toward a gridded field (one with a box to
+        leave), not the rotor's analytic downwash."""
+        return self.forces.drag is not None and self.field.kind is not FieldKind.ROTOR
+
     def relaxation_times(self) -> tuple[float, ...]:
         """τ of each particle class (inf when the scene has no drag)."""
         if self.forces.drag is None:

@@ -16,7 +16,7 @@ import numpy as np
 from cavesim.core import dispersion
 from cavesim.core._grids import mix
 from cavesim.core.field_time import FieldTime
-from cavesim.core.fields import FieldSeries, sample_field
+from cavesim.core.fields import FieldSeries, outside_box, sample_field
 from cavesim.core.helicopter.downwash import downwash
 from cavesim.core.portable import dispersion as portable_dispersion
 from cavesim.core.portable import field as portable_field
@@ -42,6 +42,7 @@ class Kernels:
     rotor_flow: Callable  # (p, hub, v_i, rotor_radius, ground_z) -> u(p)
     field_flow: Callable  # (grid, p, out_of_domain) -> u(p)
     mix: Callable  # (a, b, t) -> GLSL's mix: the shader's f_mix in either arithmetic
+    outside_field: Callable  # (grid, p) -> (N,) whether each point is outside the box
     ground: Callable  # (collision, heights, xy) -> (height, normal)
     collide: Callable  # (p, v, collision, heights) -> (p, v)
     turbulence: Callable  # (forces, p, v, ground, mixing_length, xi, h) -> u_t
@@ -64,11 +65,13 @@ class Kernels:
 def reference_kernels(dtype) -> Kernels:
     """The twin's own arithmetic in `dtype`."""
     return Kernels(dtype, INTEGRATORS, ForceModel, partial(downwash, dtype=dtype),
-                   partial(sample_field, dtype=dtype), mix, partial(collision.ground, dtype=dtype),
+                   partial(sample_field, dtype=dtype), mix, partial(outside_box, dtype=dtype),
+                   partial(collision.ground, dtype=dtype),
                    collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype))
 
 
 PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PortableForces, portable_rotor.flow_at,
-                   portable_field.flow_at, f_mix, portable_ground.ground_at,
+                   portable_field.flow_at, f_mix, portable_field.outside_field,
+                   portable_ground.ground_at,
                    portable_ground.collide,
                    portable_dispersion.turbulence, portable_spawn.spawn)

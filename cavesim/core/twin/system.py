@@ -9,6 +9,7 @@ the portable float32 ones, which give the GPU's bits.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from cavesim.core.portable.forces import PortableForces
 from cavesim.core.position import low_code, low_part, split_position
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
-from cavesim.core.scene.model import Arithmetic, CollisionKind, FieldKind, Scene
+from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.core.twin.emission import emission_order, update_emitters
 from cavesim.core.twin.forces import ForceModel
@@ -94,8 +95,7 @@ class TwinSystem:
         self.dtype = self.kernels.dtype
         self.table = EmitterTable.from_scene(scene)
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
-        grid_field = scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR
-        self.field: FieldSeries | None = build_series(scene.field) if grid_field else None
+        self.field: FieldSeries | None = build_series(scene.field) if scene.gridded_flow else None
         self.heights: HeightGrid | None = None
         if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
             self.heights = load_heightfield(scene.collision.file, scene.origin)
@@ -109,6 +109,8 @@ class TwinSystem:
         self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
+        # per class, the particles that left the field's box in the last step (a grid's)
+        self.domain_exits = np.zeros(len(scene.particle_classes), dtype=np.int64)
 
     @property
     def live_count(self) -> int:
@@ -156,12 +158,23 @@ class TwinSystem:
         if self.scene.forces.dispersion is not None:
             forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces),
                                      field_time)
-        alive &= below(q.vel, SPEED_LIMIT)
+        sane = below(q.vel, SPEED_LIMIT)
         pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
-        alive &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)
+        sane &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)
+        self._count_exits(q, pos, sane)
+        alive &= sane
         moved = TwinParticles(pos, low, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
+
+    def _count_exits(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray) -> None:
+        """step_particle's count: a sane step from inside the field's box to outside it."""
+        if self.field is None:
+            return
+        outside = partial(self.kernels.outside_field, self.field.first)
+        left = sane & ~outside(q.pos) & outside(moved)
+        classes = np.minimum(q.class_id[left], len(self.domain_exits) - 1)
+        self.domain_exits = np.bincount(classes, minlength=len(self.domain_exits))
 
     def _move(self, q: TwinParticles, h, forces: ForceModel | PortableForces
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -24,7 +24,8 @@ import numpy as np
 
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.records import EMITTER_VERTEX_FORMAT, PARTICLE_BYTES, PARTICLE_VERTEX_FORMAT
-from cavesim.core.scene.model import Scene
+from cavesim.core.scene.model import Engine, Scene
+from cavesim.gpu.engine.domain_exits import counts_exits
 from cavesim.gpu.engine.emission import Emission
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import (
@@ -59,7 +60,8 @@ class GsTfPasses:
         self._capacity = scene.capacity
         self._counts = buffer("gs_tf_counts", GENERATED + 4)
         self._counted = PrimitiveCounts(ctx, self._counts, fence)
-        self.program = particle_update_program(ctx, scene)
+        self.program = particle_update_program(ctx, scene,
+                                               counts_exits(scene, Engine.GS_TF, ctx.info))
         self._update_vaos = [ctx.vertex_array(self.program, [(
             buffer, PARTICLE_VERTEX_FORMAT, "in_a", "in_b", "in_c")]) for buffer in particles]
         self._emitter_count = len(scene.emitters)

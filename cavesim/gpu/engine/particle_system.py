@@ -49,7 +49,6 @@ from cavesim.core.scene.model import (
     ENGINE_PATHS,
     CollisionKind,
     Engine,
-    FieldKind,
     FieldSampling,
     Scene,
 )
@@ -57,6 +56,7 @@ from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
+from cavesim.gpu.engine.domain_exits import DomainExits, counts_exits
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
@@ -99,6 +99,8 @@ class ParticleSystem:
             raise limits.allocation_error(scene.capacity, error)
         self.field_series: FieldSeries | None = None
         self.ground_grid: HeightGrid | None = None
+        self._exits = DomainExits(self._buffer("domain_exits", 4 * len(scene.particle_classes))
+                                  ) if scene.gridded_flow else None
         self._textures_for_physics()
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         if len(self.emitters) or scene.forces.dispersion is not None:
@@ -142,7 +144,7 @@ class ParticleSystem:
 
     def _textures_for_physics(self) -> None:
         scene = self.scene
-        if scene.forces.drag is not None and scene.field.kind is not FieldKind.ROTOR:
+        if scene.gridded_flow:
             series = build_series(scene.field)
             check_field_texture(self.ctx.info, series.texture_size, len(series.snapshots))
             texture = self.ctx.texture3d(series.texture_size, 3, series.texels().tobytes(),
@@ -243,8 +245,18 @@ class ParticleSystem:
             write_uniforms(program, field_time_uniforms(scene.field_time or FIRST_SNAPSHOT))
         if self.scene.forces.dispersion is not None:  # its draws move with the frame's map
             write_uniforms(program, {"random_transform": frame.random_transform.T})
+        if self._exits is not None:
+            self._exits.start_frame()
         self._live = self._passes.advance(front, back, live, emission)
         self._current = back
+
+    def domain_exits(self) -> tuple[int, ...] | None:
+        """Per particle class, how many left the field's box in the last frame; None where
+        this scene or engine path counts none here (`domain_exits.counts_exits`). Read it
+        after `checksum()`, whose wait it shares; before, it waits for the GPU itself."""
+        if self._exits is None or not counts_exits(self.scene, self.engine, self.ctx.info):
+            return None
+        return self._exits.read()
 
     def bench_particle_pass(self, dt: np.float32) -> None:
         """The engine path's particle pass alone on the live stream, waited for (what

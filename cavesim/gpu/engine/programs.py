@@ -55,13 +55,14 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "FIELD_INTERPOLATION": tuple(INTERPOLATION_IDS.values()),
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
-# Drag beyond Stokes, dispersion (with the random texture's size it reads) and a field
-# given as a time series, checked by the gate in the variants `physics_variants` names,
-# not in the full product
+# Drag beyond Stokes, dispersion (with the random texture's size it reads), a field given
+# as a time series and the count of particles leaving a grid, checked by the gate in the
+# variants `physics_variants` names, not in the full product
 TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
     "HAS_SCHILLER_NAUMANN": (0, 1),
     "HAS_DISPERSION": (0, 1),
     "FIELD_TIME_SERIES": (0, 1),
+    "COUNT_DOMAIN_EXITS": (0, 1),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
 }
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
@@ -127,7 +128,8 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
         "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
         "HAS_DISPERSION": int(scene.forces.dispersion is not None),
-        "FIELD_TIME_SERIES": int(scene.forces.drag is not None and field.times is not None),
+        "FIELD_TIME_SERIES": int(scene.gridded_flow and field.times is not None),
+        "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
         "RANDOM_SIZE": scene.random_texture_size,
     }
 
@@ -219,11 +221,11 @@ def physics_variants() -> Iterator[dict[str, int]]:
 def reachable(defines: dict[str, int]) -> dict[str, int]:
     """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
     grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; only a
-    grid is a time series; drag laws beyond Stokes and dispersion need drag, dispersion a
-    ground too (physics.glsl's #errors)."""
+    grid is a time series or counts exits; drag laws beyond Stokes and dispersion need
+    drag, dispersion a ground too (physics.glsl's #errors)."""
     out = dict(defines)
     if not out["HAS_DRAG"] or out["FIELD_IS_ROTOR"]:
-        out["FIELD_TIME_SERIES"] = 0
+        out["FIELD_TIME_SERIES"] = out["COUNT_DOMAIN_EXITS"] = 0
     grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
             and out["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
     if not grid:
@@ -235,8 +237,13 @@ def reachable(defines: dict[str, int]) -> dict[str, int]:
     return out
 
 
-def particle_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:
-    return PARTICLE_UPDATE.build(ctx, physics_defines(scene))
+def particle_update_program(ctx: moderngl.Context, scene: Scene,
+                            count_exits: bool = True) -> moderngl.Program:
+    """The GS/TF particle pass; `count_exits` False where its vertex stage cannot write
+    storage (`cavesim.gpu.engine.domain_exits`)."""
+    defines = physics_defines(scene)
+    defines["COUNT_DOMAIN_EXITS"] &= int(count_exits)
+    return PARTICLE_UPDATE.build(ctx, defines)
 
 
 def emitter_update_program(ctx: moderngl.Context, scene: Scene) -> moderngl.Program:

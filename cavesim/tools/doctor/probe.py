@@ -38,7 +38,7 @@ LIMITS = (  # what sizes a wall can have: particles, dispatches, emitted batches
     "GL_MAX_COMPUTE_WORK_GROUP_INVOCATIONS", "GL_MAX_GEOMETRY_OUTPUT_VERTICES",
     "GL_MAX_GEOMETRY_OUTPUT_COMPONENTS", "GL_MAX_TEXTURE_SIZE", "GL_MAX_3D_TEXTURE_SIZE",
     "GL_MAX_TEXTURE_BUFFER_SIZE", "GL_MAX_RENDERBUFFER_SIZE", "GL_MAX_VIEWPORT_DIMS",
-    "GL_MAX_SAMPLES",
+    "GL_MAX_SAMPLES", "GL_MAX_VERTEX_SHADER_STORAGE_BLOCKS",
 )
 NEEDS = (  # (limit, least value, what needs it) beyond GL 4.3 itself
     ("GL_MAX_GEOMETRY_OUTPUT_VERTICES", EMIT_BATCH, "the emitter pass writes a batch per "

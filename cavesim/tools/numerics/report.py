@@ -104,7 +104,7 @@ def _expected(s: Summary) -> str:
         return "forgets"
     if s.expected is None:
         return "-"
-    return f"{s.expected:g}" + (" (grid)" if s.expected < s.order else "")
+    return f"{s.expected:g}" + (" (field)" if s.expected < s.order else "")  # its order_limit
 
 
 def _observed(s: Summary) -> str:

@@ -17,6 +17,7 @@ def summary_table(report: dict) -> Table:
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
         ("live particles (last / max)",
          f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
+        *exit_rows(report.get("domain_exits", {})),
         ("lost for good", ", ".join(report["final"].get("lost", ())) or "none"),
         ("divergences", report["event_totals"]["divergences"]),
         ("resyncs", report["event_totals"]["resyncs"]),
@@ -25,6 +26,17 @@ def summary_table(report: dict) -> Table:
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
     return _table("cavesim run", rows)
+
+
+def exit_rows(exits: dict) -> list[tuple[str, str]]:
+    """Who left the field's box, per class, from the first frame one did (a grid's flow)."""
+    if not exits:
+        return []
+    left = ", ".join(f"{exits['total'][name]:,} {name} from frame {exits['first_frame'][name]}"
+                     for name in exits["classes"] if exits["total"][name]) or "none"
+    if exits["frames_uncounted"]:
+        left += f" ({exits['frames_uncounted']:,} frames not counted)"
+    return [("left the field's box", left)]
 
 
 def nodes_and_walls(report: dict) -> str:

@@ -11,12 +11,14 @@ from enum import IntEnum
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame_cost import PHASES
+from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
 # digest, counts, each phase's microseconds (FRAME_PHASES), rejected, status
 _REPORT = struct.Struct(f"<16sII{len(PHASES)}IIB")
+_EXITS = struct.Struct("<B")  # classes whose domain exits follow, a uint each (0: not counted)
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED, INFO_COMPUTE = 0x01, 0x02, 0x04  # COMPUTE: else GS/TF
@@ -43,6 +45,8 @@ class ReportMessage:
     rejected: int = 0  # messages this node has rejected so far
     status: Status = Status.STEPPED
     sample: DriftSample | None = None  # mixed-hardware mode: its records sample_indices names
+    # per particle class, those that left the field's box this frame; () where not counted
+    domain_exits: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -101,8 +105,13 @@ def write_report(m: ReportMessage) -> bytes:
     if len(m.cost_us) != len(PHASES):
         raise ValueError(f"a report times the {len(PHASES)} phases {', '.join(PHASES)}, got "
                          f"{len(m.cost_us)} times")
+    if len(m.domain_exits) > MAX_PARTICLE_CLASSES:
+        raise ValueError(f"a report counts exits of at most {MAX_PARTICLE_CLASSES} classes, "
+                         f"got {len(m.domain_exits)}")
     body = name_bytes(m.node) + _REPORT.pack(
         digest_bytes(m.digest), m.particles, m.emitters, *m.cost_us, m.rejected, m.status)
+    body += _EXITS.pack(len(m.domain_exits)) + struct.pack(f"<{len(m.domain_exits)}I",
+                                                            *m.domain_exits)
     if m.sample is None:  # the bit-exact mode's report: no tail
         return body
     if len(m.sample) > m.particles:
@@ -119,9 +128,24 @@ def read_report(frame: int, payload: bytes) -> ReportMessage:
     digest, particles, emitters, *cost_us, rejected, status = _REPORT.unpack_from(rest)
     if status not in Status.__members__.values():
         raise ProtocolError("bad-value", f"report status {status} is unknown")
-    sample = _read_sample(rest[_REPORT.size:], particles) if len(rest) > _REPORT.size else None
+    exits, tail = _read_exits(rest[_REPORT.size:])
+    sample = _read_sample(tail, particles) if tail else None
     return ReportMessage(frame, node, digest.hex(), particles, emitters, tuple(cost_us),
-                         rejected, Status(status), sample)
+                         rejected, Status(status), sample, exits)
+
+
+def _read_exits(tail: bytes) -> tuple[tuple[int, ...], bytes]:
+    """A report's domain exits (a class count within MAX_PARTICLE_CLASSES, a uint each) and
+    what follows them."""
+    if len(tail) < _EXITS.size:
+        raise ProtocolError("bad-payload", "a report ends before its count of domain exits")
+    (classes,) = _EXITS.unpack_from(tail)
+    end = _EXITS.size + 4 * classes
+    if classes > MAX_PARTICLE_CLASSES or len(tail) < end:
+        raise ProtocolError("bad-payload", f"domain exits of {classes} classes in "
+                                           f"{len(tail) - _EXITS.size} bytes: expected at most "
+                                           f"{MAX_PARTICLE_CLASSES} classes of 4 bytes each")
+    return struct.unpack_from(f"<{classes}I", tail, _EXITS.size), tail[end:]
 
 
 def _read_sample(tail: bytes, particles: int) -> DriftSample:

@@ -71,24 +71,45 @@ vec3 cubic_flow(ivec3 i0, vec3 t) {
 }
 #endif
 
-// The flow of one snapshot: its texels start `depth` * snapshot deep
-vec3 snapshot_flow(vec3 p, int snapshot) {
+// Texels per axis of one snapshot
+ivec3 snapshot_size() {
     ivec3 size = textureSize(flow_field, 0);
 #if FIELD_TIME_SERIES
-    int depth = size.z / field_snapshots;
+    return ivec3(size.xy, size.z / field_snapshots);
 #else
-    int depth = size.z;
+    return size;
 #endif
+}
+
+// Grid nodes per axis
+ivec3 field_resolution() {
 #if FIELD_INTERPOLATION == INTERPOLATION_TRILINEAR
-    ivec3 res = ivec3(size.xy, depth);
+    return snapshot_size();
 #else
-    ivec3 res = ivec3(size.xy, depth) - 2;  // nodes: the texels less the ghosts
+    return snapshot_size() - 2;  // the texels less the ghosts
 #endif
-    ivec3 first = ivec3(0, 0, depth * snapshot);
+}
+
+// Whether grid coordinates f lie outside the field's closed box [0, res - 1] on an axis
+// (NaN does not)
+bool outside_field(vec3 f) {
+    return any(lessThan(f, vec3(0.0))) || any(greaterThan(f, vec3(field_resolution() - 1)));
+}
+
+// The grid coordinates of p: node (i, j, k) at (i, j, k)
+vec3 field_coordinates(vec3 p) {
+    return f_mul(f_sub(p, field_box_min), field_index_scale);
+}
+
+// The flow of one snapshot: its texels start a snapshot's depth times `snapshot` deep
+vec3 snapshot_flow(vec3 p, int snapshot) {
+    ivec3 size = textureSize(flow_field, 0);
+    ivec3 res = field_resolution();
+    ivec3 first = ivec3(0, 0, snapshot_size().z * snapshot);
     vec3 last = vec3(res - 1);
-    vec3 f = f_mul(f_sub(p, field_box_min), field_index_scale);
+    vec3 f = field_coordinates(p);
 #if FIELD_OUT_OF_DOMAIN == OUT_OF_DOMAIN_ZERO
-    if (any(lessThan(f, vec3(0.0))) || any(greaterThan(f, last))) {
+    if (outside_field(f)) {
         return vec3(0.0);
     }
 #endif

@@ -62,6 +62,9 @@ float inverse_relaxation_time(uint class_id) {
 #if (HAS_SCHILLER_NAUMANN || HAS_DISPERSION) && !HAS_DRAG
 #error HAS_SCHILLER_NAUMANN and HAS_DISPERSION need HAS_DRAG
 #endif
+#if COUNT_DOMAIN_EXITS && (!HAS_DRAG || FIELD_IS_ROTOR)
+#error COUNT_DOMAIN_EXITS needs a gridded field
+#endif
 #if HAS_DISPERSION && COLLISION == COLLISION_NONE
 #error HAS_DISPERSION needs a COLLISION ground
 #endif
@@ -408,13 +411,38 @@ bool advance(inout Particle q, float h, uint index) {
     return steppable && finite(q.pos) && below(q.vel, SPEED_LIMIT);
 }
 
+// The stage that steps the particles counts (a GS/TF program's geometry stage only passes
+// them on, and asks for no storage)
+#if COUNT_DOMAIN_EXITS && !defined GEOMETRY_SHADER
+#define COUNTS_EXITS_HERE 1
+#else
+#define COUNTS_EXITS_HERE 0
+#endif
+
+#if COUNTS_EXITS_HERE
+// Per class, the particles that left the field's box this frame (cavesim/gpu/engine/
+// domain_exits.py clears it before the frame and reads it after)
+layout(std430, binding = 6) buffer DomainExits {
+    uint domain_exits[];
+};
+#endif
+
 // One frame of the particle at `index` in the stream, the arithmetic both engine paths'
 // particle passes share (GS/TF update.glsl, compute update_blocks.glsl): it ages by h
-// and moves.
+// and moves; with COUNT_DOMAIN_EXITS, a sane step from inside the field's box to outside
+// it counts for the particle's class.
 // Returns whether it lives on: not expired and not run away. The age's float64 add stays
 // outside arithmetic.glsl: portable only where the GPU rounds doubles as IEEE does.
 bool step_particle(inout Particle q, float h, uint index) {
     q.age += double(h);
+#if COUNTS_EXITS_HERE
+    bool was_inside = !outside_field(field_coordinates(q.pos));
+#endif
     bool sane = advance(q, h, index);
+#if COUNTS_EXITS_HERE
+    if (sane && was_inside && outside_field(field_coordinates(q.pos))) {
+        atomicAdd(domain_exits[min(q.class_id, uint(CLASS_COUNT - 1))], 1u);
+    }
+#endif
     return q.age < double(q.lifetime) && sane;
 }
