@@ -27,8 +27,12 @@ right.
 
 The draws: one 32-bit word per particle and frame, at the particle's index in the stream,
 the same on every node; word index & 3 of lattice texel index >> 2, moved by the frame's
-map (`moved_texel`). Three 10-bit fields j give xi = sqrt(3) ((2j + 1)/1024 - 1):
-uniform, unit variance (to 1e-6), summed over frames into Gaussians. Indices repeat words
+map (`moved_texel`). Three 10-bit fields j give sqrt(3) ((2j + 1)/1024 - 1), standardised
+by the mean and spread of that field over the whole texture (`draw_moments`, float32, once
+per seed): a texture of 1M words leaves a mean near 1e-3, and a drift of
+sqrt(2 K / h) × 1e-3 is out of balance where K is small, near the ground (without it a
+well-mixed tracer lost 8 % of its lowest metre). So xi is uniform, of zero mean and unit
+variance over the texture (to float32), summed over frames into Gaussians. Indices repeat words
 beyond WORDS_PER_TEXEL × size² particles: the loader holds the capacity below that.
 """
 
@@ -50,15 +54,28 @@ SQRT3 = np.sqrt(3.0)
 TURBULENCE_FLOOR = 0.1
 
 
-def draws(random: np.ndarray, transform: np.ndarray, count: int, dtype=np.float64
-          ) -> np.ndarray:
-    """xi (count, 3) of the particles at stream indices 0..count-1 in this frame."""
+def raw_draws(words: np.ndarray, dtype=np.float64) -> np.ndarray:
+    """sqrt(3) ((2j + 1)/1024 - 1) (..., 3) of the three 10-bit fields j of each word."""
+    fields = np.stack([(words >> np.uint32(FIELD_BITS * c)) & FIELD_MASK for c in range(3)],
+                      axis=-1).astype(dtype)
+    return dtype(SQRT3) * ((2 * fields + 1) * dtype(1 / 1024) - 1)
+
+
+def draw_moments(random: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(mean, 1 / standard deviation) of each draw over every word of the texture, float32:
+    dispersion.glsl's draw_mean and draw_scale."""
+    every = raw_draws(random.reshape(-1))
+    return every.mean(axis=0).astype(np.float32), (1.0 / every.std(axis=0)).astype(np.float32)
+
+
+def draws(random: np.ndarray, transform: np.ndarray, count: int,
+          moments: tuple[np.ndarray, np.ndarray], dtype=np.float64) -> np.ndarray:
+    """xi (count, 3) of the particles at stream indices 0..count-1 in this frame,
+    standardised by the texture's `moments` (each operation rounded in `dtype`)."""
     index = np.arange(count, dtype=np.uint64)
     xs, ys = moved_texel((0, 0), index // WORDS_PER_TEXEL, transform, random.shape[0])
-    words = random[ys, xs, index % WORDS_PER_TEXEL]
-    fields = np.stack([(words >> np.uint32(FIELD_BITS * c)) & FIELD_MASK for c in range(3)],
-                      axis=1).astype(dtype)
-    return dtype(SQRT3) * ((2 * fields + 1) * dtype(1 / 1024) - 1)
+    mean, scale = (m.astype(dtype) for m in moments)
+    return (raw_draws(random[ys, xs, index % WORDS_PER_TEXEL], dtype) - mean) * scale
 
 
 def mixing_length(height: np.ndarray, longest: float) -> np.ndarray:

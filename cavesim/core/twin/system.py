@@ -13,7 +13,7 @@ from functools import partial
 
 import numpy as np
 
-from cavesim.core.dispersion import draws
+from cavesim.core.dispersion import draw_moments, draws
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
 from cavesim.core.field_time import FIRST_SNAPSHOT, FieldTime
 from cavesim.core.fields import FieldSeries, build_series
@@ -101,6 +101,8 @@ class TwinSystem:
             self.heights = load_heightfield(scene.collision.file, scene.origin)
         drawn = len(self.table) or scene.forces.dispersion is not None
         self.random = random_words(scene.seed, scene.random_texture_size) if drawn else None
+        self.draw_moments = None if scene.forces.dispersion is None else draw_moments(
+            self.random)
         taus = scene.relaxation_times() or (np.inf,)
         self.inv_tau = (1.0 / np.array(taus, dtype=np.float64)).astype(np.float32)
         self.reynolds_per_speed = np.array(scene.reynolds_per_speed() or (0.0,),
@@ -203,7 +205,8 @@ class TwinSystem:
         """What each particle sees besides the flow this step (dispersion.glsl's twin)."""
         q = self.particles
         ground, _ = self.kernels.ground(self.scene.collision, self.heights, q.pos[:, :2])
-        xi = draws(self.random, frame.random_transform, len(q.age), self.dtype)
+        xi = draws(self.random, frame.random_transform, len(q.age), self.draw_moments,
+                   self.dtype)
         return self.kernels.turbulence(forces, q.pos, q.vel, ground,
                                        self.scene.forces.dispersion.mixing_length, xi,
                                        self.dtype(frame.dt))

@@ -61,6 +61,7 @@ from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.uniforms import (
+    dispersion_uniforms,
     field_time_uniforms,
     physics_uniforms,
     rotor_uniforms,
@@ -99,6 +100,7 @@ class ParticleSystem:
             raise limits.allocation_error(scene.capacity, error)
         self.field_series: FieldSeries | None = None
         self.ground_grid: HeightGrid | None = None
+        self.random_words: np.ndarray | None = None  # the random texture's, if it has one
         self._exits = DomainExits(self._buffer("domain_exits", 4 * len(scene.particle_classes))
                                   ) if scene.gridded_flow else None
         self._textures_for_physics()
@@ -124,7 +126,8 @@ class ParticleSystem:
                                 self._emitter_buffers, self._bind_samplers, self._buffer,
                                 self.fence, self.timers)
         write_uniforms(passes.program,
-                       physics_uniforms(self.scene, self.field_series, self.ground_grid))
+                       physics_uniforms(self.scene, self.field_series, self.ground_grid,
+                                        self.random_words))
         return passes
 
     def use_engine(self, engine: Engine) -> None:
@@ -175,8 +178,8 @@ class ParticleSystem:
     def _random_texture(self) -> None:
         """The texture emission and dispersion draw from (determinism rule 2)."""
         size = self.scene.random_texture_size
-        random = self.ctx.texture((size, size), 4, random_words(self.scene.seed, size).tobytes(),
-                                  dtype="u4")
+        self.random_words = random_words(self.scene.seed, size)
+        random = self.ctx.texture((size, size), 4, self.random_words.tobytes(), dtype="u4")
         random.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.resources["random_texture"] = random
 
@@ -276,8 +279,10 @@ class ParticleSystem:
         self._tree = None
         self.emitters = EmitterTable.from_scene(self.scene)
         if "random_texture" in self.resources:
-            size = self.scene.random_texture_size
-            self.resources["random_texture"].write(random_words(seed, size).tobytes())
+            self.random_words = random_words(seed, self.scene.random_texture_size)
+            self.resources["random_texture"].write(self.random_words.tobytes())
+            if self.scene.forces.dispersion is not None:
+                write_uniforms(self._passes.program, dispersion_uniforms(self.random_words))
         if not len(self.emitters):
             return
         self._emitter_update.table = self.emitters

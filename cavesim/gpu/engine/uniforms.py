@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import moderngl
 import numpy as np
 
+from cavesim.core.dispersion import draw_moments
 from cavesim.core.errors import ShaderError
 from cavesim.core.field_time import FIRST_SNAPSHOT, FieldTime
 from cavesim.core.fields import FieldSeries
@@ -16,9 +17,10 @@ from cavesim.core.helicopter.inputs import FrameRotor
 from cavesim.core.scene.model import CollisionKind, Scene
 
 
-def physics_uniforms(scene: Scene, field: FieldSeries | None,
-                     ground: HeightGrid | None) -> dict[str, object]:
-    """The particle pass's constants for the scene's compiled-in features."""
+def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid | None,
+                     random: np.ndarray | None) -> dict[str, object]:
+    """The particle pass's constants for the scene's compiled-in features (`random`: the
+    random texture's words, where dispersion draws from it)."""
     values: dict[str, object] = {}
     forces = scene.forces
     if forces.gravity is not None:
@@ -33,6 +35,7 @@ def physics_uniforms(scene: Scene, field: FieldSeries | None,
             values["reynolds_per_speed"] = np.pad(per_class, (0, -len(per_class) % 4))
         if forces.dispersion is not None:
             values["mixing_length"] = np.float32(forces.dispersion.mixing_length)
+            values.update(dispersion_uniforms(random))
         if field is not None:  # a grid, or a series of them
             values["field_box_min"] = np.array(field.first.box_min, dtype=np.float32)
             values["field_index_scale"] = field.first.index_scale
@@ -53,6 +56,12 @@ def physics_uniforms(scene: Scene, field: FieldSeries | None,
             values["ground_box_min"] = np.array(ground.box_min, dtype=np.float32)
             values["ground_index_scale"] = ground.index_scale
     return values
+
+
+def dispersion_uniforms(random: np.ndarray) -> dict[str, object]:
+    """What standardises the dispersion's draws: their mean and spread over the texture."""
+    mean, scale = draw_moments(random)
+    return {"draw_mean": mean, "draw_scale": scale}
 
 
 def rotor_uniforms(rotor: FrameRotor) -> dict[str, object]:

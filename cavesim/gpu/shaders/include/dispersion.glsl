@@ -10,6 +10,8 @@
 #include "random.glsl"
 
 uniform float mixing_length;  // l_inf, m: the largest eddies
+uniform vec3 draw_mean;  // the draws' mean over the whole random texture
+uniform vec3 draw_scale;  // 1 / their standard deviation over it
 
 // exact float32 bits (a literal's rounding is up to the compiler;
 // cavesim/core/portable/constants.py)
@@ -21,13 +23,15 @@ uniform float mixing_length;  // l_inf, m: the largest eddies
 const float INVERSE_SHEAR_STEP = 10.0;
 
 // xi of the particle at `index` in the stream: word index & 3 of lattice texel index >> 2
-// (base 0) in this frame's map, three 10-bit fields j, xi = sqrt(3) ((2j + 1)/1024 - 1):
-// uniform, zero mean, unit variance; all exact but the last product.
+// (base 0) in this frame's map, three 10-bit fields j, sqrt(3) ((2j + 1)/1024 - 1)
+// (all exact but the last product), standardised over the texture: uniform, zero mean,
+// unit variance (cavesim/core/dispersion.py says why).
 vec3 dispersion_draws(uint index) {
     uint word = random_texel(uvec2(0u), index >> 2u)[index & 3u];
     uvec3 fields = (uvec3(word) >> uvec3(0u, 10u, 20u)) & uvec3(1023u);
     vec3 odd = vec3(2u * fields + 1u);
-    return f_mul(f_sub(f_mul(odd, vec3(0.0009765625)), vec3(1.0)), vec3(SQRT_3));
+    vec3 raw = f_mul(f_sub(f_mul(odd, vec3(0.0009765625)), vec3(1.0)), vec3(SQRT_3));
+    return f_mul(f_sub(raw, draw_mean), draw_scale);
 }
 
 // l at height z above the ground
