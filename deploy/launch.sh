@@ -78,7 +78,7 @@ die() {  # a usage or input error: one line, exit 2
     exit 2
 }
 
-hosts_file="" walls="" scene="config/scenes/dust_devil.toml" frames=600 out="out"
+hosts_file="" walls="" scene="config/scenes/brownout.toml" frames=600 out=""
 session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0 mixed=0
 insecure=0 group_by=""
 while (($#)); do
@@ -133,8 +133,9 @@ if [ -z "$hosts_file" ]; then
     ((!realtime)) || die "argument --realtime: only with --hosts"
     [ -z "$cave" ] || [ -z "$walls" ] \
         || die "argument --walls: not with --cave (the CAVE names its walls)"
-    command=("$root/.venv/bin/cavesim" run --scene "$scene" --frames "$frames" --out "$out"
+    command=("$root/.venv/bin/cavesim" run --scene "$scene" --frames "$frames"
              --session "$session")
+    [ -z "$out" ] || command+=(--out "$out")  # else a fresh folder under out/
     if [ -n "$cave" ]; then command+=(--cave "$cave"); else command+=(--walls "${walls:-4}"); fi
     ((!display)) || command+=(--display)
     [ -z "$group_by" ] || command+=(--group-by "$group_by")
@@ -148,6 +149,7 @@ if [ -z "$hosts_file" ]; then
     [ -x "$root/.venv/bin/cavesim" ] || "$root/deploy/setup.sh"
     exec "${command[@]}"
 fi
+out="${out:-out}"  # on the master's host: its report and frame log, and the node logs here
 
 # -- several hosts: read and check the hosts file ---------------------------------------------
 

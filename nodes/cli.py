@@ -44,8 +44,11 @@ class _Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: error: {message}")
 
 
+DESCRIPTION = ("cavesim keeps a GPU particle simulation identical on every wall of a CAVE. "
+               "Each command below has its own --help.")
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="cavesim", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="cavesim", description=DESCRIPTION)
     commands = parser.add_subparsers(dest="command", required=True, metavar="command")
     for add in SUBCOMMANDS:
         add(commands)

@@ -41,6 +41,8 @@ from cavesim.core.output import writing
 from cavesim.core.wire import FrameMessage, decode, encode
 from cavesim.core.wire.envelope import FRAME_VERSIONS
 
+FRAME_LOG = "frames.log"  # the name a run gives its frame log, in its folder
+
 FORMAT = "cavesim-frame-log"
 VERSION = 3  # 3: digests of records that keep the position's low part (position.py)
 SYNC_SECONDS = 1.0  # most time between fsyncs: what a power loss may take

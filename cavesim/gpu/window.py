@@ -118,7 +118,8 @@ def open_window(display: Display, size: tuple[int, int], title: str) -> WallWind
         where = os.environ.get("DISPLAY") or "no DISPLAY set"
         raise ContextError(f"cannot open a window: GLFW found no display ({where})",
                            "run the node on a machine with an X server, set DISPLAY or "
-                           "x_display in [wall.display], or leave --display off")
+                           "x_display in [wall.display], or run without windows (no "
+                           "--display or --preview)")
     monitor = _monitor(display)
     width, height = display.window[2:] if display.window else size
     if display.fullscreen:

@@ -26,8 +26,9 @@ def add_accuracy(commands) -> None:
 
     parser = commands.add_parser(
         "accuracy", help="error against run time and field evaluations of every integrator: "
-                         "GPU, float64 twin and reference (checked by Dormand-Prince) in a "
-                         "uniform flow, a vortex and a rotor downwash")
+                         "GPU, float64 twin and reference (checked by Dormand-Prince) in "
+                         "uniform and turning flows, a vortex on three grids, a rotor "
+                         "downwash, and sand in the last two")
     parser.add_argument("--scene", type=scene_file,
                         help=f"helicopter scene whose rotor downwash is the third case "
                              f"(default: {HELICOPTER_SCENE})")

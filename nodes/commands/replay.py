@@ -13,7 +13,7 @@ from pathlib import Path
 from rich.markup import escape
 from rich.progress import Progress
 
-from cavesim.core.framelog import TORN
+from cavesim.core.framelog import FRAME_LOG, TORN
 from cavesim.core.output import writing
 from nodes.arguments import (
     RUN_ERROR,
@@ -26,7 +26,8 @@ from nodes.arguments import (
 
 def add(commands) -> None:
     parser = commands.add_parser("replay", help="re-run a frame log; every checksum must match")
-    parser.add_argument("log", type=Path, help="frames.log written by the master")
+    parser.add_argument("log", type=Path,
+                        help="frames.log written by the master, or the run's folder holding it")
     parser.add_argument("--scene", type=scene_file, help="override the scene named in the log")
     parser.add_argument("--out", type=output_folder, help="write replay.json here (a directory)")
     parser.set_defaults(handler=replay)
@@ -35,6 +36,11 @@ def add(commands) -> None:
 def replay(args: argparse.Namespace, console) -> int:
     from cavesim.tools.log_replay import replay as replay_log
 
+    if args.log.is_dir():
+        if not (args.log / FRAME_LOG).is_file():
+            raise UsageError(f"cavesim replay: error: argument log: folder {str(args.log)!r} "
+                             f"holds no {FRAME_LOG}; give a run's folder or its frame log")
+        args.log = args.log / FRAME_LOG
     if not args.log.is_file():
         raise UsageError(f"cavesim replay: error: argument log: no file {str(args.log)!r}")
     if args.out:

@@ -19,6 +19,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
+from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
 from cavesim.core.wire.credentials import Credentials
@@ -39,7 +40,6 @@ from nodes.arguments import (
     lost_walls_code,
     master_credentials,
     number_in,
-    output_directory,
     output_folder,
     scene_file,
     session_name,
@@ -54,6 +54,7 @@ from nodes.master.report_file import ReportFile
 from nodes.master.tolerance import Tolerance
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_arguments, tolerance_from
+from nodes.run_folder import claim, default_folder, link_latest
 
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
@@ -103,7 +104,7 @@ class RunPlan:
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
-                              tolerance=self.tolerance, frame_log=self.out / "frames.log",
+                              tolerance=self.tolerance, frame_log=self.out / FRAME_LOG,
                               forensics=self.out, node_walls=self.nodes)
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
@@ -135,7 +136,7 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
                 report["images"] = assemble_images(plan, console)
             report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
         report_file.finish(report, record.interrupted)
-    frame_log, logs = plan.out / "frames.log", plan.out / "logs"
+    frame_log, logs = plan.out / FRAME_LOG, plan.out / "logs"
     check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))
     for line in forensic_lines(report):
@@ -191,14 +192,17 @@ def add(commands) -> None:
                              "(wall); the walls on one GPU (gpu)")
     parser.add_argument("--render-every", type=number_in(int, 0, 10**9, "frames"), default=10,
                         help="each wall writes its picture every K frames (default 10; 0: never)")
-    parser.add_argument("--stereo", action="store_true")
+    parser.add_argument("--stereo", action="store_true",
+                        help="draw each wall for both eyes (side by side in its picture or "
+                             "window)")
     parser.add_argument("--display", action="store_true",
                         help="every wall live in its own window, as the CAVE file's "
                              "[wall.display] says, swap-locked (needs an X display)")
     parser.add_argument("--preview", action="store_true",
                         help="one desktop window with every wall unfolded, live; its keys, "
                              "mouse and gamepad move the head and fly the wand")
-    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
+    parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE,
+                        help=f"the scene file (default: {DEFAULT_SCENE})")
     parser.add_argument("--engine", type=Engine, choices=list(Engine),
                         help="every node's particle engine path, instead of the scene's "
                              "[simulation] engine: gs_tf (geometry shader + transform "
@@ -207,7 +211,11 @@ def add(commands) -> None:
                              "the path most nodes found faster)")
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
-    parser.add_argument("--out", type=output_folder, default=Path("out"))
+    parser.add_argument("--out", type=output_folder,
+                        help="the run's own folder, new or empty (default: a fresh one, "
+                             "out/run-DATE-TIME, and out/latest points to it)")
+    parser.add_argument("--force", action="store_true",
+                        help="with --out: replace the files an earlier cavesim run left there")
     parser.add_argument("--session", default="run", type=session_name)
     parser.add_argument("--on-loss", choices=LOSS_POLICIES,
                         help="a wall lost (its node gone, or silent 10 s in the barrier): "
@@ -234,14 +242,19 @@ def run(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim run: error: argument --cave: a wall or node may not be "
                          f"called {PREVIEW!r} (the preview's name)")
     tolerance = tolerance_from(args, tuple(nodes), "run")
-    output_directory(args.out, "run")
+    if args.force and args.out is None:
+        raise UsageError("cavesim run: error: argument --force: replaces the files in the "
+                         "folder --out names; give --out too")
+    out = args.out or default_folder("run")
     frames = args.frames or default_frames(scene)
-    plan = RunPlan(nodes, args.scene, frames, args.out, args.session, credentials,
-                   on_loss=args.on_loss or "continue",
-                   cave=None if args.walls else args.cave, render_every=args.render_every,
-                   stereo=args.stereo, gpus=gpus, display=args.display,
-                   preview=args.preview, engine=args.engine, tolerance=tolerance)
-    with sigterm_as_interrupt():
+    with claim(out, "run", args.force) as folder, sigterm_as_interrupt():
+        if args.out is None:
+            link_latest(folder.path)
+        plan = RunPlan(nodes, args.scene, frames, out, args.session, credentials,
+                       on_loss=args.on_loss or "continue",
+                       cave=None if args.walls else args.cave, render_every=args.render_every,
+                       stereo=args.stereo, gpus=gpus, display=args.display,
+                       preview=args.preview, engine=args.engine, tolerance=tolerance)
         report = run_walls(plan, console)
     if report["interrupted"]:
         return INTERRUPTED

@@ -127,8 +127,11 @@ class LocalCluster:
             watcher.join()
 
     def failure(self, wall: str, process: subprocess.Popen) -> str:
-        """One line: which node ended, with what code, its own error, and its log."""
+        """One line: which node ended, and how: killed by a signal (it could write no error
+        of its own), or its exit code, its own error and its log."""
         log = self.log_path(wall)
+        if process.returncode < 0:
+            return f"wall {wall} was killed by {signal_name(-process.returncode)} (log: {log})"
         return (f"wall {wall} exited with code {process.returncode}: {last_error(log)} "
                 f"(log: {log})")
 
@@ -153,6 +156,14 @@ class LocalCluster:
 
     def __exit__(self, exc_type, *exc) -> None:
         self.stop(at_once=exc_type is not None)
+
+
+def signal_name(number: int) -> str:
+    """"signal 9 (SIGKILL)", or "signal 77" for a number the system does not name."""
+    try:
+        return f"signal {number} ({signal.Signals(number).name})"
+    except ValueError:
+        return f"signal {number}"
 
 
 def last_error(log: Path) -> str:

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import zenoh
 
+from cavesim.core.cave.desktop import tiled_window
 from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
@@ -574,8 +575,9 @@ def main(config: NodeConfig) -> int:
 
 def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None:
     """The node's window (None for a headless node): its walls', side by side, as the
-    first one's [wall.display] says (a `window` there gives where; its size is theirs);
-    or the preview's."""
+    first one's [wall.display] says (a `window` there gives where; its size is theirs;
+    without a window, monitor or fullscreen, beside the windows of the walls before them,
+    `tiled_window`); or the preview's."""
     if not (config.display or config.preview):
         return None
     if cave is None:
@@ -587,7 +589,9 @@ def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None
         return open_window(Display(vsync=False, swap_lock=False), size, title)
     walls = tuple(cave.wall(w) for w in config.drawn)
     display, size = walls[0].display, window_size(walls)
-    if len(walls) > 1 and display.window is not None:
+    if display.window is None and not display.fullscreen and display.monitor is None:
+        display = dataclasses.replace(display, window=tiled_window(cave, config.drawn))
+    elif len(walls) > 1 and display.window is not None:
         display = dataclasses.replace(display, window=(*display.window[:2], *size))
     return open_window(display, size, title)
 

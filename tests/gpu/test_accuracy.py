@@ -35,6 +35,7 @@ from cavesim.tools.numerics.cases import (
     HELICOPTER_SCENE,
     QUICK_PARTICLES,
     REPORT_DT,
+    ROTATING_METHODS,
     SAND_METHODS,
     TAU,
     rotating_case,
@@ -59,6 +60,7 @@ from nodes.cli import main
 
 CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline", "downwash")
 SAND_CASES = ("vortex_sand", "downwash_sand")  # measured with SAND_METHODS only
+ROTATING = "rotating"  # a time series, measured with ROTATING_METHODS only
 SMOOTH_CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline")
 FLOAT32_FLOOR = 1e-4  # m: what float32 arithmetic may add to a GPU error over T = 1 s
 GPU_TO_TWIN_FACTOR = 2.0
@@ -136,11 +138,13 @@ def test_observed_order_matches_the_table(quick_run, case, method):
 
 
 @pytest.mark.slow
-def test_only_rk4_is_capped_by_the_trilinear_and_catmull_rom_grids(quick_run):
+def test_only_rk4_is_capped_by_the_time_series_and_the_trilinear_and_catmull_rom_grids(
+        quick_run):
     result, _, _ = quick_run
     capped = [(s.case, s.integrator, s.expected) for s in result.summaries
               if s.expected is not None and s.expected < s.order]
-    assert capped == [("vortex", "rk4", 2), ("vortex_catmull_rom", "rk4", 3)]
+    assert capped == [("rotating", "rk4", 2), ("vortex", "rk4", 2),
+                      ("vortex_catmull_rom", "rk4", 3)]
 
 
 @pytest.mark.slow
@@ -269,7 +273,10 @@ def test_dormand_prince_follows_its_tolerance_in_a_closed_form():
 @pytest.mark.slow
 def test_the_reference_check_converges_and_bounds_the_reference(quick_run):
     result, _, _ = quick_run
-    for case in (c["name"] for c in result.report["cases"]):
+    steady = [c["name"] for c in result.report["cases"] if c["snapshot_steps"] is None]
+    assert set(steady) == {c["name"] for c in result.report["cases"]} - {ROTATING}
+    assert not [r for r in result.sweep if r.case == ROTATING]
+    for case in steady:
         sweep = [r for r in result.sweep if r.case == case]
         assert [r.tolerance for r in sweep] == sorted(TOLERANCES, reverse=True)
         steps = [r.accepted for r in sweep]
@@ -327,17 +334,20 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert printed.count("Reference error at most") == len(result.reference_accuracy) > 0
     with (out / "accuracy.csv").open(newline="") as file:
         rows = list(csv.DictReader(file))
-    measured = len(CASES) * len(METHODS) + len(SAND_CASES) * len(SAND_METHODS)
+    measured = (len(CASES) * len(METHODS) + len(SAND_CASES) * len(SAND_METHODS)
+                + len(ROTATING_METHODS))
     assert len(rows) == measured * len(QUICK_DTS)
     assert {r["dt_label"] for r in rows} == {"1/15", "1/30", "1/60", "1/120", "1/240"}
     report = json.loads((out / "accuracy.json").read_text())
     assert report["command"] == "accuracy" and report["particles"] == QUICK_PARTICLES
     assert len(report["summary"]) == measured
-    assert len(report["sweep"]) == len(report["cases"]) * len(TOLERANCES)
+    assert len(report["sweep"]) == (len(report["cases"]) - 1) * len(TOLERANCES)
     assert report["final_time"] / report["tau"] >= 10
-    assert [c["name"] for c in report["cases"]] == [*CASES, *SAND_CASES]
+    assert [c["name"] for c in report["cases"]] == [CASES[0], ROTATING, *CASES[1:],
+                                                     *SAND_CASES]
     text = (out / "accuracy.md").read_text()
-    for heading in (*(f"## {case}" for case in (*CASES, *SAND_CASES)), "observed (f64)",
+    for heading in (*(f"## {case}" for case in (*CASES, ROTATING, *SAND_CASES)),
+                    "observed (f64)",
                     "portable cost", "evals per step", "GPU vel RMS (m/s)", "GPU cloud",
                     "Reference check", "Reference error at most", "= 10 tau"):
         assert heading in text
@@ -398,7 +408,8 @@ def test_etd2rk_is_second_order_under_schiller_naumann_drag(quick_run, case):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
+@pytest.mark.parametrize("method", [m for m in METHODS if m.integrator in ROTATING_METHODS],
+                         ids=lambda m: m.name)
 def test_a_time_series_holds_linear_interpolations_order(quick_run, method):
     """The rotating flow given as snapshots two steps apart: against the closed form of the
     smooth turning flow, every method of order 2 or more shows order 2 within 0.1 (linear

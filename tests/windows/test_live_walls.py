@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from PIL import Image
-from xserver import close_window, hold_key, window_id, xserver  # noqa: F401  (a fixture)
+from xserver import close_window, hold_key, window_id, xdotool, xserver  # noqa: F401  (a fixture)
 
 from cavesim.core.cave.desktop import desktop_cave_file
 from cavesim.core.cave.geometry import load_cave
@@ -148,3 +148,25 @@ def test_the_preview_window_takes_keys_and_moves_the_head(xserver, tmp_path):  #
              in read_frame_log(tmp_path / "frames.log")[1]]
     assert abs(heads[3][1]) < 1e-6  # the script's sway moves the head sideways only
     assert max(y for _, y, _ in heads[6:]) > 0.5  # the tracked head went forward
+
+
+@pytest.mark.slow
+@pytest.mark.requires("xvfb")
+def test_walls_without_a_window_open_side_by_side(xserver, tmp_path):  # noqa: F811
+    """A CAVE file with no [wall.display]: each node places its window after the walls the
+    file lists before its own (cavesim.core.cave.desktop.tiled_window)."""
+    walls = ("front", "left", "right")
+    cave = tmp_path / "plain.toml"
+    cave.write_text("\n".join(line for line in live_cave(tmp_path, walls).read_text().split("\n")
+                              if not line.startswith("display")))
+    places = {}
+
+    def look(cluster, k):
+        if k == 3:
+            for wall in walls:
+                geometry = xdotool("getwindowgeometry", str(window_id(f"cavesim {wall}")))
+                places[wall] = geometry.split("Position: ")[1].split(" ")[0]
+
+    live_run(tmp_path, MINIMAL, walls, 5, lambda wall: ("--display", "--cave", str(cave)),
+             before_frame=look)
+    assert places == {"front": "0,0", "left": "72,0", "right": "144,0"}  # 64 px + 8 px apart

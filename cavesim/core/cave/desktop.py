@@ -1,5 +1,6 @@
-"""A CAVE's walls as small windows side by side on one desktop: for trying live walls, and
-for measuring the swap barrier, on a machine without projectors (or under Xvfb)."""
+"""A CAVE's walls as windows side by side on one desktop: where a wall's window opens when
+its CAVE file says nothing, and small copies of the walls for trying live walls and
+measuring the swap barrier on a machine without projectors (or under Xvfb)."""
 
 from __future__ import annotations
 
@@ -26,3 +27,16 @@ def desktop_cave_file(cave: Cave, walls: Sequence[str], width: int) -> str:
                   f"display = {{ vsync = false, window = [{x}, 0, {width}, {height}] }}"]
         x += width + WINDOW_GAP
     return "\n".join(lines) + "\n"
+
+
+def tiled_window(cave: Cave, walls: Sequence[str]) -> tuple[int, int, int, int]:
+    """[x, y, width, height] of a window showing `walls` side by side at their resolution,
+    placed after every wall the CAVE file lists before the first of them, left to right
+    along the top of the screen with WINDOW_GAP between: where `cavesim run --display`
+    opens a node's window when its wall's [wall.display] gives neither a window nor a
+    monitor. Every node computes its own place from the CAVE alone."""
+    names = [w.name for w in cave.walls]
+    before = cave.walls[:names.index(walls[0])]
+    x = sum(w.resolution[0] + WINDOW_GAP for w in before)
+    shown = [cave.wall(name) for name in walls]
+    return x, 0, sum(w.resolution[0] for w in shown), max(w.resolution[1] for w in shown)

@@ -75,6 +75,10 @@ HELD_ORDER_TOLERANCE = 0.1
 ROTATION = 2.0  # rad/s
 SNAPSHOT_STEPS = 2
 TIME_INTERPOLATION_ORDER = 2
+# one method of each kind: order 1, order 2 (the midpoint's and the exponential one's), and
+# RK4 capped at 2 (each of its dts builds its own engine: a series per dt)
+ROTATING_METHODS = (Integrator.EXPLICIT_EULER, Integrator.RK2, Integrator.RK4,
+                    Integrator.ETD2RK)
 
 
 @dataclass(frozen=True, eq=False)
@@ -180,7 +184,8 @@ def rotating_case(count: int) -> Case:
                 f"snapshots {SNAPSHOT_STEPS} steps apart, linear in time + gravity + drag: "
                 "closed form", _analytic_scene(field, count), _box_particles(count, SEED + 3),
                 closed_form="rotating", snapshot_steps=SNAPSHOT_STEPS,
-                order_limit=TIME_INTERPOLATION_ORDER, order_tolerance=HELD_ORDER_TOLERANCE)
+                order_limit=TIME_INTERPOLATION_ORDER, order_tolerance=HELD_ORDER_TOLERANCE,
+                integrators=ROTATING_METHODS)
 
 
 def vortex_case(count: int) -> Case:

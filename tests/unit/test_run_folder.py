@@ -1,0 +1,95 @@
+"""Each run owns its output folder: a fresh one by default, a given one only if new, empty
+or (with --force) a run's own, and never one another run is writing; a dead run leaves no
+lock behind."""
+
+import datetime
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from nodes import cli
+from nodes.arguments import USAGE_ERROR, UsageError
+from nodes.run_folder import LOCK, MARKER, claim, default_folder, link_latest
+
+NOON = datetime.datetime(2026, 11, 28, 12, 0, 5)
+ROOT = Path(__file__).parents[2]
+
+
+def test_a_default_folder_is_named_by_command_and_start_and_never_reused(tmp_path):
+    first = default_folder("run", NOON, tmp_path)
+    assert first == tmp_path / "run-20261128-120005"
+    first.mkdir()
+    assert default_folder("run", NOON, tmp_path) == tmp_path / "run-20261128-120005-2"
+
+
+def test_a_claimed_folder_is_marked_and_locked_until_released(tmp_path):
+    out = tmp_path / "out"
+    with claim(out, "run") as folder:
+        marker = json.loads((out / MARKER).read_text())
+        assert marker["command"] == "run" and marker["pid"] == os.getpid()
+        with pytest.raises(UsageError, match=r"'.*out' is in use by another run \(cavesim run, "
+                                             f"pid {os.getpid()} on .*\\); give another folder"):
+            claim(out, "run")
+        assert folder.path == out
+    with claim(out, "run"):  # released: the same (still empty) folder is free again
+        pass
+
+
+def test_another_runs_files_are_refused_and_replaced_only_with_force(tmp_path):
+    out = tmp_path / "out"
+    with claim(out, "run"):
+        (out / "report.json").write_text("{}")
+        (out / "walls").mkdir()
+        (out / "walls" / "front.png").write_bytes(b"png")
+    with pytest.raises(UsageError, match=r"cavesim run: error: argument --out: '.*out' holds "
+                                         r"another run's files \(report.json, walls\); give a new "
+                                         "folder, leave --out off .* or add --force"):
+        claim(out, "run")
+    with claim(out, "run", force=True):
+        assert sorted(p.name for p in out.iterdir()) == [MARKER, LOCK]
+
+
+def test_force_never_deletes_a_folder_no_run_wrote(tmp_path):
+    (tmp_path / "thesis.tex").write_text("years of work")
+    with pytest.raises(UsageError, match=r"holds files a cavesim run did not write "
+                                         r"\(thesis.tex\); --force replaces only a run's own"):
+        claim(tmp_path, "run", force=True)
+    assert (tmp_path / "thesis.tex").read_text() == "years of work"
+
+
+def test_a_killed_run_leaves_no_lock_behind(tmp_path):
+    out = tmp_path / "out"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time; from pathlib import Path; "
+         "from nodes.run_folder import claim; claim(Path(sys.argv[1]), 'run'); "
+         "print('held', flush=True); time.sleep(60)", str(out)],
+        cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "held\n"
+        with pytest.raises(UsageError, match=f"pid {holder.pid} on "):
+            claim(out, "run")
+    finally:
+        holder.kill()
+        holder.wait(timeout=10)
+    with claim(out, "run"):
+        pass
+
+
+def test_latest_points_at_the_newest_folder(tmp_path):
+    for stamp in ("run-1", "run-2"):
+        (tmp_path / stamp).mkdir()
+        link_latest(tmp_path / stamp, tmp_path)
+    assert (tmp_path / "latest").resolve() == (tmp_path / "run-2").resolve()
+
+
+def test_the_command_refuses_a_used_folder_and_force_without_out(tmp_path, capsys):
+    (tmp_path / "frames.log").write_bytes(b"")
+    assert cli.main(["run", "--walls", "1", "--out", str(tmp_path)]) == USAGE_ERROR
+    assert "holds another run's files (frames.log)" in capsys.readouterr().err
+    assert cli.main(["run", "--walls", "1", "--force"]) == USAGE_ERROR
+    assert "argument --force: replaces the files in the folder --out names; give --out too" \
+        in capsys.readouterr().err
