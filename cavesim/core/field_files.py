@@ -185,15 +185,21 @@ def _axis_of(path, dataset, name, dim) -> str:
     return axis
 
 
-def _axis_nodes(path, dataset, dim, length_units) -> tuple[float, float]:
-    """The first and last node of a uniform, strictly increasing coordinate, in metres."""
+def _coordinate(path, dataset, dim, what: str, holding: str) -> np.ndarray:
+    """The 1-D, finite, numeric coordinate variable of dimension `dim`."""
     if dim not in dataset.coords:
         raise FieldError(f"{path}: dimension {dim!r} has no coordinate variable; expected a "
-                         f"1-D variable {dim!r} of node positions")
+                         f"1-D variable {dim!r} of {holding}")
     values = np.asarray(dataset[dim].values)
     if values.ndim != 1 or values.dtype.kind not in "iuf" or not np.isfinite(values).all():
-        raise FieldError(f"{path}: coordinate {dim!r} has shape {values.shape}, dtype "
+        raise FieldError(f"{path}: {what} {dim!r} has shape {values.shape}, dtype "
                          f"{values.dtype}; expected 1-D finite numbers")
+    return values
+
+
+def _axis_nodes(path, dataset, dim, length_units) -> tuple[float, float]:
+    """The first and last node of a uniform, strictly increasing coordinate, in metres."""
+    values = _coordinate(path, dataset, dim, "coordinate", "node positions")
     steps = np.diff(values.astype(np.float64))
     spacing = (float(values[-1]) - float(values[0])) / len(steps)
     if not (steps > 0).all() or np.abs(steps - spacing).max() > SPACING_RTOL * spacing:
@@ -208,13 +214,7 @@ def _axis_nodes(path, dataset, dim, length_units) -> tuple[float, float]:
 def _snapshot_times(path, dataset, dim, time_units) -> tuple[float, ...]:
     """The time coordinate in seconds from its first value: strictly increasing and finite,
     in units such as "seconds since 2026-01-01" (or the scene's time_units)."""
-    if dim not in dataset.coords:
-        raise FieldError(f"{path}: time dimension {dim!r} has no coordinate variable; expected "
-                         f"a 1-D variable {dim!r} of snapshot times")
-    values = np.asarray(dataset[dim].values)
-    if values.ndim != 1 or values.dtype.kind not in "iuf" or not np.isfinite(values).all():
-        raise FieldError(f"{path}: time coordinate {dim!r} has shape {values.shape}, dtype "
-                         f"{values.dtype}; expected 1-D finite numbers")
+    values = _coordinate(path, dataset, dim, "time coordinate", "snapshot times")
     unit = time_units or dataset[dim].attrs.get("units")
     named = time_units is not None
     word = None if unit is None else str(unit).split(" since ")[0]
