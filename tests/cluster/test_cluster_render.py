@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import imageio.v2 as imageio
 import numpy as np
 import pytest
 from master_process import spawn_master
@@ -63,8 +64,13 @@ def test_cavesim_run_writes_walls_composites_and_an_animation(tmp_path):
     assert report["divergences"] == [] and report["images"]["composites"] == 2
     composite = Image.open(tmp_path / "composites" / "composite_000040.png")
     assert composite.size == (1440, 960)  # left | front | right over the floor, 480 px each
-    animation = Image.open(tmp_path / "run.gif")
-    assert animation.n_frames == 2
+    animation = Image.open(tmp_path / "run.gif")  # small, and at the run's own pace:
+    assert animation.n_frames == 2 and animation.size == (480, 320)
+    assert animation.info["duration"] == 330  # ms: 20 frames of 1/60 s (in centiseconds)
+    video = imageio.get_reader(tmp_path / "run.mp4")
+    assert video.count_frames() == 2 and video.get_meta_data()["fps"] == 3.0
+    assert report["images"]["video"] == str(tmp_path / "run.mp4")
+    assert "wrote 2 composites, " in result.stdout and "pictures" in result.stdout
     for wall in ("front", "left", "right", "floor"):
         left_eye = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000040.png"))
         right_eye = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000040_right.png"))

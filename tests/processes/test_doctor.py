@@ -196,6 +196,7 @@ def test_doctor_without_an_egl_driver_gives_the_reason_and_the_fix(tmp_path):
     assert result.stderr.startswith("cavesim doctor: this node cannot run cavesim: ")
     assert result.stderr.count("\n") == 1 and "Traceback" not in result.stdout + result.stderr
     assert "EGL_EXT_device_enumeration" in result.stderr and "fix: install" in result.stderr
+    assert "cannot run cavesim" not in result.stdout, "said once, on stderr"
     found = json.loads((tmp_path / "doctor.json").read_text())
     assert found["devices"] == [] and not found["verdict"]["ok"]
     assert found["egl"]["vendor_files"] == "/nonexistent.json"

@@ -5,7 +5,7 @@ import pytest
 from PIL import Image
 from rich.console import Console
 
-from cavesim.tools.reports.demo import demo_summary, write_demo_plots
+from cavesim.tools.reports.demo import demo_summary, flight_story, write_demo_plots
 from cavesim.tools.reports.run_tables import demo_table
 from nodes.commands.run import write_plots
 
@@ -103,3 +103,14 @@ def test_the_closing_table_holds_every_row():
     table = demo_table(flight_report())
     assert table.title == "brownout demo"
     assert table.row_count == len(demo_summary(flight_report())) == 7
+
+
+@pytest.mark.parametrize("altitude, story", [
+    ([10.0, 6.0, 2.0, 0.0, 0.0, 3.0, 8.0], "descends, lands and lifts off"),
+    ([5.0, 5.2, 4.9, 5.1], "hovers"),
+    ([8.0, 6.0, 4.0], "descends"),
+    ([3.5, 2.0, 5.0], "descends and climbs"),
+    ([0.0, 0.0, 4.0], "lands and lifts off"),
+])
+def test_the_plots_title_tells_the_flight_it_shows(altitude, story):
+    assert flight_story(np.array(altitude)) == story

@@ -15,19 +15,24 @@ MAX_WIDTH_PX = 1280  # wider frames are scaled down: a full-resolution CAVE GIF 
 FORMATS = (".gif", ".mp4")
 
 
-def _frame(path: Path) -> Image.Image:
+def _frame(path: Path, max_width: int, even: bool = False) -> Image.Image:
+    """The image at `path` as RGB, scaled down to `max_width` (and to even sides: H.264's
+    4:2:0 colour takes pixels in pairs)."""
     with Image.open(path) as im:
         frame = im.convert("RGB")
-    if frame.width > MAX_WIDTH_PX:
-        height = max(1, round(frame.height * MAX_WIDTH_PX / frame.width))
-        frame = frame.resize((MAX_WIDTH_PX, height), Image.Resampling.LANCZOS)
+    if frame.width > max_width:
+        height = max(1, round(frame.height * max_width / frame.width))
+        frame = frame.resize((max_width, height), Image.Resampling.LANCZOS)
+    if even and (frame.width % 2 or frame.height % 2):
+        frame = frame.crop((0, 0, frame.width - frame.width % 2, frame.height - frame.height % 2))
     return frame
 
 
-def write_animation(frames: list[Path], path: Path, fps: float = 15) -> Path:
+def write_animation(frames: list[Path], path: Path, fps: float = 15,
+                    max_width: int = MAX_WIDTH_PX) -> Path:
     """Write `frames` (image files, in order) as an animation at `path`: a GIF that loops
     forever, or an MP4 when `path` ends with .mp4 (needs the imageio-ffmpeg package).
-    Frames wider than `MAX_WIDTH_PX` are scaled down. Returns `path`."""
+    Frames wider than `max_width` are scaled down. Returns `path`."""
     path = Path(path)
     frames = [Path(f) for f in frames]
     if not frames:
@@ -42,7 +47,7 @@ def write_animation(frames: list[Path], path: Path, fps: float = 15) -> Path:
                           "pip install imageio-ffmpeg, or write a .gif instead")
     path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".gif":
-        first, *rest = (_frame(f) for f in frames)
+        first, *rest = (_frame(f, max_width) for f in frames)
         # GIF keeps delays in centiseconds; Pillow merges identical consecutive frames
         # into one longer frame, so n_frames may be below len(frames) for a still scene.
         with writing(path):
@@ -51,7 +56,8 @@ def write_animation(frames: list[Path], path: Path, fps: float = 15) -> Path:
     else:
         import imageio.v2 as imageio
 
-        with imageio.get_writer(path, format="FFMPEG", fps=fps) as writer:
+        with writing(path), imageio.get_writer(path, format="FFMPEG", fps=fps,
+                                               macro_block_size=2) as writer:
             for f in frames:
-                writer.append_data(np.asarray(_frame(f)))
+                writer.append_data(np.asarray(_frame(f, max_width, even=True)))
     return path

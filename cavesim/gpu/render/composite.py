@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import logging
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -87,10 +87,12 @@ def _brief(numbers: list[int], limit: int = 10) -> str:
     return shown + (f", ... ({len(numbers)} in all)" if len(numbers) > limit else "")
 
 
-def compose_run(cave: Cave, walls_dir: Path, out_dir: Path) -> list[Path]:
+def compose_run(cave: Cave, walls_dir: Path, out_dir: Path,
+                progress: Callable[[int, int], None] = lambda done, total: None) -> list[Path]:
     """Write `out_dir/composite_<NNNNNN>.png` for every frame number that every wall has
     in `walls_dir/<wall>/frame_<NNNNNN>.png`; the paths written, in frame order. Frames
-    some wall lacks are skipped with a warning naming them."""
+    some wall lacks are skipped with a warning naming them. `progress(done, total)` after
+    each."""
     walls_dir, out_dir = Path(walls_dir), Path(out_dir)
     if not walls_dir.is_dir():
         raise FileNotFoundError(f"walls_dir={str(walls_dir)!r} is not a directory")
@@ -114,4 +116,5 @@ def compose_run(cave: Cave, walls_dir: Path, out_dir: Path) -> list[Path]:
         with writing(path):
             _compose(slots, size, images, DEFAULT_BACKGROUND).save(path)
         written.append(path)
+        progress(len(written), len(every))
     return written

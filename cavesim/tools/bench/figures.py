@@ -108,20 +108,28 @@ class Target:
     def met_by(self, value: float) -> bool:
         return {">=": operator.ge, "<=": operator.le}[self.comparison](value, self.bound)
 
-    def evaluate(self, sizes: list[SizeFigures]) -> dict[str, object]:
-        """Judged among the sizes that measured the ratio; `measured`, `met` and
-        `particles` are None where none did (the numpy twin above its cap)."""
+    def applies(self, software: bool) -> bool:
+        """Whether the target is meant for a renderer of this kind (software: llvmpipe)."""
+        return (self.renderer == SOFTWARE_RENDERER) == software
+
+    def evaluate(self, sizes: list[SizeFigures], software: bool) -> dict[str, object]:
+        """Judged among the sizes that measured the ratio, on the renderer it is meant for
+        (`met` None elsewhere, `applies` False); `measured`, `met` and `particles` are None
+        where no size measured it (the numpy twin above its cap)."""
         target = {"name": self.ratio, "meaning": self.meaning, "comparison": self.comparison,
-                  "target": self.bound, "renderer": self.renderer}
+                  "target": self.bound, "renderer": self.renderer,
+                  "applies": self.applies(software)}
         measured = [figures for figures in sizes if figures.ratio(self.ratio) is not None]
         if not measured:
             return {**target, "measured": None, "met": None, "particles": None}
         figures = judged_size(measured, self.particles)
         value = figures.ratio(self.ratio)
-        return {**target, "measured": value, "met": self.met_by(value),
+        return {**target, "measured": value,
+                "met": self.met_by(value) if target["applies"] else None,
                 "particles": figures.particles}
 
 
+SOFTWARE_RENDERER = "llvmpipe"  # a Target's renderer: this, or "GPU"
 # The engine's targets (the compute path's, the numpy and checksum ones), each at its reference size
 TARGETS = (
     Target("compute_speedup", ">=", 3.0, "compute frame speedup over the GS/TF frame",
@@ -143,5 +151,6 @@ def judged_size(sizes: list[SizeFigures], particles: int) -> SizeFigures:
     return max(sizes, key=lambda f: f.particles)
 
 
-def evaluate_targets(sizes: list[SizeFigures]) -> list[dict[str, object]]:
-    return [target.evaluate(sizes) for target in TARGETS]
+def evaluate_targets(sizes: list[SizeFigures], software: bool) -> list[dict[str, object]]:
+    """Each target judged, on a software renderer (llvmpipe) or a GPU."""
+    return [target.evaluate(sizes, software) for target in TARGETS]

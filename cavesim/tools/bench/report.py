@@ -96,15 +96,19 @@ def target_line(target: dict) -> str:
     if target["measured"] is None:
         return f"{bound} ({target['renderer']} target): not measured at any size"
     measured = format_ratio(target["name"], target["measured"])
-    verdict = "met" if target["met"] else "NOT met"
+    if not target["applies"]:
+        verdict = f"not judged: a {target['renderer']} target, and this renderer is not one"
+    else:
+        verdict = "met" if target["met"] else "NOT met"
     return (f"{bound} at {target['particles']:,} particles ({target['renderer']} target): "
             f"measured {measured} - {verdict}")
 
 
 def build_report(scene: Scene, gl: dict[str, str], plan: BenchPlan, sizes: list[SizeFigures],
-                 skipped: list[dict], ended: str) -> dict[str, object]:
+                 skipped: list[dict], ended: str, software: bool) -> dict[str, object]:
     """`skipped`: the default sizes this context cannot hold, each with why; `ended`: an
-    `Ended` or an error's one-line message."""
+    `Ended` or an error's one-line message; `software`: the renderer is llvmpipe (its
+    targets are judged, a GPU's are not, and the other way round)."""
     return {
         "command": "bench",
         "ended": ended,
@@ -118,7 +122,7 @@ def build_report(scene: Scene, gl: dict[str, str], plan: BenchPlan, sizes: list[
         "numpy_up_to": plan.numpy_up_to,
         "sizes": [_size_json(figures, plan.numpy_up_to) for figures in sizes],
         "skipped_sizes": list(skipped),
-        "targets": evaluate_targets(sizes),
+        "targets": evaluate_targets(sizes, software),
         "notes": list(NOTES),
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
     }

@@ -52,7 +52,8 @@ def run_bench(scene: Scene, sizes: list[int] | None, plan: BenchPlan, out_dir: P
         measured: list[SizeFigures] = []
 
         def save(ended: str) -> tuple[dict[str, object], list[Path]]:
-            report = build_report(scene, gl, plan, measured, skipped, ended)
+            report = build_report(scene, gl, plan, measured, skipped, ended,
+                                  ctx.extra.get("kind") == "software")
             return report, write_reports(report, measured, out_dir)
 
         say(console, plan_line(gl["renderer"], sizes, plan))

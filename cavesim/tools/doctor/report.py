@@ -65,11 +65,8 @@ def run_doctor(network: NetworkSettings, out: Path, console: Console) -> Verdict
     console.print(node_table(findings))
     for warning in verdict.warnings:
         console.print(f"[yellow]warning:[/] {escape(warning)}")
-    if verdict.ok:
+    if verdict.ok:  # a failure is the command's one error line, with the fix
         console.print(f"[green]ok:[/] {escape(verdict.reason)}")
-    else:
-        console.print(f"[red]cannot run cavesim:[/] {escape(verdict.reason)}\n"
-                      f"[red]fix:[/] {escape(verdict.fix)}")
     check_written(out)
     console.print(f"wrote {escape(str(out))}")
     return verdict

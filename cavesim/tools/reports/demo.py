@@ -25,6 +25,8 @@ from matplotlib.ticker import StrMethodFormatter  # noqa: E402
 WIDTH_IN, DPI = 10.0, 100  # 1000 px wide
 THOUSANDS = StrMethodFormatter("{x:,.0f}")
 ALTITUDE_COLOUR, LIVE_COLOUR, EMISSION_COLOUR = "tab:green", "tab:blue", "tab:red"
+ALTITUDE_CHANGE = 1.0  # m of the skids' altitude: less is hovering, for the plot's title
+LANDED = 0.2  # m: the skids this close to the ground stand on it
 
 
 def _series(report: dict) -> dict[str, np.ndarray]:
@@ -61,11 +63,28 @@ def write_demo_plots(report: dict, out_dir: Path) -> list[Path]:
     return paths
 
 
+def flight_story(altitude: np.ndarray) -> str:
+    """What the helicopter did, read from its altitude: "descends, lands and lifts off" for
+    the scripted demo, "hovers" for a steady hand, and so on."""
+    low = int(np.argmin(altitude))
+    lowest = float(altitude[low])
+    moves = []
+    if altitude[0] - lowest > ALTITUDE_CHANGE:
+        moves.append("descends")
+    if lowest < LANDED:
+        moves.append("lands")
+    if altitude[low:].max() - lowest > ALTITUDE_CHANGE:
+        moves.append("lifts off" if lowest < LANDED else "climbs")
+    if not moves:
+        return "hovers"
+    return moves[0] if len(moves) == 1 else f"{', '.join(moves[:-1])} and {moves[-1]}"
+
+
 def _plot_against_time(s: dict[str, np.ndarray]):
     """Altitude above, live particles and emission rate below, on one time axis."""
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(WIDTH_IN, 7.0),
                                       height_ratios=(1.0, 1.6), layout="constrained")
-    fig.suptitle("Brownout: dust raised as the helicopter descends, lands and lifts off",
+    fig.suptitle(f"Brownout: dust raised as the helicopter {flight_story(s['altitude'])}",
                  fontsize=14)
     top.plot(s["t"], s["altitude"], color=ALTITUDE_COLOUR, lw=2)
     top.fill_between(s["t"], s["altitude"], color=ALTITUDE_COLOUR, alpha=0.15)
