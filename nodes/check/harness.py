@@ -23,6 +23,7 @@ import numpy as np
 
 from cavesim.core.errors import ClusterError
 from cavesim.core.frame import FrameInput
+from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import TRACKER, WALL, generate
@@ -97,7 +98,7 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     master = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
                           credentials=credentials, barrier_timeout=plan.barrier_timeout,
                           on_loss=plan.on_loss, check_every=plan.check_every,
-                          frame_log=plan.out / "frames.log", forensics=plan.out,
+                          frame_log=plan.out / FRAME_LOG, forensics=plan.out,
                           node_walls=plan.node_walls)
     kill = master_kill_frame(faults)
     cluster = ClusterPlan(master, plan.out, {wall: _node_arguments(faults, node_args, wall)

@@ -77,13 +77,13 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
     """One cluster run to the end (every node started with `node_args`; `draws`: they draw
     pictures; `meters` watch it beside the CPU meter), its report.json kept in `run_dir`;
     its figures."""
-    from cavesim.core.framelog import read_frame_log
+    from cavesim.core.framelog import FRAME_LOG, read_frame_log
     from nodes.launch.cluster import ClusterPlan, run_cluster
     from nodes.master.process import MasterConfig
 
     run_dir.mkdir(parents=True, exist_ok=True)
     config = MasterConfig(tuple(walls), scene, frames,
-                          f"bench-{os.getpid()}-{run_dir.name}", frame_log=run_dir / "frames.log")
+                          f"bench-{os.getpid()}-{run_dir.name}", frame_log=run_dir / FRAME_LOG)
     meter = CpuMeter(frames)
     watching = (meter, *meters)
 
@@ -105,7 +105,7 @@ def cluster_run(scene: Path, walls: Sequence[str], frames: int, run_dir: Path, t
     report = record.summary()
     report_path = run_dir / "report.json"
     report_path.write_text(json.dumps(report, indent=2) + "\n")
-    *_, last = read_frame_log(run_dir / "frames.log")[1]
+    *_, last = read_frame_log(run_dir / FRAME_LOG)[1]
     return {"nodes": len(walls), "scene": str(scene), "frames": report["frames"],
             "seconds": report["seconds"], "frames_per_second": report["frames_per_second"],
             "barrier_ms": report["barrier_ms"], "cpu_ms_per_frame": meter.per_frame_ms(),

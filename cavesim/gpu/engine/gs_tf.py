@@ -60,8 +60,9 @@ class GsTfPasses:
         self._capacity = scene.capacity
         self._counts = buffer("gs_tf_counts", GENERATED + 4)
         self._counted = PrimitiveCounts(ctx, self._counts, fence)
-        self.program = particle_update_program(ctx, scene,
-                                               counts_exits(scene, Engine.GS_TF, ctx.info))
+        # whether the particle pass counts domain exits here (its vertex stage's storage)
+        self.counts_exits = counts_exits(scene, Engine.GS_TF, ctx.info)
+        self.program = particle_update_program(ctx, scene, self.counts_exits)
         self._update_vaos = [ctx.vertex_array(self.program, [(
             buffer, PARTICLE_VERTEX_FORMAT, "in_a", "in_b", "in_c")]) for buffer in particles]
         self._emitter_count = len(scene.emitters)

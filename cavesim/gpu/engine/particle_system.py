@@ -56,7 +56,7 @@ from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
-from cavesim.gpu.engine.domain_exits import DomainExits, counts_exits
+from cavesim.gpu.engine.domain_exits import DomainExits
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
@@ -248,7 +248,7 @@ class ParticleSystem:
             write_uniforms(program, field_time_uniforms(scene.field_time or FIRST_SNAPSHOT))
         if self.scene.forces.dispersion is not None:  # its draws move with the frame's map
             write_uniforms(program, {"random_transform": frame.random_transform.T})
-        if self._exits is not None:
+        if self._exits is not None and self._passes.counts_exits:
             self._exits.start_frame()
         self._live = self._passes.advance(front, back, live, emission)
         self._current = back
@@ -257,7 +257,7 @@ class ParticleSystem:
         """Per particle class, how many left the field's box in the last frame; None where
         this scene or engine path counts none here (`domain_exits.counts_exits`). Read it
         after `checksum()`, whose wait it shares; before, it waits for the GPU itself."""
-        if self._exits is None or not counts_exits(self.scene, self.engine, self.ctx.info):
+        if self._exits is None or not self._passes.counts_exits:
             return None
         return self._exits.read()
 
