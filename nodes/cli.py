@@ -30,13 +30,15 @@ from nodes.commands import (
     numerics,
     replay,
     run,
+    schema,
     tracker,
 )
 
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
 SUBCOMMANDS = (bench.add, numerics.add_accuracy, numerics.add_stability, doctor.add, run.add,
-               master.add, node.add, replay.add, check.add, tracker.add, keys.add)
+               master.add, node.add, replay.add, check.add, tracker.add, keys.add,
+               schema.add)
 
 
 class _Parser(argparse.ArgumentParser):

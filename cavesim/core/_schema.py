@@ -307,3 +307,34 @@ def unique_names(tables: Sequence[Table], names: Iterable[str]) -> None:
         if name in first:
             raise t.bad("name", f"must be unique; {first[name]}.name has it already")
         first[name] = t.key
+
+
+@dataclass(frozen=True)
+class KeySpec:
+    """One key of a table, as a reference describes it: the words its error would use for
+    what is allowed, its default (`dataclasses.MISSING`: required), the table (or the item
+    of an array of tables) it holds, and the Enum its values come from, if any."""
+
+    name: str
+    allowed: str
+    default: Any
+    table: type | None
+    array: bool
+    values: type[Enum] | None
+
+
+def key_specs(schema: type, key: str = "") -> tuple[KeySpec, ...]:
+    """The keys of the table `schema` at the dotted `key`, in field order."""
+    specs = []
+    for f in dataclasses.fields(schema):
+        spec = _spec(_hints(schema)[f.name])
+        item = _table_array(spec.type)
+        default = (f.default_factory() if f.default_factory is not dataclasses.MISSING
+                   else f.default)
+        table = spec.type if dataclasses.is_dataclass(spec.type) else item
+        sub = f"{key}.{f.name}" if key else f.name
+        values = spec.type if isinstance(spec.type, type) and issubclass(spec.type, Enum) \
+            else None
+        specs.append(KeySpec(f.name, _allowed(spec, sub).removeprefix("must be "), default,
+                             table, item is not None, values))
+    return tuple(specs)

@@ -65,7 +65,7 @@ class Display:
     fullscreen: bool = False  # on `monitor` (default: the primary monitor)
     window: Annotated[tuple[int, int, int, int], Rule("[x, y, width, height] in pixels with "
                                                       "width and height > 0", _positive_size)
-                      ] | None = None  # default: at 0, 0 with the wall's resolution
+                      ] | None = None  # default: the wall's resolution, the walls side by side
     vsync: bool = True  # swap on the display's vertical blank
     stereo: StereoMode = StereoMode.MONO
     swap_lock: bool = True  # swap with every other swap-locked wall (the swap barrier)

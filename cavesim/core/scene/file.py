@@ -47,23 +47,23 @@ class SceneFile:
 
 @dataclass(frozen=True)
 class UniformParams:
-    velocity: Vec3
+    velocity: Vec3  # m/s
 
 
 @dataclass(frozen=True)
 class VortexParams:
-    center: tuple[float, float]
-    circulation: float
-    core_radius: Annotated[float, Range(gt=0.0)]
-    axial_speed: float = 0.0
+    center: tuple[float, float]  # [x, y] of the vertical axis, m
+    circulation: float  # Γ, m²/s: > 0 turns counter-clockwise seen from above
+    core_radius: Annotated[float, Range(gt=0.0)]  # m
+    axial_speed: float = 0.0  # m/s, upward
 
 
 @dataclass(frozen=True)
 class DownwashParams:
-    rotor_center: Vec3  # above ground_height
-    rotor_radius: Annotated[float, Range(gt=0.0)]
-    induced_velocity: Annotated[float, Range(ge=0.0)]
-    ground_height: float = 0.0
+    rotor_center: Vec3  # m, above ground_height
+    rotor_radius: Annotated[float, Range(gt=0.0)]  # m
+    induced_velocity: Annotated[float, Range(ge=0.0)]  # m/s through the disk
+    ground_height: float = 0.0  # m
 
 
 @dataclass(frozen=True)

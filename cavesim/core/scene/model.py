@@ -104,10 +104,10 @@ class FieldInterpolation(StrEnum):
 
 
 class FieldKind(StrEnum):
-    UNIFORM = "uniform"
-    VORTEX = "vortex"
-    DOWNWASH = "downwash"
-    FILE = "file"
+    UNIFORM = "uniform"  # one velocity everywhere
+    VORTEX = "vortex"  # a Lamb-Oseen vortex about a vertical axis
+    DOWNWASH = "downwash"  # a fixed rotor's downwash and its ground outwash
+    FILE = "file"  # a grid from a .npz, .nc (NetCDF) or .vti (VTK) file
     ROTOR = "rotor"  # the scene's helicopter's downwash, evaluated on the GPU each frame
     ROTATING = "rotating"  # a uniform flow turning about z, as a time series of snapshots
 
@@ -120,8 +120,8 @@ class DragLaw(StrEnum):
 
 
 class CollisionKind(StrEnum):
-    PLANE = "plane"
-    HEIGHTFIELD = "heightfield"
+    PLANE = "plane"  # flat ground at `height`
+    HEIGHTFIELD = "heightfield"  # terrain heights from `file`
 
 
 @dataclass(frozen=True)
