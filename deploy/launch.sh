@@ -56,7 +56,7 @@
 # Node output is collected here in OUT/logs/NAME.log; the master's goes to the terminal.
 # The launcher waits for the master, exits with its status, and on exit or Ctrl-C stops
 # every node process it started. --mixed-hardware runs the master and every node in the
-# tolerance mode for walls whose GPUs round differently (README "Mixed hardware"; the first
+# tolerance mode for walls whose GPUs round differently (docs/guide/mixed-hardware.md; the first
 # wall is the authority). --dry-run prints the commands instead of running them.
 set -euo pipefail
 

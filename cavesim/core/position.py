@@ -5,7 +5,7 @@ The record holds the float32 position `pos` (hi) and per axis a signed byte `pos
 code) for what hi leaves out (low), in units of 1/256 of hi's float32 spacing. A step adds
 its increment to hi + low exactly (TwoSum) and keeps the sum as a new hi + low (`move`); the
 record rounds low to its byte. Steady motion then no longer loses the same float32 rounding
-every step: at 1/960 s the float32 floor falls 8-70x (README: the float32 floor).
+every step: at 1/960 s the float32 floor falls 8-70x (docs/numerics.md: the float32 floor).
 """
 
 from __future__ import annotations

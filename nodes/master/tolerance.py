@@ -48,7 +48,7 @@ DEFAULT_RESYNC_EVERY = 120  # frames: 2 s at 60 Hz
 RESYNC_EVERY_RANGE = (1, 100_000)
 # about one pixel of a 3 m wall 1,920 pixels wide (1.6 mm): a drift below it cannot show at a
 # seam; over 3x the 0.61 mm that every position moved one ULP up in every frame drifted by
-# between two 120-frame resyncs of the brownout demo (llvmpipe; README "Mixed hardware")
+# between two 120-frame resyncs of the brownout demo (llvmpipe; docs/guide/mixed-hardware.md)
 DEFAULT_POSITION_TOLERANCE = 2e-3  # m
 # a velocity difference that carries a particle past the position tolerance in 0.2 s
 DEFAULT_VELOCITY_TOLERANCE = 1e-2  # m/s

@@ -71,8 +71,8 @@ def test_an_upward_import_would_be_found():
     assert layer("cavesim.core.wire") < layer("cavesim.gpu.engine") < layer("cavesim.tools")
 
 
-def test_the_readme_draws_these_layers_top_down():
-    layout = (ROOT / "README.md").read_text().split("## Layout\n", 1)[1].split("\n## ", 1)[0]
+def test_the_development_guide_draws_these_layers_top_down():
+    layout = (ROOT / "docs/development.md").read_text().split("## Layout\n", 1)[1]
     picture = layout.split("```\n", 2)[1]
     rooms = [line.split()[0] for line in picture.splitlines() if line[:1].isalpha()]
     assert rooms == [prefix.replace(".", "/") + "/" for prefix in reversed(LAYERS)]

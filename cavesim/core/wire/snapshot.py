@@ -19,7 +19,7 @@ from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHea
 CHUNK_PARTICLES = 4 * 2**20 // PARTICLE_BYTES  # 104,857 particles: a 4 MiB reply
 TRANSFER_BASE = 10.0  # s: reaching the source and its first reply
 # The slowest a snapshot is assumed to stream, in bytes/s: a fifth of 1 GbE, an eighth of
-# what loopback gave with HMACs and llvmpipe's buffer writes (216 MB/s for 134 MB, README).
+# what loopback gave with HMACs and llvmpipe's buffer writes (216 MB/s for 134 MB, docs/design.md).
 TRANSFER_RATE = 25e6
 
 

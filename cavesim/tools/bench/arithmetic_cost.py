@@ -1,5 +1,5 @@
 """What one call of each shader arithmetic function costs, native against portable, and
-what the float32 numpy twin costs per element (README.md "Portable arithmetic").
+what the float32 numpy twin costs per element (docs/numerics.md, "Portable arithmetic").
 
 `python -m cavesim.tools.bench.arithmetic_cost` prints the table. A call is timed inside the
 probe shader (probes/arithmetic.glsl, REPEAT calls per invocation on operands one ULP

@@ -9,7 +9,7 @@ the same every step, and so is its rounding against the float32 grid around p: t
 grows like steps, not their root. The storage floor is all of it: the RMS distance between
 the float64 twin and the same twin whose state is rounded to float32 after every step. A
 form is as good as float32 allows when its float32 floor (RMS |GPU - twin|) is at the
-storage floor (README: the float32 floor).
+storage floor (docs/numerics.md: the float32 floor).
 
 The position is stored as the particle record keeps it: float32 hi and a byte for what hi
 leaves out (cavesim/core/position.py, 32 significant bits); `low_part=False` stores it as
