@@ -62,13 +62,17 @@ class Display:
 
     x_display: str | None = None  # the X display, e.g. ":0.1" (default: the node's DISPLAY)
     monitor: Annotated[int, Range(ge=0), Note("a GLFW monitor index")] | None = None
-    fullscreen: bool = False  # on `monitor` (default: the primary monitor)
+    # fullscreen on `monitor` (default: the primary) at its video mode, the picture scaled
+    fullscreen: bool = False
     window: Annotated[tuple[int, int, int, int], Rule("[x, y, width, height] in pixels with "
                                                       "width and height > 0", _positive_size)
                       ] | None = None  # default: the wall's resolution, the walls side by side
     vsync: bool = True  # swap on the display's vertical blank
+    # quad: the driver's left and right back buffers (side by side, with a warning, where it
+    # offers no stereo visual); side_by_side, top_bottom: frame packing for 3D projectors
     stereo: StereoMode = StereoMode.MONO
-    swap_lock: bool = True  # swap with every other swap-locked wall (the swap barrier)
+    # swap only when every swap-locked wall has drawn the frame (the swap barrier)
+    swap_lock: bool = True
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

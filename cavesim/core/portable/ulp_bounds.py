@@ -1,5 +1,6 @@
 """How close the portable functions come to the true values: one table of (function,
-domain, bound in ULP) that tests/gpu/test_portable_arithmetic.py asserts and docs/numerics.md quotes.
+domain, bound in ULP) that tests/gpu/test_portable_arithmetic.py asserts and
+docs/numerics.md quotes.
 
 An error is measured in units in the last place of the float32 nearest the float64 value
 (2^(e - 23) for a value in [2^e, 2^(e+1))), on samples drawn over each domain; f_div and

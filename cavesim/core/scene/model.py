@@ -79,7 +79,8 @@ ENGINE_PATHS = (Engine.GS_TF, Engine.COMPUTE)  # the paths a system steps with (
 
 
 class Arithmetic(StrEnum):
-    """How the particle and emission arithmetic is compiled (docs/numerics.md: portable arithmetic)."""
+    """How the particle and emission arithmetic is compiled (docs/numerics.md: portable
+    arithmetic)."""
 
     NATIVE = "native"  # the driver's operators and built-ins: fastest, bits vary by GPU
     PORTABLE = "portable"  # correctly rounded +, -, * only: the same bits on every GPU
@@ -302,7 +303,7 @@ class Simulation:
     random_texture_size: Annotated[int, Range.within(RANDOM_TEXTURE_SIZE_RANGE),
                                    Rule("a power of two", _power_of_two)] = 256
     engine: Engine = Engine.GS_TF  # how nodes step the particles (a run's --engine overrides)
-    # "portable": every GPU computes the same bits, at a cost (docs/numerics.md: portable arithmetic)
+    # "portable": every GPU computes the same bits, at a cost (docs/numerics.md)
     arithmetic: Arithmetic = Arithmetic.NATIVE
     # world position of the scene's own origin, positions kept relative to it (None: the
     # world's; cavesim.core.scene.origin): a scene kilometres out keeps the floor of one at 0
