@@ -1,4 +1,4 @@
-"""Every image README.md and docs/*.md show is one the docs' picture script knows
+"""Every image README.md and the docs under docs/ show is one the docs' picture script knows
 (cavesim/tools/reports/doc_pictures.py): drawn by it, or named with the command that draws
 it. Nothing is drawn here."""
 
@@ -14,7 +14,7 @@ IMAGE_LINK = re.compile(r"!\[[^\]]*\]\(([^)\s]+)")  # ![alt](path ...)
 def shown_images() -> set[str]:
     """The images under docs/images the docs show, as paths from the repository root."""
     shown = set()
-    for doc in (ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))):
+    for doc in (ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))):
         for link in IMAGE_LINK.findall(doc.read_text(encoding="utf-8")):
             path = (doc.parent / link).resolve().relative_to(ROOT.resolve())
             if path.parent == IMAGES:

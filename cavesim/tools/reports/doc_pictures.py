@@ -1,7 +1,7 @@
 """The docs' pictures, redrawn from the current code:
 `python -m cavesim.tools.reports.doc_pictures [NAME ...]` (every one it can draw by default).
 
-PICTURES is the table of every image under docs/images that README.md and docs/*.md show
+PICTURES is the table of every image under docs/images that README.md and docs/ show
 (tests/docs/test_doc_pictures.py holds the docs to it): what each shows and what draws it
 here, or the command that does where a picture is a measurement that takes far longer than
 a drawing (a full accuracy run), or where it came from where it records code that is gone.
