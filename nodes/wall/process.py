@@ -40,7 +40,7 @@ from pathlib import Path
 import zenoh
 
 from cavesim.core.cave.desktop import tiled_window
-from cavesim.core.cave.geometry import Cave, Display, load_cave
+from cavesim.core.cave.geometry import Cave, Display, load_cave, scaled
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
@@ -97,7 +97,7 @@ from nodes.wall.inbox import (
 )
 from nodes.wall.painter import WallPainter
 from nodes.wall.preview_controls import PreviewControls
-from nodes.wall.screen import LiveDisplay, PreviewScreen, WallScreen, scaled, window_size
+from nodes.wall.screen import LiveDisplay, PreviewScreen, WallScreen, window_size
 from nodes.wall.snapshots import fetch_snapshot, send_snapshot
 
 log = logging.getLogger("cavesim.node")

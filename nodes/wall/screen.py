@@ -8,7 +8,6 @@ window's back buffer; the node decides when to swap (at once, or on the master's
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -16,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from cavesim.core.cave.geometry import Cave, StereoMode, Wall
+from cavesim.core.cave.geometry import Cave, StereoMode, Wall, scaled
 from cavesim.core.cave.projection import eye_positions
 from cavesim.core.output import writing
 from cavesim.core.scene_frame import SceneFrame
@@ -101,14 +100,6 @@ class PreviewScreen:
         unfolded = np.asarray(compose(self.cave, pictures))
         self.picture.write(np.ascontiguousarray(unfolded[::-1]).tobytes())  # GL: bottom row first
         self.window.present(self.picture, "center")
-
-
-def scaled(cave: Cave, scale: float) -> Cave:
-    """The CAVE with every wall's resolution times `scale` (its geometry unchanged)."""
-    walls = tuple(dataclasses.replace(w, resolution=(max(16, round(w.resolution[0] * scale)),
-                                                     max(16, round(w.resolution[1] * scale))))
-                  for w in cave.walls)
-    return dataclasses.replace(cave, walls=walls)
 
 
 class LiveDisplay:

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cavesim.core.cave.geometry import load_cave, parse_cave
+from cavesim.core.cave.geometry import load_cave, scaled
 from cavesim.core.scene import load_scene
 from cavesim.tools.reports.cloud_pictures import (
     azimuth_cv,
@@ -19,15 +19,7 @@ from cavesim.tools.reports.cloud_pictures import (
 )
 
 FRAME = 720  # hovering low over the landing spot, the cloud grown for 7 s
-WALL_PIXELS = 160
-
-
-def flex4_at(pixels: int):
-    cave = load_cave("config/cave/flex4.toml")
-    walls = [{"name": w.name, "lower_left": list(w.lower_left),
-              "lower_right": list(w.lower_right), "upper_left": list(w.upper_left),
-              "resolution": [pixels, pixels]} for w in cave.walls]
-    return parse_cave({"name": "flex4-small", "wall": walls})
+WALL_SCALE = 1 / 3  # the default CAVE's 480 px walls at 160 px
 
 
 @pytest.mark.slow
@@ -35,7 +27,7 @@ def test_the_brownout_cloud_is_one_cloud_that_rises(ctx):
     scene = load_scene("config/scenes/brownout.toml")
     still = dataclasses.replace(scene, forces=dataclasses.replace(scene.forces,
                                                                   dispersion=None))
-    cave = flex4_at(WALL_PIXELS)
+    cave = scaled(load_cave("config/cave/flex4.toml"), WALL_SCALE)
     dust = [c.name for c in scene.particle_classes].index("dust")
     measured = {}
     for name, each in (("walk", scene), ("still", still)):

@@ -14,6 +14,7 @@ The file's tables are `CaveFile` and `WallTable`, read by `cavesim.core._schema`
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
@@ -221,6 +222,14 @@ def load_cave(path: str | Path) -> Cave:
     """Read and check the CAVE geometry file at `path` (see config/cave/*.toml)."""
     path = Path(path)
     return parse_cave(read_toml(path, CaveError, "cave file"), path)
+
+
+def scaled(cave: Cave, scale: float) -> Cave:
+    """The CAVE with every wall's resolution times `scale` (its geometry unchanged)."""
+    walls = tuple(dataclasses.replace(w, resolution=(max(16, round(w.resolution[0] * scale)),
+                                                     max(16, round(w.resolution[1] * scale))))
+                  for w in cave.walls)
+    return dataclasses.replace(cave, walls=walls)
 
 
 def parse_cave(data: Mapping[str, Any], source: Path | None = None) -> Cave:

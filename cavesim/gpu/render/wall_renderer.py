@@ -34,6 +34,7 @@ class RenderSettings:
     sky: tuple[float, float, float] = (0.62, 0.72, 0.84)
     sun_direction: tuple[float, float, float] = (0.42, -0.32, 0.85)
     dust_albedo: tuple[float, float, float] = (0.88, 0.78, 0.60)
+    dust_ambient: float = 0.62  # dust away from the sun: this share of its albedo
     opacity: float = 1.2  # optical depth per unit of accumulated density
     density_per_particle: float = 0.2
     soft_distance: float = 0.4  # m
@@ -110,6 +111,7 @@ class WallRenderer:
         self.composite_program["scene_color"].value = 0
         self.composite_program["dust"].value = 1
         self.composite_program["dust_albedo"].value = s.dust_albedo
+        self.composite_program["dust_ambient"].value = s.dust_ambient
         self.composite_program["opacity"].value = s.opacity
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:

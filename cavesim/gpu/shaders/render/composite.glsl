@@ -17,6 +17,7 @@ uniform sampler2D scene_color;
 uniform sampler2D dust;
 uniform vec3 light_in_view;  // unit, toward the sun, in the wall's view space
 uniform vec3 dust_albedo;
+uniform float dust_ambient;  // the share of the albedo lit away from the sun
 uniform float opacity;  // optical depth per unit accumulated density
 out vec4 color;
 
@@ -25,7 +26,7 @@ void main() {
     vec4 d = texture(dust, uv);
     float alpha = 1.0 - exp(-opacity * d.a);
     vec3 n = d.a > 0.0 ? normalize(d.rgb + vec3(0.0, 0.0, 1e-6)) : vec3(0.0, 0.0, 1.0);
-    float light = 0.62 + 0.38 * max(dot(n, light_in_view), 0.0);
+    float light = dust_ambient + (1.0 - dust_ambient) * max(dot(n, light_in_view), 0.0);
     color = vec4(mix(scene, dust_albedo * light, alpha), 1.0);
 }
 #endif
