@@ -8,7 +8,6 @@ window's back buffer; the node decides when to swap (at once, or on the master's
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -87,7 +86,7 @@ class PreviewScreen:
     def __init__(self, window: WallWindow, system: ParticleSystem, cave: Cave,
                  scale: float) -> None:
         self.window = window
-        self.cave = scaled(cave, scale)
+        self.cave = cave.scaled(scale)
         self.renderers = {w.name: WallRenderer(window.ctx, system, w) for w in self.cave.walls}
         self.picture = window.ctx.texture(slots_of(self.cave)[1], 3)
 
@@ -101,14 +100,6 @@ class PreviewScreen:
         unfolded = np.asarray(compose(self.cave, pictures))
         self.picture.write(np.ascontiguousarray(unfolded[::-1]).tobytes())  # GL: bottom row first
         self.window.present(self.picture, "center")
-
-
-def scaled(cave: Cave, scale: float) -> Cave:
-    """The CAVE with every wall's resolution times `scale` (its geometry unchanged)."""
-    walls = tuple(dataclasses.replace(w, resolution=(max(16, round(w.resolution[0] * scale)),
-                                                     max(16, round(w.resolution[1] * scale))))
-                  for w in cave.walls)
-    return dataclasses.replace(cave, walls=walls)
 
 
 class LiveDisplay:

@@ -15,7 +15,7 @@ The file's tables are `CaveFile` and `WallTable`, read by `cavesim.core._schema`
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
@@ -183,6 +183,15 @@ class Cave:
             if w.name == name:
                 return w
         raise KeyError(f"cave {self.name!r} has no wall {name!r}; walls: {', '.join(self.names)}")
+
+    def scaled(self, scale: float) -> Cave:
+        """The CAVE with every wall's resolution times `scale`, kept within
+        WALL_RESOLUTION_RANGE (its geometry unchanged)."""
+        low, high = WALL_RESOLUTION_RANGE
+        return replace(self, walls=tuple(
+            replace(w, resolution=tuple(min(high, max(low, round(n * scale)))
+                                        for n in w.resolution))
+            for w in self.walls))
 
 
 @dataclass(frozen=True, kw_only=True)
