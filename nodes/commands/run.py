@@ -39,7 +39,6 @@ from nodes.arguments import (
     lost_walls_code,
     master_credentials,
     number_in,
-    output_folder,
     scene_file,
     session_name,
     wall_count,
@@ -54,7 +53,8 @@ from nodes.master.tolerance import Tolerance
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_arguments, tolerance_from
 from nodes.progress import rated_progress
-from nodes.run_folder import claim, default_folder, link_latest
+from nodes.run_folder import add_arguments as add_out_arguments
+from nodes.run_folder import own_folder
 
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
@@ -197,11 +197,7 @@ def add(commands) -> None:
                              "the path most nodes found faster)")
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
-    parser.add_argument("--out", type=output_folder,
-                        help="the run's own folder, new or empty (default: a fresh one, "
-                             "out/run-DATE-TIME, and out/latest points to it)")
-    parser.add_argument("--force", action="store_true",
-                        help="with --out: replace the files an earlier cavesim run left there")
+    add_out_arguments(parser, "run", "the run's report, frame log, logs and pictures")
     parser.add_argument("--session", default="run", type=session_name)
     parser.add_argument("--on-loss", choices=LOSS_POLICIES,
                         help="a wall lost (its node gone, or silent 10 s in the barrier): "
@@ -228,15 +224,9 @@ def run(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim run: error: argument --cave: a wall or node may not be "
                          f"called {PREVIEW!r} (the preview's name)")
     tolerance = tolerance_from(args, tuple(nodes), "run")
-    if args.force and args.out is None:
-        raise UsageError("cavesim run: error: argument --force: replaces the files in the "
-                         "folder --out names; give --out too")
-    out = args.out or default_folder("run")
     frames = args.frames or default_frames(scene)
-    with claim(out, "run", args.force) as folder, sigterm_as_interrupt():
-        if args.out is None:
-            link_latest(folder.path)
-        plan = RunPlan(nodes, args.scene, frames, out, args.session, credentials,
+    with own_folder(args.out, "run", args.force) as folder, sigterm_as_interrupt():
+        plan = RunPlan(nodes, args.scene, frames, folder.path, args.session, credentials,
                        on_loss=args.on_loss or "continue",
                        cave=None if args.walls else args.cave, render_every=args.render_every,
                        stereo=args.stereo, gpus=gpus, display=args.display,
