@@ -28,6 +28,7 @@ from nodes.commands import (
     master,
     node,
     numerics,
+    render,
     replay,
     run,
     tracker,
@@ -36,7 +37,7 @@ from nodes.commands import (
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
 SUBCOMMANDS = (bench.add, numerics.add_accuracy, numerics.add_stability, doctor.add, run.add,
-               master.add, node.add, replay.add, check.add, tracker.add, keys.add)
+               master.add, node.add, replay.add, render.add, check.add, tracker.add, keys.add)
 
 
 class _Parser(argparse.ArgumentParser):

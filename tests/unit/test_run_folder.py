@@ -104,6 +104,9 @@ COMMANDS = {  # argv, and the function of its run that the default-folder test s
     "bench": (["bench", "--quick"], "cavesim.tools.bench.run_bench"),
     "accuracy": (["accuracy", "--quick"], "cavesim.tools.numerics.run_command"),
     "stability": (["stability"], "cavesim.gpu.gl.context.create_context"),
+    "render": (["render", str(ROOT / "tests/data/logs/vortex_portable.log"), "--scene",
+                str(ROOT / "tests/data/logs/vortex_portable.toml")],
+               "cavesim.tools.log_render.render_log"),
 }
 
 
