@@ -9,6 +9,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.limits import DEFAULT_MASTER_PORT
 from cavesim.core.wire.credentials import MASTER, Credentials
 from cavesim.core.wire.key_expressions import check_name
@@ -58,6 +59,20 @@ def count_list(high: int, what: str):
 
 frame_count = number_in(int, 1, 10**9, "a whole number of frames")
 seconds = number_in(float, 1e-3, 3600.0, "seconds")
+
+
+def frame_range(text: str) -> tuple[int, int | None]:
+    """An argparse type: frames `A:B` (both included), `A:` (to the end) or `:B` (from
+    frame 1); B None for the end."""
+    first, colon, last = text.partition(":")
+    try:
+        span = (frame_count(first) if first else 1, frame_count(last) if last else None)
+    except argparse.ArgumentTypeError:
+        span = None
+    if not colon or span is None or (span[1] is not None and span[1] < span[0]):
+        raise argparse.ArgumentTypeError(f"expected frames A:B, A: or :B with 1 <= A <= B, "
+                                         f"got {text!r}")
+    return span
 wall_count = number_in(int, 1, MAX_WALLS, "a number of walls")
 
 
@@ -104,6 +119,19 @@ def wall_names(count: int) -> tuple[str, ...]:
     """Names of `count` walls: the CAVE's own names first, then wall7, wall8, ..."""
     return tuple(CAVE_WALL_NAMES[i] if i < len(CAVE_WALL_NAMES) else f"wall{i + 1}"
                  for i in range(count))
+
+
+def frame_log_path(path: Path, command: str) -> Path:
+    """The frame log a command reads: `path` itself, or the FRAME_LOG in the run's folder
+    `path`; a UsageError naming the positional argument when there is none."""
+    if path.is_dir():
+        if not (path / FRAME_LOG).is_file():
+            raise UsageError(f"cavesim {command}: error: argument log: folder {str(path)!r} "
+                             f"holds no {FRAME_LOG}; give a run's folder or its frame log")
+        path = path / FRAME_LOG
+    if not path.is_file():
+        raise UsageError(f"cavesim {command}: error: argument log: no file {str(path)!r}")
+    return path
 
 
 def output_folder(text: str) -> Path:

@@ -28,6 +28,7 @@ from nodes.commands import (
     master,
     node,
     numerics,
+    render,
     replay,
     run,
     schema,
@@ -37,7 +38,7 @@ from nodes.commands import (
 TRACEBACK_VARIABLE = "CAVESIM_TRACEBACK"
 PIPED_WIDTH = 120  # columns of output that is not a terminal
 SUBCOMMANDS = (bench.add, numerics.add_accuracy, numerics.add_stability, doctor.add, run.add,
-               master.add, node.add, replay.add, check.add, tracker.add, keys.add,
+               master.add, node.add, replay.add, render.add, check.add, tracker.add, keys.add,
                schema.add)
 
 

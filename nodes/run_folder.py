@@ -1,8 +1,12 @@
 """Each run owns its output folder, so two runs never write into one another's files.
 
+Every command that writes result files (run, check, bench, accuracy, stability, render)
+takes `--out` and `--force` from `add_arguments` and writes only inside `own_folder`.
 Without `--out`, a run gets a fresh folder under out/ named by its command and start time
-(`out/run-20261128-075812`), and out/latest points to the newest. A folder given with
-`--out` must be new or empty; one that holds another run's files is refused with a hint,
+(`out/run-20261128-075812`), and a link points to the newest of that command: out/latest
+for `cavesim run` (the one most people look for), out/<command>-latest for the others, so
+a bench never moves the link to the last run. A folder given with `--out` must be new or
+empty; one that holds another run's files is refused with a hint,
 and `--force` replaces it only where a cavesim run wrote it (its MARKER file says so). While
 a run writes, it holds an exclusive lock on the folder's LOCK file: a second run in the same
 folder is refused at once, and a run that dies (a crash, a power cut) leaves no lock behind,
@@ -17,16 +21,46 @@ import json
 import os
 import shutil
 import socket
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
-from nodes.arguments import UsageError, output_directory
+from nodes.arguments import UsageError, output_directory, output_folder
 
 MARKER = ".cavesim-run"  # JSON: the command, its process, host and start time
 LOCK = ".cavesim-run.lock"
 DEFAULT_ROOT = Path("out")
-LATEST = "latest"  # out/latest: a link to the newest default folder
+LATEST = "latest"  # out/latest: a link to `cavesim run`'s newest default folder
 SHOWN = 4  # names of another run's files an error line shows
+
+
+def latest_name(command: str) -> str:
+    """The name of the link to `command`'s newest default folder, beside it under out/."""
+    return LATEST if command == "run" else f"{command}-{LATEST}"
+
+
+def add_arguments(parser, command: str, holds: str) -> None:
+    """`--out` and `--force` of a command whose run writes `holds` into its own folder."""
+    parser.add_argument("--out", type=output_folder,
+                        help=f"the folder for {holds}: new or empty (default: a fresh one, "
+                             f"{DEFAULT_ROOT}/{command}-DATE-TIME, and "
+                             f"{DEFAULT_ROOT}/{latest_name(command)} points to it)")
+    parser.add_argument("--force", action="store_true",
+                        help="with --out: replace the files an earlier cavesim run left there")
+
+
+@contextmanager
+def own_folder(out: Path | None, command: str, force: bool = False) -> Iterator[RunFolder]:
+    """The folder a run of `command` writes, claimed for it: `out`, or a fresh default
+    folder that the command's latest link then points to."""
+    if force and out is None:
+        raise UsageError(f"cavesim {command}: error: argument --force: replaces the files in "
+                         "the folder --out names; give --out too")
+    with claim(out or default_folder(command), command, force) as folder:
+        if out is None:
+            link_latest(folder.path, command)
+        yield folder
 
 
 def default_folder(command: str, now: datetime.datetime | None = None,
@@ -80,9 +114,10 @@ def claim(path: Path, command: str, force: bool = False, flag: str = "--out") ->
     return RunFolder(path, lock)
 
 
-def link_latest(folder: Path, root: Path = DEFAULT_ROOT) -> None:
-    """Point root/latest at `folder` (a sibling under root), replacing the link at once."""
-    link, staged = root / LATEST, root / f".{LATEST}.{os.getpid()}"
+def link_latest(folder: Path, command: str) -> None:
+    """Point `command`'s latest link, beside `folder`, at it, replacing the link at once."""
+    name = latest_name(command)
+    link, staged = folder.parent / name, folder.parent / f".{name}.{os.getpid()}"
     staged.unlink(missing_ok=True)
     staged.symlink_to(folder.name, target_is_directory=True)
     os.replace(staged, link)

@@ -14,9 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cavesim.core.drivers import driver_for
-from cavesim.core.framelog import Damage, read_frame_log
+from cavesim.core.framelog import Damage, LoggedFrame, read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.scene.digest import scene_digest
+from cavesim.core.scene_frame import SceneFrame
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.gl.context import create_context
 
@@ -42,30 +43,56 @@ class ReplayResult:
                 "warnings": self.warnings}
 
 
+class LogReplay:
+    """A frame log opened on one engine, stepped a logged frame at a time; `result` keeps
+    what came back (ValueError when the log's own scene file no longer holds the run's
+    scene)."""
+
+    def __init__(self, log_path: Path, scene_path: Path | None = None, ctx=None) -> None:
+        self.header, self.frames = read_frame_log(log_path)
+        given = scene_path is not None
+        scene_path = Path(scene_path or self.header["scene"])
+        scene = load_scene(scene_path)
+        warnings = scene_warnings(self.header.get("scene_digest"), scene_digest(scene),
+                                  scene_path, given)
+        self.system, self.driver = ParticleSystem(ctx or create_context(), scene), \
+            driver_for(scene)
+        self.result = ReplayResult(str(log_path), str(scene_path), damage=self.frames.damage,
+                                   warnings=warnings)
+
+    def step(self, logged: LoggedFrame) -> SceneFrame:
+        """Step one logged frame and compare its checksum (a mismatch joins `result`);
+        the frame's decoded scene parameters."""
+        scene = self.driver.decode(logged.message.params)
+        self.system.step(logged.message.inputs, scene)
+        state = self.system.checksum()
+        self.result.frames += 1
+        if state.digest != logged.digest or state.particles != logged.particles:
+            self.result.mismatches.append({
+                "frame": logged.message.frame, "logged": logged.digest,
+                "replayed": state.digest, "logged_particles": logged.particles,
+                "replayed_particles": state.particles})
+        return scene
+
+    def release(self) -> None:
+        self.system.release()
+
+    def __enter__(self) -> LogReplay:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
 def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
            progress: Callable[[int], None] = lambda k: None) -> ReplayResult:
     """Step the logged inputs on one context and compare each frame's checksum (ValueError
     when the log's own scene file no longer holds the run's scene)."""
-    header, frames = read_frame_log(log_path)
-    given = scene_path is not None
-    scene_path = Path(scene_path or header["scene"])
-    scene = load_scene(scene_path)
-    warnings = scene_warnings(header.get("scene_digest"), scene_digest(scene), scene_path,
-                              given)
-    system, driver = ParticleSystem(ctx or create_context(), scene), driver_for(scene)
-    result = ReplayResult(str(log_path), str(scene_path), damage=frames.damage,
-                          warnings=warnings)
-    for logged in frames:
-        system.step(logged.message.inputs, driver.decode(logged.message.params))
-        state = system.checksum()
-        result.frames += 1
-        if state.digest != logged.digest or state.particles != logged.particles:
-            result.mismatches.append({"frame": logged.message.frame, "logged": logged.digest,
-                                      "replayed": state.digest, "logged_particles":
-                                      logged.particles, "replayed_particles": state.particles})
-        progress(logged.message.frame)
-    system.release()
-    return result
+    with LogReplay(log_path, scene_path, ctx) as run:
+        for logged in run.frames:
+            run.step(logged)
+            progress(logged.message.frame)
+    return run.result
 
 
 def scene_warnings(logged: str | None, digest: str, scene_path: Path,

@@ -21,11 +21,11 @@ from nodes.arguments import (
     count_list,
     frame_count,
     number_in,
-    output_directory,
-    output_folder,
     scene_file,
     wall_count,
 )
+from nodes.run_folder import add_arguments as add_out_arguments
+from nodes.run_folder import own_folder
 
 BENCH_SCENE = "config/scenes/bench.toml"
 BENCH_FRAMES = 10
@@ -67,9 +67,8 @@ def add(commands) -> None:
                              f"--quick {QUICK_FRAMES}); with --cluster: frames per run "
                              f"(default: {CLUSTER_FRAMES}); with --soak: frames of the run "
                              f"(default: 100000)")
-    parser.add_argument("--out", type=output_folder, default=Path("out/bench"),
-                        help="directory for bench.json and bench.md, cluster.json and "
-                             "cluster.md, resync.json, or soak.json (default: out/bench)")
+    add_out_arguments(parser, "bench", "bench.json and bench.md, cluster.json and "
+                      "cluster.md, resync.json, or soak.json")
     parser.add_argument("--cluster", action="store_true",
                         help="lock-step figures instead: barrier round trip with 2, 4 and 8 "
                              "nodes, and a 4-wall run against four systems back to back")
@@ -127,14 +126,15 @@ def bench(args: argparse.Namespace, console: Console) -> int:
     from cavesim.tools.bench.report import Ended
 
     scene = _bench_scene(args.scene or scene_file(BENCH_SCENE))
-    output_directory(args.out, "bench")
     plan = BenchPlan(args.frames or (QUICK_FRAMES if args.quick else BENCH_FRAMES),
                      NUMPY_UP_TO if args.numpy_up_to is None else args.numpy_up_to)
-    report = run_bench(scene, args.sizes, plan, args.out, console, quick=args.quick)
+    with own_folder(args.out, "bench", args.force) as folder:
+        report = run_bench(scene, args.sizes, plan, folder.path, console, quick=args.quick)
     if report["ended"] == Ended.INTERRUPTED:
         finished = len(report["sizes"])
         print(f"cavesim bench: interrupted; {finished} finished size"
-              f"{'' if finished == 1 else 's'} in {args.out / 'bench.json'}", file=sys.stderr)
+              f"{'' if finished == 1 else 's'} in {folder.path / 'bench.json'}",
+              file=sys.stderr)
         return INTERRUPTED
     return 0
 
@@ -148,10 +148,10 @@ def bench_cluster(args: argparse.Namespace, console: Console) -> int:
                          "(the barrier runs use --nodes)")
     lockstep_scene = args.scene or scene_file(LOCKSTEP_SCENE)
     _bench_scene(lockstep_scene)
-    output_directory(args.out, "bench")
-    run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene, cave_file(DEFAULT_CAVE),
-                      args.nodes or node_counts(CLUSTER_NODES), args.frames or CLUSTER_FRAMES,
-                      args.out, console)
+    with own_folder(args.out, "bench", args.force) as folder:
+        run_cluster_bench(scene_file(BARRIER_SCENE), lockstep_scene, cave_file(DEFAULT_CAVE),
+                          args.nodes or node_counts(CLUSTER_NODES),
+                          args.frames or CLUSTER_FRAMES, folder.path, console)
     return 0
 
 
@@ -168,8 +168,8 @@ def bench_resync(args: argparse.Namespace, console: Console) -> int:
     if len(sizes) != 1:
         raise UsageError(f"cavesim bench: error: argument --sizes: --resync measures one "
                          f"particle count, got {len(sizes)}")
-    output_directory(args.out, "bench")
-    run_resync_bench(sizes[0], args.out, console)
+    with own_folder(args.out, "bench", args.force) as folder:
+        run_resync_bench(sizes[0], folder.path, console)
     return 0
 
 
@@ -208,6 +208,6 @@ def bench_soak(args: argparse.Namespace, console: Console) -> int:
                          f"the run's {frames} frames, got {every}")
     scene = args.scene or scene_file(SOAK_SCENE)
     _bench_scene(scene)
-    output_directory(args.out, "bench")
-    run_soak(scene, args.walls or SOAK_WALLS, frames, every, args.out, console)
+    with own_folder(args.out, "bench", args.force) as folder:
+        run_soak(scene, args.walls or SOAK_WALLS, frames, every, folder.path, console)
     return 0

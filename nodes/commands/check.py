@@ -17,8 +17,6 @@ from nodes.arguments import (
     configure_logging,
     fault_spec,
     frame_count,
-    output_directory,
-    output_folder,
     scene_file,
     seconds,
     session_name,
@@ -27,6 +25,8 @@ from nodes.arguments import (
 )
 from nodes.faults import KINDS, divergence_frames, every_kind
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
+from nodes.run_folder import add_arguments as add_out_arguments
+from nodes.run_folder import own_folder
 
 CHECK_SCENE = "config/scenes/dust_devil.toml"  # busy from the first frame: faults show at once
 
@@ -54,7 +54,7 @@ def add(commands) -> None:
     parser.add_argument("--resync", choices=RESYNC_MODES, default="delta",
                         help="how a diverged node loads the healthy state: a delta of the "
                              "differing blocks first (default), or the full snapshot")
-    parser.add_argument("--out", type=output_folder, default=Path("out/check"))
+    add_out_arguments(parser, "check", "check.json, the frame log and the nodes' logs")
     parser.add_argument("--session", default="check", type=session_name)
     parser.set_defaults(handler=check)
 
@@ -90,18 +90,18 @@ def check(args: argparse.Namespace, console) -> int:
     if any(f.kind == "master-kill" and f.frame < 2 for f in args.inject):
         raise UsageError("cavesim check: error: argument --inject: master-kill needs FRAME "
                          ">= 2 (a master that ran at least one frame)")
-    output_directory(args.out, "check")
     configure_logging(False)
-    plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), args.out,
-                     args.session, args.barrier_timeout, on_loss=args.on_loss,
-                     check_every=args.check_every, resync=args.resync,
-                     node_walls=node_walls)
-    with Progress(console=console) as progress:
-        task = progress.add_task(f"check, {len(walls)} nodes", total=args.frames)
-        report = run_check(plan, lambda k, live: progress.update(task, completed=k))
-    path = args.out / "check.json"
-    with writing(path):
-        path.write_text(json.dumps(report, indent=2) + "\n")
+    with own_folder(args.out, "check", args.force) as folder:
+        plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), folder.path,
+                         args.session, args.barrier_timeout, on_loss=args.on_loss,
+                         check_every=args.check_every, resync=args.resync,
+                         node_walls=node_walls)
+        with Progress(console=console) as progress:
+            task = progress.add_task(f"check, {len(walls)} nodes", total=args.frames)
+            report = run_check(plan, lambda k, live: progress.update(task, completed=k))
+        path = folder.path / "check.json"
+        with writing(path):
+            path.write_text(json.dumps(report, indent=2) + "\n")
     console.print(check_table(report))
     check_written(path)
     console.print(f"wrote {path}")

@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from rich.console import Console
 
@@ -15,10 +14,10 @@ from nodes.arguments import (
     UsageError,
     frame_count,
     number_in,
-    output_directory,
-    output_folder,
     scene_file,
 )
+from nodes.run_folder import add_arguments as add_out_arguments
+from nodes.run_folder import own_folder
 
 
 def add_accuracy(commands) -> None:
@@ -32,10 +31,8 @@ def add_accuracy(commands) -> None:
     parser.add_argument("--scene", type=scene_file,
                         help=f"helicopter scene whose rotor downwash is the third case "
                              f"(default: {HELICOPTER_SCENE})")
-    parser.add_argument("--out", type=output_folder, default=Path("out/accuracy"),
-                        help="directory for accuracy.csv, accuracy.md, accuracy.json, "
-                             "work_precision.png and work_precision_evaluations.png (default: "
-                             "out/accuracy)")
+    add_out_arguments(parser, "accuracy", "accuracy.csv, accuracy.md, accuracy.json, "
+                      "work_precision.png and work_precision_evaluations.png")
     parser.add_argument("--particles", type=number_in(int, 1, MAX_PARTICLES,
                                                       "a particle count"),
                         help=f"particles per case (default: {PARTICLES:,}; with --quick: "
@@ -55,8 +52,8 @@ def accuracy(args: argparse.Namespace, console: Console) -> int:
         downwash_case(scene, 1)
     except SceneError as e:
         raise UsageError(f"cavesim accuracy: error: argument --scene: {e}") from e
-    output_directory(args.out, "accuracy")
-    run_command(scene, args.out, console, args.particles, args.quick)
+    with own_folder(args.out, "accuracy", args.force) as folder:
+        run_command(scene, folder.path, console, args.particles, args.quick)
     return 0
 
 
@@ -65,8 +62,7 @@ def add_stability(commands) -> None:
         "stability", help="stiff sweep of every integrator and the extreme inputs")
     parser.add_argument("--frames", type=frame_count, default=120,
                         help="frames per stiff run (default 120)")
-    parser.add_argument("--out", type=output_folder, default=Path("out/stability"),
-                        help="directory for stability.json, .md and .png")
+    add_out_arguments(parser, "stability", "stability.json, .md and .png")
     parser.set_defaults(handler=stability)
 
 
@@ -75,8 +71,8 @@ def stability(args: argparse.Namespace, console: Console) -> int:
     from cavesim.gpu.gl.context import create_context
     from cavesim.tools.stability.report import run_stability
 
-    output_directory(args.out, "stability")
-    report = run_stability(create_context(), args.out, args.frames)
-    console.print((args.out / "stability.md").read_text(), markup=False, highlight=False)
-    console.print(f"wrote {args.out / 'stability.json'}, stability.md and stability.png")
+    with own_folder(args.out, "stability", args.force) as folder:
+        report = run_stability(create_context(), folder.path, args.frames)
+    console.print((folder.path / "stability.md").read_text(), markup=False, highlight=False)
+    console.print(f"wrote {folder.path / 'stability.json'}, stability.md and stability.png")
     return 0 if report["sweep_agrees_with_theory"] and report["nan_free"] else RUN_ERROR

@@ -13,11 +13,12 @@ from pathlib import Path
 from rich.markup import escape
 from rich.progress import Progress
 
-from cavesim.core.framelog import FRAME_LOG, TORN
+from cavesim.core.framelog import TORN
 from cavesim.core.output import writing
 from nodes.arguments import (
     RUN_ERROR,
     UsageError,
+    frame_log_path,
     output_directory,
     output_folder,
     scene_file,
@@ -36,13 +37,7 @@ def add(commands) -> None:
 def replay(args: argparse.Namespace, console) -> int:
     from cavesim.tools.log_replay import replay as replay_log
 
-    if args.log.is_dir():
-        if not (args.log / FRAME_LOG).is_file():
-            raise UsageError(f"cavesim replay: error: argument log: folder {str(args.log)!r} "
-                             f"holds no {FRAME_LOG}; give a run's folder or its frame log")
-        args.log = args.log / FRAME_LOG
-    if not args.log.is_file():
-        raise UsageError(f"cavesim replay: error: argument log: no file {str(args.log)!r}")
+    args.log = frame_log_path(args.log, "replay")
     if args.out:
         output_directory(args.out, "replay")
     try:
@@ -57,7 +52,7 @@ def replay(args: argparse.Namespace, console) -> int:
             (args.out / "replay.json").write_text(json.dumps(result.summary(), indent=2) + "\n")
     for warning in result.warnings:
         console.print(f"[yellow]warning: {escape(warning)}")
-    console.print(f"{result.frames} frames replayed: {_verdict(result)}")
+    console.print(f"{result.frames} frames replayed: {verdict(result)}")
     damage = result.damage
     if damage is not None:
         colour = "yellow" if damage.kind == TORN else "red"
@@ -65,7 +60,7 @@ def replay(args: argparse.Namespace, console) -> int:
     return 0 if result.equal and (damage is None or damage.kind == TORN) else RUN_ERROR
 
 
-def _verdict(result) -> str:
+def verdict(result) -> str:
     if result.mismatches:
         return (f"[red]{len(result.mismatches)} frame(s) differ, first at "
                 f"{result.mismatches[0]['frame']}")

@@ -15,17 +15,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from rich.console import Console
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    ProgressColumn,
-    Task,
-    TextColumn,
-    TimeElapsedColumn,
-    TimeRemainingColumn,
-)
-from rich.text import Text
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import CaveError, ContextError, SceneError
@@ -50,7 +39,6 @@ from nodes.arguments import (
     lost_walls_code,
     master_credentials,
     number_in,
-    output_folder,
     scene_file,
     session_name,
     wall_count,
@@ -64,7 +52,9 @@ from nodes.master.report_file import ReportFile
 from nodes.master.tolerance import Tolerance
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_arguments, tolerance_from
-from nodes.run_folder import claim, default_folder, link_latest
+from nodes.progress import rated_progress
+from nodes.run_folder import add_arguments as add_out_arguments
+from nodes.run_folder import own_folder
 
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
@@ -124,27 +114,12 @@ class RunPlan:
                            drawing)
 
 
-GIF_WIDTH = 480  # px: the GIF is the small one; the MP4 keeps up to MAX_WIDTH_PX
-
-
-class RateColumn(ProgressColumn):
-    """A task's rate in its own unit: "58.2 frames/s"."""
-
-    def render(self, task: Task) -> Text:
-        speed = task.finished_speed or task.speed
-        rate = "-" if speed is None else f"{speed:.1f}"
-        return Text(f"{rate} {task.fields.get('unit', '')}/s")
-
-
 def run_walls(plan: RunPlan, console: Console) -> dict:
     """Run the cluster to the end (or Ctrl-C), keeping report.json current; write and
     return its final content."""
     plan.out.mkdir(parents=True, exist_ok=True)
-    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-               RateColumn(), TextColumn("{task.fields[live]}"), TimeElapsedColumn(),
-               TextColumn("left"), TimeRemainingColumn())
     with ReportFile(plan.out / "report.json") as report_file:
-        with Progress(*columns, console=console, transient=False) as progress:
+        with rated_progress(console) as progress:
             walls = sum(len(w) for w in plan.nodes.values())
             nodes = len(plan.members)
             task = progress.add_task(f"{walls} walls on {nodes} node{'s' * (nodes != 1)}",
@@ -156,7 +131,12 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
             report = record.summary()
             with writing(plan.out):
                 if plan.draws:
-                    report["images"] = assemble_images(plan, progress)
+                    from cavesim.core.cave.geometry import load_cave
+                    from cavesim.tools.reports.run_pictures import assemble_pictures
+
+                    report["images"] = assemble_pictures(
+                        load_cave(plan.cave), plan.out, MasterConfig.dt * plan.render_every,
+                        progress, "run")
                 report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
         report_file.finish(report, record.interrupted)
     frame_log, logs = plan.out / FRAME_LOG, plan.out / "logs"
@@ -171,33 +151,6 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
         console.print(demo_table(report))
     console.print(f"wrote {report_file.path}, {frame_log}, logs in {logs}")
     return report
-
-
-def assemble_images(plan: RunPlan, progress: Progress) -> dict:
-    """Unfolded-CAVE composites of every saved frame, and the run at its own pace: an MP4
-    and a small GIF, each frame held as long as the frames between two saved ones last."""
-    from cavesim.core.cave.geometry import load_cave
-    from cavesim.gpu.render.animation import write_animation
-    from cavesim.gpu.render.composite import compose_run
-
-    task = progress.add_task("pictures", total=None, live="", unit="composites")
-    composites = compose_run(load_cave(plan.cave), plan.out / "walls",
-                             plan.out / "composites",
-                             lambda done, total: progress.update(task, completed=done,
-                                                                 total=total + 2))
-    images = {"walls": str(plan.out / "walls"), "composites": len(composites)}
-    if composites:
-        pace = 1.0 / (MasterConfig.dt * plan.render_every)  # composites per second
-        images["video"] = str(write_animation(composites, plan.out / "run.mp4", pace))
-        progress.advance(task)
-        images["animation"] = str(write_animation(composites, plan.out / "run.gif", pace,
-                                                  max_width=GIF_WIDTH))
-        progress.advance(task)
-        images["last_composite"] = str(composites[-1])
-        check_written(images["video"], images["animation"], *composites)
-        progress.console.print(f"wrote {len(composites)} composites, {images['video']} and "
-                               f"{images['animation']}")
-    return images
 
 
 def write_plots(report: dict, out: Path, console: Console) -> list[Path]:
@@ -244,11 +197,7 @@ def add(commands) -> None:
                              "the path most nodes found faster)")
     parser.add_argument("--frames", type=frame_count,
                         help="default: the scene's wand timeline to its end, else 600")
-    parser.add_argument("--out", type=output_folder,
-                        help="the run's own folder, new or empty (default: a fresh one, "
-                             "out/run-DATE-TIME, and out/latest points to it)")
-    parser.add_argument("--force", action="store_true",
-                        help="with --out: replace the files an earlier cavesim run left there")
+    add_out_arguments(parser, "run", "the run's report, frame log, logs and pictures")
     parser.add_argument("--session", default="run", type=session_name)
     parser.add_argument("--on-loss", choices=LOSS_POLICIES,
                         help="a wall lost (its node gone, or silent 10 s in the barrier): "
@@ -275,15 +224,9 @@ def run(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim run: error: argument --cave: a wall or node may not be "
                          f"called {PREVIEW!r} (the preview's name)")
     tolerance = tolerance_from(args, tuple(nodes), "run")
-    if args.force and args.out is None:
-        raise UsageError("cavesim run: error: argument --force: replaces the files in the "
-                         "folder --out names; give --out too")
-    out = args.out or default_folder("run")
     frames = args.frames or default_frames(scene)
-    with claim(out, "run", args.force) as folder, sigterm_as_interrupt():
-        if args.out is None:
-            link_latest(folder.path)
-        plan = RunPlan(nodes, args.scene, frames, out, args.session, credentials,
+    with own_folder(args.out, "run", args.force) as folder, sigterm_as_interrupt():
+        plan = RunPlan(nodes, args.scene, frames, folder.path, args.session, credentials,
                        on_loss=args.on_loss or "continue",
                        cave=None if args.walls else args.cave, render_every=args.render_every,
                        stereo=args.stereo, gpus=gpus, display=args.display,

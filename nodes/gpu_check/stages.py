@@ -132,7 +132,9 @@ def bench(out: Path, say: Say, quick: bool = False) -> Stage:
     """The default bench (1M, 10M and the largest capacity, both engine paths), or with
     `quick` the bench's one-minute answer."""
     stage = Stage("bench")
-    command = cavesim("bench", "--out", str(out / "bench"), *(["--quick"] if quick else []))
+    # --force here and in the demo: a check run again into its --out replaces the last one's
+    command = cavesim("bench", "--out", str(out / "bench"), "--force",
+                      *(["--quick"] if quick else []))
 
     def body() -> None:
         code, last = run_child(command, out / "bench.log",
@@ -178,7 +180,8 @@ def demo(out: Path, say: Say, frames: int = DEMO_FRAMES) -> Stage:
 
     def body() -> None:
         code, last = run_child(cavesim("run", "--frames", str(frames), "--render-every",
-                                       str(DEMO_RENDER_EVERY), "--out", str(out / "demo")),
+                                       str(DEMO_RENDER_EVERY), "--out", str(out / "demo"),
+                                       "--force"),
                                out / "demo.log", DEADLINES["demo"])
         report = _json(out / "demo" / "report.json")
         stage.figures = {key: report.get(key) for key in

@@ -40,7 +40,7 @@ from pathlib import Path
 import zenoh
 
 from cavesim.core.cave.desktop import tiled_window
-from cavesim.core.cave.geometry import Cave, Display, load_cave, scaled
+from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
@@ -77,6 +77,7 @@ from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.context import create_context, gpu_of
+from cavesim.gpu.render.painter import WallPainter
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
 from cavesim.tools.bench.engine_probe import probe_engines
@@ -95,7 +96,6 @@ from nodes.wall.inbox import (
     NodeView,
     StateQuery,
 )
-from nodes.wall.painter import WallPainter
 from nodes.wall.preview_controls import PreviewControls
 from nodes.wall.screen import LiveDisplay, PreviewScreen, WallScreen, window_size
 from nodes.wall.snapshots import fetch_snapshot, send_snapshot
@@ -176,7 +176,7 @@ class WallNode:
         self.live = None if window is None else LiveDisplay(
             node_screen(config, cave, window, self.system), self._display)
         self.controls = PreviewControls(window.window) if config.preview else None
-        self.painter = WallPainter(config, cave, self.ctx, self.system) \
+        self.painter = _painter(config, cave, self.ctx, self.system) \
             if config.render_every and window is None else None
         self.view = NodeView(config.name, secrets.randbits(64))
         self.inbox = NodeInbox(config.session, config.credentials, self.view)
@@ -585,7 +585,7 @@ def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None
                            "give --cave FILE with --display or --preview")
     title = f"cavesim {config.name}"
     if config.preview:
-        size = slots_of(scaled(cave, config.preview_scale))[1]
+        size = slots_of(cave.scaled(config.preview_scale))[1]
         return open_window(Display(vsync=False, swap_lock=False), size, title)
     walls = tuple(cave.wall(w) for w in config.drawn)
     display, size = walls[0].display, window_size(walls)
@@ -594,6 +594,14 @@ def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None
     elif len(walls) > 1 and display.window is not None:
         display = dataclasses.replace(display, window=(*display.window[:2], *size))
     return open_window(display, size, title)
+
+
+def _painter(config: NodeConfig, cave: Cave | None, ctx,
+             system: ParticleSystem) -> WallPainter:
+    if cave is None or config.images is None:
+        raise ValueError("rendering needs both a CAVE file (--cave) and an image folder "
+                         "(--images)")
+    return WallPainter(ctx, system, cave, config.drawn, config.images, config.stereo)
 
 
 def node_screen(config: NodeConfig, cave: Cave, window: WallWindow,

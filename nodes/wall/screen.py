@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from cavesim.core.cave.geometry import Cave, StereoMode, Wall, scaled
+from cavesim.core.cave.geometry import Cave, StereoMode, Wall
 from cavesim.core.cave.projection import eye_positions
 from cavesim.core.output import writing
 from cavesim.core.scene_frame import SceneFrame
@@ -86,7 +86,7 @@ class PreviewScreen:
     def __init__(self, window: WallWindow, system: ParticleSystem, cave: Cave,
                  scale: float) -> None:
         self.window = window
-        self.cave = scaled(cave, scale)
+        self.cave = cave.scaled(scale)
         self.renderers = {w.name: WallRenderer(window.ctx, system, w) for w in self.cave.walls}
         self.picture = window.ctx.texture(slots_of(self.cave)[1], 3)
 

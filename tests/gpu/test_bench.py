@@ -37,6 +37,7 @@ from cavesim.tools.bench.workload import frame_inputs
 from nodes.arguments import REPO_ROOT
 from nodes.cli import build_parser, main
 from nodes.commands.bench import QUICK_FRAMES
+from nodes.run_folder import LOCK, MARKER
 
 SIZES = (2000, 5000)
 NUMPY_CAP = 3000  # the numpy twin is timed at the first size, not at the second
@@ -326,7 +327,7 @@ def test_a_run_stopped_in_its_second_size_leaves_the_first_written(tmp_path, sto
     assert report["ended"] == ended and [s["particles"] for s in report["sizes"]] == [1000]
     assert all(t["particles"] == 1000 for t in report["targets"])
     assert "| 1,000 |" in (out / "bench.md").read_text()
-    assert sorted(p.name for p in out.iterdir()) == ["bench.json", "bench.md"]
+    assert sorted(p.name for p in out.iterdir()) == [MARKER, LOCK, "bench.json", "bench.md"]
 
 
 @pytest.mark.parametrize("argv, flag", [

@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from cavesim.core.cave.geometry import load_cave, scaled
+from cavesim.core.cave.geometry import load_cave
 from cavesim.core.scene import load_scene
 from cavesim.tools.reports.cloud_pictures import (
     azimuth_cv,
@@ -27,7 +27,7 @@ def test_the_brownout_cloud_is_one_cloud_that_rises(ctx):
     scene = load_scene("config/scenes/brownout.toml")
     still = dataclasses.replace(scene, forces=dataclasses.replace(scene.forces,
                                                                   dispersion=None))
-    cave = scaled(load_cave("config/cave/flex4.toml"), WALL_SCALE)
+    cave = load_cave("config/cave/flex4.toml").scaled(WALL_SCALE)
     dust = [c.name for c in scene.particle_classes].index("dust")
     measured = {}
     for name, each in (("walk", scene), ("still", still)):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from cavesim.core.cave import DEFAULT_CAVE
-from cavesim.core.cave.geometry import load_cave, scaled
+from cavesim.core.cave.geometry import load_cave
 from cavesim.core.scene import load_scene
 from cavesim.gpu.render import meshes
 from cavesim.tools.reports.scene_pictures import draw_walls, variation, whiteout_share
@@ -42,7 +42,7 @@ def test_a_shipped_scene_shows_its_world_on_every_wall(ctx, path):
     scene = load_scene(path)
     if "llvmpipe" in ctx.info["GL_RENDERER"] and scene.capacity > SOFTWARE_CAPACITY:
         pytest.skip(f"{scene.capacity:,} particles: drawn on a GPU (deploy/gpu-check.sh)")
-    walls = draw_walls(ctx, scene, scaled(load_cave(DEFAULT_CAVE), WALL_SCALE), {FRAME})[FRAME]
+    walls = draw_walls(ctx, scene, load_cave(DEFAULT_CAVE).scaled(WALL_SCALE), {FRAME})[FRAME]
     hidden = {name: round(whiteout_share(picture, walls.clear[name]), 3)
               for name, picture in walls.pictures.items()}
     assert max(hidden.values()) < WHITEOUT, f"whiteout: the share of each wall dust hides {hidden}"

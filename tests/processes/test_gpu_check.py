@@ -93,3 +93,28 @@ def test_the_whole_check_runs_here_and_writes_its_json(tmp_path):
     summary = done.stdout[done.stdout.index("cavesim gpu-check on"):].splitlines()
     assert len(summary) <= MAX_LINES + 1 and summary[-2] == "verdict: PASS"
     assert "llvmpipe" in summary[0] and "Traceback" not in done.stdout + done.stderr
+
+
+def test_a_second_check_into_the_same_folder_replaces_its_bench_and_demo(tmp_path,
+                                                                         monkeypatch):
+    """Each stage's command runs in this process with its work left out: the folders the
+    first check's bench and demo left are replaced, not refused."""
+    from cavesim.tools import bench
+    from nodes import cli
+    from nodes.commands import run
+
+    def bench_work(scene, sizes, plan, out, console, quick):
+        (out / "bench.json").write_text('{"ended": "complete"}')
+        return {"ended": "complete"}
+
+    def demo_work(plan, console):
+        (plan.out / "report.json").write_text("{}")
+        return {"interrupted": False, "final": {}}
+
+    monkeypatch.setattr(bench, "run_bench", bench_work)
+    monkeypatch.setattr(run, "run_walls", demo_work)
+    monkeypatch.setattr(stages, "run_child",
+                        lambda command, log, deadline, on_line=None: (cli.main(command[3:]), ""))
+    for _ in range(2):
+        assert stages.bench(tmp_path, print, quick=True).ended == stages.PASSED
+        assert stages.demo(tmp_path, print, frames=1).ended == stages.PASSED

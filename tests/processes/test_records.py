@@ -218,6 +218,7 @@ FOLDER_FLAGS = [  # (argv before the flag, the flag): each takes a folder
     pytest.param(["accuracy"], "--out", id="accuracy"),
     pytest.param(["stability"], "--out", id="stability"),
     pytest.param(["replay", str(MINIMAL)], "--out", id="replay"),
+    pytest.param(["render", str(MINIMAL)], "--out", id="render"),
     pytest.param(["node", "--wall", "front"], "--images", id="node-images"),
 ]
 FILE_FLAGS = [  # each takes a file

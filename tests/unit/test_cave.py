@@ -147,6 +147,17 @@ def test_cave_wall_lookup():
     assert isinstance(cave, Cave) and isinstance(cave.walls, tuple)
 
 
+def test_a_scaled_cave_keeps_its_geometry_and_its_sides_within_bounds():
+    cave = load_cave(DEFAULT_CAVE)
+    half, tiny, huge = cave.scaled(0.5), cave.scaled(0.001), cave.scaled(100.0)
+    front = cave.wall("front")
+    assert half.wall("front").resolution == tuple(round(n / 2) for n in front.resolution)
+    assert np.array_equal(half.wall("front").corners, front.corners)
+    assert half.names == cave.names and half.eye_separation == cave.eye_separation
+    assert {n for w in tiny.walls for n in w.resolution} == {16}
+    assert {n for w in huge.walls for n in w.resolution} == {8192}
+
+
 def test_name_defaults_to_file_stem(tmp_path):
     cave = load_cave(write_cave(tmp_path / "my_room.toml", [FRONT]))
     assert cave.name == "my_room"

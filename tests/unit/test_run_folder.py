@@ -3,6 +3,7 @@ or (with --force) a run's own, and never one another run is writing; a dead run 
 lock behind."""
 
 import datetime
+import importlib
 import json
 import os
 import subprocess
@@ -79,11 +80,12 @@ def test_a_killed_run_leaves_no_lock_behind(tmp_path):
         pass
 
 
-def test_latest_points_at_the_newest_folder(tmp_path):
-    for stamp in ("run-1", "run-2"):
+def test_latest_points_at_the_newest_folder_of_its_command(tmp_path):
+    for stamp in ("run-1", "run-2", "bench-1"):
         (tmp_path / stamp).mkdir()
-        link_latest(tmp_path / stamp, tmp_path)
+        link_latest(tmp_path / stamp, stamp.split("-")[0])
     assert (tmp_path / "latest").resolve() == (tmp_path / "run-2").resolve()
+    assert (tmp_path / "bench-latest").resolve() == (tmp_path / "bench-1").resolve()
 
 
 def test_the_command_refuses_a_used_folder_and_force_without_out(tmp_path, capsys):
@@ -93,3 +95,63 @@ def test_the_command_refuses_a_used_folder_and_force_without_out(tmp_path, capsy
     assert cli.main(["run", "--walls", "1", "--force"]) == USAGE_ERROR
     assert "argument --force: replaces the files in the folder --out names; give --out too" \
         in capsys.readouterr().err
+
+
+# -- every command that writes result files ----------------------------------------------------
+
+COMMANDS = {  # argv, and the function of its run that the default-folder test stops at
+    "check": (["check", "--walls", "1"], "nodes.check.harness.run_check"),
+    "bench": (["bench", "--quick"], "cavesim.tools.bench.run_bench"),
+    "accuracy": (["accuracy", "--quick"], "cavesim.tools.numerics.run_command"),
+    "stability": (["stability"], "cavesim.gpu.gl.context.create_context"),
+    "render": (["render", str(ROOT / "tests/data/logs/vortex_portable.log"), "--scene",
+                str(ROOT / "tests/data/logs/vortex_portable.toml")],
+               "cavesim.tools.log_render.render_log"),
+}
+
+
+class _Stopped(Exception):
+    pass
+
+
+def _stop(*args, **kwargs):
+    raise _Stopped("stopped where the work begins")
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_a_command_refuses_a_used_folder_one_in_use_and_force_without_out(command, tmp_path,
+                                                                         capsys):
+    argv, _ = COMMANDS[command]
+    (tmp_path / "notes.txt").write_text("mine")
+    assert cli.main([*argv, "--out", str(tmp_path)]) == USAGE_ERROR
+    assert capsys.readouterr().err == (
+        f"cavesim {command}: error: argument --out: {str(tmp_path)!r} holds another run's "
+        "files (notes.txt); give a new folder, leave --out off for a fresh one under out/, "
+        "or add --force to replace them\n")
+    assert cli.main([*argv, "--force"]) == USAGE_ERROR
+    assert f"cavesim {command}: error: argument --force: replaces the files in the folder " \
+           "--out names; give --out too" in capsys.readouterr().err
+    busy = tmp_path / "busy"
+    with claim(busy, "run"):
+        assert cli.main([*argv, "--out", str(busy)]) == USAGE_ERROR
+    assert "is in use by another run (cavesim run, pid" in capsys.readouterr().err
+    assert (tmp_path / "notes.txt").read_text() == "mine" and not (tmp_path / MARKER).exists()
+    assert json.loads((busy / MARKER).read_text())["command"] == "run"
+    assert sorted(p.name for p in busy.iterdir()) == [MARKER, LOCK]
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_a_command_without_out_writes_a_fresh_folder_its_latest_link_names(
+        command, tmp_path, monkeypatch, capsys):
+    argv, work = COMMANDS[command]
+    module, name = work.rsplit(".", 1)
+    monkeypatch.setattr(importlib.import_module(module), name, _stop)
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(argv) == cli.RUN_ERROR
+    assert "stopped where the work begins" in capsys.readouterr().err
+    (folder,) = (tmp_path / "out").glob(f"{command}-2*")
+    assert (folder / MARKER).is_file()
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        folder.name, f"{command}-latest"]  # out/latest stays `cavesim run`'s
+    assert (tmp_path / "out" / f"{command}-latest").resolve() == folder.resolve()
+

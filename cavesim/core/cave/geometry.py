@@ -14,9 +14,8 @@ The file's tables are `CaveFile` and `WallTable`, read by `cavesim.core._schema`
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Any
@@ -189,6 +188,15 @@ class Cave:
                 return w
         raise KeyError(f"cave {self.name!r} has no wall {name!r}; walls: {', '.join(self.names)}")
 
+    def scaled(self, scale: float) -> Cave:
+        """The CAVE with every wall's resolution times `scale`, kept within
+        WALL_RESOLUTION_RANGE (its geometry unchanged)."""
+        low, high = WALL_RESOLUTION_RANGE
+        return replace(self, walls=tuple(
+            replace(w, resolution=tuple(min(high, max(low, round(n * scale)))
+                                        for n in w.resolution))
+            for w in self.walls))
+
 
 @dataclass(frozen=True, kw_only=True)
 class WallTable:
@@ -222,14 +230,6 @@ def load_cave(path: str | Path) -> Cave:
     """Read and check the CAVE geometry file at `path` (see config/cave/*.toml)."""
     path = Path(path)
     return parse_cave(read_toml(path, CaveError, "cave file"), path)
-
-
-def scaled(cave: Cave, scale: float) -> Cave:
-    """The CAVE with every wall's resolution times `scale` (its geometry unchanged)."""
-    walls = tuple(dataclasses.replace(w, resolution=(max(16, round(w.resolution[0] * scale)),
-                                                     max(16, round(w.resolution[1] * scale))))
-                  for w in cave.walls)
-    return dataclasses.replace(cave, walls=walls)
 
 
 def parse_cave(data: Mapping[str, Any], source: Path | None = None) -> Cave:

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from cavesim.core.cave import DEFAULT_CAVE
-from cavesim.core.cave.geometry import load_cave, scaled
+from cavesim.core.cave.geometry import load_cave
 from cavesim.core.output import writing
 from cavesim.core.scene import load_scene
 from cavesim.gpu.gl.context import create_context
@@ -42,7 +42,7 @@ def unfolded(scene: str, frame: int) -> Callable[[Path], None]:
     def draw(path: Path) -> None:
         ctx = create_context()
         try:
-            cave = scaled(load_cave(DEFAULT_CAVE), DOC_SCALE)
+            cave = load_cave(DEFAULT_CAVE).scaled(DOC_SCALE)
             walls = draw_walls(ctx, load_scene(scene), cave, {frame})[frame]
             with writing(path):
                 compose(cave, walls.pictures).save(path, optimize=True)

@@ -1,12 +1,14 @@
-"""A node's pictures of its walls: rendered from the frame's head pose, saved as PNG.
+"""Pictures of walls: rendered from the frame's head pose, saved as PNG.
 
-Drawing happens after the node has reported the frame and only reads the particle
-stream, so it can neither delay the checksum nor change it. A node of several walls
-draws each of them from the one particle state it stepped.
+A wall node draws after it has reported the frame, and `cavesim render` after it has
+checked the frame against its log; drawing only reads the particle stream, so it can
+neither delay the checksum nor change it. Several walls are drawn from the one particle
+state that was stepped.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import moderngl
@@ -22,20 +24,19 @@ from cavesim.gpu.render.wall_renderer import WallRenderer
 
 
 class WallPainter:
-    def __init__(self, config, cave: Cave | None, ctx: moderngl.Context,
-                 system: ParticleSystem) -> None:
-        if cave is None or config.images is None:
-            raise ValueError("rendering needs both a CAVE file (--cave) and an image folder "
-                             "(--images)")
-        if unknown := [w for w in config.drawn if w not in cave.names]:
-            raise ValueError(f"wall {unknown[0]!r} is not in {config.cave}: it has "
+    """Draws `walls` of `cave` into images/<wall>/frame_<k>.png (both eyes with stereo)."""
+
+    def __init__(self, ctx: moderngl.Context, system: ParticleSystem, cave: Cave,
+                 walls: Sequence[str], images: Path, stereo: bool = False) -> None:
+        if unknown := [w for w in walls if w not in cave.names]:
+            raise ValueError(f"wall {unknown[0]!r} is not in CAVE {cave.name!r}: it has "
                              f"{', '.join(cave.names)}")
-        self.renderers = {w: WallRenderer(ctx, system, cave.wall(w)) for w in config.drawn}
+        self.renderers = {w: WallRenderer(ctx, system, cave.wall(w)) for w in walls}
         self.eye_separation = cave.eye_separation
-        self.images = Path(config.images)
+        self.images = Path(images)
         for wall in self.renderers:
             (self.images / wall).mkdir(parents=True, exist_ok=True)
-        self.stereo = config.stereo
+        self.stereo = stereo
 
     def paint(self, k: int, message: FrameMessage, scene: SceneFrame) -> list[Path]:
         """Render frame k of each wall for each eye; the left (or only) eye is
