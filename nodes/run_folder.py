@@ -100,6 +100,7 @@ def claim(path: Path, command: str, force: bool = False, flag: str = "--out") ->
     other files (with `force`, replace a cavesim run's); then lock it and mark it."""
     where = f"cavesim {command}: error: argument {flag}"
     output_directory(path, command, flag)
+    lock_was_there = (path / LOCK).exists()
     lock = _locked(path, where)
     try:
         others = sorted(p.name for p in path.iterdir() if p.name not in (MARKER, LOCK))
@@ -109,6 +110,8 @@ def claim(path: Path, command: str, force: bool = False, flag: str = "--out") ->
             "command": command, "pid": os.getpid(), "host": socket.gethostname(),
             "started": datetime.datetime.now().isoformat(timespec="seconds")}) + "\n")
     except BaseException:
+        if not lock_was_there:  # a refused folder keeps nothing of this run
+            (path / LOCK).unlink(missing_ok=True)
         os.close(lock)
         raise
     return RunFolder(path, lock)

@@ -135,7 +135,8 @@ def test_a_command_refuses_a_used_folder_one_in_use_and_force_without_out(comman
     with claim(busy, "run"):
         assert cli.main([*argv, "--out", str(busy)]) == USAGE_ERROR
     assert "is in use by another run (cavesim run, pid" in capsys.readouterr().err
-    assert (tmp_path / "notes.txt").read_text() == "mine" and not (tmp_path / MARKER).exists()
+    assert (tmp_path / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["busy", "notes.txt"]  # nothing left
     assert json.loads((busy / MARKER).read_text())["command"] == "run"
     assert sorted(p.name for p in busy.iterdir()) == [MARKER, LOCK]
 
