@@ -10,7 +10,7 @@ leaves the last checkpoint) and written whole at the end, with the pictures and 
 from __future__ import annotations
 
 import argparse
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,6 +49,7 @@ from nodes.launch.gpus import GROUPINGS, by_gpu
 from nodes.lockstep import LOSS_POLICIES
 from nodes.master.process import MasterConfig
 from nodes.master.report_file import ReportFile
+from nodes.master.run_record import RunRecord
 from nodes.master.tolerance import Tolerance
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_arguments, tolerance_from
@@ -124,8 +125,14 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
             nodes = len(plan.members)
             task = progress.add_task(f"{walls} walls on {nodes} node{'s' * (nodes != 1)}",
                                      total=plan.frames, live="0 live", unit="frames")
+            tell_drops = drop_notice(progress.console)
+
+            def checkpoint(record: RunRecord) -> None:
+                report_file.checkpoint(record)
+                tell_drops(record)
+
             record = run_cluster(plan.cluster(), lambda k, live: progress.update(
-                task, completed=k, live=f"{live:,} live"), checkpoint=report_file.checkpoint)
+                task, completed=k, live=f"{live:,} live"), checkpoint=checkpoint)
             if record.interrupted:
                 console.print("[yellow]interrupted: the cluster was stopped")
             report = record.summary()
@@ -151,6 +158,22 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
         console.print(demo_table(report))
     console.print(f"wrote {report_file.path}, {frame_log}, logs in {logs}")
     return report
+
+
+def drop_notice(console: Console) -> Callable[[RunRecord], None]:
+    """A checkpoint that prints, once, the line saying the capacity dropped particles
+    (`CapacityDropBook.notice`) as soon as the record has it."""
+    told = False
+
+    def tell(record: RunRecord) -> None:
+        nonlocal told
+        book = record.capacity_drops
+        if not told and book is not None and book.notice is not None:
+            told = True
+            console.print(book.notice, style="yellow", markup=False, highlight=False,
+                          soft_wrap=True)
+
+    return tell
 
 
 def write_plots(report: dict, out: Path, console: Console) -> list[Path]:

@@ -65,6 +65,7 @@ from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
 from nodes import lockstep
 from nodes.lockstep import LOSS_POLICIES, Membership, Vote
+from nodes.master.drop_book import CapacityDropBook
 from nodes.master.engine_choice import EngineChoice
 from nodes.master.events import (
     Described,
@@ -169,7 +170,8 @@ class Master:
         self.engines = EngineChoice(config.walls)  # the path of the nodes that probed theirs
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
                                 node_walls=dict(config.node_walls),
-                                domain_exits=DomainExitBook(scene))
+                                domain_exits=DomainExitBook(scene),
+                                capacity_drops=CapacityDropBook(scene.capacity, config.dt))
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
         self.swaps = self.record.swaps
@@ -313,7 +315,9 @@ class Master:
                 message = self._make_frame(k)
                 barrier = self._barrier(k, message)
                 vote = self._agree(k)
-                self.record.domain_exits.add(k, self.reports[vote.source].domain_exits)
+                agreed = self.reports[vote.source]
+                self.record.domain_exits.add(k, agreed.domain_exits)
+                self.record.capacity_drops.add(k, agreed.dropped)
                 self._admit_joiners(k, vote)
                 self._release_swap(k)
                 if log_writer is not None:

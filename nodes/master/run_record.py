@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
 from cavesim.core.frame_cost import NOT_TIMED_US, PHASES
+from nodes.master.drop_book import REPORT_KEY, CapacityDropBook
 from nodes.master.exit_book import DomainExitBook
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
@@ -158,6 +159,7 @@ class RunRecord:
     # bits on every GPU, "native" only on identical ones
     node_walls: dict[str, tuple[str, ...]] = field(default_factory=dict)  # as MasterConfig's
     domain_exits: DomainExitBook | None = None  # a gridded flow's: who left its box
+    capacity_drops: CapacityDropBook | None = None  # what the full capacity dropped
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -210,6 +212,7 @@ class RunRecord:
             "swap": self.swaps.summary(),
             **({} if self.tolerance is None else {"tolerance": self.tolerance.summary()}),
             "domain_exits": {} if self.domain_exits is None else self.domain_exits.summary(),
+            REPORT_KEY: {} if self.capacity_drops is None else self.capacity_drops.summary(),
         }
 
 

@@ -395,10 +395,11 @@ class WallNode:
         self.timer.lap("history")
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
-        exits = self.system.domain_exits() or ()  # read after the checksum's wait
+        exits = self.system.domain_exits() or ()  # read after the checksum's wait, as is
         self._publish(ReportMessage(k, self.config.name, state.digest, state.particles,
                                     state.emitters, self.timer.cost_us(), self.rejects.total,
-                                    sample=self._sample(), domain_exits=exits))
+                                    sample=self._sample(), domain_exits=exits,
+                                    dropped=self.system.dropped()))
         self.timer.reported()
 
     def _flip_one_bit(self) -> None:

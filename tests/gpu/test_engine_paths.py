@@ -48,9 +48,10 @@ class Pair:
         self.size = scene.random_texture_size
         self.frames = 0
         self.counts: list[int] = []
+        self.dropped: list[int] = []  # new particles dropped at the capacity, each frame
 
     def step(self, dt: float = DT) -> None:
-        """One master frame on both paths; their checksums must agree."""
+        """One master frame on both paths; their checksums and dropped counts must agree."""
         self.frames += 1
         step = self.driver.advance(self.frames * dt, dt, None)
         scene_frame = self.driver.decode(self.driver.encode(step.frame))  # as a node gets it
@@ -59,7 +60,10 @@ class Pair:
             system.step(inputs, scene_frame)
         reference, checked = self.gs_tf.checksum(), self.compute.checksum()
         assert checked == reference, f"frame {self.frames}: {checked} != {reference}"
+        dropped = self.gs_tf.dropped()
+        assert self.compute.dropped() == dropped, f"frame {self.frames}: dropped differ"
         self.counts.append(reference.particles)
+        self.dropped.append(dropped)
 
     def assert_same_bytes(self) -> None:
         assert self.compute.read_particles().tobytes() == self.gs_tf.read_particles().tobytes()
@@ -184,6 +188,8 @@ def test_emission_into_a_full_pool_drops_the_same_particles(pair):
         both.step()
     both.assert_same_bytes()
     assert both.counts[:4] == [233, 466, 700, 933] and set(both.counts[4:]) == {1000}
+    assert both.dropped[:4] == [0] * 4 and both.dropped[4] == 233 - 67  # room for 67 of 233
+    assert set(both.dropped[5:30]) == {233, 234}, "full, nobody dead: all of a frame's new"
 
 
 def test_a_frame_with_more_emission_segments_than_one_dispatch_allows(pair):
@@ -197,6 +203,7 @@ def test_a_frame_with_more_emission_segments_than_one_dispatch_allows(pair):
         both.step()
     both.assert_same_bytes()
     assert both.counts == [4000] * 3
+    assert both.dropped == [4000, 8000, 8000], "past the first frame, all 8,000 new ones"
 
 
 def test_frames_without_survivors_or_without_emission(pair):
@@ -209,6 +216,7 @@ def test_frames_without_survivors_or_without_emission(pair):
         system.write_particles(dying)
     both.step()
     assert both.counts == [1], "no survivor; the pulse emitter's one new particle"
+    assert both.dropped == [0]
     for _ in range(3):
         both.step()
     both.assert_same_bytes()

@@ -81,6 +81,7 @@ class Lockstep:
         self.frames = 0
         self.counts: list[int] = []
         self.exits = np.zeros(len(scene.particle_classes), dtype=np.int64)  # the twin's
+        self.dropped: list[int] = []  # the twin's, each frame
         if start is not None:
             for system in (self.twin, *self.gpus.values()):
                 system.write_particles(start)
@@ -101,7 +102,11 @@ class Lockstep:
             if exits is not None and exits != tuple(self.twin.domain_exits):
                 pytest.fail(f"frame {self.frames}, {engine.value} path: {exits} particles per "
                             f"class left the field's box, the twin {self.twin.domain_exits}")
+            if gpu.dropped() != self.twin.dropped:
+                pytest.fail(f"frame {self.frames}, {engine.value} path: {gpu.dropped()} "
+                            f"particles dropped at the capacity, the twin {self.twin.dropped}")
         self.counts.append(expected.particles)
+        self.dropped.append(self.twin.dropped)
         self.exits += self.twin.domain_exits
 
     def release(self) -> None:
@@ -167,6 +172,22 @@ def test_the_demos_have_the_portable_twins_checksum_every_frame(lockstep, name):
     assert full <= 20
     # a particle younger than the time since then was emitted into room a dead one made
     assert run.twin.particles.age.min() < (DEMO_FRAMES - full - 1) * DT
+    assert run.dropped.index(next(filter(None, run.dropped))) + 1 == full
+
+
+def test_a_full_pool_drops_the_twins_count_on_both_paths(lockstep):
+    """Two fountains into 500 places in portable arithmetic: both engine paths drop as
+    many new particles as the twin, every frame, from the frame the pool fills on."""
+    fountain = dict(FOUNTAIN, rate=9000.0, lifetime=[0.3, 0.4])
+    data = scene_dict(emitters=[fountain, dict(fountain, name="second", rate=5000.0)],
+                      capacity=500, arithmetic="portable")
+    run = lockstep(parse_scene(data, name="full"))
+    for _ in range(30):  # 233 new a frame: full in frame 3; from frame 20 on, room again
+        run.step()
+    assert run.dropped[:2] == [0, 0] and run.counts[:3] == [233, 466, 500]
+    assert run.dropped[2] == 233 + 233 + 234 - 500  # what frame 3 could not place
+    assert min(run.dropped[3:19]) >= 233, "full, nobody dead: all of a frame's new ones"
+    assert min(run.dropped[19:]) < 233, "the first to die made room"
 
 
 # -- every integrator, every force, a height field ------------------------------------

@@ -70,7 +70,7 @@ digests = st.binary(min_size=16, max_size=16).map(bytes.hex)
 @st.composite
 def report_messages(draw) -> ReportMessage:
     """A report, with a drift sample (arbitrary bytes: NaN and all) of at most its live
-    count or without one."""
+    count or without one, and particles dropped at the capacity where some live."""
     particles = draw(st.integers(0, U32))
     size = draw(st.none() | st.integers(0, min(particles, 8)))
     sample = None if size is None else DriftSample(draw(st.binary(
@@ -79,7 +79,8 @@ def report_messages(draw) -> ReportMessage:
                          draw(st.integers(0, U32)),
                          tuple(draw(st.lists(st.integers(0, U32), min_size=len(PHASES),
                                              max_size=len(PHASES)))),
-                         draw(st.integers(0, U32)), draw(st.sampled_from(Status)), sample)
+                         draw(st.integers(0, U32)), draw(st.sampled_from(Status)), sample,
+                         dropped=draw(st.integers(0, U32)) if particles else 0)
 
 
 optional_names = st.just("") | names

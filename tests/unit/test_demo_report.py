@@ -114,3 +114,26 @@ def test_the_closing_table_holds_every_row():
 ])
 def test_the_plots_title_tells_the_flight_it_shows(altitude, story):
     assert flight_story(np.array(altitude)) == story
+
+
+def purple_pixels(path) -> int:
+    """Pixels of the plot in the colour of the dropped-particles line (tab:purple)."""
+    with Image.open(path) as image:
+        rgb = np.asarray(image.convert("RGB")).astype(int)
+    return int((np.abs(rgb - (148, 103, 189)).sum(axis=2) < 30).sum())
+
+
+def test_the_time_plot_carries_the_particles_dropped_at_capacity(tmp_path):
+    """Summed over 4 frames a bin (a long run's): a line in its own colour on the emission's
+    axis, drawn where the report counts drops; a report from before they were counted
+    plots without it."""
+    report = flight_report()
+    rates = [0.0] * 15 + [2500.0] * 8 + [0.0] * 7  # 30 bins of 4 frames: 120 frames
+    report["capacity_drops"] = {"capacity": 150_000, "total": 8000, "first_frame": 61,
+                                "dropped_at_first_frame": 250, "dropped_per_second": rates,
+                                "bin_frames": 4, "bin_seconds": 0.4}
+    path, _ = write_demo_plots(report, tmp_path / "drops")
+    assert purple_pixels(path) > 200
+    del report["capacity_drops"]
+    path, _ = write_demo_plots(report, tmp_path / "older")
+    assert purple_pixels(path) == 0

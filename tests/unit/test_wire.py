@@ -174,10 +174,10 @@ COST = tuple(range(3, 3 + len(PHASES)))  # a report's phase times, microseconds
 
 
 def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"",
-                particles: int = 1, exits: bytes = b"\x00") -> bytes:
+                particles: int = 1, exits: bytes = b"\x00", dropped: int = 0) -> bytes:
     """A report: name, the fixed fields, the domain exits (by default: none counted)."""
-    return name(node) + struct.pack(f"<16sII{len(PHASES)}IIB", bytes.fromhex(DIGEST),
-                                    particles, 2, *COST, 5, status) + exits + extra
+    return name(node) + struct.pack(f"<16sIII{len(PHASES)}IIB", bytes.fromhex(DIGEST),
+                                    particles, 2, dropped, *COST, 5, status) + exits + extra
 
 
 def sample_tail(count: int, records: int | None = None) -> bytes:
@@ -497,9 +497,9 @@ def test_crafted_signatures_match_encode():
     assert encode(InfoRequest(4, "front", REQUEST_NONCE), SESSION, MASTER, U64) == by_master(
         Kind.INFO_REQUEST, name(b"front") + struct.pack("<Q", REQUEST_NONCE), frame=4,
         run_id=U64)
-    report = ReportMessage(1, "front", DIGEST, 1, 2, COST, 5, Status.BEHIND)
-    assert encode(report, SESSION, MEMBER, 1) == by_member(Kind.REPORT, report_body(status=4),
-                                                           run_id=1)
+    report = ReportMessage(1, "front", DIGEST, 1, 2, COST, 5, Status.BEHIND, dropped=7)
+    assert encode(report, SESSION, MEMBER, 1) == by_member(
+        Kind.REPORT, report_body(status=4, dropped=7), run_id=1)
     assert encode(StateRequest(6, "left", DIGEST, nonce=REQUEST_NONCE), SESSION,
                   MEMBER) == by_member(Kind.STATE_REQUEST, state_request_body(), frame=6)
 
@@ -817,6 +817,8 @@ REJECTIONS = [
     ("param-signed-inf", by_master(Kind.FRAME, frame_body(params=(-math.inf,))), MEMBER,
      "bad-value"),
     ("report-status-5", craft(Kind.REPORT, report_body(status=5)), None, "bad-value"),
+    ("report-drops-with-none-live", craft(Kind.REPORT, report_body(particles=0, dropped=3)),
+     None, "bad-value"),
     ("info-flag-16", craft(Kind.INFO, info_body(flags=16)), None, "bad-value"),
     ("control-engine-3", craft(Kind.CONTROL, control_body(Command.WELCOME, b"front",
                                                          engine=3)), None, "bad-value"),

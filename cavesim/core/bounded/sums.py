@@ -1,6 +1,6 @@
 """Per-frame counts of a run of any length, summed into a fixed number of bins (the
-particles of each class leaving the field's box): unlike a thinned series, no count is
-lost, only the frames it is told apart by."""
+particles of each class leaving the field's box, those the capacity dropped): unlike a
+thinned series, no count is lost, only the frames it is told apart by."""
 
 from __future__ import annotations
 
@@ -42,3 +42,11 @@ class BinnedSums:
     def bins(self) -> list[list[int]]:
         """Each bin's sums, oldest first (the last may hold fewer than `stride` frames)."""
         return [list(b) for b in self._bins]
+
+    def rates(self, frame_seconds: float) -> list[list[float]]:
+        """Each bin's sums per second of the frames it holds, `frame_seconds` each."""
+        frames = [self.stride] * len(self._bins)
+        if frames:
+            frames[-1] = self.count - self.stride * (len(self._bins) - 1)
+        return [[n / (held * frame_seconds) for n in b]
+                for b, held in zip(self._bins, frames, strict=True)]

@@ -113,6 +113,7 @@ class TwinSystem:
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
         # per class, the particles that left the field's box in the last step (a grid's)
         self.domain_exits = np.zeros(len(scene.particle_classes), dtype=np.int64)
+        self.dropped = 0  # new particles the last step dropped because the capacity was full
 
     @property
     def live_count(self) -> int:
@@ -120,6 +121,7 @@ class TwinSystem:
 
     def write_particles(self, records: np.ndarray) -> None:
         self.particles = TwinParticles.from_records(records, self.dtype)
+        self.dropped = 0
 
     def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None,
                    turbulence: np.ndarray | None = None,
@@ -168,6 +170,8 @@ class TwinSystem:
         moved = TwinParticles(pos, low, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
+        # cavesim/gpu/engine/drops.py's count: survivors + emitted - live
+        self.dropped = len(moved.age) + int(self.emitters["count"].sum()) - self.live_count
 
     def _count_exits(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray) -> None:
         """step_particle's count: a sane step from inside the field's box to outside it."""

@@ -11,7 +11,7 @@ what the one before wrote (a storage barrier between them):
   3. compact.glsl: each block copies its survivors, in order, to their offsets in the back
      buffer;
   4. append.glsl: each emission segment (batch, emitter) spawns its particles at its offset,
-     the records at or past the capacity dropped.
+     the records at or past the capacity dropped (the scan counted them: `drops.py`).
 The order is the one transform feedback writes, and no step uses an unordered atomic
 (DESIGN, determinism rule 3), so both paths hold the same bytes on one driver
 (tests/gpu/test_engine_paths.py). The dispatches run with denormals flushed, as llvmpipe's
@@ -31,6 +31,7 @@ import numpy as np
 
 from cavesim.core.scene.model import Engine, Scene
 from cavesim.gpu.engine.domain_exits import counts_exits
+from cavesim.gpu.engine.drops import DROPPED
 from cavesim.gpu.engine.emission import Emission
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import (
@@ -80,14 +81,14 @@ class ComputePasses:
         self._compact = compact_program(ctx)
         self._append = append_program(ctx, scene) if emitters else None
         self._masks = buffer("alive_masks", block_count(scene.capacity) * 4)
-        self._counts = buffer("frame_counts", 4)
+        self._counts = buffer("frame_counts", DROPPED + 4)
         self._offset_entries = block_count(scene.capacity) + self._emitter_count
         self._offsets = buffer("offsets", self._offset_entries * 4)
         self.denormals_agree = _denormals_agree(ctx)
 
     @property
     def counts_buffer(self) -> moderngl.Buffer:
-        """The storage buffer whose first uint is the live count after the last frame."""
+        """The storage buffer holding the last frame's live and dropped counts (`drops.py`)."""
         return self._counts
 
     def advance(self, front: int, back: int, live: int, emission: Emission | None) -> None:

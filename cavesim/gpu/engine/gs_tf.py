@@ -7,7 +7,7 @@ transform-feedback passes and a move:
   2. emission (emit.glsl): the updated emitters stream their new particles, in
      (batch, emitter, n) order, into a scratch buffer;
   3. splice (splice.glsl): the new particles move after the survivors; what does not fit
-     the capacity is dropped, as transform feedback would drop it.
+     the capacity is dropped, as transform feedback would drop it, and counted (`drops.py`).
 Each transform-feedback pass is counted by a primitives query whose result lands in the
 frame's counts buffer (`PrimitiveCounts`): on the GPU where the context has query buffer
 objects, so the frame's only wait is the host's read of the live count (with the checksum's
@@ -26,6 +26,7 @@ from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.records import EMITTER_VERTEX_FORMAT, PARTICLE_BYTES, PARTICLE_VERTEX_FORMAT
 from cavesim.core.scene.model import Engine, Scene
 from cavesim.gpu.engine.domain_exits import counts_exits
+from cavesim.gpu.engine.drops import DROPPED, LIVE
 from cavesim.gpu.engine.emission import Emission
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import (
@@ -38,8 +39,9 @@ from cavesim.gpu.engine.uniforms import write_uniforms
 from cavesim.gpu.gl.fence import GpuFence
 from cavesim.gpu.gl.primitive_counts import PrimitiveCounts
 
-# The frame's counts buffer, as splice.glsl declares it: uints at these byte offsets
-LIVE, SURVIVORS, GENERATED = 0, 4, 8
+# The frame's counts buffer, as splice.glsl declares it: after LIVE and DROPPED, the
+# passes' primitives at these byte offsets
+SURVIVORS, GENERATED = 8, 12
 FRAME_COUNTS = 5  # its storage-buffer binding (as in the compute path's streams.glsl)
 
 BufferFactory = Callable[[str, int], moderngl.Buffer]
@@ -77,7 +79,7 @@ class GsTfPasses:
 
     @property
     def counts_buffer(self) -> moderngl.Buffer:
-        """The storage buffer whose first uint is the live count after the last frame."""
+        """The storage buffer holding the last frame's live and dropped counts (`drops.py`)."""
         return self._counts
 
     def advance(self, front: int, back: int, live: int, emission: Emission | None) -> None:
@@ -87,6 +89,7 @@ class GsTfPasses:
         """
         if emission is None or emission.batches == 0:
             self._particle_pass(front, back, live, LIVE)
+            self._counted.put(DROPPED, 0)  # nothing emitted: nothing to drop
             return
         self._particle_pass(front, back, live, SURVIVORS)
         with self._timers.segment("emitter_pass"):

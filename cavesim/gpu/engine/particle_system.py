@@ -8,6 +8,7 @@ into the back buffers by the scene's engine path, then swaps:
     append, giving the same bytes.
 Both leave the new live count on the GPU: the frame waits once, when the checksum reads it
 back with the digest (GS/TF also once per count where the context has no query buffers).
+Beside it each leaves how many new particles the full capacity dropped (`drops.py`).
 Only the scene's features are compiled in and allocated (see `programs.py`). The capacity
 is checked against the context's limits (`capacity.py`) before anything is allocated.
 
@@ -57,6 +58,7 @@ from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
 from cavesim.gpu.engine.domain_exits import DomainExits
+from cavesim.gpu.engine.drops import read_dropped
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
@@ -86,6 +88,7 @@ class ParticleSystem:
         self.emitters = EmitterTable.from_scene(scene)
         self.resources: dict[str, moderngl.Buffer | moderngl.Texture | moderngl.Texture3D] = {}
         self._live: int | None = 0  # None: the last frame's count is still on the GPU
+        self._dropped: int | None = 0  # likewise: the particles it dropped at the capacity
         self._current = 0  # index of the front buffers
         self._loading: int | None = None  # particles of the load staged in the back buffer
         # the buffers whose checksum tree the GPU holds, and their checksum
@@ -135,10 +138,10 @@ class ParticleSystem:
         same buffers, and give the same bytes). Its programs are compiled now."""
         if engine is self.engine:
             return
-        live = self.live_count  # the compute path may leave it on the GPU
+        live, dropped = self.live_count, self.dropped()  # the old path's, on the GPU
         self.scene = dataclasses.replace(self.scene, engine=engine)
         self._passes = self._passes_for(engine)
-        self._live = live
+        self._live, self._dropped = live, dropped
 
     def _buffer(self, name: str, size: int) -> moderngl.Buffer:
         buffer = self.ctx.buffer(reserve=max(size, 4))  # GL has no empty buffers
@@ -250,7 +253,8 @@ class ParticleSystem:
             write_uniforms(program, {"random_transform": frame.random_transform.T})
         if self._exits is not None and self._passes.counts_exits:
             self._exits.start_frame()
-        self._live = self._passes.advance(front, back, live, emission)
+        self._passes.advance(front, back, live, emission)
+        self._live = self._dropped = None  # the frame's counts are on the GPU
         self._current = back
 
     def domain_exits(self) -> tuple[int, ...] | None:
@@ -260,6 +264,14 @@ class ParticleSystem:
         if self._exits is None or not self._passes.counts_exits:
             return None
         return self._exits.read()
+
+    def dropped(self) -> int:
+        """New particles the last frame dropped because the capacity was full (0 after a
+        load). Read it after `checksum()`, whose wait it shares; before, it waits for the GPU
+        itself."""
+        if self._dropped is None:
+            self._dropped = read_dropped(self._passes.counts_buffer)
+        return self._dropped
 
     def bench_particle_pass(self, dt: np.float32) -> None:
         """The engine path's particle pass alone on the live stream, waited for (what
@@ -457,6 +469,7 @@ class ParticleSystem:
         if seed != self.scene.seed:
             self.reseed(seed)
         self._current, self._live, self._loading = back, count, None
+        self._dropped = 0  # a loaded state was not stepped into: nothing dropped
 
     def _stage_emitters(self, back: int, emitters: np.ndarray | None) -> None:
         count = len(self.emitters)

@@ -3,7 +3,8 @@
 `cavesim run` calls this after the master has written report.json (and the walls have
 been assembled): the report's "flight" list (one entry per frame of a helicopter scene:
 t, altitude, rotor_speed, induced_velocity, emission_rate) and "live_per_frame" (the
-live count after each frame) become two PNGs under out/plots and a few summary rows.
+live count after each frame) become two PNGs under out/plots and a few summary rows; the
+new particles the full capacity dropped ("capacity_drops") share the emission's axis.
 A run longer than 4,096 frames keeps every n-th frame of each ("flight_frames_stride",
 "live_frames_stride"). A scene without a helicopter has an empty flight list and gets
 neither.
@@ -25,6 +26,7 @@ from matplotlib.ticker import StrMethodFormatter  # noqa: E402
 WIDTH_IN, DPI = 10.0, 100  # 1000 px wide
 THOUSANDS = StrMethodFormatter("{x:,.0f}")
 ALTITUDE_COLOUR, LIVE_COLOUR, EMISSION_COLOUR = "tab:green", "tab:blue", "tab:red"
+DROPPED_COLOUR = "tab:purple"
 ALTITUDE_CHANGE = 1.0  # m of the skids' altitude: less is hovering, for the plot's title
 LANDED = 0.2  # m: the skids this close to the ground stand on it
 
@@ -42,7 +44,20 @@ def _series(report: dict) -> dict[str, np.ndarray]:
     return {"t": np.array([f["t"] for f in flight], dtype=float),
             "altitude": np.array([f["altitude"] for f in flight], dtype=float),
             "emission": np.array([f["emission_rate"] for f in flight], dtype=float),
-            "live": live[:n_live]}
+            "live": live[:n_live], **_drops(report)}
+
+
+def _drops(report: dict) -> dict[str, np.ndarray]:
+    """Dropped particles per second and the end time of each bin they were summed over
+    (none in a report from before they were counted), and the capacity."""
+    drops = report.get("capacity_drops") or {}
+    rates = np.asarray(drops.get("dropped_per_second", ()), dtype=float)
+    if not len(rates):
+        return {"dropped_t": rates, "dropped": rates, "capacity": None}
+    frame_seconds = drops["bin_seconds"] / drops["bin_frames"]
+    ends = np.arange(1, len(rates) + 1) * drops["bin_frames"]  # the last may be cut short
+    return {"dropped_t": np.minimum(ends, report["frames"]) * frame_seconds,
+            "dropped": rates, "capacity": drops["capacity"]}
 
 
 def write_demo_plots(report: dict, out_dir: Path) -> list[Path]:
@@ -94,6 +109,9 @@ def _plot_against_time(s: dict[str, np.ndarray]):
 
     lines = bottom.plot(s["t"][:len(s["live"])], s["live"], color=LIVE_COLOUR, lw=2,
                         label="live particles")
+    if s["capacity"] is not None:
+        lines.append(bottom.axhline(s["capacity"], color=LIVE_COLOUR, ls="--", lw=1,
+                                    label=f"capacity, {s['capacity']:,}"))
     bottom.set_ylabel("live particles", color=LIVE_COLOUR)
     bottom.tick_params(axis="y", labelcolor=LIVE_COLOUR)
     bottom.set_ylim(bottom=0.0)
@@ -103,6 +121,9 @@ def _plot_against_time(s: dict[str, np.ndarray]):
     rate = bottom.twinx()
     lines += rate.plot(s["t"], s["emission"], color=EMISSION_COLOUR, lw=1.5,
                        label="emission rate")
+    if len(s["dropped"]):
+        lines += rate.plot(s["dropped_t"], s["dropped"], color=DROPPED_COLOUR, lw=1.5,
+                           drawstyle="steps-pre", label="dropped at capacity")
     rate.set_ylabel("emission rate (particles/s)", color=EMISSION_COLOUR)
     rate.tick_params(axis="y", labelcolor=EMISSION_COLOUR)
     rate.set_ylim(bottom=0.0)

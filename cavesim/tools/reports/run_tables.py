@@ -17,6 +17,7 @@ def summary_table(report: dict) -> Table:
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
         ("live particles (last / max)",
          f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
+        *drop_rows(report.get("capacity_drops", {})),
         *exit_rows(report.get("domain_exits", {})),
         ("lost for good", ", ".join(report["final"].get("lost", ())) or "none"),
         ("divergences", report["event_totals"]["divergences"]),
@@ -26,6 +27,17 @@ def summary_table(report: dict) -> Table:
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
     return _table("cavesim run", rows)
+
+
+def drop_rows(drops: dict) -> list[tuple[str, str]]:
+    """The new particles the full capacity dropped, from the first frame it did."""
+    if not drops:
+        return []
+    held = f"capacity {drops['capacity']:,}"
+    if not drops["total"]:
+        return [("dropped at capacity", f"none ({held})")]
+    return [("dropped at capacity",
+             f"{drops['total']:,} from frame {drops['first_frame']} ({held})")]
 
 
 def exit_rows(exits: dict) -> list[tuple[str, str]]:

@@ -16,8 +16,9 @@ from cavesim.core.scene.model import Engine
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
-# digest, counts, each phase's microseconds (FRAME_PHASES), rejected, status
-_REPORT = struct.Struct(f"<16sII{len(PHASES)}IIB")
+# digest, counts (live particles, emitters, new particles dropped at the capacity), each
+# phase's microseconds (FRAME_PHASES), rejected, status
+_REPORT = struct.Struct(f"<16sIII{len(PHASES)}IIB")
 _EXITS = struct.Struct("<B")  # classes whose domain exits follow, a uint each (0: not counted)
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
@@ -47,6 +48,7 @@ class ReportMessage:
     sample: DriftSample | None = None  # mixed-hardware mode: its records sample_indices names
     # per particle class, those that left the field's box this frame; () where not counted
     domain_exits: tuple[int, ...] = ()
+    dropped: int = 0  # new particles this frame that the full capacity dropped
 
 
 @dataclass(frozen=True)
@@ -108,8 +110,11 @@ def write_report(m: ReportMessage) -> bytes:
     if len(m.domain_exits) > MAX_PARTICLE_CLASSES:
         raise ValueError(f"a report counts exits of at most {MAX_PARTICLE_CLASSES} classes, "
                          f"got {len(m.domain_exits)}")
+    if not 0 <= m.dropped < 2**32:
+        raise ValueError(f"a report's dropped count must be in [0, 2**32), got {m.dropped}")
     body = name_bytes(m.node) + _REPORT.pack(
-        digest_bytes(m.digest), m.particles, m.emitters, *m.cost_us, m.rejected, m.status)
+        digest_bytes(m.digest), m.particles, m.emitters, m.dropped, *m.cost_us, m.rejected,
+        m.status)
     body += _EXITS.pack(len(m.domain_exits)) + struct.pack(f"<{len(m.domain_exits)}I",
                                                             *m.domain_exits)
     if m.sample is None:  # the bit-exact mode's report: no tail
@@ -125,13 +130,17 @@ def read_report(frame: int, payload: bytes) -> ReportMessage:
     if len(rest) < _REPORT.size:
         raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
                                            f"expected {_REPORT.size}")
-    digest, particles, emitters, *cost_us, rejected, status = _REPORT.unpack_from(rest)
+    digest, particles, emitters, dropped, *cost_us, rejected, status = \
+        _REPORT.unpack_from(rest)
     if status not in Status.__members__.values():
         raise ProtocolError("bad-value", f"report status {status} is unknown")
+    if dropped and not particles:  # a frame drops only what a full pool cannot take
+        raise ProtocolError("bad-value", f"a report drops {dropped} particles at the "
+                                         f"capacity with none live: a drop needs a full pool")
     exits, tail = _read_exits(rest[_REPORT.size:])
     sample = _read_sample(tail, particles) if tail else None
     return ReportMessage(frame, node, digest.hex(), particles, emitters, tuple(cost_us),
-                         rejected, Status(status), sample, exits)
+                         rejected, Status(status), sample, exits, dropped)
 
 
 def _read_exits(tail: bytes) -> tuple[tuple[int, ...], bytes]:

@@ -30,9 +30,11 @@ layout(std430, binding = 3) buffer Offsets {
 layout(std430, binding = 4) buffer EmitterStates {
     uvec4 emitter_states[];
 };
-// What the host reads back: the live count after the frame
+// What the host reads back: the live count after the frame, and the new particles that
+// did not fit the capacity (cavesim/gpu/engine/drops.py)
 layout(std430, binding = 5) buffer FrameCounts {
     uint live_count;
+    uint dropped;
 };
 
 Particle load_front(uint i) {

@@ -6,7 +6,8 @@
 // invocation scans those run totals, then each writes its run's prefixes: integer sums in
 // a fixed order, two barriers, no atomics. Sums saturate at the capacity: a record at or
 // past it is dropped (as transform feedback drops what does not fit), so the total is the
-// live count, min(survivors + generated, capacity).
+// live count, min(survivors + generated, capacity); the same sums unsaturated give the
+// dropped count, survivors + generated - live.
 #include "/include/streams.glsl"
 
 #if defined COMPUTE_SHADER
@@ -17,6 +18,7 @@ uniform uint emitter_count;
 uniform uint capacity;
 
 shared uint run_totals[SCAN_SIZE];
+shared uint run_wanted[SCAN_SIZE];  // each run's entries summed without the capacity
 
 uint entry(uint i) {
     if (i < block_count) {
@@ -35,19 +37,26 @@ void main() {
     uint begin = min(t * per_run, entries);
     uint end = min(begin + per_run, entries);
     uint sum = 0u;
+    uint wanted = 0u;
     for (uint i = begin; i < end; ++i) {
-        sum = min(sum + entry(i), capacity);
+        uint n = entry(i);
+        sum = min(sum + n, capacity);
+        wanted += n;
     }
     run_totals[t] = sum;
+    run_wanted[t] = wanted;
     barrier();
     if (t == 0u) {
         uint total = 0u;
+        uint all_wanted = 0u;
         for (uint r = 0u; r < uint(SCAN_SIZE); ++r) {
             uint run = run_totals[r];
             run_totals[r] = total;
             total = min(total + run, capacity);
+            all_wanted += run_wanted[r];
         }
         live_count = total;
+        dropped = all_wanted - total;
     }
     barrier();
     uint at = run_totals[t];

@@ -3,7 +3,7 @@
 // primitives queries, written into `FrameCounts` on the GPU (or by the host where the
 // context has no query buffer objects): the host never needs them to place the emission.
 // What no longer fits the capacity is dropped, as transform feedback drops it, so the back
-// stream holds the bytes the emission would have streamed there itself.
+// stream holds the bytes the emission would have streamed there itself; how many is counted.
 #if defined COMPUTE_SHADER
 layout(local_size_x = WORKGROUP_SIZE) in;
 uniform uint capacity;
@@ -17,6 +17,7 @@ layout(std430, binding = 1) buffer BackStream {
 };
 layout(std430, binding = 5) buffer FrameCounts {
     uint live_count;  // written here: what the host and the checksum read
+    uint dropped;  // written here: the new records past the capacity (drops.py)
     uint survivors;  // the particle pass's records, at the start of the back stream
     uint generated;  // the emission's records, every one counted, kept or not
 };
@@ -25,6 +26,7 @@ void main() {
     uint kept = min(generated, capacity - survivors);
     if (gl_GlobalInvocationID.x == 0u) {
         live_count = survivors + kept;
+        dropped = generated - kept;
     }
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     for (uint i = gl_GlobalInvocationID.x; i < kept; i += stride) {
