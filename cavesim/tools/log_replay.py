@@ -56,6 +56,8 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
     result = ReplayResult(str(log_path), str(scene_path), damage=frames.damage,
                           warnings=warnings)
     for logged in frames:
+        if logged.message.reset:
+            system.restart(scene.seed)
         system.step(logged.message.inputs, driver.decode(logged.message.params))
         state = system.checksum()
         result.frames += 1
