@@ -93,8 +93,8 @@ class PreviewControls:
         glfw.set_scroll_callback(window, self._on_scroll)
 
     def advance(self) -> TrackingMessage | None:
-        """Move by what is held since the last call; the pose to publish, or None while
-        nobody has touched anything."""
+        """Move by what is held since the last call; the message to publish (a pose once
+        someone moved, the session controls once someone asked), or None before either."""
         now = time.monotonic()
         dt, self._last = min(now - self._last, 0.25), now
         for key in self.held:
