@@ -26,6 +26,7 @@ from cavesim.core.errors import ContextError
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, attach_context
 from cavesim.gpu.gl.denormals import flushing_denormals
 from cavesim.gpu.render.programs import PRESENT
+from cavesim.gpu.render.text import TextLine
 
 log = logging.getLogger("cavesim.window")
 GL_BACK, GL_BACK_LEFT, GL_BACK_RIGHT = 0x0405, 0x0402, 0x0403
@@ -80,6 +81,15 @@ class WallWindow:
             self._draw_buffer(GL_BACK)
         screen.viewport = (0, 0, *self.size)
         self.ctx.extra["framebuffer"].use()  # the engine's transform feedback needs it bound
+
+    def overlay(self, line: TextLine, at: tuple[int, int] = (0, 0)) -> None:
+        """Blend a line of text into the back buffer, `at` pixels from its lower left."""
+        self.ctx.screen.use()
+        line.draw(self.size, at)
+        self.ctx.extra["framebuffer"].use()
+
+    def set_title(self, title: str) -> None:
+        glfw.set_window_title(self.window, title)
 
     def read(self, region: Region = WHOLE) -> np.ndarray:
         """The back buffer (in `region`) as it is about to be shown: (height, width, 3)

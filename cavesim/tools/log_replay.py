@@ -64,6 +64,8 @@ class LogReplay:
         """Step one logged frame and compare its checksum (a mismatch joins `result`);
         the frame's decoded scene parameters."""
         scene = self.driver.decode(logged.message.params)
+        if logged.message.reset:  # the run went back to the scene's start before this step
+            self.system.restart(self.system.scene.seed)
         self.system.step(logged.message.inputs, scene)
         state = self.system.checksum()
         self.result.frames += 1

@@ -98,7 +98,7 @@ def run(args: argparse.Namespace, console) -> int:
         else:
             with ReportFile(args.report) as report:
                 record = run_master(config, progress, report.checkpoint)
-                report.finish(record.summary(), record.interrupted)
+                report.finish(record.summary(), record.interrupted, record.user_stopped)
     if record.interrupted:
         return INTERRUPTED
     return lost_walls_code(record.final.lost if record.final else (), args.on_loss, "master")

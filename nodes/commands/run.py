@@ -135,6 +135,9 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
                 task, completed=k, live=f"{live:,} live"), checkpoint=checkpoint)
             if record.interrupted:
                 console.print("[yellow]interrupted: the cluster was stopped")
+            elif record.user_stopped:
+                console.print(f"the run ended at the user's request after frame "
+                              f"{record.frames} (Esc in the preview window)")
             report = record.summary()
             with writing(plan.out):
                 if plan.draws:
@@ -145,7 +148,7 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
                         load_cave(plan.cave), plan.out, MasterConfig.dt * plan.render_every,
                         progress, "run")
                 report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
-        report_file.finish(report, record.interrupted)
+        report_file.finish(report, record.interrupted, record.user_stopped)
     frame_log, logs = plan.out / FRAME_LOG, plan.out / "logs"
     check_written(report_file.path, frame_log, logs)
     console.print(summary_table(report))

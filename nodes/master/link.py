@@ -7,8 +7,9 @@ frame already sent. Refusals are counted (and
 logged at a bounded rate), never queued; a wall whose every message fails its signature, or
 that refuses the master's signed queries, is named with a hint about --key-file. The event
 queue is bounded: when the master falls that far behind, further events are dropped and
-counted (the barrier asks again). Only the latest tracking message is kept, and only one
-of this run, signed by a tracker, fresh and newer than its sender's last. The master's
+counted (the barrier asks again). Only the latest tracking message is kept (the latest
+pose, and the latest session controls of a preview window), and only one of this run,
+signed by a tracker or a wall, fresh and newer than its sender's last. The master's
 liveliness token, keyed by its run id, tells the nodes it is there; another master's token
 becomes OtherMaster (one master per session), and liveliness of the session's walls
 WallUp/WallDown. Nothing a callback raises reaches Zenoh's thread
@@ -76,7 +77,8 @@ class ZenohMasterLink:
         self.rejects = RejectCounter("master")
         self.mismatch = KeyMismatch("master")
         self.dropped = 0  # events the full queue could not take
-        self.tracking: TrackingMessage | None = None  # the latest; the master samples it
+        self.tracking: TrackingMessage | None = None  # the latest pose; the master samples it
+        self.controller: TrackingMessage | None = None  # the latest with session controls
         self._tracking_sent: dict[Identity | None, int] = {}  # per signer: the last taken
         self.last_sent = 0  # the newest frame sent: a report of a later one is refused
         self._lock = threading.Lock()
@@ -208,15 +210,18 @@ class ZenohMasterLink:
             except ProtocolError as e:
                 self._reject(e, sample)
                 return
-            self.tracking = message
+            if message.posed:
+                self.tracking = message
+            if message.controls is not None:
+                self.controller = message
         else:
             self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
                                                      f"tracking key"), sample)
 
     def _check_tracking(self, envelope: Envelope, message: TrackingMessage) -> None:
         """ProtocolError unless `message` is of this run, signed by a tracker (or a wall's
-        preview window) with keys, sent within MAX_TRACKING_AGE of now and after the last
-        one its sender had taken."""
+        preview window, the only one that may carry session controls) with keys, sent within
+        MAX_TRACKING_AGE of now and after the last one its sender had taken."""
         if envelope.run_id != self.run_id:
             raise ProtocolError("wrong-run", f"tracking of run {envelope.run_id:#018x}, this "
                                              f"run is {self.run_id:#018x}")
@@ -224,6 +229,10 @@ class ZenohMasterLink:
                                or envelope.signer.role not in (TRACKER, WALL)):
             raise ProtocolError("wrong-signer", f"tracking signed by "
                                                 f"{envelope.signer or 'no member'}")
+        if envelope.keyed and message.controls is not None and envelope.signer.role != WALL:
+            raise ProtocolError("wrong-signer", f"session controls from "
+                                                f"{envelope.signer}: only a wall's preview "
+                                                f"window sends them")
         age = time.time() - message.sent_ns / 1e9
         if abs(age) > MAX_TRACKING_AGE:
             raise ProtocolError("stale-tracking", f"sent {age:.1f} s ago; at most "

@@ -38,7 +38,7 @@ from typing import Protocol
 import numpy as np
 
 from cavesim.core.clock import Clock
-from cavesim.core.drivers import driver_for
+from cavesim.core.drivers import DriverStep, driver_for
 from cavesim.core.errors import ClusterError, ProtocolError
 from cavesim.core.frame import FrameInput
 from cavesim.core.framelog import FrameLogWriter
@@ -85,8 +85,18 @@ from nodes.master.forensics import (
     investigate,
     write_report,
 )
-from nodes.master.run_record import Divergence, FinalAgreement, Join, Loss, Resync, RunRecord, Stall
+from nodes.master.run_record import (
+    Divergence,
+    FinalAgreement,
+    Join,
+    Loss,
+    Resync,
+    RunRecord,
+    Stall,
+    UserAction,
+)
 from nodes.master.tolerance import Tolerance, ToleranceMode
+from nodes.master.user_requests import Asked, UserRequests
 
 log = logging.getLogger("cavesim.master")
 RESYNC_MARGIN = 5.0  # s beyond a snapshot's transfer: the RESYNC command, the node's report
@@ -129,7 +139,8 @@ class Link(Protocol):
     run_id: int
     rejects: RejectCounter  # the messages it refused, by reason
     dropped: int  # events its full queue could not take
-    tracking: TrackingMessage | None  # the latest tracker message
+    tracking: TrackingMessage | None  # the latest tracker message with a pose
+    controller: TrackingMessage | None  # the latest with session controls (a preview's)
 
     def send(self, message: FrameMessage | ControlMessage) -> None: ...
 
@@ -149,7 +160,7 @@ class Master:
         self.config = config
         self.link = link
         self.before_frame = before_frame or (lambda k: None)
-        scene = load_scene(config.scene)
+        self.scene = scene = load_scene(config.scene)
         self.scene_digest = scene_digest(scene)  # every wall must hold this scene
         self.texture_size = scene.random_texture_size
         self.driver = driver_for(scene)
@@ -164,6 +175,10 @@ class Master:
         self.clock = Clock(config.dt, config.realtime, config.max_frame_time,
                            config.max_substeps)
         self.head = ScriptedHead()
+        self.requests = UserRequests()  # the preview's pause, reset and quit
+        self.paused = False
+        self.steps = 0  # of simulation time since the start or the last reset
+        self.last_step: DriverStep | None = None  # the scene's state a paused frame holds
         self.tracking_quiet = False  # the latest tracking message is older than allowed
         self.stopping = False
         self.refused = False  # another master was there first: the nodes are its own
@@ -312,7 +327,12 @@ class Master:
             for k in range(1, self.config.frames + 1):
                 self.clock.wait_for_frame()
                 self.before_frame(k)
-                message = self._make_frame(k)
+                asked = self.requests.take(self.link.controller)
+                if asked.quit:
+                    self.record.user_stopped = True
+                    log.info("the user asked the run to end, after frame %d", k - 1)
+                    break
+                message = self._make_frame(k, asked)
                 barrier = self._barrier(k, message)
                 vote = self._agree(k)
                 agreed = self.reports[vote.source]
@@ -334,18 +354,41 @@ class Master:
         self._record_final_agreement()
         return self.record
 
-    def _make_frame(self, k: int) -> FrameMessage:
+    def _make_frame(self, k: int, asked: Asked) -> FrameMessage:
         """Frame k's inputs, drawn and sampled once: the clock's matrix, the tracked head
-        (or the script's when no tracker has spoken), and the scene driver's state."""
-        t = k * self.config.dt
+        (or the script's when no tracker has spoken), and the scene driver's state.
+
+        A reset starts the scene over: a new driver at simulation time 0, and the frame
+        tells every node to go back to the start state before it steps (its step is the
+        scene's first, also in a pause, which then holds that state). A paused frame holds
+        simulation time: dt is 0, which leaves every particle where it is and emits none,
+        and the scene's state is the last frame's; the frame still goes through the
+        barrier, so the checksums keep proving the walls equal, the head still moves, and
+        the frame log keeps one record per frame."""
+        if asked.reset:
+            self.driver, self.steps = driver_for(self.scene), 0
+            self.record.user_actions.append(UserAction(k, "reset"))
+            log.info("frame %d: the user reset the scene", k)
+        paused = asked.paused and self.last_step is not None  # a pause holds a state made
+        if paused != self.paused:
+            self.paused = paused
+            self.record.user_actions.append(UserAction(k, "pause" if paused else "resume"))
         tracked = self._tracked()
-        step = self.driver.advance(t, self.config.dt, tracked.wand if tracked else None)
-        self.record.clamped_inputs += step.clamped
+        if paused and not asked.reset:
+            self.record.paused_frames += 1
+            step, dt = self.last_step, 0.0
+        else:
+            self.steps += 1
+            step, dt = self.driver.advance(self.steps * self.config.dt, self.config.dt,
+                                           tracked.wand if tracked else None), self.config.dt
+            self.record.clamped_inputs += step.clamped
+            self.last_step = step
         if step.flight is not None:
             self.record.add_flight(step.flight)
-        inputs = FrameInput(self.config.dt, draw_transform(self.matrix_rng, self.texture_size))
-        return FrameMessage(k, inputs, step.wand, self.driver.encode(step.frame),
-                            tracked.head if tracked else self.head.at(t))
+        inputs = FrameInput(dt, draw_transform(self.matrix_rng, self.texture_size))
+        head = tracked.head if tracked else self.head.at(self.steps * self.config.dt)
+        return FrameMessage(k, inputs, step.wand, self.driver.encode(step.frame), head,
+                            asked.reset)
 
     def _tracked(self) -> TrackingMessage | None:
         """The latest tracking message, or None before any. One sent longer ago than

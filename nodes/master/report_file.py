@@ -28,6 +28,7 @@ from cavesim.core.output import write_atomically, writing
 from nodes.master.run_record import RunRecord
 
 RUNNING, FINISHED, INTERRUPTED, FAILED = "running", "finished", "interrupted", "failed"
+STOPPED = "stopped"  # at the user's request (Esc in the preview window)
 CHECKPOINT_SECONDS = 1.0
 BUDGET_RATIO = 20  # a checkpoint that took t seconds waits at least BUDGET_RATIO * t
 RESERVE_MARGIN = 16 * 1024  # bytes held beyond twice the last checkpoint: the final fields
@@ -82,9 +83,10 @@ class ReportFile:
             took = time.monotonic() - started
             self._due = started + max(self.every_seconds, BUDGET_RATIO * took)
 
-    def finish(self, report: dict, interrupted: bool) -> Path:
-        """Write the run's final report (OutputError if it cannot be)."""
-        self._write(report, INTERRUPTED if interrupted else FINISHED)
+    def finish(self, report: dict, interrupted: bool, stopped: bool = False) -> Path:
+        """Write the run's final report (OutputError if it cannot be); `stopped`: the user
+        ended it."""
+        self._write(report, INTERRUPTED if interrupted else STOPPED if stopped else FINISHED)
         self._reserve.release()
         return self.path
 

@@ -20,7 +20,7 @@ from nodes.master.exit_book import DomainExitBook
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
-EVENT_LISTS = ("divergences", "resyncs", "stalls", "losses", "joins")
+EVENT_LISTS = ("divergences", "resyncs", "stalls", "losses", "joins", "user_actions")
 
 
 @dataclass(frozen=True)
@@ -81,6 +81,17 @@ class Join:
 
 
 @dataclass(frozen=True)
+class UserAction:
+    """A request of the preview's user that took effect at `frame`."""
+
+    frame: int
+    action: str  # "pause", "resume" or "reset"
+
+    def to_json(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
 class FinalAgreement:
     frame: int
     members: tuple[str, ...]
@@ -135,6 +146,8 @@ class RunRecord:
     run_id: int = 0  # the master's, in every message of the run
     frames: int = 0
     interrupted: bool = False
+    user_stopped: bool = False  # the preview's user ended the run (Esc)
+    paused_frames: int = 0  # frames the user held (dt 0)
     clamped_inputs: int = 0  # tracked wand positions pulled back into reach
     clock_dropped_seconds: float = 0.0  # real-time mode: wall time given up to hitches
     seconds: float = 0.0
@@ -146,6 +159,7 @@ class RunRecord:
     stalls: FirstEntries[Stall] = field(default_factory=FirstEntries)
     losses: FirstEntries[Loss] = field(default_factory=FirstEntries)
     joins: FirstEntries[Join] = field(default_factory=FirstEntries)
+    user_actions: FirstEntries[UserAction] = field(default_factory=FirstEntries)
     # helicopter scenes: one per frame made (an interrupted run makes one more than it does)
     flight: DecimatedSeries[FlightSample] = field(default_factory=DecimatedSeries)
     final: FinalAgreement | None = None  # the last frame: members and whether they agree
@@ -186,6 +200,8 @@ class RunRecord:
             "arithmetic": self.arithmetic,
             "frames": self.frames,
             "interrupted": self.interrupted,
+            "user_stopped": self.user_stopped,
+            "paused_frames": self.paused_frames,
             "nodes": list(self.walls),
             "walls_of_nodes": {node: list(self.node_walls.get(node, (node,)))
                                for node in self.walls},

@@ -2,12 +2,15 @@
 the wand, and the node publishes the result as the same `TrackingMessage` a real tracker
 sends (`cavesim tracker`), so the master's input path is a real CAVE's.
 
-Keys: arrows move the head (left/right, forward/back), Page Up/Down raise and lower it;
-W/S/A/D move the wand forward/back/left/right, E/Q raise and lower it, R/F tilt it up and
-down (rotor speed), Z/X turn it (the helicopter's heading). Dragging with the left mouse
-button moves the wand across, the wheel tilts it. A gamepad's left stick moves the wand,
-its right stick the head, its triggers tilt. Nothing is published until the first input,
-so the scene's own script plays until someone takes over.
+Keys (`BINDINGS`, which the window's help line shows): arrows move the head (left/right,
+forward/back), Page Up/Down raise and lower it; W/S/A/D move the wand forward/back/left/
+right, E/Q raise and lower it, T/G tilt it up and down (rotor speed), Z/X turn it (the
+helicopter's heading); P pauses and resumes the run, R resets the scene, Esc ends the run.
+Dragging with the left mouse button moves the wand across, the wheel tilts it. A gamepad's
+left stick moves the wand, its right stick the head, its triggers tilt. No pose is
+published until the first move, so the scene's own script plays until someone takes over;
+pause, reset and quit go to the master as session controls (`SessionControls`) from the
+first press on, and the master applies them to every node on the same frame.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ import time
 import glfw
 import numpy as np
 
-from cavesim.core.wire import HeadState, TrackingMessage, WandState
+from cavesim.core.wire import HeadState, SessionControls, TrackingMessage, WandState
 
 HEAD_SPEED = 1.0  # m/s
 WAND_SPEED = 0.5  # m/s
@@ -31,18 +34,46 @@ WAND_START = (0.0, 0.0, 1.0)
 STICK_DEAD_ZONE = 0.15
 MAX_TILT = 90.0
 
-# key: (what it moves, axis, direction)
-KEYS = {
-    glfw.KEY_LEFT: ("head", 0, -1), glfw.KEY_RIGHT: ("head", 0, 1),
-    glfw.KEY_DOWN: ("head", 1, -1), glfw.KEY_UP: ("head", 1, 1),
-    glfw.KEY_PAGE_DOWN: ("head", 2, -1), glfw.KEY_PAGE_UP: ("head", 2, 1),
-    glfw.KEY_A: ("wand", 0, -1), glfw.KEY_D: ("wand", 0, 1),
-    glfw.KEY_S: ("wand", 1, -1), glfw.KEY_W: ("wand", 1, 1),
-    glfw.KEY_Q: ("wand", 2, -1), glfw.KEY_E: ("wand", 2, 1),
-    glfw.KEY_F: ("tilt", 0, -1), glfw.KEY_R: ("tilt", 0, 1),
-    glfw.KEY_Z: ("heading", 0, 1), glfw.KEY_X: ("heading", 0, -1),
-}
+# what each key does, in groups as the help line names them: a move is (what it moves, axis,
+# direction), a request one of REQUESTS
+BINDINGS: tuple[tuple[str, dict], ...] = (
+    ("head", {glfw.KEY_LEFT: ("head", 0, -1), glfw.KEY_RIGHT: ("head", 0, 1),
+              glfw.KEY_DOWN: ("head", 1, -1), glfw.KEY_UP: ("head", 1, 1),
+              glfw.KEY_PAGE_DOWN: ("head", 2, -1), glfw.KEY_PAGE_UP: ("head", 2, 1)}),
+    ("fly", {glfw.KEY_W: ("wand", 1, 1), glfw.KEY_A: ("wand", 0, -1),
+             glfw.KEY_S: ("wand", 1, -1), glfw.KEY_D: ("wand", 0, 1),
+             glfw.KEY_E: ("wand", 2, 1), glfw.KEY_Q: ("wand", 2, -1)}),
+    ("tilt", {glfw.KEY_T: ("tilt", 0, 1), glfw.KEY_G: ("tilt", 0, -1)}),
+    ("turn", {glfw.KEY_Z: ("heading", 0, 1), glfw.KEY_X: ("heading", 0, -1)}),
+    ("pause", {glfw.KEY_P: "pause"}),
+    ("reset", {glfw.KEY_R: "reset"}),
+    ("quit", {glfw.KEY_ESCAPE: "quit"}),
+)
+REQUESTS = ("pause", "reset", "quit")
+MOVES = {key: does for _, keys in BINDINGS for key, does in keys.items()
+         if does not in REQUESTS}
+ASKS = {key: does for _, keys in BINDINGS for key, does in keys.items() if does in REQUESTS}
 SPEEDS = {"head": HEAD_SPEED, "wand": WAND_SPEED, "tilt": TILT_SPEED, "heading": TURN_SPEED}
+_KEY_NAMES = {glfw.KEY_LEFT: "Left", glfw.KEY_RIGHT: "Right", glfw.KEY_DOWN: "Down",
+              glfw.KEY_UP: "Up", glfw.KEY_PAGE_DOWN: "PgDn", glfw.KEY_PAGE_UP: "PgUp",
+              glfw.KEY_ESCAPE: "Esc"}  # the others are letters, whose GLFW code is ASCII
+
+
+def key_name(key: int) -> str:
+    return _KEY_NAMES.get(key) or chr(key)
+
+
+def pressed(controls: SessionControls | None, request: str) -> SessionControls:
+    """The controls after a press of `request`'s key: pause toggles, reset counts, quit
+    holds."""
+    c = controls or SessionControls()
+    return SessionControls(c.paused != (request == "pause"), c.resets + (request == "reset"),
+                           c.quit or request == "quit")
+
+
+def help_line() -> str:
+    """The preview's one line of help: every group's keys and what they do."""
+    return "  ".join(f"{'/'.join(map(key_name, keys))} {group}" for group, keys in BINDINGS)
 
 
 class PreviewControls:
@@ -52,7 +83,8 @@ class PreviewControls:
         self.tilt = 0.0  # degrees, nose up positive
         self.heading = 0.0  # degrees, 0 = toward the front wall
         self.held: set[int] = set()
-        self.touched = False
+        self.touched = False  # someone moved: the pose is ours from now on
+        self.controls: SessionControls | None = None  # from the first request on
         self._drag: tuple[float, float] | None = None
         self._last = time.monotonic()
         glfw.set_key_callback(window, self._on_key)
@@ -61,18 +93,21 @@ class PreviewControls:
         glfw.set_scroll_callback(window, self._on_scroll)
 
     def advance(self) -> TrackingMessage | None:
-        """Move by what is held since the last call; the pose to publish, or None while
-        nobody has touched anything."""
+        """Move by what is held since the last call; the message to publish (a pose once
+        someone moved, the session controls once someone asked), or None before either."""
         now = time.monotonic()
         dt, self._last = min(now - self._last, 0.25), now
         for key in self.held:
-            target, axis, sign = KEYS[key]
+            target, axis, sign = MOVES[key]
             self._move(target, axis, sign * SPEEDS[target] * dt)
         self._gamepad(dt)
-        if not self.touched:
+        if not self.touched and self.controls is None:
             return None
         return TrackingMessage(0, HeadState(tuple(self.head)),
-                               WandState(tuple(self.wand), self.orientation()), time.time_ns())
+                               WandState(tuple(self.wand), self.orientation()), time.time_ns(),
+                               self.touched, self.controls)
+
+
 
     def orientation(self) -> tuple[float, float, float, float]:
         """The wand's quaternion (xyzw): turned by `heading` about z, then tilted about x."""
@@ -109,7 +144,11 @@ class PreviewControls:
             self.touched = True
 
     def _on_key(self, window, key, scancode, action, mods) -> None:
-        if key not in KEYS:
+        if key in ASKS:
+            if action == glfw.PRESS:
+                self.controls = pressed(self.controls, ASKS[key])
+            return
+        if key not in MOVES:
             return
         self.touched = True
         if action == glfw.PRESS:

@@ -351,7 +351,7 @@ class WallNode:
                 return
             self.timer.lap("decode")
             self.timer.arm_gpu(k)
-            self._step(k, message.inputs, scene)
+            self._step(k, message.inputs, scene, message.reset)
             if self.live is not None:
                 self.live.show(k, message, scene)
                 self.timer.rendered()
@@ -374,7 +374,9 @@ class WallNode:
                                     state.emitters, NO_COST, self.rejects.total, Status.BEHIND),
                       keep=False)
 
-    def _step(self, k: int, inputs: FrameInput, scene: SceneFrame) -> None:
+    def _step(self, k: int, inputs: FrameInput, scene: SceneFrame, reset: bool) -> None:
+        if reset:  # the master's reset: the scene's start state, then this frame's step
+            self.system.restart(self.seed)
         used = inputs
         if self._fault("stale", k) and self.previous_inputs is not None:
             used = FrameInput(inputs.dt, self.previous_inputs.random_transform)
@@ -584,7 +586,7 @@ def open_node_window(config: NodeConfig, cave: Cave | None) -> WallWindow | None
     if cave is None:
         raise ContextError("a window needs the CAVE: which walls to draw and how to show them",
                            "give --cave FILE with --display or --preview")
-    title = f"cavesim {config.name}"
+    title = window_title(config)
     if config.preview:
         size = slots_of(cave.scaled(config.preview_scale))[1]
         return open_window(Display(vsync=False, swap_lock=False), size, title)
@@ -605,9 +607,13 @@ def _painter(config: NodeConfig, cave: Cave | None, ctx,
     return WallPainter(ctx, system, cave, config.drawn, config.images, config.stereo)
 
 
+def window_title(config: NodeConfig) -> str:
+    return f"cavesim {config.name}"
+
+
 def node_screen(config: NodeConfig, cave: Cave, window: WallWindow,
                 system: ParticleSystem) -> WallScreen | PreviewScreen:
     if config.preview:
-        return PreviewScreen(window, system, cave, config.preview_scale)
+        return PreviewScreen(window, system, cave, config.preview_scale, window_title(config))
     return WallScreen(window, system, tuple(cave.wall(w) for w in config.drawn),
                       cave.eye_separation, config.images, config.render_every)

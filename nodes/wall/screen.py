@@ -23,9 +23,14 @@ from cavesim.core.wire import FrameMessage
 from cavesim.core.wire.payloads.from_nodes import Phase
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render.composite import compose
+from cavesim.gpu.render.text import TextLine
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.render.wall_renderer import WallRenderer
 from cavesim.gpu.window import Region, WallWindow
+from nodes.wall.preview_controls import help_line
+from nodes.wall.title import FrameRate
+
+HELP_AT = (4, 4)  # pixels from the preview window's lower left corner
 
 
 class WallScreen:
@@ -79,16 +84,19 @@ def window_size(walls: tuple[Wall, ...]) -> tuple[int, int]:
 
 class PreviewScreen:
     """Every wall of the CAVE at `scale` of its resolution, unfolded as the composites are,
-    from the tracked (or scripted) head, in one window."""
+    from the tracked (or scripted) head, in one window, with a line of help over it and the
+    frame and frame rate in its title."""
 
     swap_locked = False  # a desktop preview follows the cluster, it does not hold it
 
     def __init__(self, window: WallWindow, system: ParticleSystem, cave: Cave,
-                 scale: float) -> None:
+                 scale: float, title: str) -> None:
         self.window = window
         self.cave = cave.scaled(scale)
         self.renderers = {w.name: WallRenderer(window.ctx, system, w) for w in self.cave.walls}
         self.picture = window.ctx.texture(slots_of(self.cave)[1], 3)
+        self.help = TextLine(window.ctx, help_line())
+        self.rate = FrameRate(title)
 
     @property
     def size(self) -> tuple[int, int]:
@@ -100,6 +108,9 @@ class PreviewScreen:
         unfolded = np.asarray(compose(self.cave, pictures))
         self.picture.write(np.ascontiguousarray(unfolded[::-1]).tobytes())  # GL: bottom row first
         self.window.present(self.picture, "center")
+        self.window.overlay(self.help, HELP_AT)
+        if (title := self.rate.title(k, time.monotonic(), message.inputs.dt == 0)) is not None:
+            self.window.set_title(title)
 
 
 class LiveDisplay:

@@ -13,6 +13,7 @@ from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene_frame import HelicopterPose
 from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.render.text import TextLine
 from cavesim.gpu.render.wall_renderer import RenderSettings, WallRenderer
 
 EYE = np.array([0.2, -0.3, 1.6])
@@ -125,3 +126,22 @@ def test_golden_comparison_on_another_driver_still_catches_a_wrong_picture(monke
         assert_matches_golden(moved_edges, "front_fountain_96", "llvmpipe (LLVM 15.0.6)")
     with pytest.raises(AssertionError, match="pixels differ"):
         assert_matches_golden(np.zeros_like(golden), "front_fountain_96", "NVIDIA H100")
+
+
+def test_a_text_line_blends_white_glyphs_on_a_dark_band_and_nothing_else(ctx):
+    """The preview's help line: drawn over what the window shows, only in its own band."""
+    line = TextLine(ctx, "P pause")
+    target = ctx.simple_framebuffer((160, 40), components=3)
+    target.use()
+    target.clear(0.0, 0.0, 1.0)
+    line.draw(target.size, (4, 4))
+    pixels = np.frombuffer(target.read(components=3), np.uint8).reshape(40, 160, 3)  # row 0 low
+    width, height = line.size
+    band = pixels[4:4 + height, 4:4 + width]
+    outside = np.ones(pixels.shape[:2], bool)
+    outside[4:4 + height, 4:4 + width] = False
+    assert (pixels[outside] == (0, 0, 255)).all()
+    assert band[..., 2].max() == 255 and band[..., 0].max() >= 250  # white ink
+    assert band[..., 0].min() == 0 and band[..., 2].min() < 110  # the band darkens blue
+    target.release()
+    line.texture.release()

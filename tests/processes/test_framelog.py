@@ -12,10 +12,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from cavesim.core.drivers import driver_for
 from cavesim.core.errors import OutputError
 from cavesim.core.framelog import CORRUPT, TORN, Damage, FrameLogWriter, read_frame_log
+from cavesim.core.random_texture import draw_transform
+from cavesim.core.scene import load_scene
 from cavesim.core.wire import FrameMessage
-from cavesim.gpu.engine import FrameInput
+from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.log_replay import replay
 from nodes import cli
 from nodes.launch.cluster import ClusterPlan, run_cluster
@@ -116,6 +119,33 @@ def test_a_log_deleted_while_it_was_written_is_not_claimed(tmp_path):
     os.unlink(tmp_path / "frames.log")
     with pytest.raises(OutputError, match="frames.log: it was deleted while the run wrote it"):
         writer.close()
+
+
+def test_a_log_with_a_reset_replays_and_the_reset_is_the_start_state(tmp_path, ctx):
+    """A reset frame takes every node back to the scene's start state before its step: after
+    it, the inputs of frames 1, 2, ... give their checksums again, and a replay reproduces
+    every one."""
+    scene = load_scene(MINIMAL)
+    system, driver = ParticleSystem(ctx, scene), driver_for(scene)
+    rng = np.random.Generator(np.random.PCG64(5))
+    inputs = [(FrameInput(1 / 60, draw_transform(rng, scene.random_texture_size)),
+               driver.encode(driver.advance(k / 60, 1 / 60, None).frame)) for k in range(1, 9)]
+    writer = FrameLogWriter(tmp_path / "reset.log", {"session": "t", "scene": str(MINIMAL)})
+    digests = []
+    for k, (frame, params) in enumerate(inputs + inputs[:5], start=1):
+        reset = k == len(inputs) + 1
+        if reset:
+            system.restart(scene.seed)
+        system.step(frame, driver.decode(params))
+        state = system.checksum()
+        digests.append(state.digest)
+        writer.append(FrameMessage(k, frame, params=params, reset=reset), state.digest,
+                      state.particles)
+    writer.close()
+    system.release()
+    assert digests[8:] == digests[:5] and digests[8] != digests[7]
+    result = replay(tmp_path / "reset.log", MINIMAL, ctx=ctx)
+    assert result.frames == 13 and result.equal, result.mismatches[:3]
 
 
 @pytest.fixture(scope="module")

@@ -31,7 +31,7 @@ from nodes import cli
 from nodes.arguments import USAGE_ERROR, UsageError, output_directory
 from nodes.master import report_file
 from nodes.master.process import MasterConfig, run_master
-from nodes.master.report_file import FAILED, FINISHED, INTERRUPTED, RUNNING, ReportFile
+from nodes.master.report_file import FAILED, FINISHED, INTERRUPTED, RUNNING, STOPPED, ReportFile
 from nodes.master.run_record import RunRecord
 
 ROOT = Path(__file__).parents[2]
@@ -133,6 +133,8 @@ def test_checkpoints_say_running_and_the_end_says_how_the_run_ended(tmp_path):
     assert read_report(path)["ended"] == FINISHED and read_report(path)["frames"] == 7
     report.finish(record(3).summary(), interrupted=True)
     assert read_report(path)["ended"] == INTERRUPTED
+    report.finish(record(4).summary(), interrupted=False, stopped=True)
+    assert read_report(path)["ended"] == STOPPED  # the user's Esc in the preview
     assert [p.name for p in tmp_path.iterdir()] == ["report.json"], "no temporary left"
 
 

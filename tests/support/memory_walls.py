@@ -151,6 +151,7 @@ class MemoryLink:
         self.rejects = RejectCounter("memory")
         self.dropped = 0
         self.tracking = None
+        self.controller = None  # the latest session controls (a preview's)
         self.resync_fails: set[str] = set()  # walls whose every resync fails
         self.sample = sample  # records of each report's drift sample (0: none)
         self.block_questions: list[BlockRequest] = []  # answered, in order

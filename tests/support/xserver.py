@@ -34,10 +34,11 @@ def xdotool(*args: str) -> str:
 
 
 def window_id(title: str, timeout: float = 30.0) -> int:
-    """The X window whose title is `title`, once it is there."""
+    """The X window whose title is `title` (or `title - ...`: the preview's says its frame
+    after it), once it is there."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        found = xdotool("search", "--name", f"^{title}$").split()
+        found = xdotool("search", "--name", f"^{title}( - .*)?$").split()
         if found:
             return int(found[0])
         time.sleep(0.1)

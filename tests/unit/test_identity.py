@@ -26,6 +26,7 @@ from cavesim.core.wire import (
     BlockRequest,
     HeadState,
     ReportMessage,
+    SessionControls,
     SnapshotChunk,
     SnapshotHeader,
     StateRequest,
@@ -107,6 +108,22 @@ def test_tracking_is_taken_only_fresh_of_this_run_from_a_tracker(link):
     link.tracking = None
     link._on_tracking(sample(key, fresh))  # the same message again: a replay
     assert link.tracking is None and link.rejects.counts["replayed-tracking"] == 1
+
+
+def test_session_controls_come_only_from_a_wall_and_a_message_without_a_pose_keeps_the_last(
+        link):
+    """A preview window (a wall's key) may pause, reset and quit; a tracker may not. The
+    preview's controls before anyone flew carry no pose: the tracker's pose stays."""
+    key, now = f"cavesim/{SESSION}/tracking", time.time_ns()
+    posed = tracking(now)
+    link._on_tracking(sample(key, encode(posed, SESSION, TRACKER, RUN)))
+    asks = TrackingMessage(0, posed.head, WandState(), now + 1, False,
+                           SessionControls(paused=True))
+    before = link.rejects.counts.get("wrong-signer", 0)
+    link._on_tracking(sample(key, encode(asks, SESSION, TRACKER, RUN)))
+    assert link.controller is None and link.rejects.counts["wrong-signer"] == before + 1
+    link._on_tracking(sample(key, encode(asks, SESSION, KEYS["front"], RUN)))
+    assert link.controller == asks and link.tracking == posed
 
 
 # -- a state whose checksum collides with the named one --------------------------------------

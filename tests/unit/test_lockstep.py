@@ -6,6 +6,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from memory_walls import MemoryLink
 
@@ -18,6 +19,7 @@ from cavesim.core.wire import (
     FrameMessage,
     HeadState,
     ReportMessage,
+    SessionControls,
     TrackingMessage,
     WandState,
 )
@@ -28,9 +30,11 @@ from nodes.lockstep import Membership
 from nodes.master.events import ProcessEnded
 from nodes.master.process import MAX_RESYNC_FAILURES, Master, MasterConfig, run_master
 from nodes.master.swaps import WINDOW, SwapBook
+from nodes.master.user_requests import Asked, UserRequests
 from nodes.wall.frame_timer import FrameTimer
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
+BROWNOUT = MINIMAL.with_name("brownout.toml")  # a helicopter's: the scene has a state
 WALLS = ("front", "left", "right")
 
 
@@ -323,15 +327,81 @@ def test_tracking_that_went_quiet_holds_the_head_and_releases_the_wand(caplog):
     pressed = WandState((0.25, 0.5, 1.0), buttons=1, axes=(1.0, 0.0, 0.0, 0.0))
     head = HeadState((0.5, -0.5, 1.625))
     link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
-    fresh = master._make_frame(1)
+    fresh = master._make_frame(1, Asked())
     assert fresh.head == head and fresh.wand.buttons == 1
     link.tracking = TrackingMessage(0, head, pressed,
                                     time.time_ns() - int((MAX_TRACKING_AGE + 1) * 1e9))
-    quiet = master._make_frame(2)
+    quiet = master._make_frame(2, Asked())
     assert quiet.head == head and quiet.wand == WandState()
     assert "tracking went quiet" in caplog.text
     link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
-    assert master._make_frame(3).wand.buttons == 1 and "tracking is back" in caplog.text
+    assert master._make_frame(3, Asked()).wand.buttons == 1 and "tracking is back" in caplog.text
+
+
+def test_a_pause_holds_simulation_time_and_a_reset_starts_the_scene_over_frame_by_frame():
+    """Paused frames carry dt 0 and the last frame's scene state (the head still moves); a
+    reset frame tells the nodes to start over and carries the scene's first step again,
+    also in a pause, which then holds it; frame numbers go on."""
+    link, head = MemoryLink(WALLS), HeadState((0.5, -0.5, 1.625))
+    master = Master(MasterConfig(WALLS, BROWNOUT, 9), link)
+    fresh = Master(MasterConfig(WALLS, BROWNOUT, 9), MemoryLink(WALLS))
+    first, second = (fresh._make_frame(k, Asked()) for k in (1, 2))
+    frames = [master._make_frame(1, Asked(paused=True)),  # nothing to hold yet: it steps
+              master._make_frame(2, Asked())]
+    link.tracking = TrackingMessage(0, head, WandState((1.0, 1.0, 1.0)), time.time_ns())
+    frames.append(master._make_frame(3, Asked(paused=True)))
+    link.tracking = None
+    frames += [master._make_frame(4, Asked(paused=True, reset=True)),
+              master._make_frame(5, Asked(paused=True)), master._make_frame(6, Asked())]
+    assert [f.inputs.dt for f in frames] == [np.float32(1 / 60)] * 2 + [0.0] \
+        + [np.float32(1 / 60), 0.0, np.float32(1 / 60)]
+    assert [f.reset for f in frames] == [False, False, False, True, False, False]
+    assert frames[0].params == first.params and frames[1].params == second.params
+    assert frames[2].params == second.params and frames[2].wand == second.wand  # held
+    assert frames[3].params == frames[4].params == first.params  # the scene's first again
+    assert frames[5].params == second.params
+    assert frames[2].head == head  # the head is the user's still
+    assert [(a.frame, a.action) for a in master.record.user_actions] == [
+        (3, "pause"), (4, "reset"), (6, "resume")]
+    assert master.record.paused_frames == 2
+    assert len(master.record.flight) == 6  # one per frame made: a paused one holds its state
+
+
+def test_the_previews_quit_ends_the_run_cleanly_between_two_frames():
+    """The user's quit is taken before the next frame: every wall has agreed on the last
+    one, all are told to stop, and the record says the user ended the run."""
+    link = MemoryLink(WALLS)
+
+    def quit_at_5(k):
+        if k == 5:
+            link.controller = TrackingMessage(0, HeadState(), WandState(), time.time_ns(),
+                                              False, SessionControls(quit=True))
+
+    record = run_master(MasterConfig(WALLS, MINIMAL, 20, "memory"), link, before_frame=quit_at_5)
+    assert record.user_stopped and not record.interrupted and record.frames == 4
+    assert record.final.agree and record.final.all_walls_in and not record.losses
+    assert any(isinstance(m, ControlMessage) and m.command is Command.STOP for m in link.sent)
+    assert record.summary()["user_stopped"]
+
+
+def test_user_requests_read_levels_and_count_resets():
+    """Pause and quit are levels; a reset is one more than last seen (a new sender's lower
+    count is adopted, not a reset); controls gone quiet ask nothing."""
+    requests, now = UserRequests(), time.time_ns()
+
+    def sent(controls, age=0.0):
+        return TrackingMessage(0, HeadState(), WandState(), now - int(age * 1e9), False, controls)
+
+    assert requests.take(None) == Asked()
+    assert requests.take(sent(SessionControls(paused=True)), now) == Asked(paused=True)
+    assert requests.take(sent(SessionControls(True, 1)), now) == Asked(True, True)
+    assert requests.take(sent(SessionControls(False, 1)), now) == Asked()
+    assert requests.take(sent(SessionControls(resets=3)), now) == Asked(reset=True)
+    assert requests.take(sent(SessionControls(resets=0)), now) == Asked()  # a new preview
+    assert requests.take(sent(SessionControls(resets=1)), now) == Asked(reset=True)
+    assert requests.take(sent(SessionControls(True, 2, True), MAX_TRACKING_AGE + 1),
+                         now) == Asked()
+    assert requests.take(sent(SessionControls(quit=True)), now) == Asked(quit=True)
 
 
 # -- where a frame goes -------------------------------------------------------------------------

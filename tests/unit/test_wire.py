@@ -59,7 +59,12 @@ from cavesim.core.wire.payloads.from_nodes import (
     ReportMessage,
     Status,
 )
-from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
+from cavesim.core.wire.payloads.poses import (
+    HeadState,
+    SessionControls,
+    TrackingMessage,
+    WandState,
+)
 from cavesim.core.wire.payloads.state_transfer import (
     MAX_BLOCK_BYTES,
     MAX_BLOCK_INDICES,
@@ -88,9 +93,12 @@ MASTER_KINDS = {Kind.FRAME, Kind.CONTROL, Kind.INFO_REQUEST}  # only the master 
 MASTER_MESSAGES = (FrameMessage, ControlMessage, InfoRequest)  # ... as these messages
 
 FRAME_BODY = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, param count
+# head, wand, buttons, axes, sent_ns, flags (posed 1, controls 2, paused 4, quit 8), resets
+TRACKING_BODY = struct.Struct("<3f4f3f4fI4fQBI")
 IDENTITY = np.eye(3, dtype=np.float32)
 MATRIX = np.array([[3, -2, 17], [5, 1, 250], [0, 0, 1]], dtype=np.float32)
 DIGEST = "00112233445566778899aabbccddeeff"
+HEAD = HeadState((0.0, 0.0, 1.75))  # float32-exact
 
 
 def with_hmac(data: bytes, secret: bytes = MASTER.secret) -> bytes:
@@ -141,13 +149,14 @@ def flipped(data: bytes, index: int, bit: int = 0) -> bytes:
 def frame_body(dt_bits: int = 0x3C888889, matrix=IDENTITY, position=(0.0, 0.0, 0.0),
                orientation=(0.0, 0.0, 0.0, 1.0), buttons: int = 0, axes=(0.0,) * 4,
                params=(), count: int | None = None, head_position=(0.0, 0.0, 1.7),
-               head_orientation=(0.0, 0.0, 0.0, 1.0)) -> bytes:
-    """A frame payload; `count` may disagree with the parameters that follow."""
+               head_orientation=(0.0, 0.0, 0.0, 1.0), events: int | None = 0) -> bytes:
+    """A frame payload; `count` may disagree with the parameters that follow; `events`
+    None: the layout before wire version 11, without the events byte."""
     count = len(params) if count is None else count
     return FRAME_BODY.pack(dt_bits, *np.asarray(matrix, np.float32).ravel().tolist(),
                            *head_position, *head_orientation, *position, *orientation,
                            buttons, *axes, count) + \
-        struct.pack(f"<{len(params)}f", *params)
+        struct.pack(f"<{len(params)}f", *params) + (b"" if events is None else bytes([events]))
 
 
 def name(text: bytes) -> bytes:
@@ -322,6 +331,7 @@ EDGE_MESSAGES = {
         tuple(float(i) - 0.5 for i in range(MAX_PARAMS)),
         HeadState((-3e38, 0.0, 1e-45), (-0.0, 0.0, 0.0, -1.0))),
     "frame-zero": FrameMessage(0, FrameInput(-0.0, IDENTITY)),
+    "frame-reset": FrameMessage(3, FrameInput(1 / 60, MATRIX), reset=True),
     "report": ReportMessage(7, "front", DIGEST, 1490, 1, COST, 3, Status.STEPPED),
     "report-edges": ReportMessage(U64, "x" * 32, "f" * 32, 2**32 - 1, 0,
                                   (0, 2**32 - 1) * (len(PHASES) // 2) + (0,) * (len(PHASES) % 2),
@@ -355,6 +365,10 @@ EDGE_MESSAGES = {
     "tracking": TrackingMessage(12, HeadState((0.25, -0.5, 1.75), (0.0, 0.0, 0.5, 0.75)),
                                 WandState((1.0, 2.0, 1.25), (0.5, 0.0, 0.0, 0.5), 5,
                                           (0.25, -1.0, 0.0, 0.5))),
+    "tracking-controls": TrackingMessage(3, HEAD, WandState(), 5, posed=False,
+                                         controls=SessionControls(True, 2**32 - 1, True)),
+    "tracking-controls-posed": TrackingMessage(4, HEAD, WandState(), U64,
+                                               controls=SessionControls(resets=1)),
     "info": InfoMessage(3, "front", 0, True, "llvmpipe (LLVM 15.0.6, 256 bits)", "Mesa/X.org",
                         "4.5 (Core Profile) Mesa 22.3.6"),
     "info-edges": InfoMessage(U64, "x" * 32, 2**16 - 1, False, "~" * MAX_TEXT, "", " ",
@@ -685,6 +699,14 @@ REJECTIONS = [
     ("unexpected-master-signature", SIGNED_STOP, None, "unexpected-signature"),
     # payloads
     ("frame-too-short", craft(Kind.FRAME, frame_body()[:-1]), None, "bad-payload"),
+    ("frame-without-events", craft(Kind.FRAME, frame_body(events=None)), None, "bad-payload"),
+    ("frame-unknown-event", craft(Kind.FRAME, frame_body(events=0x02)), None, "bad-value"),
+    ("tracking-pause-without-controls", craft(Kind.TRACKING, TRACKING_BODY.pack(
+        *(0.0,) * 14, 0, *(0.0,) * 4, 1, 0x01 | 0x04, 0)), None, "bad-value"),
+    ("tracking-resets-without-controls", craft(Kind.TRACKING, TRACKING_BODY.pack(
+        *(0.0,) * 14, 0, *(0.0,) * 4, 1, 0x01, 1)), None, "bad-value"),
+    ("tracking-unknown-flag", craft(Kind.TRACKING, TRACKING_BODY.pack(
+        *(0.0,) * 14, 0, *(0.0,) * 4, 1, 0x10, 0)), None, "bad-value"),
     ("frame-count-above-params", craft(Kind.FRAME, frame_body(params=(1.0, 2.0), count=3)),
      None, "bad-payload"),
     ("frame-count-below-params", craft(Kind.FRAME, frame_body(params=(1.0, 2.0), count=1)),
@@ -1026,14 +1048,18 @@ def test_a_signed_message_is_unexpected_without_credentials_and_unsigned_with_th
 
 
 def test_a_frame_log_reads_older_frames_that_the_wire_refuses():
-    """A frame of an older version whose frame layout is this build's replays from a frame
-    log; on the wire only this version is spoken, and a frame of another layout is refused
-    everywhere."""
-    frame = bytearray(encode(FrameMessage(9, FrameInput(1 / 60, np.eye(3))), "s"))
-    frame[4] = envelope.FRAME_VERSIONS[0]
+    """A frame of an older version whose frame layout this build reads replays from a frame
+    log (one before version 11 has no events byte: no reset); on the wire only this version
+    is spoken, and a frame of another layout is refused everywhere."""
+    for version in envelope.FRAME_VERSIONS[:-1]:
+        frame = craft(Kind.FRAME, frame_body(events=None), frame=9, version=version)
+        with pytest.raises(ProtocolError, match="bad-version"):
+            decode(frame, SESSION)
+        old = decode(frame, SESSION, versions=envelope.FRAME_VERSIONS)
+        assert old.frame == 9 and not old.reset
+    with pytest.raises(ProtocolError, match="bad-payload"):  # 11 on: the byte is there
+        decode(craft(Kind.FRAME, frame_body(events=None)), SESSION,
+               versions=envelope.FRAME_VERSIONS)
+    before = craft(Kind.FRAME, frame_body(events=None), version=envelope.FRAME_VERSIONS[0] - 1)
     with pytest.raises(ProtocolError, match="bad-version"):
-        decode(bytes(frame), "s")
-    assert decode(bytes(frame), "s", versions=envelope.FRAME_VERSIONS).frame == 9
-    frame[4] = envelope.FRAME_VERSIONS[0] - 1
-    with pytest.raises(ProtocolError, match="bad-version"):
-        decode(bytes(frame), "s", versions=envelope.FRAME_VERSIONS)
+        decode(before, SESSION, versions=envelope.FRAME_VERSIONS)

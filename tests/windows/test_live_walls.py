@@ -1,11 +1,13 @@
 """Live walls under a real X server (Xvfb, Mesa, GLFW): a window shows the headless
 render's pixels, four windows swap together, closing one loses that wall, and the preview
-window's keys move the head as a tracker would; a node of two walls shows them side by
-side."""
+window's keys move the head as a tracker would and pause, reset and end the run; a node of
+two walls shows them side by side."""
 
 from __future__ import annotations
 
 import os
+import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +23,7 @@ from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render.wall_renderer import WallRenderer
+from cavesim.tools.log_replay import replay
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.master.process import MasterConfig
 
@@ -133,21 +136,41 @@ def test_closing_a_wall_window_stops_that_node_and_loses_the_wall(xserver, tmp_p
 
 @pytest.mark.slow
 @pytest.mark.requires("xvfb", "xdotool")
-def test_the_preview_window_takes_keys_and_moves_the_head(xserver, tmp_path):  # noqa: F811
+def test_the_preview_window_flies_pauses_resets_and_ends_the_run(xserver, ctx,  # noqa: F811
+                                                                   tmp_path):
+    """Its keys move the head as a tracker would; P pauses every node on one frame (dt 0) and
+    resumes them, the title says the frame, the rate and the pause; R takes every node back
+    to the start on one frame, and the run replays bit for bit from its frame log; Esc ends
+    the run cleanly between two frames."""
     cave = live_cave(tmp_path, ("front", "left", "right", "floor"))
+    titles = []
 
-    def press_up(cluster, k):
+    def keys(cluster, k):
         if k == 5:
             hold_key(window_id("cavesim preview"), "Up", 1.0)  # forward, 1 m/s
+        elif k in (10, 20, 25, 30):  # each press has reached the master when frame k is made
+            preview = window_id("cavesim preview")
+            if k == 20:
+                titles.append(xdotool("getwindowname", str(preview)))
+            hold_key(preview, {10: "p", 20: "p", 25: "r", 30: "Escape"}[k], 0.1)
+            time.sleep(0.5)
 
-    record = live_run(tmp_path, MINIMAL, ("front",), 40, lambda wall: (
+    record = live_run(tmp_path, MINIMAL, ("front",), 60, lambda wall: (
         ("--preview", "--cave", str(cave)) if wall == "preview" else ()),
-        before_frame=press_up, preview=True)
-    assert record.frames == 40 and record.final.agree
-    heads = [logged.message.head.position for logged
-             in read_frame_log(tmp_path / "frames.log")[1]]
+        before_frame=keys, preview=True)
+    assert record.user_stopped and record.frames == 29
+    assert record.final.agree and record.final.all_walls_in and not record.losses
+    assert [(a.frame, a.action) for a in record.user_actions] == [
+        (10, "pause"), (20, "resume"), (25, "reset")]
+    frames = [logged.message for logged in read_frame_log(tmp_path / "frames.log")[1]]
+    heads = [frame.head.position for frame in frames]
     assert abs(heads[3][1]) < 1e-6  # the script's sway moves the head sideways only
     assert max(y for _, y, _ in heads[6:]) > 0.5  # the tracked head went forward
+    assert [k for k, frame in enumerate(frames, 1) if frame.inputs.dt == 0] == list(range(10, 20))
+    assert [k for k, frame in enumerate(frames, 1) if frame.reset] == [25]
+    assert re.fullmatch(r"cavesim preview - frame 1\d - [\d.]+ frames/s - paused", titles[0])
+    replayed = replay(tmp_path / "frames.log", ctx=ctx)
+    assert replayed.frames == 29 and replayed.equal, replayed.mismatches[:3]
 
 
 @pytest.mark.slow

@@ -11,7 +11,12 @@ from cavesim.core.wire.payloads.from_master import (
     InfoRequest,
 )
 from cavesim.core.wire.payloads.from_nodes import DisplayMessage, InfoMessage, ReportMessage
-from cavesim.core.wire.payloads.poses import HeadState, TrackingMessage, WandState
+from cavesim.core.wire.payloads.poses import (
+    HeadState,
+    SessionControls,
+    TrackingMessage,
+    WandState,
+)
 from cavesim.core.wire.payloads.state_transfer import (
     BlockQuery,
     BlockReply,
@@ -23,6 +28,6 @@ from cavesim.core.wire.payloads.state_transfer import (
 
 __all__ = ["BlockQuery", "BlockReply", "BlockRequest", "Command", "ControlMessage",
            "Credentials", "DisplayMessage", "Envelope", "FrameMessage", "HeadState",
-           "InfoMessage", "InfoRequest", "ReportMessage",
-           "SessionKeys", "SnapshotChunk", "SnapshotHeader", "StateRequest", "TrackingMessage",
-           "WandState", "decode", "decode_envelope", "encode"]
+           "InfoMessage", "InfoRequest", "ReportMessage", "SessionControls", "SessionKeys",
+           "SnapshotChunk", "SnapshotHeader", "StateRequest", "TrackingMessage", "WandState",
+           "decode", "decode_envelope", "encode"]

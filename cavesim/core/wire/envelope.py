@@ -60,10 +60,12 @@ VERSION = 11  # 2: frames carry the head pose; 3: snapshots stream as a header a
 # frame (cavesim/core/frame_cost.py) in place of its step and checksum; 9: it times its
 # GPU passes and its wait for the GPU too; 10: it counts the particles of each class that
 # left the field's box, and a frame of a time-series field ends in the field's time; 11: it
-# counts the new particles the full capacity dropped
+# counts the new particles the full capacity dropped, a frame ends in a byte of events (a
+# reset), and a tracking message may carry the preview's session controls (pause, reset, quit)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
-# the versions whose frame message (kind, header and payload) is this build's: a frame log
-# recorded by any of them replays (on the wire, only VERSION is spoken)
+# the versions whose frame message (kind, header and payload) this build reads, those before
+# 11 without the events byte (from_master.frame_payload_of): a frame log recorded by any of
+# them replays (on the wire, only VERSION is spoken)
 FRAME_VERSIONS = (4, 5, 6, 7, 8, 9, 10, VERSION)
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED, MEMBER_SIGNED = 0x01, 0x02, 0x04
@@ -250,6 +252,8 @@ def decode_envelope(data: bytes, session: str, credentials: Credentials | None =
     elif flags:
         raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
     payload = data[HEADER.size:HEADER.size + length]
+    if kind == Kind.FRAME:
+        payload = from_master.frame_payload_of(version, payload)
     return Envelope(_PAYLOADS[Kind(kind)].read(frame, payload), run_id, signer,
                     credentials is not None)
 

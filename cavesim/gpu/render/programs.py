@@ -10,6 +10,7 @@ SCENE = ProgramSpec("render/scene.glsl", ("vertex", "fragment"))
 DUST = ProgramSpec("render/dust.glsl", ("vertex", "geometry", "fragment"), ("CLASS_COUNT",))
 COMPOSITE = ProgramSpec("render/composite.glsl", ("vertex", "fragment"))
 PRESENT = ProgramSpec("render/present.glsl", ("vertex", "fragment"))  # into a window
+OVERLAY = ProgramSpec("render/overlay.glsl", ("vertex", "fragment"))  # text over a window
 
 
 def dust_defines(scene: Scene) -> dict[str, int]:
@@ -23,5 +24,5 @@ def render_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
 
 def render_combinations() -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every renderer program at the extremes of its defines."""
-    return [(SCENE, {}), (COMPOSITE, {}), (PRESENT, {}),
+    return [(SCENE, {}), (COMPOSITE, {}), (PRESENT, {}), (OVERLAY, {}),
             *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES))]

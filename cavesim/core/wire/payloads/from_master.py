@@ -19,6 +19,9 @@ from cavesim.core.wire.payloads.poses import HeadState, WandState
 
 MAX_PARAMS = 32
 _FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
+# then n float32 parameters, then one byte of the frame's events:
+RESET = 0x01  # every node goes back to the scene's start state before it steps this frame
+EVENTS_SINCE = 11  # the wire version that added the events byte; older frames have none
 _CONTROL_TAIL = struct.Struct("<16sQB")  # a digest (RESYNC, WELCOME), nonce and engine
 # (WELCOME)
 _ENGINE_CODES = {None: 0, Engine.GS_TF: 1, Engine.COMPUTE: 2}  # a WELCOME's engine byte
@@ -41,6 +44,7 @@ class FrameMessage:
     wand: WandState = WandState()
     params: tuple[float, ...] = ()  # the scene's time-varying parameters
     head: HeadState = HeadState()  # tracked or scripted, sampled once by the master
+    reset: bool = False  # the state goes back to the scene's start before this frame's step
 
 
 @dataclass(frozen=True)
@@ -77,7 +81,7 @@ def write_frame(m: FrameMessage) -> bytes:
     body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *h.position,
                        *h.orientation, *w.position, *w.orientation, w.buttons, *w.axes,
                        len(m.params))
-    return body + np.asarray(m.params, dtype="<f4").tobytes()
+    return body + np.asarray(m.params, dtype="<f4").tobytes() + bytes([RESET * m.reset])
 
 
 def read_frame(frame: int, payload: bytes) -> FrameMessage:
@@ -85,9 +89,14 @@ def read_frame(frame: int, payload: bytes) -> FrameMessage:
         raise ProtocolError("bad-payload", f"frame payload of {len(payload)} bytes is too short")
     values = _FRAME.unpack_from(payload)
     count = values[-1]
-    if count > MAX_PARAMS or len(payload) != _FRAME.size + 4 * count:
+    if count > MAX_PARAMS or len(payload) != _FRAME.size + 4 * count + 1:
         raise ProtocolError("bad-payload", f"frame announces {count} parameters in a payload "
-                                           f"of {len(payload)} bytes (at most {MAX_PARAMS})")
+                                           f"of {len(payload)} bytes (at most {MAX_PARAMS}, "
+                                           f"then one byte of events)")
+    events = payload[-1]
+    if events & ~RESET:
+        raise ProtocolError("bad-value", f"frame events {events:#04x}: only {RESET:#04x} "
+                                         f"(reset) is defined")
     dt = np.array([values[0]], dtype=np.uint32).view(np.float32)[0]
     matrix = np.array(values[1:10], dtype=np.float32).reshape(3, 3)
     head, wand, buttons, axes = values[10:17], values[17:24], values[24], values[25:29]
@@ -99,7 +108,14 @@ def read_frame(frame: int, payload: bytes) -> FrameMessage:
     except ValueError as e:
         raise ProtocolError("bad-value", str(e)) from e
     return FrameMessage(frame, inputs, WandState(wand[:3], wand[3:], buttons, axes),
-                        tuple(params.tolist()), HeadState(head[:3], head[3:]))
+                        tuple(params.tolist()), HeadState(head[:3], head[3:]),
+                        bool(events & RESET))
+
+
+def frame_payload_of(version: int, payload: bytes) -> bytes:
+    """A frame payload of wire `version` in this build's layout: a frame older than
+    EVENTS_SINCE (a frame log's) had no events byte, and none happened."""
+    return payload + bytes(1) if version < EVENTS_SINCE else payload
 
 
 def write_control(m: ControlMessage) -> bytes:
