@@ -38,3 +38,15 @@ def test_the_title_says_frame_and_rate_every_half_second():
     assert rate.title(20, 10.4, False) is None
     assert rate.title(31, 10.5, False) == "cavesim preview - frame 31 - 60.0 frames/s"
     assert rate.title(61, 11.0, True) == "cavesim preview - frame 61 - 60.0 frames/s - paused"
+
+
+def test_the_guide_names_every_bound_key():
+    """The live-walls guide's table of keys follows BINDINGS: a key rebound is a key the
+    guide must name."""
+    from pathlib import Path
+
+    guide = (Path(__file__).parents[2] / "docs/guide/live-walls.md").read_text()
+    table = guide.split("| keys | what they do |", 1)[1].split("\n\n", 1)[0]
+    cells = {cell for row in table.splitlines()[2:] for cell in
+             row.split("|")[1].replace(",", "/").replace(" ", "").split("/")}
+    assert cells == {key_name(key) for _, keys in BINDINGS for key in keys}
