@@ -50,9 +50,12 @@ class CapacityDropBook:
             "first_frame": k,
             "dropped_at_first_frame": dropped,
             # per bin of `bin_frames` frames (1 up to 4,096 frames), new particles dropped
-            # per second of simulated time
+            # per second of simulated time; none in a run that dropped nothing, whose report
+            # then grows no faster than before (its final write fits the space checkpoints
+            # keep in reserve)
             "dropped_per_second": [round(rate, 1)
-                                   for (rate,) in self.frames.rates(self.frame_seconds)],
+                                   for (rate,) in self.frames.rates(self.frame_seconds)]
+            if self.first is not None else [],
             "bin_frames": self.frames.stride,
             "bin_seconds": round(self.frames.stride * self.frame_seconds, 6),
         }

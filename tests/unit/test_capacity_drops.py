@@ -52,6 +52,7 @@ def test_a_run_that_drops_nothing_says_nothing_and_its_table_says_none():
     assert book.notice is None
     summary = book.summary()
     assert summary["total"] == 0 and summary["first_frame"] is None
+    assert summary["dropped_per_second"] == []  # no per-frame zeros in the report
     assert drop_rows(summary) == [("dropped at capacity", "none (capacity 4,000)")]
     assert drop_rows({}) == []  # a report from before drops were counted
 

@@ -24,7 +24,7 @@ from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Integrator, parse_scene
 from cavesim.core.wire import HeadState, TrackingMessage, WandState, decode, encode
 from cavesim.core.wire.envelope import HEADER, MAGIC, VERSION, Kind, session_id
-from cavesim.core.wire.payloads.poses import TRACKING
+from cavesim.core.wire.payloads.poses import POSED, TRACKING
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 IDENTITY = np.eye(3, dtype=np.float32)
@@ -166,7 +166,10 @@ def bad_dt() -> list[dict]:
 def bad_wand() -> list[dict]:
     rows = []
     for name, value in (("NaN wand", math.nan), ("infinite wand", math.inf)):
-        body = TRACKING.pack(0, 0, 1.7, 0, 0, 0, 1, value, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0)
+        # head (position, orientation), wand (position, orientation, buttons, axes), sent_ns,
+        # flags, resets: a posed message whose wand x is `value`
+        body = TRACKING.pack(0, 0, 1.7, 0, 0, 0, 1, value, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0,
+                             POSED, 0)
         data = HEADER.pack(MAGIC, VERSION, Kind.TRACKING, 0, 0, session_id("s"), 0, 0,
                            len(body)) + body
         try:
