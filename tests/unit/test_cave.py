@@ -55,7 +55,8 @@ def test_default_is_flex4():
 
 
 def test_shipped_configs_are_the_four_expected():
-    assert [p.stem for p in SHIPPED] == ["flex4", "power_wall", "six_sided", "two_gpus"]
+    assert [p.stem for p in SHIPPED] == ["flex4", "flex4_hd", "power_wall", "six_sided",
+                                         "two_gpus"]
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
@@ -72,11 +73,17 @@ def test_the_two_gpu_cave_gives_each_gpu_a_node_of_two_walls_on_its_own_screen()
         (0, ":0.0", True), (0, ":0.0", True), (1, ":0.1", True), (1, ":0.1", True)]
 
 
+# Shipped at their projectors' resolution without a display table: a CAVE's geometry for
+# the offline pictures and the render bench, too large for windows side by side on a desktop
+AT_PROJECTOR_RESOLUTION = {"flex4_hd"}
+
+
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
 def test_shipped_config_loads_with_normals_into_the_room(path):
     cave = load_cave(path)
     assert cave.name == path.stem
-    projected = any(w.display.fullscreen for w in cave.walls)  # for real projectors only
+    projected = (any(w.display.fullscreen for w in cave.walls)  # for real projectors only
+                 or path.stem in AT_PROJECTOR_RESOLUTION)
     for wall in cave.walls:
         assert projected or (wall.resolution[0] <= 1280 and wall.resolution[1] <= 480)
         to_centre = ROOM_CENTRE - wall.center
@@ -102,6 +109,19 @@ def test_flex4_walls_share_edges_exactly():
     assert np.array_equal(right.lower_right, floor.lower_right)
     for w in cave.walls:
         assert (w.width, w.height) == (3.0, 3.0)
+
+
+def test_flex4_hd_is_flex4_at_16_by_10_projector_resolution():
+    cave = load_cave(ROOT / "config/cave/flex4_hd.toml")
+    assert cave.names == ("front", "left", "right", "floor")
+    front, left, right, floor = cave.walls
+    for wall in (front, left, right):
+        assert (wall.width, wall.height, wall.resolution) == (3.6, 2.25, (1920, 1200))
+    assert (floor.width, floor.height, floor.resolution) == (3.6, 3.6, (1200, 1200))
+    assert np.array_equal(front.lower_left, left.lower_right)
+    assert np.array_equal(front.lower_right, right.lower_left)
+    assert np.array_equal(front.lower_left, floor.upper_left)
+    assert np.array_equal(right.lower_right, floor.lower_right)
 
 
 def test_six_sided_is_a_closed_cube():
