@@ -20,6 +20,8 @@ from nodes.master.exit_book import DomainExitBook
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
+RENDER = PHASES.index("render")
+
 EVENT_LISTS = ("divergences", "resyncs", "stalls", "losses", "joins", "user_actions")
 
 
@@ -118,16 +120,34 @@ class LiveCounts(DecimatedSeries[int]):
 
 class FrameCosts:
     """Per node, a histogram of each of its frame's phases (FRAME_PHASES), from the times its
-    reports carry (a GPU phase of a frame not timed, NOT_TIMED_US, is left out)."""
+    reports carry (a GPU phase of a frame not timed, NOT_TIMED_US, is left out); and one of
+    its render phase over the frames it drew alone (a frame not drawn carries 0 there: a node
+    that draws every 10th frame has a render p50 of 0 over all its frames)."""
 
     def __init__(self) -> None:
         self._walls: dict[str, tuple[LogHistogram, ...]] = {}
+        self._drawn: dict[str, LogHistogram] = {}
 
     def add(self, wall: str, cost_us: tuple[int, ...]) -> None:
         histograms = self._walls.setdefault(wall, tuple(LogHistogram() for _ in PHASES))
         for histogram, us in zip(histograms, cost_us, strict=True):
             if us != NOT_TIMED_US:
                 histogram.append(us * 1e-6)
+        drawn = self._drawn.setdefault(wall, LogHistogram())
+        if cost_us[RENDER] not in (0, NOT_TIMED_US):
+            drawn.append(cost_us[RENDER] * 1e-6)
+
+    def render_per_wall(self, node_walls: dict[str, tuple[str, ...]]) -> dict:
+        """Per node: the walls it draws, how many of its frames drew them, and p50, p99 and
+        max ms of drawing one wall over those frames (its render phase shared evenly among
+        the walls it draws; None where it drew none)."""
+        out = {}
+        for node, histogram in self._drawn.items():
+            walls = node_walls.get(node, (node,))
+            ms = {q: None if v is None else round(v / len(walls), 3)
+                  for q, v in histogram.percentiles_ms().items()}
+            out[node] = {"walls": list(walls), "drawn_frames": histogram.count, **ms}
+        return out
 
     def count(self, wall: str) -> int:
         """How many of `wall`'s frames were timed (on the CPU)."""
@@ -209,6 +229,8 @@ class RunRecord:
             "frames_per_second": round(self.frames / self.seconds, 2) if self.seconds else None,
             "barrier_ms": self.barrier_seconds.percentiles_ms(),
             "frame_cost_ms": self.frame_cost.to_json(),
+            # the render phase over the frames each node drew, per wall it draws
+            "render_ms_per_wall": self.frame_cost.render_per_wall(self.node_walls),
             "live_particles": {"last": self.live_particles.last or 0,
                                "max": self.live_particles.max},
             # after frames s, 2 s, 3 s, ... for the stride s (1 up to 4,096 frames)

@@ -80,3 +80,25 @@ def test_an_empty_record_summarizes():
     assert report["barrier_ms"] == {"p50": None, "p99": None, "max": None}
     assert report["live_particles"] == {"last": 0, "max": 0} and report["live_per_frame"] == []
     assert report["swap"]["skew_ms"]["p50"] is None and report["swap"]["stalls_total"] == 0
+
+
+def test_render_cost_per_wall_counts_the_drawn_frames_alone():
+    """A node drawing every 4th frame: its render p50 over all frames is 0, over the frames
+    it drew the drawing's; a node of two walls shares its drawing between them."""
+    from cavesim.core.frame_cost import PHASES
+
+    record = RunRecord(("solo", "pair"), node_walls={"solo": ("front",),
+                                                     "pair": ("left", "right")})
+    render = PHASES.index("render")
+    for k in range(1, 41):
+        drawn_us = 8000 if k % 4 == 0 else 0
+        cost = tuple(drawn_us if i == render else 100 for i in range(len(PHASES)))
+        record.frame_cost.add("solo", cost)
+        record.frame_cost.add("pair", cost)
+    summary = record.summary()
+    assert summary["frame_cost_ms"]["solo"]["render"]["p50"] <= 0.001
+    solo, pair = summary["render_ms_per_wall"]["solo"], summary["render_ms_per_wall"]["pair"]
+    assert (solo["walls"], solo["drawn_frames"]) == (["front"], 10)
+    assert solo["p50"] == pytest.approx(8.0, rel=1e-3)
+    assert (pair["walls"], pair["drawn_frames"]) == (["left", "right"], 10)
+    assert pair["p50"] == pytest.approx(4.0, rel=1e-3)

@@ -115,10 +115,17 @@ def frame_cost_table(report: dict) -> Table:
     for node in costs:
         table.add_column(node, justify="right")
     for phase, (clock, _) in FRAME_PHASES.items():
-        table.add_row(phase, clock, *(" / ".join("-" if (ms := cost[phase][q]) is None
-                                                 else f"{ms:.2f}" for q in ("p50", "p99"))
-                                      for cost in costs.values()))
+        table.add_row(phase, clock, *(_p50_p99(cost[phase]) for cost in costs.values()))
+    # the render row's p50 is 0 where a node draws every Kth frame: this one's is not
+    drawn = report.get("render_ms_per_wall", {})
+    table.add_row("render per wall, drawn frames", "CPU",
+                  *(_p50_p99(drawn[node]) if node in drawn else "-" for node in costs))
     return table
+
+
+def _p50_p99(percentiles: dict) -> str:
+    return " / ".join("-" if (ms := percentiles[q]) is None else f"{ms:.2f}"
+                      for q in ("p50", "p99"))
 
 
 def demo_table(report: dict) -> Table:
