@@ -1,6 +1,6 @@
 """`cavesim bench`: engine throughput, with --cluster the cost of the lock-step, with
---resync what healing a bitflip costs (full snapshot against delta), or with --soak the
-memory of a long cluster run."""
+--resync what healing a bitflip costs (full snapshot against delta), with --soak the
+memory of a long cluster run, or with --render what drawing one wall for one eye costs."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from rich.console import Console
 
 from cavesim.core.cave import DEFAULT_CAVE
 from cavesim.core.errors import SceneError
-from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.limits import MAX_PARTICLES, WALL_RESOLUTION_RANGE
 from nodes.arguments import (
     INTERRUPTED,
     MAX_WALLS,
@@ -33,12 +33,25 @@ QUICK_FRAMES = 3  # `bench --quick`
 CLUSTER_NODES = "2,4,8"  # `bench --cluster`: node counts of the barrier runs
 CLUSTER_FRAMES = 300
 SOAK_ONLY = ("walls", "sample_every")  # flags of --soak alone
+RENDER_ONLY = ("resolutions", "at_frame")  # flags of --render alone
 ENGINE_ONLY = ("quick", "numpy_up_to")  # flags of the engine bench alone
 # Parsing stops at the engine's addressing bound; the GL context's own limits are checked
 # before measuring (a CapacityError, exit 1: the same flags may fit another driver).
 particle_counts = count_list(MAX_PARTICLES, "particle counts")
 node_counts = count_list(MAX_WALLS, "node counts")
 particle_cap = number_in(int, 0, MAX_PARTICLES, "a particle count")
+pixels = number_in(int, *WALL_RESOLUTION_RANGE, "pixels")
+
+
+def resolution_list(text: str) -> list[tuple[int, int]]:
+    """An argparse type: comma-separated WIDTHxHEIGHT wall resolutions."""
+    try:
+        return [(pixels(w), pixels(h)) for w, h in (part.split("x") for part in text.split(","))]
+    except (ValueError, argparse.ArgumentTypeError) as e:
+        low, high = WALL_RESOLUTION_RANGE
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated WIDTHxHEIGHT, each {low}..{high} pixels, got "
+            f"{text!r}") from e
 
 
 def add(commands) -> None:
@@ -68,7 +81,8 @@ def add(commands) -> None:
                              f"(default: {CLUSTER_FRAMES}); with --soak: frames of the run "
                              f"(default: 100000)")
     add_out_arguments(parser, "bench", "bench.json and bench.md, cluster.json and "
-                      "cluster.md, resync.json, or soak.json")
+                      "cluster.md, resync.json, soak.json, or bench-render.json and "
+                      "bench-render.md")
     parser.add_argument("--cluster", action="store_true",
                         help="lock-step figures instead: barrier round trip with 2, 4 and 8 "
                              "nodes, and a 4-wall run against four systems back to back")
@@ -88,6 +102,18 @@ def add(commands) -> None:
     parser.add_argument("--sample-every", type=frame_count,
                         help="with --soak: frames between memory samples (default: 10000, "
                              "or --frames if fewer)")
+    parser.add_argument("--render", action="store_true",
+                        help="what drawing one wall for one eye costs instead (draw, then "
+                             "wait for the GPU): p50 and p90 per wall resolution, of the "
+                             "scene's state at a built-up frame (default scene "
+                             "config/scenes/brownout.toml), or with --sizes of full pools of "
+                             "its particles; --frames: timed draws (default 20)")
+    parser.add_argument("--resolutions", type=resolution_list,
+                        help="with --render: comma-separated WIDTHxHEIGHT of the walls "
+                             "drawn (default: 480x480,1920x1200)")
+    parser.add_argument("--at-frame", type=frame_count,
+                        help="with --render, without --sizes: the frame whose state is drawn "
+                             "(default: 720, the demo's cloud built up)")
     parser.set_defaults(handler=bench)
 
 
@@ -104,10 +130,13 @@ def bench(args: argparse.Namespace, console: Console) -> int:
     """`cavesim bench`: check the scene and the output directory, then `run_bench`
     (or, with --cluster, `bench_cluster`; with --resync, `bench_resync`; with --soak,
     `bench_soak`)."""
-    other = next((f"--{mode}" for mode in ("soak", "resync", "cluster")
+    other = next((f"--{mode}" for mode in ("soak", "resync", "cluster", "render")
                   if getattr(args, mode)), None)
     if other is not None:
         _only_with_engine_bench(args, other)
+    if args.render:
+        return bench_render(args, console)
+    _only_with_flag(args, RENDER_ONLY, "--render")
     if args.soak:
         return bench_soak(args, console)
     _only_with_soak(args)
@@ -181,10 +210,48 @@ def _only_with_engine_bench(args: argparse.Namespace, mode: str) -> None:
 
 
 def _only_with_soak(args: argparse.Namespace) -> None:
-    for name in SOAK_ONLY:
+    _only_with_flag(args, SOAK_ONLY, "--soak")
+
+
+def _only_with_flag(args: argparse.Namespace, names: tuple[str, ...], mode: str) -> None:
+    for name in names:
         if getattr(args, name) is not None:
             flag = "--" + name.replace("_", "-")
-            raise UsageError(f"cavesim bench: error: argument {flag}: only with --soak")
+            raise UsageError(f"cavesim bench: error: argument {flag}: only with {mode}")
+
+
+def bench_render(args: argparse.Namespace, console: Console) -> int:
+    """`cavesim bench --render`: check the flags, then `run_render_bench`."""
+    from cavesim.core.cave.geometry import load_cave
+    from cavesim.tools.bench.render_cost import (
+        BUILT_UP_FRAME,
+        RENDER_DRAWS,
+        RENDER_SCENE,
+        RESOLUTIONS,
+    )
+    from cavesim.tools.bench.render_report import run_render_bench
+    from cavesim.tools.bench.report import Ended
+
+    for name, value in (("--cluster", args.cluster), ("--resync", args.resync),
+                        ("--soak", args.soak), ("--nodes", args.nodes is not None)):
+        if value:
+            raise UsageError(f"cavesim bench: error: argument {name}: not with --render")
+    _only_with_soak(args)
+    if args.sizes is not None and args.at_frame is not None:
+        raise UsageError("cavesim bench: error: argument --at-frame: not with --sizes (a "
+                         "pool is drawn as loaded)")
+    scene = _bench_scene(args.scene or scene_file(RENDER_SCENE))
+    front = load_cave(cave_file(DEFAULT_CAVE)).wall("front")
+    with own_folder(args.out, "bench", args.force) as folder:
+        report = run_render_bench(scene, front, args.resolutions or list(RESOLUTIONS),
+                                  args.sizes,
+                                  args.at_frame or BUILT_UP_FRAME,
+                                  args.frames or RENDER_DRAWS, folder.path, console)
+    if report["ended"] == Ended.INTERRUPTED:
+        print(f"cavesim bench: interrupted; {len(report['measurements'])} measurements in "
+              f"{folder.path / 'bench-render.json'}", file=sys.stderr)
+        return INTERRUPTED
+    return 0
 
 
 def bench_soak(args: argparse.Namespace, console: Console) -> int:

@@ -110,7 +110,7 @@ class Target:
 
     def applies(self, software: bool) -> bool:
         """Whether the target is meant for a renderer of this kind (software: llvmpipe)."""
-        return (self.renderer == SOFTWARE_RENDERER) == software
+        return applies_to(self.renderer, software)
 
     def evaluate(self, sizes: list[SizeFigures], software: bool) -> dict[str, object]:
         """Judged among the sizes that measured the ratio, on the renderer it is meant for
@@ -130,6 +130,12 @@ class Target:
 
 
 SOFTWARE_RENDERER = "llvmpipe"  # a Target's renderer: this, or "GPU"
+
+
+def applies_to(renderer: str, software: bool) -> bool:
+    """Whether a target meant for `renderer` is judged on a renderer of this kind (software:
+    llvmpipe): a GPU's figures say nothing of llvmpipe's target, nor llvmpipe's of a GPU's."""
+    return (renderer == SOFTWARE_RENDERER) == software
 # The engine's targets (the compute path's, the numpy and checksum ones), each at its reference size
 TARGETS = (
     Target("compute_speedup", ">=", 3.0, "compute frame speedup over the GS/TF frame",
