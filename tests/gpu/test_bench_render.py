@@ -44,6 +44,7 @@ def test_json_has_a_measurement_per_pool_and_wall(render_run):
     _, out, report = render_run
     assert report["command"] == "bench --render" and report["ended"] == "complete"
     assert report["scene"]["name"] == "brownout" and report["draws"] == 3
+    assert len(report["load_average"]) == 3
     got = [(m["particles"], tuple(m["resolution"])) for m in report["measurements"]]
     assert got == [(n, r) for n in SIZES for r in RESOLUTIONS]
     for m in report["measurements"]:

@@ -146,6 +146,8 @@ def build_report(scene: Scene, gl: dict[str, str], software: bool, frame: int, d
         "gl": gl,
         "software": software,
         "cpu_count": os.cpu_count(),
+        # other work on the machine slows a software renderer's draws: say how much there was
+        "load_average": [round(x, 2) for x in os.getloadavg()],
         "versions": {"moderngl": moderngl.__version__, "numpy": np.__version__},
         "head": list(HEAD),
         "warmup_draws": WARMUP_DRAWS,
@@ -160,7 +162,8 @@ def build_report(scene: Scene, gl: dict[str, str], software: bool, frame: int, d
 def markdown(report: dict) -> str:
     gl = report["gl"]
     lines = [f"# cavesim bench --render - scene {report['scene']['name']}", "",
-             f"{gl['renderer']} ({gl['version']}), {report['cpu_count']} CPUs, "
+             f"{gl['renderer']} ({gl['version']}), {report['cpu_count']} CPUs (load average "
+             f"{' / '.join(map(str, report['load_average']))} at the end), "
              f"{report['warmup_draws']} warm-up and {report['draws']} timed draws per "
              f"measurement, {report['created']}; run {report['ended']}", "",
              "| " + " | ".join(HEADERS) + " |",
