@@ -19,12 +19,21 @@ from cavesim.core.scene.model import CollisionKind, Scene
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
-from cavesim.gpu.render.programs import COMPOSITE, DUST, SCENE, SKY, dust_defines
+from cavesim.gpu.render.programs import (
+    COMPOSITE,
+    DUST,
+    SCENE,
+    SKY,
+    SURFACE_PAINTED,
+    SURFACE_ROTOR,
+    SURFACE_SAND,
+    SURFACES,
+    dust_defines,
+)
 
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
 POSITION_WORDS = "4u 24x"  # ... and with lifetime and class too
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
-SURFACE_PAINTED, SURFACE_SAND, SURFACE_ROTOR = 0, 1, 2  # scene.glsl's SURFACE_* shadings
 DUST_CLIP_NEAR = 1e-4  # m: the dust pass's near plane, well inside the shader's near sphere
 
 
@@ -63,7 +72,7 @@ class WallRenderer:
         self.ctx, self.system, self.wall, self.settings = ctx, system, wall, settings
         self.size = tuple(wall.resolution)
         self._targets()
-        self.scene_program = SCENE.build(ctx, {})
+        self.scene_programs = [SCENE.build(ctx, {"SURFACE": surface}) for surface in SURFACES]
         self.dust_program = DUST.build(ctx, dust_defines(system.scene))
         self.composite_program = COMPOSITE.build(ctx, {})
         self._meshes()
@@ -81,18 +90,20 @@ class WallRenderer:
         self.picture_target = ctx.framebuffer([self.picture])
 
     def _meshes(self) -> None:
-        def mesh(rows: np.ndarray) -> tuple[moderngl.VertexArray, int]:
+        def mesh(rows: np.ndarray, surface: int):
+            """(vertex array, vertex count, program) of rows shaded as `surface`."""
+            program = self.scene_programs[surface]
             vbo = self.ctx.buffer(rows.tobytes())
-            vao = self.ctx.vertex_array(self.scene_program,
+            vao = self.ctx.vertex_array(program,
                                         [(vbo, meshes.VERTEX_FORMAT, *meshes.VERTEX_NAMES)])
-            return vao, len(rows)
+            return vao, len(rows), program
 
         ground = _ground(self.system)
-        self.terrain = mesh(meshes.terrain(*ground)) if ground else None
+        self.terrain = mesh(meshes.terrain(*ground), SURFACE_SAND) if ground else None
         self.sky_program = SKY.build(self.ctx, {})
         self.sky = self.ctx.vertex_array(self.sky_program, [])  # one full-screen triangle
-        self.body = mesh(meshes.helicopter_body())
-        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS))
+        self.body = mesh(meshes.helicopter_body(), SURFACE_PAINTED)
+        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), SURFACE_ROTOR)
         # one class and no lifetime fade: the compiler drops in_c, and so must the layout
         layout, names = (DRAWN_WORDS, ("in_a", "in_c")) if "in_c" in self.dust_program \
             else (POSITION_WORDS, ("in_a",))
@@ -106,17 +117,15 @@ class WallRenderer:
         s = self.settings
         sun = np.array(s.sun_direction) / np.linalg.norm(s.sun_direction)
         self.sun = sun
-        atmosphere = {"sky_horizon": s.sky, "sky_zenith": s.sky_zenith,
-                      "sun_direction": tuple(sun), "sun_color": s.sun_color,
-                      "sun_cos_radius": float(np.cos(np.radians(s.sun_radius)))}
-        for program in (self.scene_program, self.sky_program):
-            for name, value in atmosphere.items():
-                if name in program:  # the scene draws no sun disc: its compiler drops some
+        scene = {"sky_horizon": s.sky, "sky_zenith": s.sky_zenith,
+                 "sun_direction": tuple(sun), "sun_color": s.sun_color,
+                 "sun_cos_radius": float(np.cos(np.radians(s.sun_radius))),
+                 "fog_distance": s.fog_distance, "grid_strength": s.grid_strength,
+                 "rotor_radius": MESH_ROTOR_RADIUS, "blade_count": float(s.blade_count)}
+        for program in (*self.scene_programs, self.sky_program):
+            for name, value in scene.items():
+                if name in program:  # each surface's compiler drops what it does not use
                     program[name].value = value
-        self.scene_program["fog_distance"].value = s.fog_distance
-        self.scene_program["grid_strength"].value = s.grid_strength
-        self.scene_program["rotor_radius"].value = MESH_ROTOR_RADIUS
-        self.scene_program["blade_count"].value = float(s.blade_count)
         dust = self.dust_program
         dust["billboard_radius"].write(billboard_radii(self.system.scene).tobytes())
         dust["viewport_size"].value = self.size
@@ -157,25 +166,26 @@ class WallRenderer:
     def _scene_pass(self, projection, view, helicopter) -> None:
         """Opaque terrain and body, then the sky where nothing was drawn, then the rotor
         disc blended over both (it writes no depth: dust behind it shows through)."""
-        ctx, program = self.ctx, self.scene_program
+        ctx = self.ctx
         self.scene_target.use()
         self.scene_target.clear(depth=1.0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.BLEND)
         eye = np.linalg.inv(view)[:3, 3]
-        program["view"].write(gl_matrix(view))
-        program["projection"].write(gl_matrix(projection))
-        program["eye"].value = tuple(eye)
+        for program in self.scene_programs:
+            program["view"].write(gl_matrix(view))
+            program["projection"].write(gl_matrix(projection))
+            program["eye"].value = tuple(eye)
 
-        def draw(mesh, model, surface: int) -> None:
+        def draw(mesh, model) -> None:
+            vao, count, program = mesh
             program["model"].write(gl_matrix(model))
-            program["surface"].value = surface
-            mesh[0].render(moderngl.TRIANGLES, vertices=mesh[1])
+            vao.render(moderngl.TRIANGLES, vertices=count)
 
         if self.terrain:
-            draw(self.terrain, np.eye(4), SURFACE_SAND)
+            draw(self.terrain, np.eye(4))
         if helicopter is not None:
-            draw(self.body, helicopter.model(), SURFACE_PAINTED)
+            draw(self.body, helicopter.model())
         ctx.depth_func = "<="  # the sky lies on the far plane, where the depth is clear
         self.sky_program["world_from_clip"].write(gl_matrix(np.linalg.inv(projection @ view)))
         self.sky_program["eye"].value = tuple(eye)
@@ -186,7 +196,9 @@ class WallRenderer:
             ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             self.scene_target.depth_mask = False
             try:
-                draw(self.rotor, helicopter.rotor_model(), SURFACE_ROTOR)
+                self.rotor[2]["model_from_world"].write(gl_matrix(np.linalg.inv(
+                    helicopter.rotor_model())))
+                draw(self.rotor, helicopter.rotor_model())
             finally:
                 self.scene_target.depth_mask = True
                 ctx.disable(moderngl.BLEND)

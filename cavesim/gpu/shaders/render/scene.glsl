@@ -5,6 +5,8 @@
 
 #include "/include/atmosphere.glsl"
 
+// SURFACE (injected) picks the shading, one program each (programs.py SURFACES): a
+// branch on a uniform would cost every pixel all three on software GL
 #define SURFACE_PAINTED 0  // the vertex colour, lit (the helicopter's body)
 #define SURFACE_SAND 1  // the vertex colour with a sand pattern from world xy
 #define SURFACE_ROTOR 2  // a translucent disc: blurred blades in the model's xy
@@ -18,36 +20,32 @@ uniform mat4 view;
 uniform mat4 projection;
 uniform vec3 eye;  // world m
 uniform float fog_distance;  // m over which the fog takes 1 - 1/e of the colour
-out vec3 model_position;
 out vec3 world_position;
 out vec3 world_normal;
 out vec3 base_color;
-out vec4 fog;  // colour and share; smooth over metres, so per vertex
-out float ripple_bend;  // radians added to the ripples' phase; bends over tens of metres
+// smooth over metres, so per vertex (each varying costs on software GL): the fog's share,
+// and radians added to the sand ripples' phase, bending them over tens of metres
+out vec2 fog_and_bend;
 
 void main() {
     vec4 world = model * vec4(in_position, 1.0);
-    model_position = in_position;
     world_position = world.xyz;
     world_normal = mat3(model) * in_normal;
     base_color = in_color;
-    vec3 from_eye = world.xyz - eye;
-    float distance = length(from_eye);
-    fog = vec4(sky_color(from_eye / distance), 1.0 - exp(-distance / fog_distance));
-    ripple_bend = 1.6 * sin(0.23 * world.x + 0.7 * sin(0.31 * world.y)) + 0.8 * sin(0.41 * world.y);
+    fog_and_bend = vec2(1.0 - exp(-length(world.xyz - eye) / fog_distance),
+                        1.6 * sin(0.23 * world.x + 0.7 * sin(0.31 * world.y))
+                        + 0.8 * sin(0.41 * world.y));
     gl_Position = projection * view * world;
 }
 #endif
 
 #if defined FRAGMENT_SHADER
-in vec3 model_position;
 in vec3 world_position;
 in vec3 world_normal;
 in vec3 base_color;
-in vec4 fog;
-in float ripple_bend;
-uniform int surface;
+in vec2 fog_and_bend;
 uniform vec3 eye;  // world m
+uniform mat4 model_from_world;  // the rotor disc's: its blades lie in the model's xy
 uniform float grid_strength;  // darkens 1 m grid lines: depth cues on the terrain
 uniform float rotor_radius;  // of the disc, in model units
 uniform float blade_count;
@@ -57,7 +55,7 @@ out vec4 color;
 // about 0.7 m apart, bent and with brighter sun-facing flanks, and the metre grid; both
 // fade out where a pixel spans them.
 float sand_shade(vec2 xy) {
-    float phase = dot(xy, vec2(0.8, 0.6)) * 9.0 + ripple_bend;
+    float phase = dot(xy, vec2(0.8, 0.6)) * 9.0 + fog_and_bend.y;
     float ripples = cos(phase) * clamp(1.4 - fwidth(phase), 0.0, 1.0);
     vec2 cell = abs(fract(xy) - 0.5);
     float grid = smoothstep(0.47, 0.5, max(cell.x, cell.y))
@@ -79,21 +77,22 @@ void main() {
     vec3 to_eye = normalize(eye - world_position);
     vec3 albedo = base_color;
     float alpha = 1.0;
-    if (surface == SURFACE_SAND) {
-        albedo *= sand_shade(world_position.xy);
-    } else if (surface == SURFACE_ROTOR) {
-        alpha = blade_cover(model_position.xy);
-        n = n * sign(dot(n, to_eye));  // the disc is lit on the side seen
-    }
+#if SURFACE == SURFACE_SAND
+    albedo *= sand_shade(world_position.xy);
+#elif SURFACE == SURFACE_ROTOR
+    alpha = blade_cover((model_from_world * vec4(world_position, 1.0)).xy);
+    n = n * sign(dot(n, to_eye));  // the disc is lit on the side seen
+#endif
     float diffuse = max(dot(n, sun_direction), 0.0);
     float ambient = 0.38 + 0.08 * n.z;  // more sky above than below
     vec3 lit = albedo * (ambient + 0.62 * diffuse);
-    if (surface == SURFACE_PAINTED) {  // a glint of the sun on paint and glass
-        float glint = max(dot(reflect(-to_eye, n), sun_direction), 0.0);
-        glint *= glint;
-        glint *= glint;
-        lit += 0.25 * sun_color * glint * glint * glint;
-    }
-    color = vec4(mix(lit, fog.rgb, fog.a), alpha);
+#if SURFACE == SURFACE_PAINTED  // a glint of the sun on paint and glass
+    float glint = max(dot(reflect(-to_eye, n), sun_direction), 0.0);
+    glint *= glint;
+    glint *= glint;
+    lit += 0.25 * sun_color * glint * glint * glint;
+#endif
+    // toward the horizon's colour: the sky's just above the ground and below the sun's glow
+    color = vec4(mix(lit, sky_horizon, fog_and_bend.x), alpha);
 }
 #endif
