@@ -1,4 +1,5 @@
-"""The wall renderer's programs: terrain and helicopter, dust billboards, the composite."""
+"""The wall renderer's programs: terrain and helicopter, sky, dust billboards, the
+composite."""
 
 from __future__ import annotations
 
@@ -6,7 +7,10 @@ from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene.model import Scene
 from cavesim.gpu.shader_source import ProgramSpec
 
-SCENE = ProgramSpec("render/scene.glsl", ("vertex", "fragment"))
+SCENE = ProgramSpec("render/scene.glsl", ("vertex", "fragment"), ("SURFACE",))
+SURFACE_PAINTED, SURFACE_SAND, SURFACE_ROTOR = 0, 1, 2  # SCENE's shadings, as scene.glsl
+SURFACES = (SURFACE_PAINTED, SURFACE_SAND, SURFACE_ROTOR)  # names them: one program each
+SKY = ProgramSpec("render/sky.glsl", ("vertex", "fragment"))
 DUST = ProgramSpec("render/dust.glsl", ("vertex", "geometry", "fragment"), ("CLASS_COUNT",))
 COMPOSITE = ProgramSpec("render/composite.glsl", ("vertex", "fragment"))
 PRESENT = ProgramSpec("render/present.glsl", ("vertex", "fragment"))  # into a window
@@ -19,10 +23,12 @@ def dust_defines(scene: Scene) -> dict[str, int]:
 
 def render_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every program the renderer builds for a scene, with its defines."""
-    return [(SCENE, {}), (DUST, dust_defines(scene)), (COMPOSITE, {})]
+    return [*((SCENE, {"SURFACE": surface}) for surface in SURFACES), (SKY, {}),
+            (DUST, dust_defines(scene)), (COMPOSITE, {})]
 
 
 def render_combinations() -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every renderer program at the extremes of its defines."""
-    return [(SCENE, {}), (COMPOSITE, {}), (PRESENT, {}), (OVERLAY, {}),
+    return [*((SCENE, {"SURFACE": surface}) for surface in SURFACES), (SKY, {}),
+            (COMPOSITE, {}), (PRESENT, {}), (OVERLAY, {}),
             *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES))]

@@ -19,7 +19,17 @@ from cavesim.core.scene.model import CollisionKind, Scene
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
-from cavesim.gpu.render.programs import COMPOSITE, DUST, SCENE, dust_defines
+from cavesim.gpu.render.programs import (
+    COMPOSITE,
+    DUST,
+    SCENE,
+    SKY,
+    SURFACE_PAINTED,
+    SURFACE_ROTOR,
+    SURFACE_SAND,
+    SURFACES,
+    dust_defines,
+)
 
 DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
 POSITION_WORDS = "4u 24x"  # ... and with lifetime and class too
@@ -31,7 +41,7 @@ DUST_CLIP_NEAR = 1e-4  # m: the dust pass's near plane, well inside the shader's
 class RenderSettings:
     near: float = 0.05
     far: float = 200.0
-    sky: tuple[float, float, float] = (0.62, 0.72, 0.84)
+    sky: tuple[float, float, float] = (0.62, 0.72, 0.84)  # at the horizon
     sun_direction: tuple[float, float, float] = (0.42, -0.32, 0.85)
     dust_albedo: tuple[float, float, float] = (0.88, 0.78, 0.60)
     dust_ambient: float = 0.62  # dust away from the sun: this share of its albedo
@@ -39,6 +49,12 @@ class RenderSettings:
     density_per_particle: float = 0.2
     soft_distance: float = 0.4  # m
     min_radius_pixels: float = 1.5
+    sky_zenith: tuple[float, float, float] = (0.27, 0.46, 0.78)
+    sun_color: tuple[float, float, float] = (1.0, 0.96, 0.86)
+    sun_radius: float = 1.6  # degrees: the drawn disc, larger than the real sun's 0.27
+    fog_distance: float = 140.0  # m over which the fog takes 1 - 1/e of a surface's colour
+    grid_strength: float = 0.12  # darkening of the terrain's 1 m grid lines
+    blade_count: int = 4  # blades of the main rotor
 
 
 def billboard_radii(scene: Scene) -> np.ndarray:
@@ -56,7 +72,7 @@ class WallRenderer:
         self.ctx, self.system, self.wall, self.settings = ctx, system, wall, settings
         self.size = tuple(wall.resolution)
         self._targets()
-        self.scene_program = SCENE.build(ctx, {})
+        self.scene_programs = [SCENE.build(ctx, {"SURFACE": surface}) for surface in SURFACES]
         self.dust_program = DUST.build(ctx, dust_defines(system.scene))
         self.composite_program = COMPOSITE.build(ctx, {})
         self._meshes()
@@ -74,16 +90,20 @@ class WallRenderer:
         self.picture_target = ctx.framebuffer([self.picture])
 
     def _meshes(self) -> None:
-        def mesh(rows: np.ndarray) -> tuple[moderngl.VertexArray, int]:
+        def mesh(rows: np.ndarray, surface: int):
+            """(vertex array, vertex count, program) of rows shaded as `surface`."""
+            program = self.scene_programs[surface]
             vbo = self.ctx.buffer(rows.tobytes())
-            vao = self.ctx.vertex_array(self.scene_program,
+            vao = self.ctx.vertex_array(program,
                                         [(vbo, meshes.VERTEX_FORMAT, *meshes.VERTEX_NAMES)])
-            return vao, len(rows)
+            return vao, len(rows), program
 
         ground = _ground(self.system)
-        self.terrain = mesh(meshes.terrain(*ground)) if ground else None
-        self.body = mesh(meshes.helicopter_body())
-        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS))
+        self.terrain = mesh(meshes.terrain(*ground), SURFACE_SAND) if ground else None
+        self.sky_program = SKY.build(self.ctx, {})
+        self.sky = self.ctx.vertex_array(self.sky_program, [])  # one full-screen triangle
+        self.body = mesh(meshes.helicopter_body(), SURFACE_PAINTED)
+        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), SURFACE_ROTOR)
         # one class and no lifetime fade: the compiler drops in_c, and so must the layout
         layout, names = (DRAWN_WORDS, ("in_a", "in_c")) if "in_c" in self.dust_program \
             else (POSITION_WORDS, ("in_a",))
@@ -97,8 +117,15 @@ class WallRenderer:
         s = self.settings
         sun = np.array(s.sun_direction) / np.linalg.norm(s.sun_direction)
         self.sun = sun
-        self.scene_program["sun_direction"].value = tuple(sun)
-        self.scene_program["grid_strength"].value = 0.25
+        scene = {"sky_horizon": s.sky, "sky_zenith": s.sky_zenith,
+                 "sun_direction": tuple(sun), "sun_color": s.sun_color,
+                 "sun_cos_radius": float(np.cos(np.radians(s.sun_radius))),
+                 "fog_distance": s.fog_distance, "grid_strength": s.grid_strength,
+                 "rotor_radius": MESH_ROTOR_RADIUS, "blade_count": float(s.blade_count)}
+        for program in (*self.scene_programs, self.sky_program):
+            for name, value in scene.items():
+                if name in program:  # each surface's compiler drops what it does not use
+                    program[name].value = value
         dust = self.dust_program
         dust["billboard_radius"].write(billboard_radii(self.system.scene).tobytes())
         dust["viewport_size"].value = self.size
@@ -137,19 +164,45 @@ class WallRenderer:
             ctx.extra["framebuffer"].use()  # the engine's transform feedback needs it bound
 
     def _scene_pass(self, projection, view, helicopter) -> None:
-        ctx, program = self.ctx, self.scene_program
+        """Opaque terrain and body, then the sky where nothing was drawn, then the rotor
+        disc blended over both (it writes no depth: dust behind it shows through)."""
+        ctx = self.ctx
         self.scene_target.use()
-        self.scene_target.clear(*self.settings.sky, 1.0, depth=1.0)
+        self.scene_target.clear(depth=1.0)
         ctx.enable(moderngl.DEPTH_TEST)
         ctx.disable(moderngl.BLEND)
-        program["view"].write(gl_matrix(view))
-        program["projection"].write(gl_matrix(projection))
-        draws = [(self.terrain, np.eye(4))] if self.terrain else []
-        if helicopter is not None:
-            draws += [(self.body, helicopter.model()), (self.rotor, helicopter.rotor_model())]
-        for (vao, count), model in draws:
+        eye = np.linalg.inv(view)[:3, 3]
+        for program in self.scene_programs:
+            program["view"].write(gl_matrix(view))
+            program["projection"].write(gl_matrix(projection))
+            program["eye"].value = tuple(eye)
+
+        def draw(mesh, model) -> None:
+            vao, count, program = mesh
             program["model"].write(gl_matrix(model))
             vao.render(moderngl.TRIANGLES, vertices=count)
+
+        if self.terrain:
+            draw(self.terrain, np.eye(4))
+        if helicopter is not None:
+            draw(self.body, helicopter.model())
+        ctx.depth_func = "<="  # the sky lies on the far plane, where the depth is clear
+        self.sky_program["world_from_clip"].write(gl_matrix(np.linalg.inv(projection @ view)))
+        self.sky_program["eye"].value = tuple(eye)
+        self.sky.render(moderngl.TRIANGLES, vertices=3)
+        ctx.depth_func = "<"
+        if helicopter is not None:
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+            self.scene_target.depth_mask = False
+            try:
+                self.rotor[2]["model_from_world"].write(gl_matrix(np.linalg.inv(
+                    helicopter.rotor_model())))
+                draw(self.rotor, helicopter.rotor_model())
+            finally:
+                self.scene_target.depth_mask = True
+                ctx.disable(moderngl.BLEND)
+                ctx.blend_func = moderngl.DEFAULT_BLENDING
 
     def _dust_pass(self, projection, view) -> None:
         ctx = self.ctx

@@ -20,7 +20,7 @@ from cavesim.gpu.render.composite import compose
 from cavesim.gpu.render.wall_renderer import RenderSettings
 from cavesim.tools.reports.scene_pictures import DUST_LEVELS, draw_walls
 
-SKY_LEVELS = 3  # a pixel of the view without dust is sky within this of the sky colour
+SKY_LEVELS = 3  # a pixel of the view without dust is sky within this of a sky colour
 BAND_SHARE = 0.05  # the band above the horizon: this share of the picture's height
 COVERED = 0.25  # a column is clouded where dust covers this share of its band
 AZIMUTH_BINS = 24
@@ -42,9 +42,14 @@ def cloud_mask(picture: Image.Image, clear: Image.Image) -> np.ndarray:
 
 
 def sky(clear: Image.Image) -> np.ndarray:
-    """The sky's pixels in the view without dust."""
-    colour = np.asarray(RenderSettings().sky) * 255.0
-    return np.abs(np.asarray(clear, dtype=float) - colour).max(axis=2) <= SKY_LEVELS
+    """The sky's pixels in the view without dust: those within SKY_LEVELS of a colour of
+    its gradient from the horizon to the zenith (the sun and its glow left out)."""
+    settings = RenderSettings()
+    horizon = np.asarray(settings.sky) * 255.0
+    rise = np.asarray(settings.sky_zenith) * 255.0 - horizon
+    rgb = np.asarray(clear, dtype=float)
+    along = np.clip((rgb - horizon) @ rise / (rise @ rise), 0.0, 1.0)
+    return np.abs(rgb - horizon - along[..., None] * rise).max(axis=2) <= SKY_LEVELS
 
 
 def horizon_band(picture: Image.Image, clear: Image.Image) -> np.ndarray:
