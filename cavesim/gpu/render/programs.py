@@ -1,4 +1,5 @@
-"""The wall renderer's programs: terrain and helicopter, dust billboards, the composite."""
+"""The wall renderer's programs: terrain and helicopter, the light map, dust billboards,
+the composite."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ from cavesim.gpu.shader_source import ProgramSpec
 
 SCENE = ProgramSpec("render/scene.glsl", ("vertex", "fragment"))
 DUST = ProgramSpec("render/dust.glsl", ("vertex", "geometry", "fragment"), ("CLASS_COUNT",))
+LIGHT_MAP = ProgramSpec("render/light_map.glsl", ("vertex", "fragment"),
+                        ("CLASS_COUNT", "NEAREST_PASS"))  # the dust seen from the sun
 COMPOSITE = ProgramSpec("render/composite.glsl", ("vertex", "fragment"))
 PRESENT = ProgramSpec("render/present.glsl", ("vertex", "fragment"))  # into a window
 OVERLAY = ProgramSpec("render/overlay.glsl", ("vertex", "fragment"))  # text over a window
@@ -17,12 +20,19 @@ def dust_defines(scene: Scene) -> dict[str, int]:
     return {"CLASS_COUNT": max(1, len(scene.particle_classes))}
 
 
+def light_map_defines(scene: Scene, nearest: bool) -> dict[str, int]:
+    return {**dust_defines(scene), "NEAREST_PASS": int(nearest)}
+
+
 def render_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every program the renderer builds for a scene, with its defines."""
-    return [(SCENE, {}), (DUST, dust_defines(scene)), (COMPOSITE, {})]
+    return [(SCENE, {}), *((LIGHT_MAP, light_map_defines(scene, n)) for n in (True, False)),
+            (DUST, dust_defines(scene)), (COMPOSITE, {})]
 
 
 def render_combinations() -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every renderer program at the extremes of its defines."""
     return [(SCENE, {}), (COMPOSITE, {}), (PRESENT, {}), (OVERLAY, {}),
-            *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES))]
+            *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES)),
+            *((LIGHT_MAP, {"CLASS_COUNT": count, "NEAREST_PASS": nearest})
+              for count in (1, MAX_PARTICLE_CLASSES) for nearest in (0, 1))]
