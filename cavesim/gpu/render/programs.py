@@ -1,5 +1,5 @@
-"""The wall renderer's programs: terrain and helicopter, sky, dust billboards, the
-composite."""
+"""The wall renderer's programs: terrain and helicopter, sky, the light map, dust
+billboards, the composite."""
 
 from __future__ import annotations
 
@@ -12,6 +12,8 @@ SURFACE_PAINTED, SURFACE_SAND, SURFACE_ROTOR = 0, 1, 2  # SCENE's shadings, as s
 SURFACES = (SURFACE_PAINTED, SURFACE_SAND, SURFACE_ROTOR)  # names them: one program each
 SKY = ProgramSpec("render/sky.glsl", ("vertex", "fragment"))
 DUST = ProgramSpec("render/dust.glsl", ("vertex", "geometry", "fragment"), ("CLASS_COUNT",))
+LIGHT_MAP = ProgramSpec("render/light_map.glsl", ("vertex", "fragment"),
+                        ("CLASS_COUNT", "NEAREST_PASS"))  # the dust seen from the sun
 COMPOSITE = ProgramSpec("render/composite.glsl", ("vertex", "fragment"))
 PRESENT = ProgramSpec("render/present.glsl", ("vertex", "fragment"))  # into a window
 OVERLAY = ProgramSpec("render/overlay.glsl", ("vertex", "fragment"))  # text over a window
@@ -21,9 +23,14 @@ def dust_defines(scene: Scene) -> dict[str, int]:
     return {"CLASS_COUNT": max(1, len(scene.particle_classes))}
 
 
+def light_map_defines(scene: Scene, nearest: bool) -> dict[str, int]:
+    return {**dust_defines(scene), "NEAREST_PASS": int(nearest)}
+
+
 def render_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every program the renderer builds for a scene, with its defines."""
     return [*((SCENE, {"SURFACE": surface}) for surface in SURFACES), (SKY, {}),
+            *((LIGHT_MAP, light_map_defines(scene, n)) for n in (True, False)),
             (DUST, dust_defines(scene)), (COMPOSITE, {})]
 
 
@@ -31,4 +38,6 @@ def render_combinations() -> list[tuple[ProgramSpec, dict[str, int]]]:
     """Every renderer program at the extremes of its defines."""
     return [*((SCENE, {"SURFACE": surface}) for surface in SURFACES), (SKY, {}),
             (COMPOSITE, {}), (PRESENT, {}), (OVERLAY, {}),
-            *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES))]
+            *((DUST, {"CLASS_COUNT": count}) for count in (1, MAX_PARTICLE_CLASSES)),
+            *((LIGHT_MAP, {"CLASS_COUNT": count, "NEAREST_PASS": nearest})
+              for count in (1, MAX_PARTICLE_CLASSES) for nearest in (0, 1))]

@@ -1,9 +1,14 @@
-"""One wall's picture of the world: scene, dust by deferred shading, composite.
+"""One wall's picture of the world: scene, dust as a participating medium, composite.
 
-Pass 1 draws terrain and helicopter into a colour and depth target. Pass 2 turns every
-live particle into an eye-facing billboard and adds its density and normal into a float
-target (additive blending: no sorting). Pass 3 lights the dust and blends it over the
-scene. Rendering only reads the particle stream: it never touches what is hashed.
+Pass 1 draws terrain and helicopter, the sky where nothing was drawn and the rotor disc
+over them, into a colour and depth target. The light map splats
+the live particles along the sun's rays into the dust's optical depth toward the sun
+(`light_map.py`). The dust pass turns every live particle into an eye-facing billboard
+and adds the optical depth of its soft sphere along each ray into a float target, with
+where along the ray it lies (additive blending: no sorting). The composite attenuates the
+scene by exp(-optical depth), adds the sunlight and skylight the dust scatters toward the
+eye, shadowed through the light map, and tone maps (`medium.py`, render/composite.glsl).
+Rendering only reads the particle stream: it never touches what is hashed.
 """
 
 from __future__ import annotations
@@ -15,10 +20,12 @@ import numpy as np
 
 from cavesim.core.cave.geometry import Wall
 from cavesim.core.cave.projection import gl_matrix, off_axis, recut
-from cavesim.core.scene.model import CollisionKind, Scene
+from cavesim.core.scene.model import CollisionKind
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
+from cavesim.gpu.render.light_map import LightMap, parcel_arrays
+from cavesim.gpu.render.medium import set_parcel_uniforms
 from cavesim.gpu.render.programs import (
     COMPOSITE,
     DUST,
@@ -31,8 +38,6 @@ from cavesim.gpu.render.programs import (
     dust_defines,
 )
 
-DRAWN_WORDS = "4u 16x 2u"  # the particle record with velocity and age skipped
-POSITION_WORDS = "4u 24x"  # ... and with lifetime and class too
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
 DUST_CLIP_NEAR = 1e-4  # m: the dust pass's near plane, well inside the shader's near sphere
 
@@ -44,9 +49,9 @@ class RenderSettings:
     sky: tuple[float, float, float] = (0.62, 0.72, 0.84)  # at the horizon
     sun_direction: tuple[float, float, float] = (0.42, -0.32, 0.85)
     dust_albedo: tuple[float, float, float] = (0.88, 0.78, 0.60)
-    dust_ambient: float = 0.62  # dust away from the sun: this share of its albedo
-    opacity: float = 1.2  # optical depth per unit of accumulated density
-    density_per_particle: float = 0.2
+    dust_ambient: float = 0.35  # the skylight on the dust: this share of the sunlight
+    opacity: float = 1.2  # extinction (per metre) per unit of density
+    density_per_particle: float = 1.5  # a new parcel's density at its centre (parcel.glsl)
     soft_distance: float = 0.4  # m
     min_radius_pixels: float = 1.5
     sky_zenith: tuple[float, float, float] = (0.27, 0.46, 0.78)
@@ -55,13 +60,15 @@ class RenderSettings:
     fog_distance: float = 140.0  # m over which the fog takes 1 - 1/e of a surface's colour
     grid_strength: float = 0.12  # darkening of the terrain's 1 m grid lines
     blade_count: int = 4  # blades of the main rotor
-
-
-def billboard_radii(scene: Scene) -> np.ndarray:
-    """Drawn radius per particle class: each simulated particle stands for a parcel of
-    grains, larger for coarser grains (which travel in denser bunches)."""
-    diameters = np.array([c.diameter for c in scene.particle_classes] or [1e-4])
-    return np.clip(0.2 * (diameters / 150e-6) ** 0.25, 0.06, 0.35).astype(np.float32)
+    sun_radiance: float = 3.0  # what sunlit dust of albedo 1 scatters, before exposure
+    exposure: float = 1.0  # the tone curve's: display = x / (1 + x), x = exposure * radiance
+    ambient_shadow: float = 0.05  # the share of the optical depth to the sun that dims skylight
+    growth_rate: float = 0.15  # a parcel's radius grows by this share of itself per second
+    max_growth: float = 2.0  # ... up to this many times its size when emitted
+    fade_time: float = 0.5  # s: a parcel fades out over the end of its life
+    light_map_size: int = 512  # texels a side
+    layer_depth: float = 0.5  # m: the light map's first layer; the next are 2, 4, 8 times
+    forward_scattering: float = 0.5  # g of the dust's Henyey-Greenstein phase function
 
 
 class WallRenderer:
@@ -75,6 +82,7 @@ class WallRenderer:
         self.scene_programs = [SCENE.build(ctx, {"SURFACE": surface}) for surface in SURFACES]
         self.dust_program = DUST.build(ctx, dust_defines(system.scene))
         self.composite_program = COMPOSITE.build(ctx, {})
+        self.light_map = LightMap(ctx, system, self._sun(), settings)
         self._meshes()
         self._constant_uniforms()
 
@@ -104,19 +112,15 @@ class WallRenderer:
         self.sky = self.ctx.vertex_array(self.sky_program, [])  # one full-screen triangle
         self.body = mesh(meshes.helicopter_body(), SURFACE_PAINTED)
         self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), SURFACE_ROTOR)
-        # one class and no lifetime fade: the compiler drops in_c, and so must the layout
-        layout, names = (DRAWN_WORDS, ("in_a", "in_c")) if "in_c" in self.dust_program \
-            else (POSITION_WORDS, ("in_a",))
-        self.particles = {name: self.ctx.vertex_array(self.dust_program,
-                                                      [(buffer, layout, *names)])
-                          for name, buffer in self.system.resources.items()
-                          if name.startswith("particles_")}
+        self.particles = parcel_arrays(self.ctx, self.dust_program, self.system)
         self.full_screen = self.ctx.vertex_array(self.composite_program, [])
+
+    def _sun(self) -> np.ndarray:
+        return np.array(self.settings.sun_direction) / np.linalg.norm(self.settings.sun_direction)
 
     def _constant_uniforms(self) -> None:
         s = self.settings
-        sun = np.array(s.sun_direction) / np.linalg.norm(s.sun_direction)
-        self.sun = sun
+        sun = self.sun = self._sun()
         scene = {"sky_horizon": s.sky, "sky_zenith": s.sky_zenith,
                  "sun_direction": tuple(sun), "sun_color": s.sun_color,
                  "sun_cos_radius": float(np.cos(np.radians(s.sun_radius))),
@@ -127,19 +131,23 @@ class WallRenderer:
                 if name in program:  # each surface's compiler drops what it does not use
                     program[name].value = value
         dust = self.dust_program
-        dust["billboard_radius"].write(billboard_radii(self.system.scene).tobytes())
+        set_parcel_uniforms(dust, self.system.scene, s)
         dust["viewport_size"].value = self.size
         dust["near_plane"].value = s.near
         dust["far_plane"].value = s.far
         dust["soft_distance"].value = s.soft_distance
-        dust["density_per_particle"].value = s.density_per_particle
         dust["min_radius_pixels"].value = s.min_radius_pixels
         dust["scene_depth"].value = 0
-        self.composite_program["scene_color"].value = 0
-        self.composite_program["dust"].value = 1
-        self.composite_program["dust_albedo"].value = s.dust_albedo
-        self.composite_program["dust_ambient"].value = s.dust_ambient
-        self.composite_program["opacity"].value = s.opacity
+        composite = self.composite_program
+        composite["scene_color"].value = 0
+        composite["dust"].value = 1
+        composite["dust_albedo"].value = s.dust_albedo
+        composite["sun_radiance"].value = s.sun_radiance
+        composite["sky_radiance"].value = s.sun_radiance * s.dust_ambient
+        composite["exposure"].value = s.exposure
+        composite["ambient_shadow"].value = s.ambient_shadow
+        composite["forward_scattering"].value = s.forward_scattering
+        composite["light_toward"].value = tuple(sun)
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:
         """The wall's picture from `eye` (room = world metres): (height, width, 3) uint8."""
@@ -157,7 +165,7 @@ class WallRenderer:
         try:
             self._scene_pass(projection, view, helicopter)
             self._dust_pass(projection, view)
-            self._composite_pass(view)
+            self._composite_pass(projection, view, eye)
         finally:
             ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
             ctx.blend_func = moderngl.DEFAULT_BLENDING
@@ -206,9 +214,11 @@ class WallRenderer:
 
     def _dust_pass(self, projection, view) -> None:
         ctx = self.ctx
+        live = self.system.live_count
+        if live:
+            self.light_map.draw()  # the composite lights the dust from it
         self.dust_target.use()
         self.dust_target.clear(0.0, 0.0, 0.0, 0.0)
-        live = self.system.live_count
         if not live:
             return
         ctx.disable(moderngl.DEPTH_TEST)
@@ -223,15 +233,19 @@ class WallRenderer:
         self.particles[self.system.front_particle_buffer_name].render(moderngl.POINTS,
                                                                       vertices=live)
 
-    def _composite_pass(self, view) -> None:
+    def _composite_pass(self, projection, view, eye) -> None:
         self.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
         self.picture_target.use()
-        self.composite_program["light_in_view"].value = tuple(view[:3, :3] @ self.sun)
+        program = self.composite_program
+        program["world_from_clip"].write(gl_matrix(np.linalg.inv(projection @ view)))
+        program["eye"].value = tuple(np.asarray(eye, float))
+        self.light_map.use(program, 2, 3)
         self.scene_color.use(0)
         self.dust.use(1)
         self.full_screen.render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
+        self.light_map.release()
         for target in (self.scene_target, self.dust_target, self.picture_target):
             target.release()
         for texture in (self.scene_color, self.scene_depth, self.dust, self.picture):

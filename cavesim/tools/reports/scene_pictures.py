@@ -24,6 +24,7 @@ from cavesim.core.scene.model import Scene
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.tracking.scripted_head import ScriptedHead
 from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.render.medium import lit_dust_colours
 from cavesim.gpu.render.wall_renderer import RenderSettings, WallRenderer
 
 FRAME_DT = 1 / 60
@@ -81,12 +82,11 @@ def draw_walls(ctx: moderngl.Context, scene: Scene, cave: Cave, at: set[int]
 
 
 def dust_colour_distance(picture: np.ndarray) -> np.ndarray:
-    """Per pixel: RGB distance (levels) to the nearest colour lit dust takes, from its
-    albedo in the shade (`dust_ambient` of it) to its albedo in full sun."""
-    albedo = np.asarray(SETTINGS.dust_albedo) * 255.0
+    """Per pixel: RGB distance (levels) to the nearest colour opaque lit dust takes, from
+    dust in the shade (skylit: `dust_ambient` of the sunlight) to dust in full sun."""
     rgb = np.asarray(picture, dtype=float)
-    light = np.clip(rgb @ albedo / (albedo @ albedo), SETTINGS.dust_ambient, 1.0)
-    return np.linalg.norm(rgb - light[..., None] * albedo, axis=-1)
+    return np.min([np.linalg.norm(rgb - colour, axis=-1)
+                   for colour in lit_dust_colours(SETTINGS)], axis=0)
 
 
 def whiteout_share(picture: np.ndarray, clear: np.ndarray) -> float:
