@@ -75,5 +75,7 @@ def test_cavesim_run_writes_walls_composites_and_an_animation(tmp_path):
         left_eye = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000040.png"))
         right_eye = np.asarray(Image.open(tmp_path / "walls" / wall / "frame_000040_right.png"))
         assert left_eye.shape == right_eye.shape
-        # the ground lies in the floor screen's own plane: no parallax there, by design
-        assert np.array_equal(left_eye, right_eye) == (wall == "floor"), wall
+        # the ground lies in the floor screen's own plane: no parallax there, by design;
+        # only its fog, which grows with the distance from each eye, may differ a level
+        step = np.abs(left_eye.astype(int) - right_eye.astype(int)).max()
+        assert (step <= 1) == (wall == "floor"), (wall, step)

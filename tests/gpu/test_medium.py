@@ -65,7 +65,8 @@ def test_a_slab_passes_exp_minus_its_optical_depth_of_the_background(ctx, layers
     points = lattice((-2.0, 8.0, -0.5), (2.0, 8.0 + depth, 3.5), spacing)
     picture, settings = front_picture(ctx, points, dust_albedo=(0.0, 0.0, 0.0),
                                       density_per_particle=0.12)
-    clear = np.array(settings.sky) * 255
+    clear, _ = front_picture(ctx, points, density_per_particle=0.0)  # the sky behind it
+    clear = clear[220:260, 220:260]
     tau = parcel_extinction(settings, radius) * layers / spacing ** 2
     centre = picture[220:260, 220:260]
     transmitted = (luminance_radiance(centre, settings.exposure)
