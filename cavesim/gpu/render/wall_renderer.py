@@ -31,11 +31,9 @@ from cavesim.gpu.render.programs import (
     DUST,
     SCENE,
     SKY,
-    SURFACE_PAINTED,
-    SURFACE_ROTOR,
-    SURFACE_SAND,
-    SURFACES,
+    Surface,
     dust_defines,
+    scene_defines,
 )
 
 OPEN_GROUND = ((-30.0, -30.0), (30.0, 30.0))  # terrain extent of a scene without a field
@@ -79,7 +77,7 @@ class WallRenderer:
         self.ctx, self.system, self.wall, self.settings = ctx, system, wall, settings
         self.size = tuple(wall.resolution)
         self._targets()
-        self.scene_programs = [SCENE.build(ctx, {"SURFACE": surface}) for surface in SURFACES]
+        self.scene_programs = [SCENE.build(ctx, scene_defines(surface)) for surface in Surface]
         self.dust_program = DUST.build(ctx, dust_defines(system.scene))
         self.composite_program = COMPOSITE.build(ctx, {})
         self.light_map = LightMap(ctx, system, self._sun(), settings)
@@ -107,11 +105,11 @@ class WallRenderer:
             return vao, len(rows), program
 
         ground = _ground(self.system)
-        self.terrain = mesh(meshes.terrain(*ground), SURFACE_SAND) if ground else None
+        self.terrain = mesh(meshes.terrain(*ground), Surface.SAND) if ground else None
         self.sky_program = SKY.build(self.ctx, {})
         self.sky = self.ctx.vertex_array(self.sky_program, [])  # one full-screen triangle
-        self.body = mesh(meshes.helicopter_body(), SURFACE_PAINTED)
-        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), SURFACE_ROTOR)
+        self.body = mesh(meshes.helicopter_body(), Surface.PAINTED)
+        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), Surface.ROTOR)
         self.particles = parcel_arrays(self.ctx, self.dust_program, self.system)
         self.full_screen = self.ctx.vertex_array(self.composite_program, [])
 

@@ -5,11 +5,8 @@
 
 #include "/include/atmosphere.glsl"
 
-// SURFACE (injected) picks the shading, one program each (programs.py SURFACES): a
-// branch on a uniform would cost every pixel all three on software GL
-#define SURFACE_PAINTED 0  // the vertex colour, lit (the helicopter's body)
-#define SURFACE_SAND 1  // the vertex colour with a sand pattern from world xy
-#define SURFACE_ROTOR 2  // a translucent disc: blurred blades in the model's xy
+// SURFACE (injected) picks the shading, one program each: SURFACE_PAINTED, SURFACE_SAND
+// or SURFACE_ROTOR, injected too (programs.py Surface)
 
 #if defined VERTEX_SHADER
 in vec3 in_position;
