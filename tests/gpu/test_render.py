@@ -13,6 +13,7 @@ from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene_frame import HelicopterPose
 from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.render.light_map import LightMap
 from cavesim.gpu.render.text import TextLine
 from cavesim.gpu.render.wall_renderer import WallRenderer
 
@@ -147,3 +148,30 @@ def test_a_text_line_blends_white_glyphs_on_a_dark_band_and_nothing_else(ctx):
     assert band[..., 0].min() == 0 and band[..., 2].min() < 110  # the band darkens blue
     target.release()
     line.texture.release()
+
+
+def test_the_walls_of_one_system_share_one_light_map_splatted_once_per_state(ctx, monkeypatch):
+    splats = []
+    original = LightMap._splat
+    monkeypatch.setattr(LightMap, "_splat", lambda self: (splats.append(self), original(self)))
+    system = ParticleSystem(ctx, make_scene(drag=False, capacity=100))
+    system.write_particles(particles_at([(0.0, 4.0 + 0.1 * k, 1.5) for k in range(20)]))
+    cave = small_cave()
+    front, left = (WallRenderer(ctx, system, cave.wall(name)) for name in ("front", "left"))
+    try:
+        assert front.light_map is left.light_map
+        for renderer in (front, left, front):  # a second eye of the front wall
+            renderer.render(EYE, None)
+        assert splats == [front.light_map]
+        system.step(FrameInput(1 / 60, draw_transform(np.random.default_rng(0), 64)))
+        left.render(EYE, None)
+        front.render(EYE, None)
+        assert len(splats) == 2
+    finally:
+        shared = front.light_map
+        front.release()
+        left.release()
+    again = WallRenderer(ctx, system, cave.wall("front"))
+    assert again.light_map is not shared  # the last share freed the map
+    again.release()
+    system.release()

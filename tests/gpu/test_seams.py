@@ -62,8 +62,12 @@ def edge_cloud(cave, eye, per_edge: int, seed: int = 0) -> np.ndarray:
     return records
 
 
+CLOUD_DENSITY = 1.5  # per parcel: the clouds', whatever the demo's look is tuned to
+
+
 def pictures(ctx, cave, records, eye=EYE, ground=True, **settings):
     """Every wall's picture of `records` from `eye`, over a ground plane or only the sky."""
+    settings = {"density_per_particle": CLOUD_DENSITY, **settings}
     scene = make_scene(drag=False, collision=PLANE if ground else None, capacity=len(records))
     system = ParticleSystem(ctx, scene)
     system.write_particles(records)

@@ -90,6 +90,7 @@ class ParticleSystem:
         self._live: int | None = 0  # None: the last frame's count is still on the GPU
         self._dropped: int | None = 0  # likewise: the particles it dropped at the capacity
         self._current = 0  # index of the front buffers
+        self.generation = 0  # states made current so far: a drawing of one holds until the next
         self._loading: int | None = None  # particles of the load staged in the back buffer
         # the buffers whose checksum tree the GPU holds, and their checksum
         self._tree: tuple[int, StateChecksum] | None = None
@@ -256,6 +257,7 @@ class ParticleSystem:
         self._passes.advance(front, back, live, emission)
         self._live = self._dropped = None  # the frame's counts are on the GPU
         self._current = back
+        self.generation += 1
 
     def domain_exits(self) -> tuple[int, ...] | None:
         """Per particle class, how many left the field's box in the last frame; None where
@@ -469,6 +471,7 @@ class ParticleSystem:
         if seed != self.scene.seed:
             self.reseed(seed)
         self._current, self._live, self._loading = back, count, None
+        self.generation += 1
         self._dropped = 0  # a loaded state was not stepped into: nothing dropped
 
     def _stage_emitters(self, back: int, emitters: np.ndarray | None) -> None:

@@ -3,7 +3,8 @@ each frame before the dust pass, which reads it to shadow every particle's sunli
 
 It covers the scene's box (the field's, or open ground's), fitted orthographically along
 the sun's rays: fixed in the world, so every wall of every node draws the same map from the
-same particles. Two passes over the particles: where the dust begins per texel, then the
+same particles. The walls that draw one system share one map (`shared_light_map`), drawn
+once per state of the particles, whatever the walls and eyes that read it. Two passes over the particles: where the dust begins per texel, then the
 optical depth in layers behind that (render/light_map.glsl, include/sunlight.glsl).
 
 A pass over a particle costs about as much as drawing it on a wall, so the map is drawn
@@ -62,12 +63,31 @@ def fit(sun: np.ndarray, box_min, box_max) -> tuple[np.ndarray, float]:
     return matrix, half
 
 
+_SHARED: dict[tuple, LightMap] = {}  # by system (its id, held alive by the map), sun, settings
+
+
+def shared_light_map(ctx: moderngl.Context, system: ParticleSystem, sun: np.ndarray,
+                     settings: MediumSettings) -> LightMap:
+    """The one map of `system` lit from `sun` under `settings`, for every renderer that
+    asks: each call takes a share, and `LightMap.release` gives it back (the last frees it)."""
+    key = (id(system), tuple(np.asarray(sun, float)), settings)
+    light_map = _SHARED.get(key)
+    if light_map is None:
+        light_map = _SHARED[key] = LightMap(ctx, system, sun, settings)
+        light_map.key = key
+    light_map.shares += 1
+    return light_map
+
+
 class LightMap:
     """The optical depth toward the sun of a ParticleSystem's current dust."""
 
     def __init__(self, ctx: moderngl.Context, system: ParticleSystem, sun: np.ndarray,
                  settings: MediumSettings) -> None:
         self.ctx, self.system = ctx, system
+        self.key: tuple | None = None  # in _SHARED, when shared
+        self.shares = 0
+        self.drawn_generation: int | None = None  # the system's state the map holds
         size = (settings.light_map_size,) * 2
         self.light_from_world, half = fit(sun, *light_box(system))
         self.nearest = ctx.texture(size, 1, dtype="f4")
@@ -102,7 +122,13 @@ class LightMap:
         self.layers.use(layers_unit)
 
     def draw(self) -> None:
-        """Splat the live particles: nearest dust per texel, then the layers behind it."""
+        """Splat the live particles: nearest dust per texel, then the layers behind it
+        (once per state of the system)."""
+        if self.drawn_generation != self.system.generation:
+            self._splat()
+            self.drawn_generation = self.system.generation
+
+    def _splat(self) -> None:
         ctx, live = self.ctx, self.system.live_count
         self.nearest_target.clear(FAR, 0.0, 0.0, 0.0)
         self.layers_target.clear(0.0, 0.0, 0.0, 0.0)
@@ -126,6 +152,12 @@ class LightMap:
             ctx.disable(moderngl.PROGRAM_POINT_SIZE)
 
     def release(self) -> None:
+        """Give back a share; the last frees the map."""
+        self.shares -= 1
+        if self.shares > 0:
+            return
+        if self.key is not None:
+            del _SHARED[self.key]
         for target in (self.nearest_target, self.layers_target):
             target.release()
         for texture in (self.nearest, self.layers):

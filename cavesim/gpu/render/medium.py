@@ -22,12 +22,14 @@ class MediumSettings(Protocol):
     min_radius_pixels: float
     sun_radiance: float
     exposure: float
-    growth_rate: float
-    max_growth: float
+    eddy_diffusivity: float
+    max_radius: float
     fade_time: float
     light_map_size: int
     layer_depth: float
     forward_scattering: float
+    backward_scattering: float
+    backward_share: float
 
 
 def billboard_radii(scene: Scene) -> np.ndarray:
@@ -43,7 +45,7 @@ def set_parcel_uniforms(program: moderngl.Program, scene: Scene,
     (a program that needs only the parcels' sizes has the others compiled away)."""
     program["billboard_radius"].write(billboard_radii(scene).tobytes())
     values = {"peak_extinction": settings.opacity * settings.density_per_particle,
-              "growth_rate": settings.growth_rate, "max_growth": settings.max_growth,
+              "eddy_diffusivity": settings.eddy_diffusivity, "max_radius": settings.max_radius,
               "fade_time": settings.fade_time}
     for name, value in values.items():
         if name in program:
@@ -66,12 +68,23 @@ def inverse_tone_map(display: np.ndarray, exposure: float) -> np.ndarray:
     return y / (1.0 - y @ LUMA)[..., None] / exposure
 
 
+def phase(settings: MediumSettings, cosine: np.ndarray) -> np.ndarray:
+    """The dust's phase function relative to isotropic scattering, as composite.glsl: two
+    Henyey-Greenstein lobes at the cosine of the angle between the sunlight and the view."""
+    def henyey_greenstein(g: float) -> np.ndarray:
+        d = 1.0 + g * g - 2.0 * g * np.asarray(cosine, float)
+        return (1.0 - g * g) / (d * np.sqrt(d))
+
+    share = settings.backward_share
+    return ((1.0 - share) * henyey_greenstein(settings.forward_scattering)
+            + share * henyey_greenstein(settings.backward_scattering))
+
+
 def lit_dust_colours(settings: MediumSettings, count: int = 65) -> np.ndarray:
     """(count, 3) display colours (0-255) of opaque dust: lit by the whole skylight and by
     sunlight from none (in full shade) to the most its phase function scatters toward an
     eye (looking into the sun): what a cloud dense enough to hide the world shows."""
-    g = settings.forward_scattering
-    most = (1 + g) / (1 - g) ** 2  # the phase function relative to isotropic, at 0 degrees
+    most = float(phase(settings, 1.0))
     sun = np.linspace(0.0, most, count)[:, None]
     radiance = np.asarray(settings.dust_albedo) * settings.sun_radiance * (
         sun + settings.dust_ambient)

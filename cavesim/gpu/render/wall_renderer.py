@@ -24,7 +24,7 @@ from cavesim.core.scene.model import CollisionKind
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
-from cavesim.gpu.render.light_map import LightMap, parcel_arrays
+from cavesim.gpu.render.light_map import parcel_arrays, shared_light_map
 from cavesim.gpu.render.medium import set_parcel_uniforms
 from cavesim.gpu.render.programs import (
     COMPOSITE,
@@ -49,7 +49,7 @@ class RenderSettings:
     dust_albedo: tuple[float, float, float] = (0.88, 0.78, 0.60)
     dust_ambient: float = 0.35  # the skylight on the dust: this share of the sunlight
     opacity: float = 1.2  # extinction (per metre) per unit of density
-    density_per_particle: float = 1.5  # a new parcel's density at its centre (parcel.glsl)
+    density_per_particle: float = 8.0  # a new parcel's density at its centre (parcel.glsl)
     soft_distance: float = 0.4  # m
     min_radius_pixels: float = 1.5
     sky_zenith: tuple[float, float, float] = (0.27, 0.46, 0.78)
@@ -61,12 +61,14 @@ class RenderSettings:
     sun_radiance: float = 3.0  # what sunlit dust of albedo 1 scatters, before exposure
     exposure: float = 1.0  # the tone curve's: display = x / (1 + x), x = exposure * radiance
     ambient_shadow: float = 0.05  # the share of the optical depth to the sun that dims skylight
-    growth_rate: float = 0.15  # a parcel's radius grows by this share of itself per second
-    max_growth: float = 2.0  # ... up to this many times its size when emitted
+    eddy_diffusivity: float = 0.05  # m^2/s: how fast a parcel spreads (parcel.glsl)
+    max_radius: float = 0.5  # m: ... up to this radius
     fade_time: float = 0.5  # s: a parcel fades out over the end of its life
     light_map_size: int = 512  # texels a side
     layer_depth: float = 0.5  # m: the light map's first layer; the next are 2, 4, 8 times
-    forward_scattering: float = 0.5  # g of the dust's Henyey-Greenstein phase function
+    forward_scattering: float = 0.6  # g of the phase function's forward lobe (Henyey-
+    backward_scattering: float = -0.3  # Greenstein) and of its backward lobe,
+    backward_share: float = 0.3  # ... which has this weight
 
 
 class WallRenderer:
@@ -80,7 +82,7 @@ class WallRenderer:
         self.scene_programs = [SCENE.build(ctx, scene_defines(surface)) for surface in Surface]
         self.dust_program = DUST.build(ctx, dust_defines(system.scene))
         self.composite_program = COMPOSITE.build(ctx, {})
-        self.light_map = LightMap(ctx, system, self._sun(), settings)
+        self.light_map = shared_light_map(ctx, system, self._sun(), settings)
         self._meshes()
         self._constant_uniforms()
 
@@ -145,6 +147,8 @@ class WallRenderer:
         composite["exposure"].value = s.exposure
         composite["ambient_shadow"].value = s.ambient_shadow
         composite["forward_scattering"].value = s.forward_scattering
+        composite["backward_scattering"].value = s.backward_scattering
+        composite["backward_share"].value = s.backward_share
         composite["light_toward"].value = tuple(sun)
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:

@@ -3,15 +3,16 @@
 // at s = r from the centre then crosses the optical depth
 //   tau(r) = integral of sigma along the chord = (4/3) sigma0 R (1 - r^2)^(3/2),
 // smooth to zero at the rim, and the parcel's whole extinction (tau over its disc) is
-// (8/15) pi sigma0 R^3. A parcel grows with age as its grains spread, keeping that whole
-// (sigma0 ~ 1 / R^3), and fades out over the end of its life instead of vanishing.
+// (8/15) pi sigma0 R^3. A parcel spreads with age as the turbulence mixes its grains
+// outward, R^2 = R0^2 + 2 K age for an eddy diffusivity K (Taylor's puff), keeping that
+// whole (sigma0 ~ 1 / R^3), and fades out over the end of its life instead of vanishing.
 // Shared by the dust pass and the light map, so both see the same medium.
 #pragma once
 
 uniform float billboard_radius[CLASS_COUNT];  // metres, per particle class, when emitted
 uniform float peak_extinction;  // sigma0 of a new parcel, per metre
-uniform float growth_rate;  // radius growth per second of age, in radii
-uniform float max_growth;  // the most a parcel grows, in radii
+uniform float eddy_diffusivity;  // K, m^2/s
+uniform float max_radius;  // metres: the most a parcel spreads to
 uniform float fade_time;  // seconds: a parcel's optical depth falls to 0 over these before it dies
 
 struct Parcel {
@@ -20,8 +21,9 @@ struct Parcel {
 };
 
 Parcel parcel(uint class_id, float age, float lifetime) {
-    float grow = min(1.0 + growth_rate * max(age, 0.0), max_growth);
     float radius = billboard_radius[min(class_id, uint(CLASS_COUNT - 1))];
+    float spread = sqrt(radius * radius + 2.0 * eddy_diffusivity * max(age, 0.0));
+    float grow = max(min(spread, max_radius), radius) / radius;
     float fade = clamp((lifetime - age) / fade_time, 0.0, 1.0);
     Parcel p;
     p.radius = radius * grow;

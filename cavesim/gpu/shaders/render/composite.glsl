@@ -6,10 +6,11 @@
 //   L = T L_scene + (1 - T) albedo (E_sun sum_i 2^-i p_i T_sun^(2^-i) + E_sky T_sky),
 //   T = exp(-tau)
 // (Beer-Lambert for the background, scattering in: single, i = 0, and multiple, in
-// octaves i > 0, below), with p_i the Henyey-Greenstein
-// phase function relative to isotropic scattering at the angle between the sunlight and
-// the ray to the eye (dust scatters forward: it glows toward the sun and is dull with the
-// sun behind the viewer), T_sun the transmittance toward the sun from the light map where
+// octaves i > 0, below), with p_i the phase function relative to isotropic scattering at
+// the angle between the sunlight and the ray to the eye: two Henyey-Greenstein lobes, a
+// strong forward one (dust glows toward the sun) and a weaker backward one (its grains
+// throw light back too, so dust with the sun behind the viewer is not dull), T_sun the
+// transmittance toward the sun from the light map where
 // the eye sees the dust, and T_sky the same for the skylight with a share of that optical
 // depth. Where on the ray: the sums give the dust's mean distance and spread; taken as
 // uniform over the segment of that mean and spread, light scattered at depth fraction x
@@ -40,7 +41,9 @@ uniform vec3 light_toward;  // unit: toward the sun
 uniform vec3 dust_albedo;
 uniform float sun_radiance;  // E_sun: sunlit dust of albedo 1 scatters this radiance
 uniform float sky_radiance;  // E_sky: skylit dust likewise
-uniform float forward_scattering;  // g of the phase function, in (-1, 1)
+uniform float forward_scattering;  // g of the forward lobe, in [0, 1)
+uniform float backward_scattering;  // g of the backward lobe, in (-1, 0]
+uniform float backward_share;  // the backward lobe's weight, in [0, 1]
 uniform float ambient_shadow;  // the share of the optical depth to the sun that dims E_sky
 uniform float exposure;
 out vec4 color;
@@ -64,9 +67,15 @@ vec3 inverse_tone_map(vec3 display) {
 }
 
 // Henyey-Greenstein, relative to isotropic scattering
-float phase(float g, float cosine) {
+float henyey_greenstein(float g, float cosine) {
     float d = 1.0 + g * g - 2.0 * g * cosine;
     return (1.0 - g * g) / (d * sqrt(d));
+}
+
+// the dust's two lobes, their anisotropy scaled by `anisotropy` (1 for single scattering)
+float phase(float anisotropy, float cosine) {
+    return mix(henyey_greenstein(anisotropy * forward_scattering, cosine),
+               henyey_greenstein(anisotropy * backward_scattering, cosine), backward_share);
 }
 
 void main() {
@@ -87,9 +96,8 @@ void main() {
     float cosine = dot(ray, light_toward);
     float quarter = exp(-0.25 * tau_sun);  // octave 2's transmittance; octave 1's is its square
     float half_ = quarter * quarter;
-    float sun = phase(forward_scattering, cosine) * half_ * half_
-              + 0.5 * phase(0.5 * forward_scattering, cosine) * half_
-              + 0.25 * phase(0.25 * forward_scattering, cosine) * quarter;
+    float sun = phase(1.0, cosine) * half_ * half_ + 0.5 * phase(0.5, cosine) * half_
+              + 0.25 * phase(0.25, cosine) * quarter;
     float sky = exp(-ambient_shadow * tau_sun);
     vec3 source = dust_albedo * (sun_radiance * sun + sky_radiance * sky);
     float transmittance = exp(-tau);
