@@ -69,6 +69,8 @@ class RenderSettings:
     forward_scattering: float = 0.6  # g of the phase function's forward lobe (Henyey-
     backward_scattering: float = -0.3  # Greenstein) and of its backward lobe,
     backward_share: float = 0.3  # ... which has this weight
+    shadows: bool = True  # the dust shadowed from the sun by the light map
+    multiple_scattering: bool = True  # light scattered more than once (composite.glsl)
 
 
 class WallRenderer:
@@ -149,6 +151,8 @@ class WallRenderer:
         composite["forward_scattering"].value = s.forward_scattering
         composite["backward_scattering"].value = s.backward_scattering
         composite["backward_share"].value = s.backward_share
+        composite["shadows"].value = s.shadows
+        composite["multiple_scattering"].value = s.multiple_scattering
         composite["light_toward"].value = tuple(sun)
 
     def render(self, eye, helicopter: HelicopterPose | None) -> np.ndarray:

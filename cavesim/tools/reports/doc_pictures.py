@@ -24,6 +24,7 @@ from cavesim.gpu.gl.context import create_context
 from cavesim.gpu.render.composite import compose
 from cavesim.tools.reports.outwash_figure import plot_outwash
 from cavesim.tools.reports.scene_pictures import draw_walls
+from cavesim.tools.reports.technique_pictures import technique_pictures, technique_sheet
 
 IMAGES = Path("docs/images")  # relative to the repository root
 DOC_SCALE = 0.5  # the default CAVE's 480 px walls at 240 px: 720 x 480 composites
@@ -51,6 +52,16 @@ def unfolded(scene: str, frame: int) -> Callable[[Path], None]:
     return draw
 
 
+def techniques(scene: str) -> Callable[[Path], None]:
+    """The default CAVE's front wall without each drawing technique and with it."""
+    def draw(path: Path) -> None:
+        wall = load_cave(DEFAULT_CAVE).scaled(DOC_SCALE).wall("front")
+        sheet = technique_sheet(technique_pictures(load_scene(scene), wall))
+        with writing(path):
+            sheet.save(path, optimize=True)
+    return draw
+
+
 ACCURACY = "drawn by `cavesim accuracy --out out/accuracy` (20,000 particles, about 40 min on " \
            "llvmpipe): copy out/accuracy/{name} here"
 PICTURES = (
@@ -60,6 +71,8 @@ PICTURES = (
                unfolded("config/scenes/brownout.toml", 750)),
     DocPicture("cave_composite.png", "the dust devil after 300 frames",
                unfolded("config/scenes/dust_devil.toml", 300)),
+    DocPicture("techniques.png", "each drawing technique left out and kept, in the brownout "
+               "demo", techniques("config/scenes/brownout.toml")),
     DocPicture("outwash.png", "the downwash against the published wall-jet data", plot_outwash),
     DocPicture("work_precision.png", "error against GPU run time per integrator",
                command=ACCURACY.format(name="work_precision.png")),

@@ -46,6 +46,8 @@ uniform float backward_scattering;  // g of the backward lobe, in (-1, 0]
 uniform float backward_share;  // the backward lobe's weight, in [0, 1]
 uniform float ambient_shadow;  // the share of the optical depth to the sun that dims E_sky
 uniform float exposure;
+uniform bool shadows;  // false: the dust is lit as if nothing stood between it and the sun
+uniform bool multiple_scattering;  // false: single scattering only
 out vec4 color;
 
 // Light scattered more than once, in octaves of a half (Wrenninge et al. 2013, "Oz: the
@@ -92,12 +94,14 @@ void main() {
     float extent = sqrt(12.0 * max(d.g / tau - mean * mean, 0.0));
     float start = max(mean - 0.5 * extent, 0.0);
     float seen = tau < 1e-3 ? 0.5 - tau / 12.0 : 1.0 / tau - 1.0 / (exp(tau) - 1.0);
-    float tau_sun = sun_optical_depth(eye + ray * (start + seen * extent));
+    float tau_sun = shadows ? sun_optical_depth(eye + ray * (start + seen * extent)) : 0.0;
     float cosine = dot(ray, light_toward);
     float quarter = exp(-0.25 * tau_sun);  // octave 2's transmittance; octave 1's is its square
     float half_ = quarter * quarter;
-    float sun = phase(1.0, cosine) * half_ * half_ + 0.5 * phase(0.5, cosine) * half_
-              + 0.25 * phase(0.25, cosine) * quarter;
+    float sun = phase(1.0, cosine) * half_ * half_;
+    if (multiple_scattering) {
+        sun += 0.5 * phase(0.5, cosine) * half_ + 0.25 * phase(0.25, cosine) * quarter;
+    }
     float sky = exp(-ambient_shadow * tau_sun);
     vec3 source = dust_albedo * (sun_radiance * sun + sky_radiance * sky);
     float transmittance = exp(-tau);
