@@ -62,7 +62,7 @@ class RenderSettings:
     exposure: float = 1.0  # the tone curve's: display = x / (1 + x), x = exposure * radiance
     ambient_shadow: float = 0.05  # the share of the optical depth to the sun that dims skylight
     eddy_diffusivity: float = 0.05  # m^2/s: how fast a parcel spreads (parcel.glsl)
-    max_radius: float = 0.5  # m: ... up to this radius
+    max_radius: float = 0.3  # m: ... up to this radius
     fade_time: float = 0.5  # s: a parcel fades out over the end of its life
     light_map_size: int = 512  # texels a side
     layer_depth: float = 0.5  # m: the light map's first layer; the next are 2, 4, 8 times
@@ -134,7 +134,6 @@ class WallRenderer:
                     program[name].value = value
         dust = self.dust_program
         set_parcel_uniforms(dust, self.system.scene, s)
-        dust["viewport_size"].value = self.size
         dust["near_plane"].value = s.near
         dust["far_plane"].value = s.far
         dust["soft_distance"].value = s.soft_distance

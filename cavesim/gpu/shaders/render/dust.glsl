@@ -85,8 +85,7 @@ in vec3 across;
 in vec3 billboard_point;
 flat in float center_tau;
 flat in float eye_distance;
-uniform sampler2D scene_depth;
-uniform vec2 viewport_size;
+uniform sampler2D scene_depth;  // the scene pass's, pixel for pixel
 uniform float near_plane;  // the scene pass's near plane, and the dust's near sphere
 uniform float far_plane;
 uniform float soft_distance;  // metres over which a particle fades into the scene
@@ -108,7 +107,7 @@ void main() {
     // Depths along the wall's axis differ between walls for the same point: measure the gap
     // to the scene along the ray, which every wall shares.
     float depth = -billboard_point.z;
-    float scene = linear_depth(texture(scene_depth, gl_FragCoord.xy / viewport_size).r);
+    float scene = linear_depth(texelFetch(scene_depth, ivec2(gl_FragCoord.xy), 0).r);
     float gap = (scene - depth) * distance / depth;
     float soft = clamp(gap / soft_distance, 0.0, 1.0);
     float tau = center_tau * chord_share(r2) * soft;
