@@ -2,9 +2,9 @@
 
 The terrain is the same ground the particles collide with; its sand pattern is drawn by
 the scene shader from world position. The built-in helicopter is built from swept tubes and
-plates in its model frame (nose along +x, rotor hub at (0, 0, MESH_HUB_HEIGHT)). Its main
-and tail rotors are one disc mesh, spun by the pose's rotor matrices and drawn translucent
-with blurred blades.
+plates in its model frame (nose along +x, rotor hub at (0, 0, MESH_HUB_HEIGHT)); a scene may
+name a glTF file instead (`gltf_model.py`). Its main and tail rotors are one disc mesh, spun
+by the pose's rotor matrices and drawn translucent with blurred blades.
 """
 
 from __future__ import annotations

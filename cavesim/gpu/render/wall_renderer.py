@@ -24,6 +24,7 @@ from cavesim.core.scene.model import CollisionKind
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
+from cavesim.gpu.render.gltf_model import helicopter_model
 from cavesim.gpu.render.light_map import LightMap, parcel_arrays
 from cavesim.gpu.render.medium import set_parcel_uniforms
 from cavesim.gpu.render.programs import (
@@ -108,7 +109,7 @@ class WallRenderer:
         self.terrain = mesh(meshes.terrain(*ground), Surface.SAND) if ground else None
         self.sky_program = SKY.build(self.ctx, {})
         self.sky = self.ctx.vertex_array(self.sky_program, [])  # one full-screen triangle
-        helicopter = meshes.built_in_helicopter()
+        helicopter = helicopter_model(self.system.scene)
         self.body = mesh(helicopter.body, Surface.PAINTED)
         self.tail_rotor = helicopter.tail_rotor
         self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), Surface.ROTOR)  # and tail rotor
