@@ -9,6 +9,11 @@ class SceneError(CavesimError, ValueError):
     """A scene file or scene value is malformed: names file, key, value and what is allowed."""
 
 
+class ModelError(CavesimError, ValueError):
+    """A helicopter model file (glTF) cannot be drawn: names the file, what is wrong in it
+    and what is allowed."""
+
+
 class CaveError(CavesimError, ValueError):
     """A CAVE geometry file is malformed: names file, wall key, value and what is allowed."""
 

@@ -17,6 +17,7 @@ from cavesim.core.field_time import FieldTime
 
 MESH_HUB_HEIGHT = 1.3  # m from the skids up to the rotor hub of the drawn model (meshes.py)
 MESH_ROTOR_RADIUS = 5.0  # m, the drawn rotor's radius before scaling
+TAIL_ROTOR_GEARING = 5.0  # tail rotor turns per main rotor turn: about 5 on utility helicopters
 
 
 @dataclass(frozen=True)
@@ -40,6 +41,14 @@ class HelicopterPose:
         return (translation(self.position) @ rotation_z(self.yaw)
                 @ translation((0.0, 0.0, self.hub_height)) @ rotation_z(self.rotor_angle)
                 @ scaling(self.rotor_radius / MESH_ROTOR_RADIUS))
+
+    def tail_rotor_model(self, hub, radius: float) -> np.ndarray:
+        """4x4 world-from-model matrix of the rotor disk as a tail rotor of the body: its hub
+        and radius in the body's model frame, the disk standing in the model's xz plane and
+        turned about y by TAIL_ROTOR_GEARING times the rotor angle."""
+        return (self.model() @ translation(hub) @ rotation_x(-math.pi / 2)  # disk z to y
+                @ rotation_z(TAIL_ROTOR_GEARING * self.rotor_angle)
+                @ scaling(radius / MESH_ROTOR_RADIUS))
 
 
 @dataclass(frozen=True)
@@ -68,10 +77,19 @@ def translation(offset) -> np.ndarray:
     return m
 
 
+def rotation_x(angle: float) -> np.ndarray:
+    return _rotation(angle, 1, 2)
+
+
 def rotation_z(angle: float) -> np.ndarray:
+    return _rotation(angle, 0, 1)
+
+
+def _rotation(angle: float, a: int, b: int) -> np.ndarray:
+    """4x4 turn by `angle` radians from axis `a` toward axis `b`."""
     c, s = math.cos(angle), math.sin(angle)
     m = np.eye(4)
-    m[:2, :2] = [[c, -s], [s, c]]
+    m[np.ix_((a, b), (a, b))] = [[c, -s], [s, c]]
     return m
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 from rich.console import Console
 
 from cavesim.core.cave import DEFAULT_CAVE
-from cavesim.core.errors import CaveError, ContextError, SceneError
+from cavesim.core.errors import CaveError, ContextError, ModelError, SceneError
 from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
@@ -275,10 +275,12 @@ def _checked_files(args: argparse.Namespace):
     """The run's scene and CAVE (None with --walls), checked before any process starts."""
     from cavesim.core.cave.geometry import load_cave
     from cavesim.core.scene import load_scene
+    from cavesim.gpu.render.gltf_model import helicopter_model
 
     try:
         scene = load_scene(args.scene)
-    except SceneError as e:
+        helicopter_model(scene)  # a model file is read here, not first on every wall
+    except (SceneError, ModelError) as e:
         raise UsageError(f"cavesim run: error: argument --scene: {e}") from e
     if args.walls:
         return scene, None

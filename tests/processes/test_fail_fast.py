@@ -50,6 +50,19 @@ def test_a_scene_that_does_not_load_stops_run_before_anything_starts(tmp_path):
     assert not (tmp_path / "o").exists(), "nothing was started, nothing was written"
 
 
+def test_a_helicopter_model_that_is_not_gltf_stops_run_before_anything_starts(tmp_path):
+    (tmp_path / "heli.glb").write_bytes(b"not a glTF file")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(f'base = "{MINIMAL}"\n[helicopter]\nmass = 1000.0\nrotor_radius = 5.0\n'
+                     'hub_height = 1.3\nmodel = "heli.glb"\n')
+    done, _ = cavesim("run", "--walls", "1", "--scene", str(scene), "--out", str(tmp_path / "o"))
+    assert done.returncode == 2
+    line = assert_one_clear_line(done.stderr)
+    assert line.startswith(f"cavesim run: error: argument --scene: {tmp_path / 'heli.glb'}: "
+                           "not a readable glTF 2.0 file"), line
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_bad_cave_file_stops_run_before_anything_starts(tmp_path):
     cave = tmp_path / "cave.toml"
     cave.write_text('name = "x"\n[[wall]]\nname = "front"\n')

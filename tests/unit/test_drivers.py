@@ -9,7 +9,13 @@ from cavesim.core.drivers.still import StillDriver
 from cavesim.core.errors import ProtocolError
 from cavesim.core.helicopter.flight import WAND_LIMIT, pitch_quaternion
 from cavesim.core.scene import load_scene
-from cavesim.core.scene_frame import MESH_HUB_HEIGHT, NOTHING_MOVES
+from cavesim.core.scene_frame import (
+    MESH_HUB_HEIGHT,
+    MESH_ROTOR_RADIUS,
+    NOTHING_MOVES,
+    TAIL_ROTOR_GEARING,
+    HelicopterPose,
+)
 from cavesim.core.wire.payloads.poses import WandState
 
 BROWNOUT = load_scene("config/scenes/brownout.toml")
@@ -53,6 +59,18 @@ def test_the_drawn_helicopter_stands_on_its_skids_with_its_rotor_at_the_hub():
     np.testing.assert_allclose((pose.model() @ [0, 0, MESH_HUB_HEIGHT, 1])[:3], hub, atol=1e-5)
     rim = pose.rotor_model() @ [5.0, 0, 0, 1]  # the mesh's rotor radius, scaled
     assert np.linalg.norm(rim[:2] - hub[:2]) == pytest.approx(BROWNOUT.helicopter.rotor_radius)
+
+
+def test_the_tail_rotor_turns_about_the_models_y_at_its_hub_geared_to_the_main_rotor():
+    pose = HelicopterPose((1.0, 2.0, 0.5), 0.7, 0.3, hub_height=2 * MESH_HUB_HEIGHT)
+    hub, radius = (-3.9, 0.08, 1.27), 0.32  # in the model frame
+    disc = np.linalg.inv(pose.model()) @ pose.tail_rotor_model(hub, radius)  # model from disc
+    np.testing.assert_allclose(disc[:3, 3], hub, atol=1e-12)
+    turned = TAIL_ROTOR_GEARING * pose.rotor_angle
+    blade = (np.cos(turned), 0.0, -np.sin(turned))  # the disc's x: blade 0, in the xz plane
+    np.testing.assert_allclose(disc[:3, :3] * MESH_ROTOR_RADIUS / radius,
+                               np.column_stack([blade, np.cross((0, 1, 0), blade), (0, 1, 0)]),
+                               atol=1e-12)
 
 
 def test_a_tracked_wand_out_of_reach_is_clamped_and_counted():

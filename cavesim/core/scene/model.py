@@ -156,6 +156,13 @@ def _power_of_two(n: int) -> bool:
     return n & (n - 1) == 0
 
 
+MODEL_SUFFIXES = (".glb", ".gltf")  # glTF 2.0, binary or JSON
+
+
+def _gltf_suffix(path: Path) -> bool:
+    return path.suffix.lower() in MODEL_SUFFIXES
+
+
 @dataclass(frozen=True, kw_only=True)
 class Emitter:
     name: str
@@ -280,6 +287,15 @@ class Helicopter:
     # s: the helicopter follows the wand with this lag
     response_time: Annotated[float, Range(gt=0.0, le=60.0)] = 1.0
     timeline: tuple[WandKey, ...] = ()  # scripted wand for headless runs
+    # what the walls draw (not set: the built-in body, config/models/utility_helicopter.glb):
+    # a file relative to the scene file, in glTF's axes (Y up, +Z forward, +X left) and
+    # metres, its origin on the ground between the skids and the rotor hub 1.3 m up
+    # (scene_frame.MESH_HUB_HEIGHT; the pose scales it by hub_height / 1.3); triangles only;
+    # colours are the materials' baseColorFactor (textures are ignored); a node "tail_rotor"
+    # is not drawn but places the tail rotor: its origin the hub, its largest scale the
+    # radius (cavesim/gpu/render/gltf_model.py)
+    model: Annotated[Path, Rule(f"a glTF file: {' or '.join(MODEL_SUFFIXES)}",
+                                _gltf_suffix)] | None = None
 
     @property
     def disk_area(self) -> float:

@@ -4,8 +4,9 @@ each frame before the dust pass, which reads it to shadow every particle's sunli
 It covers the scene's box (the field's, or open ground's), fitted orthographically along
 the sun's rays: fixed in the world, so every wall of every node draws the same map from the
 same particles. The walls that draw one system share one map (`shared_light_map`), drawn
-once per state of the particles, whatever the walls and eyes that read it. Two passes over the particles: where the dust begins per texel, then the
-optical depth in layers behind that (render/light_map.glsl, include/sunlight.glsl).
+once per state of the particles, whatever the walls and eyes that read it. Two passes over
+the particles: where the dust begins per texel, then the optical depth in layers behind
+that (render/light_map.glsl, include/sunlight.glsl).
 
 A pass over a particle costs about as much as drawing it on a wall, so the map is drawn
 from every k-th particle of the stream (k fixed by the scene's capacity, so a node's map

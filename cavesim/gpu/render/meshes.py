@@ -1,12 +1,15 @@
 """Scene geometry as flat triangle arrays (position, normal, colour per vertex, float32).
 
 The terrain is the same ground the particles collide with; its sand pattern is drawn by
-the scene shader from world position. The helicopter is built from swept tubes and plates
-in its model frame (nose along +x, rotor hub at (0, 0, MESH_HUB_HEIGHT)); its main rotor is
-a separate disc, spun by the pose's rotor matrix and drawn translucent with blurred blades.
+the scene shader from world position. The built-in helicopter is built from swept tubes and
+plates in its model frame (nose along +x, rotor hub at (0, 0, MESH_HUB_HEIGHT)); a scene may
+name a glTF file instead (`gltf_model.py`). Its main and tail rotors are one disc mesh, spun
+by the pose's rotor matrices and drawn translucent with blurred blades.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -19,6 +22,7 @@ DARK = (0.12, 0.12, 0.13)
 GLASS = (0.10, 0.16, 0.22)
 VERTEX_FORMAT = "3f 3f 3f"
 VERTEX_NAMES = ("in_position", "in_normal", "in_color")
+TAIL_ROTOR_BLADES = 2  # of every model's tail rotor disc (the main rotor's: RenderSettings)
 
 _CUBE_FACES = (  # normal, then two tangent axes spanning the face
     ((1, 0, 0), (0, 1, 0), (0, 0, 1)), ((-1, 0, 0), (0, 0, 1), (0, 1, 0)),
@@ -145,13 +149,6 @@ def plate(outline, thickness: float, color) -> np.ndarray:
     return _paint(np.array(rows), color)
 
 
-def _moved(rows: np.ndarray, rotation: np.ndarray, offset) -> np.ndarray:
-    out = rows.copy()
-    out[:, 0:3] = rows[:, 0:3] @ rotation.T + offset
-    out[:, 3:6] = rows[:, 3:6] @ rotation.T
-    return out
-
-
 def _fuselage_color(centroid) -> tuple[float, float, float]:
     """Cockpit glass over the front upper half of the cabin, hull elsewhere."""
     x, _, z = centroid
@@ -163,12 +160,45 @@ def _fuselage_color(centroid) -> tuple[float, float, float]:
 # a typical scene's helicopter (brownout: 7.3 m rotor radius at 3 m hub height).
 _DESIGN_HUB = np.array([0.0, 0.0, 1.3])
 _DESIGN_SCALE = np.array([0.68, MESH_HUB_HEIGHT / 2.5, MESH_HUB_HEIGHT / 2.5])
+# The tail rotor beside the fin's left side; its radius is fitted by the height's scale, so
+# the disc clears the boom as designed.
+_DESIGN_TAIL_HUB = np.array([-5.80, 0.16, 1.25])
+_DESIGN_TAIL_RADIUS = 0.62
 
 
-def helicopter_body() -> np.ndarray:
-    """Fuselage with cockpit glass, engine cowling, mast, tail boom, fin with a tail
-    rotor, stabilizer, and two skids on struts; nose along +x, the skids' soles at z = 0
-    (the pose's position), the rotor hub at (0, 0, MESH_HUB_HEIGHT)."""
+@dataclass(frozen=True)
+class TailRotor:
+    """Where a helicopter's tail rotor disc turns (about the model's y): model frame."""
+
+    hub: tuple[float, float, float]
+    radius: float
+
+
+@dataclass(frozen=True)
+class HelicopterModel:
+    """A helicopter as the walls draw it: its body as rows in the model frame (nose along
+    +x, the skids' soles at z = 0, the rotor hub at (0, 0, MESH_HUB_HEIGHT)) and its tail
+    rotor, if it has one."""
+
+    body: np.ndarray
+    tail_rotor: TailRotor | None
+
+
+def built_in_helicopter() -> HelicopterModel:
+    """The helicopter of a scene that names no model file."""
+    hub = tuple(_fitted(_DESIGN_TAIL_HUB).tolist())
+    return HelicopterModel(_body(), TailRotor(hub, float(_DESIGN_TAIL_RADIUS * _DESIGN_SCALE[2])))
+
+
+def _fitted(points: np.ndarray) -> np.ndarray:
+    """Design units to the model frame."""
+    return (points - _DESIGN_HUB) * _DESIGN_SCALE + [0.0, 0.0, MESH_HUB_HEIGHT]
+
+
+def _body() -> np.ndarray:
+    """Fuselage with cockpit glass, engine cowling, mast, tail boom, fin with the tail
+    rotor's shaft, stabilizer, and two skids on struts; nose along +x, the skids' soles at
+    z = 0 (the pose's position), the rotor hub at (0, 0, MESH_HUB_HEIGHT)."""
     # stations nose to tail: x, centre height, half-width, half-height
     cabin = np.array([
         (2.55, -0.10, 0.05, 0.05), (2.45, -0.12, 0.38, 0.40), (2.20, -0.10, 0.62, 0.66),
@@ -188,7 +218,8 @@ def helicopter_body() -> np.ndarray:
     fin = plate([(-4.95, 0.50), (-5.70, 0.45), (-6.05, 1.75), (-5.70, 1.80)], 0.08, HULL)
     parts.append(fin)
     parts.append(box((-4.60, 0.0, 0.50), (0.45, 1.50, 0.05), HULL))  # stabilizer
-    parts += _tail_rotor(centre=(-5.80, 0.16, 1.25), radius=0.62)
+    hub = _DESIGN_TAIL_HUB  # the tail rotor's shaft, out of the fin and through its disc
+    parts.append(sweep([hub * [1, 0, 1], hub + [0, 0.06, 0]], [(0.08, 0.08)] * 2, DARK, 8))
     for side in (1.0, -1.0):
         y = 0.85 * side
         skid = [(-1.55, y, -1.14), (1.40, y, -1.14), (1.72, y, -1.08), (1.92, y, -0.92)]
@@ -198,27 +229,15 @@ def helicopter_body() -> np.ndarray:
             parts.append(sweep([(x, y, -1.14), (x, 0.52 * side, -0.55)], [(0.05, 0.05)] * 2,
                                DARK, 8))
     body = np.concatenate(parts)
-    body[:, 0:3] = (body[:, 0:3] - _DESIGN_HUB) * _DESIGN_SCALE + [0.0, 0.0, MESH_HUB_HEIGHT]
+    body[:, 0:3] = _fitted(body[:, 0:3])
     normals = body[:, 3:6] / _DESIGN_SCALE  # the inverse transpose of the scaling
     body[:, 3:6] = normals / np.linalg.norm(normals, axis=1, keepdims=True)
     return body
 
 
-def _tail_rotor(centre, radius: float, blades: int = 2) -> list[np.ndarray]:
-    """A still tail rotor on the fin's side, spinning about y."""
-    out = [sweep([(0.0, -0.1, 0.0), (0.0, 0.1, 0.0)], [(0.08, 0.08)] * 2, DARK, 8)]
-    for k in range(blades):
-        a = np.pi * k / blades + 0.4
-        c, s = np.cos(a), np.sin(a)
-        rotation = np.array([[c, 0.0, -s], [0.0, 1.0, 0.0], [s, 0.0, c]])
-        out.append(_moved(box((0.0, 0.0, 0.0), (2 * radius, 0.03, 0.12), DARK), rotation,
-                          (0.0, 0.0, 0.0)))
-    return [_moved(rows, np.eye(3), centre) for rows in out]
-
-
 def rotor(radius: float, rings: int = 8, segments: int = 96) -> np.ndarray:
-    """The main rotor disc in its own frame (hub at the origin, spinning about z, blade 0
-    along +x): the scene shader makes it translucent, opaque only along blurred blades."""
+    """The rotor disc in its own frame (hub at the origin, spinning about z, blade 0 along
+    +x): the scene shader makes it translucent, opaque only along blurred blades."""
     r = np.linspace(0.0, radius, rings + 1)
     a = np.linspace(0.0, 2 * np.pi, segments + 1)
     grid = np.stack(np.meshgrid(r, a, indexing="ij"), axis=-1)  # (rings+1, segments+1, 2)

@@ -24,6 +24,7 @@ from cavesim.core.scene.model import CollisionKind
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
+from cavesim.gpu.render.gltf_model import helicopter_model
 from cavesim.gpu.render.light_map import parcel_arrays, shared_light_map
 from cavesim.gpu.render.medium import set_parcel_uniforms
 from cavesim.gpu.render.programs import (
@@ -112,8 +113,10 @@ class WallRenderer:
         self.terrain = mesh(meshes.terrain(*ground), Surface.SAND) if ground else None
         self.sky_program = SKY.build(self.ctx, {})
         self.sky = self.ctx.vertex_array(self.sky_program, [])  # one full-screen triangle
-        self.body = mesh(meshes.helicopter_body(), Surface.PAINTED)
-        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), Surface.ROTOR)
+        helicopter = helicopter_model(self.system.scene)
+        self.body = mesh(helicopter.body, Surface.PAINTED)
+        self.tail_rotor = helicopter.tail_rotor
+        self.rotor = mesh(meshes.rotor(MESH_ROTOR_RADIUS), Surface.ROTOR)  # and tail rotor
         self.particles = parcel_arrays(self.ctx, self.dust_program, self.system)
         self.full_screen = self.ctx.vertex_array(self.composite_program, [])
 
@@ -127,7 +130,7 @@ class WallRenderer:
                  "sun_direction": tuple(sun), "sun_color": s.sun_color,
                  "sun_cos_radius": float(np.cos(np.radians(s.sun_radius))),
                  "fog_distance": s.fog_distance, "grid_strength": s.grid_strength,
-                 "rotor_radius": MESH_ROTOR_RADIUS, "blade_count": float(s.blade_count)}
+                 "rotor_radius": MESH_ROTOR_RADIUS}
         for program in (*self.scene_programs, self.sky_program):
             for name, value in scene.items():
                 if name in program:  # each surface's compiler drops what it does not use
@@ -178,7 +181,7 @@ class WallRenderer:
 
     def _scene_pass(self, projection, view, helicopter) -> None:
         """Opaque terrain and body, then the sky where nothing was drawn, then the rotor
-        disc blended over both (it writes no depth: dust behind it shows through)."""
+        discs blended over both (they write no depth: dust behind them shows through)."""
         ctx = self.ctx
         self.scene_target.use()
         self.scene_target.clear(depth=1.0)
@@ -208,10 +211,16 @@ class WallRenderer:
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
             self.scene_target.depth_mask = False
+            discs = [(helicopter.rotor_model(), self.settings.blade_count)]
+            if self.tail_rotor is not None:
+                discs.append((helicopter.tail_rotor_model(self.tail_rotor.hub,
+                                                          self.tail_rotor.radius),
+                              meshes.TAIL_ROTOR_BLADES))
             try:
-                self.rotor[2]["model_from_world"].write(gl_matrix(np.linalg.inv(
-                    helicopter.rotor_model())))
-                draw(self.rotor, helicopter.rotor_model())
+                for model, blades in discs:
+                    self.rotor[2]["model_from_world"].write(gl_matrix(np.linalg.inv(model)))
+                    self.rotor[2]["blade_count"].value = float(blades)
+                    draw(self.rotor, model)
             finally:
                 self.scene_target.depth_mask = True
                 ctx.disable(moderngl.BLEND)
