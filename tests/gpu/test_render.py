@@ -152,8 +152,8 @@ def test_a_text_line_blends_white_glyphs_on_a_dark_band_and_nothing_else(ctx):
 
 def test_the_walls_of_one_system_share_one_light_map_splatted_once_per_state(ctx, monkeypatch):
     splats = []
-    original = LightMap._splat
-    monkeypatch.setattr(LightMap, "_splat", lambda self: (splats.append(self), original(self)))
+    original = LightMap.splat
+    monkeypatch.setattr(LightMap, "splat", lambda self: (splats.append(self), original(self)))
     system = ParticleSystem(ctx, make_scene(drag=False, capacity=100))
     system.write_particles(particles_at([(0.0, 4.0 + 0.1 * k, 1.5) for k in range(20)]))
     cave = small_cave()

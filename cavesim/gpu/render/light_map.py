@@ -126,10 +126,11 @@ class LightMap:
         """Splat the live particles: nearest dust per texel, then the layers behind it
         (once per state of the system)."""
         if self.drawn_generation != self.system.generation:
-            self._splat()
-            self.drawn_generation = self.system.generation
+            self.splat()
 
-    def _splat(self) -> None:
+    def splat(self) -> None:
+        """Splat the live particles now, whatever the map holds."""
+        self.drawn_generation = self.system.generation
         ctx, live = self.ctx, self.system.live_count
         self.nearest_target.clear(FAR, 0.0, 0.0, 0.0)
         self.layers_target.clear(0.0, 0.0, 0.0, 0.0)

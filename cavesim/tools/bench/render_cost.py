@@ -1,7 +1,9 @@
 """`cavesim bench --render`: what drawing one wall for one eye costs, by wall resolution and
 particle count, and the renderer's target.
 
-A measurement is `WallRenderer.draw` followed by `ctx.finish()` (the GPU's work done), from
+A measurement is a wall's first draw of a state: the light map's splat and
+`WallRenderer.draw`, followed by `ctx.finish()` (the GPU's work done; a node of several walls
+or eyes splats the map once per state, and draws each wall and eye after it), from
 the scripted head's start (the CAVE's centre at eye height) looking at a front wall of the
 resolution asked: the default CAVE's 3 m front wall (the caller's), its height set by the
 resolution so that pixels stay square (480 x 480: flex4's front wall itself). The particles are the
@@ -60,7 +62,8 @@ class RenderTarget:
 
 
 RENDER_TARGET = RenderTarget(4.0, (1920, 1200), 1_000_000, "GPU",
-                             "one wall for one eye: WallRenderer.draw, waited for")
+                             "one wall for one eye of a new state: the light map's splat and "
+                             "WallRenderer.draw, waited for")
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,7 @@ def time_draws(ctx: moderngl.Context, renderer: WallRenderer, helicopter, draws:
     times = []
     for k in range(WARMUP_DRAWS + draws):
         start = time.perf_counter()
+        renderer.light_map.splat()
         renderer.draw(HEAD, helicopter)
         ctx.finish()
         if k >= WARMUP_DRAWS:
