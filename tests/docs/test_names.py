@@ -11,6 +11,7 @@ PARALLEL_ROLES = {  # file name: (the package whose docstring says so, the folde
     "dispersion.py": ("cavesim/core/portable", {"cavesim/core", "cavesim/core/portable"}),
     "forces.py": ("cavesim/core/portable", {"cavesim/core/twin", "cavesim/core/portable"}),
     "integrators.py": ("cavesim/core/portable", {"cavesim/core/twin", "cavesim/core/portable"}),
+    "tracers.py": ("cavesim/core/portable", {"cavesim/core/twin", "cavesim/core/portable"}),
     "rotor.py": ("cavesim/core/portable", {"cavesim/core/helicopter", "cavesim/core/portable"}),
     "emission.py": ("cavesim/core/twin", {"cavesim/core/twin", "cavesim/gpu/engine"}),
     "programs.py": ("cavesim/gpu", {"cavesim/gpu/engine", "cavesim/gpu/render"}),

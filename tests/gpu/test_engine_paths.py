@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scenes import FOUNTAIN, make_scene, particle_cloud
+from scenes import FOUNTAIN, make_scene, particle_cloud, scene_dict, with_smoke
 
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import SceneError
@@ -190,6 +190,23 @@ def test_emission_into_a_full_pool_drops_the_same_particles(pair):
     assert both.counts[:4] == [233, 466, 700, 933] and set(both.counts[4:]) == {1000}
     assert both.dropped[:4] == [0] * 4 and both.dropped[4] == 233 - 67  # room for 67 of 233
     assert set(both.dropped[5:30]) == {233, 234}, "full, nobody dead: all of a frame's new"
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "etd2rk"])
+def test_tracers_mixed_with_inertial_classes_hold_the_same_bytes(pair, integrator):
+    """Sand and smoke, a passive tracer class, from two fountains onto a ground: the per
+    particle branch between integrator and tracer method gives both paths one state."""
+    sand = dict(FOUNTAIN, rate=300.0)
+    smoke = dict(FOUNTAIN, name="smoke", particle_class="dust", rate=300.0)
+    data = scene_dict(integrator=integrator, emitters=[sand, smoke],
+                      collision={"kind": "plane", "height": 0.2, "friction": 0.3,
+                                 "resilience": 0.5})
+    both = pair(parse_scene(with_smoke(data), name="tracers"))
+    for _ in range(200):
+        both.step()
+    both.assert_same_bytes()
+    classes = both.gs_tf.read_particles()["class_id"]
+    assert (classes == 0).sum() > 100 and (classes == 1).sum() > 100
 
 
 def test_a_frame_with_more_emission_segments_than_one_dispatch_allows(pair):

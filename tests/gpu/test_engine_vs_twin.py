@@ -5,10 +5,11 @@ import itertools
 import moderngl
 import numpy as np
 import pytest
-from scenes import VORTEX_FIELD, make_scene, particle_cloud
+from scenes import VORTEX_FIELD, make_scene, particle_cloud, scene_dict, with_smoke
 
 from cavesim.core.fields import FieldGrid, build_field, save_field
 from cavesim.core.heightfield import HeightGrid, save_heightfield
+from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import FieldSampling, Integrator
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
@@ -74,6 +75,17 @@ def test_the_tolerance_tells_integrators_apart(per_integrator):
         _, twin_b = per_integrator[b]
         assert not np.allclose(gpu_a["pos"], twin_b.pos, rtol=RTOL, atol=ATOL), (
             f"{a.value} on the GPU passes as the twin of {b.value}")
+
+
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_tracers_beside_inertial_particles_match_their_twin(ctx, integrator):
+    """Half the cloud smoke, stepped by the integrator's tracer method: the GPU's branch
+    per particle against the twin's tracer steps."""
+    scene = parse_scene(with_smoke(scene_dict(integrator=integrator.value, damping=0.3)),
+                        name="tracers")
+    gpu, twin = run_both(ctx, scene)
+    assert np.isfinite(gpu["pos"]).all() and (twin.class_id == 1).sum() > 150
+    assert_close(gpu, twin)
 
 
 @pytest.mark.parametrize("features", [

@@ -6,7 +6,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 import pytest
-from scenes import FOUNTAIN, VORTEX_FIELD, make_scene, scene_dict
+from scenes import FOUNTAIN, VORTEX_FIELD, make_scene, scene_dict, with_smoke
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.scene import load_scene, parse_scene
@@ -31,6 +31,7 @@ FEATURE_CODE = {  # what each feature puts in the compiled particle pass
     "exponential": ("exponential_weights",),
     "schiller_naumann": ("reynolds_per_speed", "step_reynolds_per_speed"),
     "dispersion": ("mixing_length", "random_texture", "turbulence_seen", "step_turbulence"),
+    "tracers": ("tracer_classes", "is_tracer", "trace"),
 }
 
 
@@ -124,6 +125,19 @@ def test_drag_laws_and_dispersion_compile_in_where_a_scene_has_them(ctx):
     assert "random_texture" in system.resources
     assert {"reynolds_per_speed", "mixing_length", "random_texture", "random_transform"} <= \
         uniforms(system.particle_program)
+
+
+def test_only_a_scene_with_a_tracer_class_compiles_the_tracer_branch(ctx):
+    inertial = make_scene(integrator="rk4")
+    tracers = parse_scene(with_smoke(scene_dict(integrator="rk4")), name="tracers")
+    for scene in (inertial, tracers):
+        text = compiled_text(scene)
+        for word in FEATURE_CODE["tracers"]:
+            assert mentions(text, word) == (scene is tracers), word
+    system = ParticleSystem(ctx, tracers)
+    assert "tracer_classes" in uniforms(system.particle_program)
+    assert tuple(system.particle_program["tracer_classes"].value) == (0b10, 0)
+    system.release()
 
 
 @pytest.mark.parametrize("interpolation", ["trilinear", "catmull_rom", "bspline"])

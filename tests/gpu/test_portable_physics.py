@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scenes import FOUNTAIN, particle_cloud, scene_dict
+from scenes import FOUNTAIN, SMOKE, particle_cloud, scene_dict
 
 from cavesim.core.digest.shape import StateChecksum
 from cavesim.core.digest.twin import reference_checksum
@@ -232,6 +232,24 @@ def test_drag_beyond_stokes_and_dispersion_have_the_portable_twins_bits(lockstep
     assert run.twin.forces_for(np.zeros(1, np.uint32)).reynolds_per_speed is not None
     for _ in range(SMALL_FRAMES):
         run.step()
+
+
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_tracers_mixed_with_inertial_classes_have_the_portable_twins_bits(lockstep, terrain,
+                                                                          integrator):
+    """Smoke, a passive tracer class stepped by the integrator's tracer method, beside the
+    sand and dust every force acts on, over a height field; the fountain emits smoke."""
+    data = scene_dict(integrator=integrator.value, damping=0.3, collision=terrain,
+                      emitters=[FOUNTAIN], arithmetic="portable")
+    data["particle_class"] = [*data["particle_class"], SMOKE]
+    data["emitter"][0]["particle_class"] = "smoke"
+    start = particle_cloud(450)
+    start["class_id"] = np.arange(len(start)) % 3
+    run = lockstep(parse_scene(data, name="tracers"), start)
+    for _ in range(SMALL_FRAMES):
+        run.step()
+    smoke = run.twin.particles.class_id == 2
+    assert smoke.sum() > 150 and (~smoke).sum() > 150, "the test needs both kinds"
 
 
 def test_still_air_outside_the_field_has_the_portable_twins_bits(lockstep):

@@ -11,6 +11,7 @@ from cavesim.core.scene import parse_scene
 
 SAND = {"name": "sand", "diameter": 400e-6, "density": 2650.0}  # tau ~ 1.3 s
 DUST = {"name": "dust", "diameter": 100e-6, "density": 2650.0}  # tau ~ 0.08 s
+SMOKE = {"name": "smoke", "diameter": 1e-5, "motion": "tracer"}  # a passive tracer
 
 VORTEX_FIELD = {
     "kind": "vortex", "box_min": [-4.0, -4.0, 0.0], "box_max": [4.0, 4.0, 4.0],
@@ -54,6 +55,16 @@ def scene_dict(integrator="semi_implicit_euler", capacity=4000, emitters=(), dra
 
 def make_scene(**kwargs):
     return parse_scene(scene_dict(**kwargs), name="test")
+
+
+def with_smoke(data: dict) -> dict:
+    """The scene dict with its dust (class 1) a passive tracer, smoke, instead."""
+    data = copy.deepcopy(data)
+    data["particle_class"] = [dict(data["particle_class"][0]), dict(SMOKE)]
+    for emitter in data["emitter"]:
+        if emitter["particle_class"] == DUST["name"]:
+            emitter["particle_class"] = SMOKE["name"]
+    return data
 
 
 def particle_cloud(count: int, seed: int = 0, box=((-3, -3, 0.5), (3, 3, 3.5))) -> np.ndarray:

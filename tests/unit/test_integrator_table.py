@@ -7,8 +7,10 @@ from pathlib import Path
 import pytest
 
 from cavesim.core.portable import integrators as portable_integrators
-from cavesim.core.scene.model import Integrator
+from cavesim.core.portable import tracers as portable_tracers
+from cavesim.core.scene.model import Integrator, TracerMethod
 from cavesim.core.twin import integrators as twin_integrators
+from cavesim.core.twin import tracers as twin_tracers
 from cavesim.gpu.shader_source import SHADER_ROOT
 
 PACKAGE = Path(__file__).parents[2] / "cavesim"
@@ -28,6 +30,7 @@ def test_every_row_is_complete(integrator):
     assert type(integrator.order) is int and integrator.order >= 1
     assert type(integrator.field_evaluations) is int and integrator.field_evaluations >= 1
     assert isinstance(integrator.stability_limit, float) and integrator.stability_limit > 0
+    assert isinstance(integrator.tracer_method, TracerMethod)
     assert integrator.value == integrator.name.lower()
 
 
@@ -62,3 +65,30 @@ def test_no_other_module_lists_the_integrators():
     listing = [path.relative_to(PACKAGE).as_posix() for path in sorted(PACKAGE.rglob("*.py"))
                if path != table and names_every_integrator(path.read_text())]
     assert listing == []
+
+
+# -- passive tracers: the TracerMethod table and each integrator's column naming one ----
+
+
+def trace_branches() -> list[str]:
+    """The tracer methods `trace` in physics.glsl has a branch for, in order."""
+    body = PHYSICS[PHYSICS.index("void trace("):]
+    body = body[:body.index("\n}\n")]
+    return re.findall(r"^#(?:el)?if TRACER_METHOD == TRACER_(\w+)$", body, re.MULTILINE)
+
+
+def test_every_tracer_method_is_an_integrators_form_without_inertia():
+    assert {i.tracer_method for i in Integrator} == set(TracerMethod)
+    assert all(type(m.gpu_id) is int and type(m.order) is int and m.field_evaluations >= 1
+               for m in TracerMethod)
+
+
+def test_the_tracer_methods_are_the_shaders_and_both_twins():
+    glsl = {name: int(value) for name, value
+            in re.findall(r"#define TRACER_(\w+) (\d+)", PHYSICS)}
+    assert glsl == {m.name: m.gpu_id for m in TracerMethod}
+    assert trace_branches() == [m.name for m in TracerMethod]
+    for module in (twin_tracers, portable_tracers):
+        assert list(module.TRACERS) == list(TracerMethod)
+        for method, step in module.TRACERS.items():
+            assert step is getattr(module, method.value) and callable(step)

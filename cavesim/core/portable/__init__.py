@@ -1,8 +1,8 @@
 """Portable arithmetic: the float32 numpy twin of the shaders' ARITHMETIC_PORTABLE mode,
 whose results are the same bits on every GPU and here (`arithmetic`).
 
-Modules named like others mirror them in portable arithmetic: `forces` and `integrators`
-(cavesim/core/twin/), `dispersion` (cavesim/core/), `rotor` (cavesim/core/helicopter/)."""
+Modules named like others mirror them in portable arithmetic: `forces`, `integrators` and
+`tracers` (cavesim/core/twin/), `dispersion` (cavesim/core/), `rotor` (cavesim/core/helicopter/)."""
 
 from cavesim.core.portable.arithmetic import (
     f_add,

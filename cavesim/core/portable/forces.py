@@ -7,6 +7,7 @@ float scales a vec3 in GLSL.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +21,9 @@ from cavesim.core.portable.constants import (
 from cavesim.core.position import move
 
 ONE = np.float32(1.0)
+# PortableForces' (N, k) columns: the float64 model's (cavesim.core.twin.forces) and the
+# low part of the positions
+PER_PARTICLE = ("inv_tau", "reynolds_per_speed", "turbulence", "position_low")
 
 
 @dataclass
@@ -35,6 +39,13 @@ class PortableForces:
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
     position_low: np.ndarray | None = None  # (N, 3) float32, set before a step
+
+    def of_rows(self, rows: np.ndarray) -> PortableForces:
+        """The model of the particles in `rows`: its per-particle columns, the low part of
+        their positions among them, taken there."""
+        return dataclasses.replace(self, **{
+            name: getattr(self, name)[rows] for name in PER_PARTICLE
+            if getattr(self, name) is not None})
 
     def move(self, p: np.ndarray, dp: np.ndarray) -> np.ndarray:
         """position.glsl's move: p + position_low + dp as a new p and position_low."""

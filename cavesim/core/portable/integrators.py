@@ -73,6 +73,11 @@ def rk2(p, v, h, forces):
     return forces.move(p, f_mul(h, vm)), f_add(v, f_mul(h, forces.acceleration(pm, vm, MIDDLE)))
 
 
+def rk4_sum(k1, k2, k3, k4):
+    """k1 + 2 k2 + 2 k3 + k4, physics.glsl's rk4_sum."""
+    return f_add(f_add(f_add(k1, f_mul(TWO, k2)), f_mul(TWO, k3)), k4)
+
+
 def rk4(p, v, h, forces):
     """Classic Runge-Kutta, order 4."""
     half_h = f_mul(HALF, h)
@@ -84,10 +89,9 @@ def rk4(p, v, h, forces):
     k3v = forces.acceleration(f_add(p, f_mul(half_h, k2p)), k3p, MIDDLE)
     k4p = f_add(v, f_mul(h, k3v))
     k4v = forces.acceleration(f_add(p, f_mul(h, k3p)), k4p, END)
-    dp = f_add(f_add(f_add(k1p, f_mul(TWO, k2p)), f_mul(TWO, k3p)), k4p)
-    dv = f_add(f_add(f_add(k1v, f_mul(TWO, k2v)), f_mul(TWO, k3v)), k4v)
     sixth_h = f_div(h, SIX)
-    return forces.move(p, f_mul(sixth_h, dp)), f_add(v, f_mul(sixth_h, dv))
+    return (forces.move(p, f_mul(sixth_h, rk4_sum(k1p, k2p, k3p, k4p))),
+            f_add(v, f_mul(sixth_h, rk4_sum(k1v, k2v, k3v, k4v))))
 
 
 def exponential_weights(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

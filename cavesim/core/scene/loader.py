@@ -48,6 +48,7 @@ from cavesim.core.scene.model import (
     FieldSampling,
     Forces,
     Helicopter,
+    Motion,
     ParticleClass,
     Scene,
 )
@@ -101,7 +102,7 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
     sim = top.get("simulation")
 
     class_tables = top.tables("particle_class")
-    classes = tuple(t.build() for t in class_tables)
+    classes = tuple(_particle_class(t) for t in class_tables)
     unique_names(class_tables, (c.name for c in classes))
     class_index = {c.name: i for i, c in enumerate(classes)}
     emitter_tables = top.tables("emitter")
@@ -139,6 +140,7 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
     if forces.dispersion is not None:
         _check_dispersion(top, forces, collision, sim)
+    _check_tracers(top, class_tables, classes, forces)
     classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
 
     return relative_to_origin(Scene(
@@ -147,10 +149,41 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         helicopter=helicopter))
 
 
+def _particle_class(t: Table) -> ParticleClass:
+    """A [[particle_class]]: an inertial one has a density; a tracer no density and no
+    drag law (nothing about its inertia)."""
+    particle = t.build()
+    if particle.motion is Motion.TRACER:
+        for key in ("density", "drag"):
+            t.forbid(key, 'only for an inertial class: a tracer has no inertia (a tracer '
+                          'class allows name, diameter and motion)')
+    elif particle.density is None:
+        raise t.source.fail(f"{t.sub('density')} is missing: required for an inertial class "
+                            '(a number > 0, kg/m³), or motion = "tracer"')
+    return particle
+
+
+def _check_tracers(top: Table, class_tables: list[Table], classes: tuple[ParticleClass, ...],
+                   forces: Forces) -> None:
+    """A tracer moves with the flow, which reaches the particles through forces.drag; the
+    random walk of dispersion is drag's, so a scene has tracers or dispersion."""
+    tracers = [t for t, c in zip(class_tables, classes, strict=True)
+               if c.motion is Motion.TRACER]
+    if not tracers:
+        return
+    if forces.drag is None:
+        raise tracers[0].bad("motion", '"tracer" needs forces.drag and a [field]: the flow '
+                                       'that carries it')
+    if forces.dispersion is not None:
+        raise tracers[0].bad("motion", '"tracer" is not allowed with forces.dispersion: its '
+                                       'random walk acts through drag (allowed: "inertial")')
+
+
 def _with_drag_law(particle: ParticleClass, forces: Forces, field: Field | None,
                    helicopter: Helicopter | None) -> ParticleClass:
-    """The class with its drag law: the file's, else the one its Reynolds number asks for."""
-    if particle.drag is not None or forces.drag is None:
+    """The class with its drag law: the file's, else the one its Reynolds number asks for
+    (a tracer has none)."""
+    if particle.drag is not None or forces.drag is None or particle.motion is Motion.TRACER:
         return particle
     gravity = math.hypot(*forces.gravity) if forces.gravity is not None else 0.0
     drag = forces.drag

@@ -32,6 +32,33 @@ AIR_VISCOSITY = 1.81e-5  # Pa·s, dry air at 15 °C
 AIR_DENSITY = 1.225  # kg/m³, dry air at 15 °C and sea level (ISA)
 
 
+class TracerMethod(StrEnum):
+    """How a passive tracer, dx/dt = u(x, t), is stepped: an explicit Runge-Kutta method, one
+    row each. Its code is `trace`'s branch in shaders/include/physics.glsl and a step of the
+    row's name in cavesim/core/twin/tracers.py and cavesim/core/portable/tracers.py."""
+
+    gpu_id: int  # physics.glsl's #define TRACER_<NAME>: the TRACER_METHOD define's value
+    order: int  # theoretical order of accuracy
+    # flow samples per particle and step, besides the one at the new position that gives
+    # the record its velocity
+    field_evaluations: int
+
+    def __new__(cls, name: str, gpu_id: int, order: int, field_evaluations: int
+                ) -> TracerMethod:
+        member = str.__new__(cls, name)
+        member._value_ = name
+        member.gpu_id = gpu_id
+        member.order = order
+        member.field_evaluations = field_evaluations
+        return member
+
+    # (name, GPU id, order, field evaluations)
+    EULER = "euler", 0, 1, 1
+    MIDPOINT = "midpoint", 1, 2, 2
+    HEUN = "heun", 2, 2, 2  # the explicit trapezoid rule
+    RK4 = "rk4", 3, 4, 4
+
+
 class Integrator(StrEnum):
     """The integrators, one row each: everything a new one adds besides its code.
 
@@ -43,27 +70,33 @@ class Integrator(StrEnum):
     order: int  # theoretical order of accuracy
     field_evaluations: int  # flow samples per particle and step (a test counts the twin's)
     stability_limit: float  # the largest dt/tau at which linear drag stays bounded
+    tracer_method: TracerMethod  # what the method becomes without inertia (a tracer class)
 
     def __new__(cls, name: str, gpu_id: int, order: int, field_evaluations: int,
-                stability_limit: float) -> Integrator:
+                stability_limit: float, tracer_method: str) -> Integrator:
         member = str.__new__(cls, name)
         member._value_ = name
         member.gpu_id = gpu_id
         member.order = order
         member.field_evaluations = field_evaluations
         member.stability_limit = stability_limit
+        member.tracer_method = TracerMethod(tracer_method)
         return member
 
-    # (name in a scene file, GPU id, order, field evaluations, stability limit)
-    EXPLICIT_EULER = "explicit_euler", 0, 1, 1, 2.0
-    SEMI_IMPLICIT_EULER = "semi_implicit_euler", 1, 1, 1, math.inf  # implicit in the drag
-    TRAPEZOID = "trapezoid", 2, 1, 1, 2.0  # its velocity is Euler's
-    VERLET = "verlet", 3, 2, 2, 2.0
-    RK2 = "rk2", 4, 2, 2, 2.0
-    RK4 = "rk4", 5, 4, 4, 2.785
-    EXPONENTIAL = "exponential", 6, 1, 1, math.inf  # the drag is solved exactly
+    # (name in a scene file, GPU id, order, field evaluations, stability limit, tracer
+    # method). The tracer method is the integrator without inertia: semi-implicit and
+    # exponential Euler, without drag, are Euler's; trapezoid and Verlet take the mean of the
+    # velocity (acceleration) at the step's ends, which for a tracer is Heun's; ETD2RK with
+    # lambda = 0 is Heun's too (Cox & Matthews 2002).
+    EXPLICIT_EULER = "explicit_euler", 0, 1, 1, 2.0, "euler"
+    SEMI_IMPLICIT_EULER = "semi_implicit_euler", 1, 1, 1, math.inf, "euler"  # implicit in the drag
+    TRAPEZOID = "trapezoid", 2, 1, 1, 2.0, "heun"  # its velocity is Euler's
+    VERLET = "verlet", 3, 2, 2, 2.0, "heun"
+    RK2 = "rk2", 4, 2, 2, 2.0, "midpoint"
+    RK4 = "rk4", 5, 4, 4, 2.785, "rk4"
+    EXPONENTIAL = "exponential", 6, 1, 1, math.inf, "euler"  # the drag is solved exactly
     # evaluated at the start and at the exponential step's predicted position
-    ETD2RK = "etd2rk", 7, 2, 2, math.inf
+    ETD2RK = "etd2rk", 7, 2, 2, math.inf, "heun"
 
 
 class Engine(StrEnum):
@@ -125,17 +158,31 @@ class CollisionKind(StrEnum):
     HEIGHTFIELD = "heightfield"  # terrain heights from `file`
 
 
+class Motion(StrEnum):
+    """How a particle class moves (docs/numerics.md: passive tracers)."""
+
+    INERTIAL = "inertial"  # dv/dt = (u - v) lambda + g - k v: drag toward the flow
+    TRACER = "tracer"  # dx/dt = u(x, t): carried by the flow, no inertia, gravity or damping
+
+
 @dataclass(frozen=True)
 class ParticleClass:
     name: str
-    diameter: Annotated[float, Range(gt=0.0, le=MAX_DIAMETER)]  # m
-    density: Annotated[float, Range(gt=0.0)]  # kg/m³
+    # m; a tracer's only sizes it where it is drawn
+    diameter: Annotated[float, Range(gt=0.0, le=MAX_DIAMETER)]
+    # kg/m³: required for an inertial class, not allowed for a tracer (it has no inertia)
+    density: Annotated[float, Range(gt=0.0)] | None = None
     # None: the loader decides by the particle Reynolds number at the scene's speeds
-    # (cavesim.core.drag.chosen_law); a scene may name the law it wants
+    # (cavesim.core.drag.chosen_law); a scene may name the law it wants. Not allowed for a
+    # tracer, on which no drag acts.
     drag: DragLaw | None = None
+    # "tracer" needs forces.drag (which brings the flow in) and no forces.dispersion
+    motion: Motion = Motion.INERTIAL
 
     def relaxation_time(self, air_viscosity: float = AIR_VISCOSITY) -> float:
-        """Stokes relaxation time τ = ρ d² / (18 μ) in seconds."""
+        """Stokes relaxation time τ = ρ d² / (18 μ) in seconds; 0 for a tracer."""
+        if self.motion is Motion.TRACER:
+            return 0.0
         return self.density * self.diameter**2 / (18.0 * air_viscosity)
 
 
@@ -351,6 +398,18 @@ class Scene(Simulation):
             return tuple(math.inf for _ in self.particle_classes)
         mu = self.forces.drag.air_viscosity
         return tuple(c.relaxation_time(mu) for c in self.particle_classes)
+
+    def inverse_relaxation_times(self) -> tuple[float, ...]:
+        """1/τ of each particle class: 0 without drag and for a tracer, on which drag never
+        acts (the particle pass steps it by its own method)."""
+        return tuple(0.0 if c.motion is Motion.TRACER else 1.0 / tau
+                     for c, tau in zip(self.particle_classes, self.relaxation_times(),
+                                       strict=True))
+
+    @property
+    def tracer_classes(self) -> tuple[bool, ...]:
+        """Whether each particle class is a passive tracer."""
+        return tuple(c.motion is Motion.TRACER for c in self.particle_classes)
 
     def reynolds_per_speed(self) -> tuple[float, ...]:
         """d / nu of each Schiller-Naumann class (Re = this × |u - v|), 0 for Stokes ones."""

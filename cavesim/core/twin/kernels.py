@@ -26,16 +26,19 @@ from cavesim.core.portable import spawn as portable_spawn
 from cavesim.core.portable.arithmetic import f_mix
 from cavesim.core.portable.forces import PortableForces
 from cavesim.core.portable.integrators import INTEGRATORS as PORTABLE_INTEGRATORS
-from cavesim.core.scene.model import Integrator
+from cavesim.core.portable.tracers import TRACERS as PORTABLE_TRACERS
+from cavesim.core.scene.model import Integrator, TracerMethod
 from cavesim.core.twin import collision, emission
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.core.twin.tracers import TRACERS
 
 
 @dataclass(frozen=True)
 class Kernels:
     dtype: type  # of positions and velocities
     integrators: Mapping[Integrator, Callable]  # (p, v, h, forces) -> (p, v)
+    tracers: Mapping[TracerMethod, Callable]  # (p, h, forces) -> (p, v) of a passive tracer
     # (gravity, damping, inv_tau, flow, reynolds_per_speed, turbulence) -> a model with
     # acceleration(p, v), linear_parts(p, v), forcing(p, drag) and drag_rate(slip)
     forces: Callable
@@ -64,14 +67,13 @@ class Kernels:
 
 def reference_kernels(dtype) -> Kernels:
     """The twin's own arithmetic in `dtype`."""
-    return Kernels(dtype, INTEGRATORS, ForceModel, partial(downwash, dtype=dtype),
+    return Kernels(dtype, INTEGRATORS, TRACERS, ForceModel, partial(downwash, dtype=dtype),
                    partial(sample_field, dtype=dtype), mix, partial(outside_box, dtype=dtype),
                    partial(collision.ground, dtype=dtype),
                    collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype))
 
 
-PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PortableForces, portable_rotor.flow_at,
-                   portable_field.flow_at, f_mix, portable_field.outside_field,
-                   portable_ground.ground_at,
-                   portable_ground.collide,
+PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PORTABLE_TRACERS, PortableForces,
+                   portable_rotor.flow_at, portable_field.flow_at, f_mix,
+                   portable_field.outside_field, portable_ground.ground_at, portable_ground.collide,
                    portable_dispersion.turbulence, portable_spawn.spawn)

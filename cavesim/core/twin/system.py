@@ -103,11 +103,13 @@ class TwinSystem:
         self.random = random_words(scene.seed, scene.random_texture_size) if drawn else None
         self.draw_moments = None if scene.forces.dispersion is None else draw_moments(
             self.random)
-        taus = scene.relaxation_times() or (np.inf,)
-        self.inv_tau = (1.0 / np.array(taus, dtype=np.float64)).astype(np.float32)
+        self.inv_tau = np.array(scene.inverse_relaxation_times() or (0.0,),
+                                dtype=np.float64).astype(np.float32)
+        self.tracer_classes = np.array(scene.tracer_classes or (False,))
         self.reynolds_per_speed = np.array(scene.reynolds_per_speed() or (0.0,),
                                            dtype=np.float32)
         self.integrate = self.kernels.integrators[scene.integrator]
+        self.trace = self.kernels.tracers[scene.integrator.tracer_method]
         self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
@@ -194,7 +196,7 @@ class TwinSystem:
             start = q.pos
         else:
             start = q.position()
-        pos, vel = self.integrate(start, q.vel, h, forces)
+        pos, vel = self._stepped(start, q, h, forces)
         low = forces.position_low if portable else np.zeros_like(q.pos_low)
         if self.scene.collision is not None:
             moved = pos
@@ -203,6 +205,24 @@ class TwinSystem:
         if portable:
             low = low_part(pos, low_code(pos, low))
         return pos, low, vel
+
+    def _stepped(self, start: np.ndarray, q: TwinParticles, h,
+                 forces: ForceModel | PortableForces) -> tuple[np.ndarray, np.ndarray]:
+        """(pos, vel) after each particle's step: by the integrator, or a tracer class's by
+        its tracer method (physics.glsl's branch in advance). The two groups step apart,
+        each with the forces of its rows; a portable model gets its rows' low parts back."""
+        tracer = self.tracer_classes[np.minimum(q.class_id, len(self.tracer_classes) - 1)]
+        if not tracer.any():
+            return self.integrate(start, q.vel, h, forces)
+        inertial, tracers = forces.of_rows(~tracer), forces.of_rows(tracer)
+        pos, vel = np.empty_like(start), np.empty_like(q.vel)
+        pos[~tracer], vel[~tracer] = self.integrate(start[~tracer], q.vel[~tracer], h, inertial)
+        pos[tracer], vel[tracer] = self.trace(start[tracer], h, tracers)
+        if isinstance(forces, PortableForces):
+            forces.position_low = np.empty_like(forces.position_low)
+            forces.position_low[~tracer] = inertial.position_low
+            forces.position_low[tracer] = tracers.position_low
+        return pos, vel
 
     def _turbulence(self, frame: FrameInput, forces: ForceModel | PortableForces
                     ) -> np.ndarray:

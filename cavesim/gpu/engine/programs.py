@@ -26,13 +26,15 @@ from cavesim.core.scene.model import (
     Integrator,
     OutOfDomain,
     Scene,
+    TracerMethod,
 )
 from cavesim.gpu.shader_source import ProgramSpec
 
 # Feature ids as the shaders spell them (#define COLLISION_PLANE 1 ... in
 # shaders/include/physics.glsl, ARITHMETIC_PORTABLE in arithmetic.glsl); tests/gpu/test_features.py
 # and tests/gpu/test_portable_physics.py hold the two sides together. An integrator's id is its
-# `Integrator.gpu_id` (tests/unit/test_integrator_table.py).
+# `Integrator.gpu_id`, a tracer method's its `TracerMethod.gpu_id`
+# (tests/unit/test_integrator_table.py).
 ARITHMETIC_IDS = {Arithmetic.NATIVE: 0, Arithmetic.PORTABLE: 1}
 COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
 OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
@@ -40,6 +42,8 @@ SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
 INTERPOLATION_IDS = {FieldInterpolation.TRILINEAR: 0, FieldInterpolation.CATMULL_ROM: 1,
                      FieldInterpolation.BSPLINE: 2}
 
+
+INTEGRATORS_BY_GPU_ID = {i.gpu_id: i for i in Integrator}
 
 # The values each define can take (numbers: the extremes a scene may ask for).
 PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
@@ -56,11 +60,14 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
 # Drag beyond Stokes, dispersion (with the random texture's size it reads), a field given
-# as a time series and the count of particles leaving a grid, checked by the gate in the
-# variants `physics_variants` names, not in the full product
+# as a time series, the count of particles leaving a grid and passive tracer classes,
+# checked by the gate in the variants `physics_variants` names, not in the full product.
+# TRACER_METHOD is not a choice of its own: the integrator's row names it (`reachable`).
 TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
     "HAS_SCHILLER_NAUMANN": (0, 1),
     "HAS_DISPERSION": (0, 1),
+    "HAS_TRACERS": (0, 1),
+    "TRACER_METHOD": tuple(m.gpu_id for m in TracerMethod),
     "FIELD_TIME_SERIES": (0, 1),
     "COUNT_DOMAIN_EXITS": (0, 1),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
@@ -128,6 +135,8 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "CLASS_COUNT": max(1, len(scene.particle_classes)),
         "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
         "HAS_DISPERSION": int(scene.forces.dispersion is not None),
+        "HAS_TRACERS": int(any(scene.tracer_classes)),
+        "TRACER_METHOD": scene.integrator.tracer_method.gpu_id,
         "FIELD_TIME_SERIES": int(scene.gridded_flow and field.times is not None),
         "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
         "RANDOM_SIZE": scene.random_texture_size,
@@ -222,8 +231,10 @@ def reachable(defines: dict[str, int]) -> dict[str, int]:
     """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
     grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; only a
     grid is a time series or counts exits; drag laws beyond Stokes and dispersion need
-    drag, dispersion a ground too (physics.glsl's #errors)."""
+    drag, dispersion a ground too, tracers drag and no dispersion (physics.glsl's
+    #errors); TRACER_METHOD is the integrator's."""
     out = dict(defines)
+    out["TRACER_METHOD"] = INTEGRATORS_BY_GPU_ID[out["INTEGRATOR"]].tracer_method.gpu_id
     if not out["HAS_DRAG"] or out["FIELD_IS_ROTOR"]:
         out["FIELD_TIME_SERIES"] = out["COUNT_DOMAIN_EXITS"] = 0
     grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
@@ -234,6 +245,8 @@ def reachable(defines: dict[str, int]) -> dict[str, int]:
         out["HAS_SCHILLER_NAUMANN"] = out["HAS_DISPERSION"] = 0
     if out["COLLISION"] == COLLISION_IDS[None]:
         out["HAS_DISPERSION"] = 0
+    if not out["HAS_DRAG"] or out["HAS_DISPERSION"]:
+        out["HAS_TRACERS"] = 0
     return out
 
 

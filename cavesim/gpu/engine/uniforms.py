@@ -28,8 +28,10 @@ def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid
     if forces.damping is not None:
         values["damping"] = np.float32(forces.damping)
     if forces.drag is not None:
-        values["inv_tau"] = np.array([1.0 / tau for tau in scene.relaxation_times()],
-                                     dtype=np.float32)
+        values["inv_tau"] = np.array(scene.inverse_relaxation_times(), dtype=np.float32)
+        if any(scene.tracer_classes):  # uvec2: bit c of the 64 for class c
+            bits = sum(1 << c for c, tracer in enumerate(scene.tracer_classes) if tracer)
+            values["tracer_classes"] = np.array([bits & 0xFFFFFFFF, bits >> 32], dtype=np.uint32)
         if any(scene.reynolds_per_speed()):  # vec4[(CLASS_COUNT + 3) / 4]: four a vec4
             per_class = np.array(scene.reynolds_per_speed(), dtype=np.float32)
             values["reynolds_per_speed"] = np.pad(per_class, (0, -len(per_class) % 4))

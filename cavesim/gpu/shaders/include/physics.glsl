@@ -1,10 +1,11 @@
 // The forces on a particle and the integrators that advance it by one step. Each scene
 // compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING, with drag
 // HAS_SCHILLER_NAUMANN and HAS_DISPERSION), one INTEGRATOR and one COLLISION kind;
-// cavesim/core/twin/ holds the float64 twin of every line. Every float operation goes
-// through arithmetic.glsl (f_add, f_mul, ...): plain operators for ARITHMETIC_NATIVE,
-// the same bits on every GPU for ARITHMETIC_PORTABLE, mirrored operation by operation in
-// float32 by cavesim/core/portable/.
+// cavesim/core/twin/ holds the float64 twin of every line. With HAS_TRACERS the classes
+// that tracer_classes marks are passive tracers, stepped by TRACER_METHOD instead (trace).
+// Every float operation goes through arithmetic.glsl (f_add, f_mul, ...): plain operators
+// for ARITHMETIC_NATIVE, the same bits on every GPU for ARITHMETIC_PORTABLE, mirrored
+// operation by operation in float32 by cavesim/core/portable/.
 #pragma once
 #include "arithmetic.glsl"
 #include "position.glsl"
@@ -17,6 +18,10 @@
 #define INTEGRATOR_RK4 5
 #define INTEGRATOR_EXPONENTIAL 6
 #define INTEGRATOR_ETD2RK 7
+#define TRACER_EULER 0
+#define TRACER_MIDPOINT 1
+#define TRACER_HEUN 2
+#define TRACER_RK4 3
 #define COLLISION_NONE 0
 #define COLLISION_PLANE 1
 #define COLLISION_HEIGHTFIELD 2
@@ -67,6 +72,10 @@ float inverse_relaxation_time(uint class_id) {
 #endif
 #if HAS_DISPERSION && COLLISION == COLLISION_NONE
 #error HAS_DISPERSION needs a COLLISION ground
+#endif
+// A tracer moves with the flow that drag brings in; dispersion's random walk is drag's
+#if HAS_TRACERS && (!HAS_DRAG || HAS_DISPERSION)
+#error HAS_TRACERS needs HAS_DRAG and no HAS_DISPERSION
 #endif
 
 // The particle being stepped, set by advance() before integrate() and read by each
@@ -236,6 +245,12 @@ float phi3_weight(float x, float phi2) {
 }
 #endif
 
+// k1 + 2 k2 + 2 k3 + k4: the classic Runge-Kutta method's weighted sum of its stages,
+// times h/6 its increment (of a particle's position and velocity, or a tracer's position)
+vec3 rk4_sum(vec3 k1, vec3 k2, vec3 k3, vec3 k4) {
+    return f_add(f_add(f_add(k1, f_mul(2.0, k2)), f_mul(2.0, k3)), k4);
+}
+
 // Every method moves the position once a step, by one whole increment: p = move(p, h * (...))
 // adds it to the position's 32 bits exactly (position.glsl). The implicit ones step the
 // velocity by an increment of the acceleration r = f - lambda v rather than by weights that
@@ -287,11 +302,9 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
     vec3 k3v = acceleration(f_add(p, f_mul(half_h, k2p)), k3p, inv_tau_p, STAGE_MIDDLE);
     vec3 k4p = f_add(v, f_mul(h, k3v));
     vec3 k4v = acceleration(f_add(p, f_mul(h, k3p)), k4p, inv_tau_p, STAGE_END);
-    vec3 dp = f_add(f_add(f_add(k1p, f_mul(2.0, k2p)), f_mul(2.0, k3p)), k4p);
-    vec3 dv = f_add(f_add(f_add(k1v, f_mul(2.0, k2v)), f_mul(2.0, k3v)), k4v);
     float sixth_h = f_div(h, 6.0);
-    p = move(p, f_mul(sixth_h, dp));
-    v = f_add(v, f_mul(sixth_h, dv));
+    p = move(p, f_mul(sixth_h, rk4_sum(k1p, k2p, k3p, k4p)));
+    v = f_add(v, f_mul(sixth_h, rk4_sum(k1v, k2v, k3v, k4v)));
 #elif INTEGRATOR == INTEGRATOR_EXPONENTIAL
     // Exponential Euler: exact solution of dv/dt = f - lambda v with the flow and the drag
     // rate held at their values at (p, v) (linear_parts). Stable for any step (stiff fine
@@ -328,6 +341,39 @@ void integrate(inout vec3 p, inout vec3 v, float inv_tau_p, float h) {
 #error unknown INTEGRATOR
 #endif
 }
+
+#if HAS_TRACERS
+uniform uvec2 tracer_classes;  // bit c: class c is a passive tracer (64 classes at most)
+
+bool is_tracer(uint class_id) {
+    uint c = min(class_id, uint(CLASS_COUNT - 1));
+    return ((tracer_classes[c / 32u] >> (c % 32u)) & 1u) != 0u;
+}
+
+// A passive tracer, dx/dt = u(x, t), one step of TRACER_METHOD (the integrator's form
+// without inertia: the Integrator table's tracer_method). Its velocity is the flow at the
+// new position, for drawing; nothing steps it (twin: cavesim/core/twin/tracers.py).
+void trace(inout vec3 p, out vec3 v, float h) {
+    vec3 k1 = flow_at(p, STAGE_START);
+#if TRACER_METHOD == TRACER_EULER
+    p = move(p, f_mul(h, k1));
+#elif TRACER_METHOD == TRACER_MIDPOINT
+    p = move(p, f_mul(h, flow_at(f_add(p, f_mul(f_mul(0.5, h), k1)), STAGE_MIDDLE)));
+#elif TRACER_METHOD == TRACER_HEUN
+    vec3 k2 = flow_at(f_add(p, f_mul(h, k1)), STAGE_END);
+    p = move(p, f_mul(f_mul(0.5, h), f_add(k1, k2)));
+#elif TRACER_METHOD == TRACER_RK4
+    float half_h = f_mul(0.5, h);
+    vec3 k2 = flow_at(f_add(p, f_mul(half_h, k1)), STAGE_MIDDLE);
+    vec3 k3 = flow_at(f_add(p, f_mul(half_h, k2)), STAGE_MIDDLE);
+    vec3 k4 = flow_at(f_add(p, f_mul(h, k3)), STAGE_END);
+    p = move(p, f_mul(f_div(h, 6.0), rk4_sum(k1, k2, k3, k4)));
+#else
+#error unknown TRACER_METHOD
+#endif
+    v = flow_at(p, STAGE_END);
+}
+#endif
 
 #if COLLISION != COLLISION_NONE
 uniform float friction;  // nu: share of tangential speed lost at a bounce
@@ -403,7 +449,15 @@ bool advance(inout Particle q, float h, uint index) {
     step_turbulence = turbulence_seen(q.pos, q.vel, inv_tau_p, index, h);
 #endif
     step_position_low = q.pos_low;
+#if HAS_TRACERS
+    if (is_tracer(q.class_id)) {
+        trace(q.pos, q.vel, h);
+    } else {
+        integrate(q.pos, q.vel, inv_tau_p, h);
+    }
+#else
     integrate(q.pos, q.vel, inv_tau_p, h);
+#endif
 #if COLLISION != COLLISION_NONE
     collide(q.pos, q.vel);
 #endif

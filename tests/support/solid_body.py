@@ -1,0 +1,29 @@
+"""A solid-body vortex about the z axis, u = Omega z x p, and its closed-form paths: the
+tracer tests' flow (a rotation of the start by Omega t)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from cavesim.core.field_time import START
+
+OMEGA = 1.0  # rad/s
+
+
+def solid_body(p: np.ndarray, stage: int = START) -> np.ndarray:
+    """u(p) for points (N, 3); steady, so every stage of a step alike."""
+    return OMEGA * np.stack([-p[:, 1], p[:, 0], np.zeros(len(p))], axis=1)
+
+
+def rotated(p: np.ndarray, t: float) -> np.ndarray:
+    """Where a tracer at p is after t seconds."""
+    c, s = np.cos(OMEGA * t), np.sin(OMEGA * t)
+    return np.stack([c * p[:, 0] - s * p[:, 1], s * p[:, 0] + c * p[:, 1], p[:, 2]], axis=1)
+
+
+def disk(count: int, radius: float = 0.8, height: float = 0.5, seed: int = 3) -> np.ndarray:
+    """`count` points spread evenly over a horizontal disk about the axis."""
+    rng = np.random.default_rng(seed)
+    r = radius * np.sqrt(rng.uniform(size=count))
+    phi = rng.uniform(0, 2 * np.pi, size=count)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), np.full(count, height)], axis=1)
