@@ -140,7 +140,7 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
     if forces.dispersion is not None:
         _check_dispersion(top, forces, collision, sim)
-    _check_tracers(top, class_tables, classes, forces)
+    _check_tracers(class_tables, classes, forces)
     classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
 
     return relative_to_origin(Scene(
@@ -163,7 +163,7 @@ def _particle_class(t: Table) -> ParticleClass:
     return particle
 
 
-def _check_tracers(top: Table, class_tables: list[Table], classes: tuple[ParticleClass, ...],
+def _check_tracers(class_tables: list[Table], classes: tuple[ParticleClass, ...],
                    forces: Forces) -> None:
     """A tracer moves with the flow, which reaches the particles through forces.drag; the
     random walk of dispersion is drag's, so a scene has tracers or dispersion."""
