@@ -17,6 +17,7 @@ from cavesim.core.errors import ClusterError
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.scene.digest import _canonical, scene_digest
+from cavesim.core.scene.model import Motion
 from cavesim.core.wire import Command, ControlMessage, InfoMessage, decode, encode
 from cavesim.tools.log_replay import scene_warnings
 from nodes.master.process import MasterConfig, run_master
@@ -60,6 +61,18 @@ def test_an_optional_key_left_unset_leaves_the_digest_as_it_was():
     assert scene_digest(scene) == scene_digest(dataclasses.replace(scene, origin=None))
     assert scene_digest(dataclasses.replace(scene, origin=(0.0, 0.0, 0.0))) != \
         scene_digest(scene)
+
+
+def test_a_key_added_with_a_default_leaves_the_digest_as_it_was_at_that_default():
+    """A particle class's `motion` came after frame logs were recorded: an inertial class
+    (its default) keeps the digest the scene had before the key; a tracer class changes it.
+    The digests are the ones the shipped frame logs name."""
+    scene = load_scene(ROOT / "tests" / "data" / "logs" / "vortex_portable.toml")
+    assert scene_digest(scene) == "213ead9e7f4e0cf5a73a285afbd35877"
+    traced = dataclasses.replace(scene, particle_classes=tuple(
+        dataclasses.replace(c, motion=Motion.TRACER, density=None, drag=None)
+        for c in scene.particle_classes))
+    assert scene_digest(traced) != scene_digest(scene)
 
 
 def test_the_digest_holds_the_bytes_of_the_files_the_scene_names(tmp_path):

@@ -7,7 +7,8 @@ simulation, and hosts keep the file wherever they like; but the .npz files a fie
 heightfield names do, so each is in by the SHA-256 of its bytes, not by its path. The
 engine path is left out (both paths compute the same bits, and `--engine` overrides it).
 It is SHA-256 over a canonical JSON of the rest (sorted keys, floats by their exact
-`repr`, fields left unset out), cut to 128 bits like every other digest on the wire.
+`repr`, fields left unset out, and fields added with a default left out at it:
+LATER_DEFAULTS), cut to 128 bits like every other digest on the wire.
 """
 
 from __future__ import annotations
@@ -20,9 +21,12 @@ from pathlib import Path
 from typing import Any
 
 from cavesim.core.errors import SceneError
-from cavesim.core.scene.model import Scene
+from cavesim.core.scene.model import Motion, ParticleClass, Scene
 
 NOT_CONTENT = ("name", "source", "engine")  # fields of a Scene that change no bit
+# Fields added with a default after frame logs were recorded: at that default a field is
+# left out, so that the scenes that do not use it keep their digests and their logs replay
+LATER_DEFAULTS = {(ParticleClass, "motion"): Motion.INERTIAL}
 
 
 def scene_digest(scene: Scene) -> str:
@@ -37,7 +41,7 @@ def _canonical(value: Any) -> Any:
     if dataclasses.is_dataclass(value):  # a field left unset (None) is left out: a new
         # optional key leaves every digest, and every recorded frame log, as it was
         return {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)
-                if getattr(value, f.name) is not None}
+                if not _left_out(value, f.name)}
     if isinstance(value, Enum):
         return _canonical(value.value)
     if isinstance(value, Path):
@@ -49,6 +53,12 @@ def _canonical(value: Any) -> Any:
     if isinstance(value, float):
         return repr(value)  # exact, and NaN or inf are not JSON
     return value
+
+
+def _left_out(value: Any, name: str) -> bool:
+    field = getattr(value, name)
+    key = (type(value), name)
+    return field is None or (key in LATER_DEFAULTS and field == LATER_DEFAULTS[key])
 
 
 def _file_digest(path: Path) -> str:
