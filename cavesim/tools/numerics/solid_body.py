@@ -18,6 +18,11 @@ def solid_body(p: np.ndarray, stage: int = START) -> np.ndarray:
     return OMEGA * np.stack([-p[:, 1], p[:, 0], np.zeros(len(p))], axis=1)
 
 
+def centripetal(p: np.ndarray) -> np.ndarray:
+    """du/dt along a path through p: the acceleration of the rotation, -Omega² (x, y, 0)."""
+    return -OMEGA**2 * np.stack([p[:, 0], p[:, 1], np.zeros(len(p))], axis=1)
+
+
 def rotated(p: np.ndarray, t: float) -> np.ndarray:
     """Where a tracer at p is after t seconds."""
     c, s = np.cos(OMEGA * t), np.sin(OMEGA * t)
