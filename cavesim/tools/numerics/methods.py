@@ -2,9 +2,9 @@
 
 Per integrator: its theoretical order and the field evaluations one step takes (the cost
 that does not depend on the hardware), both from its `Integrator` row (for a tracer case,
-from the row's tracer method), the tolerance on the
-observed order, and the cases it solves exactly. A case may cap the order any method can
-show (see `cases.Case.order_limit`); what the tests hold each method to is `expected_order`.
+from the row's tracer method), the tolerance on the observed order, and the cases it solves
+exactly. A case may cap the order any method can show (see `cases.Case.order_limit`); what
+the tests hold each method to is `expected_order`.
 """
 
 from __future__ import annotations
