@@ -27,7 +27,8 @@ def add_accuracy(commands) -> None:
         "accuracy", help="error against run time and field evaluations of every integrator: "
                          "GPU, float64 twin and reference (checked by Dormand-Prince) in "
                          "uniform and turning flows, a vortex on three grids, a rotor "
-                         "downwash, and sand in the last two")
+                         "downwash, sand in the last two, and passive tracers in a "
+                         "solid-body vortex")
     parser.add_argument("--scene", type=scene_file,
                         help=f"helicopter scene whose rotor downwash is the third case "
                              f"(default: {HELICOPTER_SCENE})")

@@ -19,9 +19,11 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from cavesim.core.scene.model import FieldInterpolation, Integrator
+from cavesim.core.scene.model import FieldInterpolation, Integrator, Motion
 from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.core.twin.tracers import TRACERS
 from cavesim.tools.numerics import METHODS, QUICK_DTS, run_command
+from cavesim.tools.numerics.accuracy import run_accuracy
 from cavesim.tools.numerics.adaptive import (
     DP54_A,
     DP54_B4,
@@ -38,8 +40,10 @@ from cavesim.tools.numerics.cases import (
     ROTATING_METHODS,
     SAND_METHODS,
     TAU,
+    TRACER_PARTICLES,
     rotating_case,
     smooth_vortex_case,
+    tracer_case,
     uniform_case,
     vortex_case,
 )
@@ -52,6 +56,7 @@ from cavesim.tools.numerics.reference import (
     closed_form,
     fine_rk4,
     rotating_closed_form,
+    solid_body_closed_form,
     twin_forces,
 )
 from cavesim.tools.numerics.report import OUTPUT_NAMES
@@ -61,6 +66,7 @@ from nodes.cli import main
 CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline", "downwash")
 SAND_CASES = ("vortex_sand", "downwash_sand")  # measured with SAND_METHODS only
 ROTATING = "rotating"  # a time series, measured with ROTATING_METHODS only
+TRACER = "tracer"  # passive tracers: every method, held to its tracer method's order
 SMOOTH_CASES = ("uniform", "vortex", "vortex_catmull_rom", "vortex_bspline")
 FLOAT32_FLOOR = 1e-4  # m: what float32 arithmetic may add to a GPU error over T = 1 s
 GPU_TO_TWIN_FACTOR = 2.0
@@ -75,6 +81,14 @@ def quick_run(gl_session, tmp_path_factory):
     result = run_command(REPO_ROOT / HELICOPTER_SCENE, out, console, quick=True,
                          ctx=gl_session)
     return result, out, console.file.getvalue()
+
+
+@pytest.fixture(scope="module")
+def tracer_run(gl_session, tmp_path_factory):
+    """The tracer case alone over the quick dts: about 12 s on 2 cores."""
+    folder = tmp_path_factory.mktemp("tracer")
+    return run_accuracy([tracer_case(TRACER_PARTICLES, folder)], QUICK_DTS, folder / "out",
+                        Console(file=io.StringIO(), width=200), gl_session, workers=1)
 
 
 def summary_of(result, case: str, method):
@@ -206,11 +220,14 @@ def test_velocity_errors_converge_at_the_methods_order(quick_run, method):
 @pytest.mark.slow
 def test_evaluations_to_t_are_steps_times_the_methods_count(quick_run):
     result, _, _ = quick_run
-    per_step = {m.name: m.evaluations for m in METHODS}
+    motions = {c["name"]: Motion(c["motion"]) for c in result.report["cases"]}
+    methods = {m.name: m for m in METHODS}
     for row in result.rows:
-        assert row.evaluations == row.steps * per_step[row.integrator] > 0
+        per_step = methods[row.integrator].evaluations_for(motions[row.case])
+        assert row.evaluations == row.steps * per_step > 0
     for summary in result.summaries:
-        assert summary.evaluations == per_step[summary.integrator]
+        per_step = methods[summary.integrator].evaluations_for(motions[summary.case])
+        assert summary.evaluations == per_step
 
 
 @pytest.mark.slow
@@ -273,9 +290,10 @@ def test_dormand_prince_follows_its_tolerance_in_a_closed_form():
 @pytest.mark.slow
 def test_the_reference_check_converges_and_bounds_the_reference(quick_run):
     result, _, _ = quick_run
-    steady = [c["name"] for c in result.report["cases"] if c["snapshot_steps"] is None]
-    assert set(steady) == {c["name"] for c in result.report["cases"]} - {ROTATING}
-    assert not [r for r in result.sweep if r.case == ROTATING]
+    steady = [c["name"] for c in result.report["cases"]
+              if c["snapshot_steps"] is None and c["motion"] == Motion.INERTIAL]
+    assert set(steady) == {c["name"] for c in result.report["cases"]} - {ROTATING, TRACER}
+    assert not [r for r in result.sweep if r.case in (ROTATING, TRACER)]
     for case in steady:
         sweep = [r for r in result.sweep if r.case == case]
         assert [r.tolerance for r in sweep] == sorted(TOLERANCES, reverse=True)
@@ -325,6 +343,58 @@ def test_portable_arithmetic_costs_time_not_accuracy(quick_run):
         assert summary.portable_cost > 0 and summary.to_json()["portable_cost"] > 0
 
 
+@pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
+def test_tracer_orders_match_the_tracer_methods(tracer_run, method):
+    """Each integrator's tracers converge at its tracer method's order, not its own: the
+    trapezoid and Verlet are order 1 and 2 with inertia, Heun's (2) without."""
+    summary = summary_of(tracer_run, TRACER, method)
+    expected = method.integrator.tracer_method.order
+    assert summary.order == summary.expected == expected
+    assert len(summary.fit_dts) >= MIN_FIT_POINTS
+    assert abs(summary.observed - expected) <= method.tolerance, (
+        f"{method.name} tracers: observed order {summary.observed:.2f}, expected {expected}")
+    assert summary.verdict == "ok"
+    assert summary.evaluations == method.integrator.tracer_method.field_evaluations
+
+
+def test_tracers_on_the_gpu_follow_the_float64_twin(tracer_run):
+    """The GPU's tracer error is the twin's plus float32's, which stays below 1e-7 m."""
+    rows = [r for r in tracer_run.rows if r.case == TRACER]
+    assert len(rows) == len(METHODS) * len(QUICK_DTS)
+    for row in rows:
+        assert row.float32_rms < 1e-7 and row.arithmetic_rms < 1e-7, row
+        assert row.gpu_rms <= row.twin_rms + row.float32_rms + 1e-12, row
+    assert not tracer_run.sweep and not tracer_run.reference_accuracy  # closed form, no DP
+
+
+@pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
+def test_the_tracer_evaluations_count_the_twins_tracer_flow_samples(method, tmp_path):
+    case = tracer_case(16, tmp_path)
+    forces = twin_forces(case)
+    calls = []
+
+    def counted(p, stage):
+        calls.append(len(p))
+        return forces.flow(p, stage)
+
+    p = case.particles["pos"].astype(float)
+    TRACERS[method.integrator.tracer_method](p, 1 / 60,
+                                             dataclasses.replace(forces, flow=counted))
+    # the last sample gives the record its velocity, the flow at the new position
+    assert calls == [16] * (method.evaluations_for(Motion.TRACER) + 1)
+
+
+def test_the_solid_body_closed_form_turns_the_tracers_with_the_flow(tmp_path):
+    case = tracer_case(50, tmp_path)
+    start = case.particles["pos"].astype(np.float64)
+    quarter = solid_body_closed_form(case, np.pi / 2)
+    np.testing.assert_allclose(quarter.pos[:, 0], -start[:, 1], atol=1e-12)
+    np.testing.assert_allclose(quarter.pos[:, 1], start[:, 0], atol=1e-12)
+    assert np.linalg.norm(start[:, :2], axis=1).max() <= 0.8
+    np.testing.assert_allclose(quarter.position_at(np.pi / 2 + 1e-3),
+                               solid_body_closed_form(case, np.pi / 2 + 1e-3).pos, atol=1e-9)
+
+
 @pytest.mark.slow
 def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     result, out, printed = quick_run
@@ -334,19 +404,22 @@ def test_the_command_writes_csv_markdown_json_and_png(quick_run, ctx):
     assert printed.count("Reference error at most") == len(result.reference_accuracy) > 0
     with (out / "accuracy.csv").open(newline="") as file:
         rows = list(csv.DictReader(file))
-    measured = (len(CASES) * len(METHODS) + len(SAND_CASES) * len(SAND_METHODS)
-                + len(ROTATING_METHODS))
+    measured = ((len(CASES) + 1) * len(METHODS) + len(SAND_CASES) * len(SAND_METHODS)
+                + len(ROTATING_METHODS))  # + 1: the tracer case
     assert len(rows) == measured * len(QUICK_DTS)
     assert {r["dt_label"] for r in rows} == {"1/15", "1/30", "1/60", "1/120", "1/240"}
     report = json.loads((out / "accuracy.json").read_text())
     assert report["command"] == "accuracy" and report["particles"] == QUICK_PARTICLES
     assert len(report["summary"]) == measured
-    assert len(report["sweep"]) == (len(report["cases"]) - 1) * len(TOLERANCES)
+    # neither the time series nor the tracers are swept
+    assert len(report["sweep"]) == (len(report["cases"]) - 2) * len(TOLERANCES)
     assert report["final_time"] / report["tau"] >= 10
     assert [c["name"] for c in report["cases"]] == [CASES[0], ROTATING, *CASES[1:],
-                                                     *SAND_CASES]
+                                                     *SAND_CASES, TRACER]
+    assert [c["particles"] for c in report["cases"]][-2:] == [QUICK_PARTICLES,
+                                                              TRACER_PARTICLES]
     text = (out / "accuracy.md").read_text()
-    for heading in (*(f"## {case}" for case in (*CASES, ROTATING, *SAND_CASES)),
+    for heading in (*(f"## {case}" for case in (*CASES, ROTATING, *SAND_CASES, TRACER)),
                     "observed (f64)",
                     "portable cost", "evals per step", "GPU vel RMS (m/s)", "GPU cloud",
                     "Reference check", "Reference error at most", "= 10 tau"):

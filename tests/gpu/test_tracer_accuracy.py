@@ -13,17 +13,16 @@ import copy
 import numpy as np
 import pytest
 from scenes import scene_dict
-from solid_body import disk, rotated, solid_body
 
-from cavesim.core.fields import FieldGrid, save_field
+from cavesim.core.fields import save_field
 from cavesim.core.position import extended_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.tools.numerics.solid_body import BOX, disk, rotated, solid_body, solid_body_grid
 
 NODES = 64
-BOX = ((-1.0, -1.0, 0.0), (1.0, 1.0, 1.0))
 DT, STEPS = 1 / 60, 60
 PARTICLES = 2000
 GPU_RMS_LIMIT = 2e-7  # m, RK4 on the GPU after 1 s
@@ -34,12 +33,8 @@ IDENTITY = np.eye(3, dtype=np.float32)
 @pytest.fixture(scope="module")
 def vortex_scene(tmp_path_factory):
     """Only smoke, a tracer class, carried by the gridded solid-body vortex with RK4."""
-    axes = [np.linspace(lo, hi, NODES) for lo, hi in zip(*BOX, strict=True)]
-    z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
-    nodes = np.stack([x, y, z], axis=-1).reshape(-1, 3)
-    velocity = solid_body(nodes).reshape(NODES, NODES, NODES, 3).astype(np.float32)
     path = tmp_path_factory.mktemp("vortex") / "solid_body.npz"
-    save_field(path, FieldGrid(velocity, *BOX))
+    save_field(path, solid_body_grid(NODES))
     data = copy.deepcopy(scene_dict(integrator="rk4", capacity=PARTICLES, gravity=False))
     data["particle_class"] = [{"name": "smoke", "diameter": 1e-5, "motion": "tracer"}]
     data["field"] = {"kind": "file", "file": str(path), "box_min": list(BOX[0]),

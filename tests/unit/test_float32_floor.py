@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from cavesim.core.scene.model import Integrator
+from cavesim.core.scene.model import Integrator, Motion
 from cavesim.tools.numerics.cases import DTS, FINAL_TIME, build_cases
 from cavesim.tools.numerics.results import rms_and_max
 from cavesim.tools.numerics.runs import MANUAL, gpu_runs, twin_runs
@@ -37,10 +37,12 @@ pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("float32_floor")]
 
 
 @pytest.fixture(scope="module")
-def cases():
-    """The cases every integrator runs in (the sand cases share their flows and state)."""
-    return {case.name: case for case in build_cases(SCENE, PARTICLES)
-            if set(case.integrators) == set(Integrator)}
+def cases(tmp_path_factory):
+    """The inertial cases every integrator runs in (the sand cases share their flows and
+    state; the tracers' floor is held in tests/gpu/test_accuracy.py)."""
+    return {case.name: case
+            for case in build_cases(SCENE, PARTICLES, tmp_path_factory.mktemp("fields"))
+            if set(case.integrators) == set(Integrator) and case.motion is Motion.INERTIAL}
 
 
 @pytest.fixture(scope="module")

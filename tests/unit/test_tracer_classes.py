@@ -8,12 +8,12 @@ import copy
 import numpy as np
 import pytest
 from scenes import SMOKE, scene_dict
-from solid_body import disk, rotated, solid_body
 
 from cavesim.core.errors import SceneError
 from cavesim.core.scene import Motion, TracerMethod, parse_scene
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.tracers import TRACERS
+from cavesim.tools.numerics.solid_body import disk, rotated, solid_body
 
 FINAL_TIME = 1.0  # s
 ORDER_DTS = (1 / 30, 1 / 60, 1 / 120, 1 / 240)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 import os
+import tempfile
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -20,6 +21,7 @@ import moderngl
 import numpy as np
 from rich.console import Console
 
+from cavesim.core.scene.model import Motion
 from cavesim.gpu.engine.capacity import capacity_limits
 from cavesim.gpu.gl.context import create_context, describe
 from cavesim.tools.numerics.cases import (
@@ -79,7 +81,7 @@ def run_command(helicopter_scene: Path, out_dir: Path, console: Console,
                 particles: int | None = None, quick: bool = False,
                 ctx: moderngl.Context | None = None, workers: int | None = None
                 ) -> AccuracyResult:
-    """`cavesim accuracy`: the three cases with `particles` each (default: PARTICLES, or
+    """`cavesim accuracy`: the cases with `particles` each (default: PARTICLES, or
     QUICK_PARTICLES with `quick`) over DTS (QUICK_DTS with `quick`).
 
     Opens (and releases) its own GL context unless one is given; a count the context
@@ -90,8 +92,9 @@ def run_command(helicopter_scene: Path, out_dir: Path, console: Console,
     ctx = create_context() if own_context else ctx
     try:
         capacity_limits(ctx.info).check(count)
-        return run_accuracy(build_cases(helicopter_scene, count), QUICK_DTS if quick else DTS,
-                            out_dir, console, ctx, workers)
+        with tempfile.TemporaryDirectory(prefix="cavesim-accuracy-") as field_dir:
+            return run_accuracy(build_cases(helicopter_scene, count, Path(field_dir)),
+                                QUICK_DTS if quick else DTS, out_dir, console, ctx, workers)
     finally:
         if own_context:
             ctx.release()
@@ -178,10 +181,11 @@ def _float64_jobs(cases: list[Case], dts: tuple[float, ...], final_time: float,
                           (case.subset(slice(a, b)), final_time, step))
                      for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True))
                      if b > a]
-    for tolerance in sorted(TOLERANCES):  # Dormand-Prince's stage times: a steady field's
+    # Dormand-Prince's stage times need a steady field, and it steps inertial particles
+    swept = [c for c in cases if c.snapshot_steps is None and c.motion is Motion.INERTIAL]
+    for tolerance in sorted(TOLERANCES):
         jobs += [_Job(("adaptive", case.name, f"{tolerance:g}"), adaptive,
-                      (case, final_time, tolerance)) for case in cases
-                 if case.snapshot_steps is None]
+                      (case, final_time, tolerance)) for case in swept]
     for case in cases:
         jobs += [_Job(("twin", case.name, m.name), twin_runs,
                       (case, m.integrator, dts, final_time)) for m in _methods(case)]

@@ -11,10 +11,12 @@ the real loader), a fixed seeded particle set and the frame parameters of every 
             drag: the drag rate changes with the slip along each path
   rotating  a uniform flow turning at a steady rate, given as a time series of snapshots
             two steps apart and interpolated linearly in time: a closed form exists
+  tracer    passive tracers (motion = "tracer") in a solid-body vortex on a grid, each
+            method held to its tracer method's order: a closed form exists (a rotation)
 
-One particle class with tau = 0.1 s, so a run lasts T = 10 tau: the particles forget how
-they started and follow the flow, the regime of the demo's cloud (the sand: tau = 0.18 s,
-Re about 10). No emitters, no collision, nothing dies before T.
+Apart from the tracer case, one particle class with tau = 0.1 s, so a run lasts T = 10 tau:
+the particles forget how they started and follow the flow, the regime of the demo's cloud
+(the sand: tau = 0.18 s, Re about 10). No emitters, no collision, nothing dies before T.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ import numpy as np
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import SceneError
 from cavesim.core.field_time import field_time_at
+from cavesim.core.fields import save_field
 from cavesim.core.helicopter.rotor import induced_velocity
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
@@ -40,9 +43,11 @@ from cavesim.core.scene.model import (
     FieldInterpolation,
     FieldSampling,
     Integrator,
+    Motion,
     Scene,
 )
 from cavesim.core.scene_frame import RotorFrame, SceneFrame
+from cavesim.tools.numerics.solid_body import BOX, disk, solid_body, solid_body_grid
 
 FINAL_TIME = 1.0  # s: a whole number of steps of every dt below
 DTS = tuple(1.0 / (15 * 2**k) for k in range(7))  # 1/15 ... 1/960 s
@@ -79,6 +84,12 @@ TIME_INTERPOLATION_ORDER = 2
 # RK4 capped at 2 (each of its dts builds its own engine: a series per dt)
 ROTATING_METHODS = (Integrator.EXPLICIT_EULER, Integrator.RK2, Integrator.RK4,
                     Integrator.ETD2RK)
+# The tracer case: smoke in the solid-body vortex on a grid 1/8 m apart, whose node
+# coordinates and values float32 holds exactly. The flow is linear, so trilinear
+# interpolation is the flow itself and the float64 twin's error is the method's alone.
+TRACER_NODES = 17
+TRACER_PARTICLES = 500  # at most: a closed form per particle needs no more; keeps it cheap
+SMOKE = {"name": "smoke", "diameter": 1e-5, "motion": Motion.TRACER.value}
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,6 +119,9 @@ class Case:
     source: Path | None = None  # the scene file, for errors
     integrators: tuple[Integrator, ...] = tuple(Integrator)  # the methods run in the case
     order_tolerance: float | None = None  # on the observed order; None: each method's own
+    # how the particles move: a tracer case's methods are their tracer methods (orders,
+    # evaluations per step from Integrator.tracer_method)
+    motion: Motion = Motion.INERTIAL
 
     def scene(self, integrator: Integrator, sampling: FieldSampling = FieldSampling.MANUAL,
               arithmetic: Arithmetic = Arithmetic.NATIVE, dt: float = REPORT_DT,
@@ -200,6 +214,24 @@ def vortex_case(count: int) -> Case:
                 filtering=True)
 
 
+def tracer_case(count: int, field_dir: Path) -> Case:
+    """Tracers spread over a disk of radius 0.8 m in the solid-body vortex, its grid written
+    to `field_dir` (kept for as long as the case is run)."""
+    path = field_dir / "solid_body.npz"
+    save_field(path, solid_body_grid(TRACER_NODES))
+    field = {"kind": "file", "file": str(path), "box_min": list(BOX[0]),
+             "box_max": list(BOX[1])}
+    data = {"simulation": _simulation(count), "particle_class": [dict(SMOKE)],
+            "forces": {"drag": {}}, "field": field}  # drag: what brings the flow in
+    records = np.zeros(count, dtype=PARTICLE_DTYPE)
+    records["pos"] = disk(count)
+    records["vel"] = solid_body(records["pos"].astype(np.float64))  # a tracer's record
+    records["lifetime"] = LIFETIME
+    return Case("tracer", f"passive tracers in a solid-body vortex (1 rad/s) on a "
+                f"{TRACER_NODES}³ grid, a disk of radius 0.8 m: closed form", data, records,
+                closed_form="solid_body", motion=Motion.TRACER)
+
+
 def smooth_vortex_case(count: int, interpolation: FieldInterpolation, order_limit: int) -> Case:
     """The vortex case's grid and particles, interpolated by a cubic (cavesim.core.interpolation)
     instead of trilinearly: RK4's observed order rises with the field's smoothness."""
@@ -255,10 +287,12 @@ def sand_case(case: Case) -> Case:
         description=f"{case.description}; 150 µm sand, Schiller-Naumann drag")
 
 
-def build_cases(helicopter_scene: Path, count: int) -> list[Case]:
-    """The eight cases with `count` particles each."""
+def build_cases(helicopter_scene: Path, count: int, field_dir: Path) -> list[Case]:
+    """The nine cases with `count` particles each (the tracer case: at most
+    TRACER_PARTICLES), writing grid files to `field_dir`."""
     downwash = downwash_case(helicopter_scene, count)
     return [uniform_case(count), rotating_case(count), vortex_case(count),
             smooth_vortex_case(count, FieldInterpolation.CATMULL_ROM, CATMULL_ROM_ORDER_LIMIT),
             smooth_vortex_case(count, FieldInterpolation.BSPLINE, BSPLINE_ORDER_LIMIT),
-            downwash, sand_case(vortex_case(count)), sand_case(downwash)]
+            downwash, sand_case(vortex_case(count)), sand_case(downwash),
+            tracer_case(min(count, TRACER_PARTICLES), field_dir)]

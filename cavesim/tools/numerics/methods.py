@@ -1,16 +1,17 @@
 """The one table the accuracy tests and the error-versus-cost report both read.
 
 Per integrator: its theoretical order and the field evaluations one step takes (the cost
-that does not depend on the hardware), both from its `Integrator` row, the tolerance on the
-observed order, and the cases it solves exactly. A case may cap the order any method can
-show (see `cases.Case.order_limit`); what the tests hold each method to is `expected_order`.
+that does not depend on the hardware), both from its `Integrator` row (for a tracer case,
+from the row's tracer method), the tolerance on the observed order, and the cases it solves
+exactly. A case may cap the order any method can show (see `cases.Case.order_limit`); what
+the tests hold each method to is `expected_order`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from cavesim.core.scene.model import Integrator
+from cavesim.core.scene.model import Integrator, Motion
 
 ORDER_TOLERANCE = 0.3  # |observed - expected| allowed where the solution is smooth
 EXACT_TOLERANCE = 1e-9  # m: RMS float64 error of a method in a case it solves exactly
@@ -41,12 +42,24 @@ class Method:
         """Field evaluations per particle and step."""
         return self.integrator.field_evaluations
 
+    def order_for(self, motion: Motion) -> int:
+        """Theoretical order for particles that move so: a tracer's is its tracer method's."""
+        return self.integrator.tracer_method.order if motion is Motion.TRACER else self.order
+
+    def evaluations_for(self, motion: Motion) -> int:
+        """Field evaluations per particle and step for particles that move so."""
+        if motion is Motion.TRACER:
+            return self.integrator.tracer_method.field_evaluations
+        return self.evaluations
+
     def is_exact(self, case_name: str) -> bool:
         return case_name in self.exact_in
 
-    def expected_order(self, order_limit: float | None) -> float:
+    def expected_order(self, order_limit: float | None,
+                       motion: Motion = Motion.INERTIAL) -> float:
         """The order to observe in a case whose field allows at most `order_limit`."""
-        return self.order if order_limit is None else min(self.order, order_limit)
+        order = self.order_for(motion)
+        return order if order_limit is None else min(order, order_limit)
 
 
 # The exponential methods solve the linear part (drag, damping, dp/dt = v) exactly and

@@ -7,6 +7,7 @@ is below 1e-7 s, the neglected terms, of order (da/dt) gap², below 1e-10 m/s.
 
   uniform flow: the closed form of dv/dt = f - lambda v with f, lambda constant;
   rotating flow: the closed form with the uniform flow turning at a steady rate;
+  solid-body vortex: tracers turned by Omega t about the axis;
   other cases:  the float64 twin's RK4 on the same field (the same interpolated grid, the
                 same float32-rounded constants) with REFINEMENT-times smaller steps than
                 the finest dt measured.
@@ -29,6 +30,7 @@ from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import INTEGRATORS
 from cavesim.tools.numerics.adaptive import dormand_prince
 from cavesim.tools.numerics.cases import Case
+from cavesim.tools.numerics.solid_body import centripetal, rotated, solid_body
 
 REFINEMENT = 16  # reference step = finest dt / REFINEMENT
 TOLERANCES = tuple(10.0**-k for k in range(6, 13))  # of the Dormand-Prince sweep
@@ -103,7 +105,15 @@ def rotating_closed_form(case: Case, t: float) -> Reference:
     return Reference(t, pos, vel, lam * (u - vel) + np.array([0.0, 0.0, g]), None)
 
 
-CLOSED_FORMS = {"uniform": closed_form, "rotating": rotating_closed_form}  # Case.closed_form
+def solid_body_closed_form(case: Case, t: float) -> Reference:
+    """Exact state at t of tracers in the solid-body vortex: the start turned by Omega t,
+    moving with the flow there."""
+    pos = rotated(case.particles["pos"].astype(np.float64), t)
+    return Reference(t, pos, solid_body(pos), centripetal(pos), None)
+
+
+CLOSED_FORMS = {"uniform": closed_form, "rotating": rotating_closed_form,
+                "solid_body": solid_body_closed_form}  # Case.closed_form
 
 
 def fine_rk4(case: Case, t: float, step: float) -> Reference:

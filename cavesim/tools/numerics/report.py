@@ -16,7 +16,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from cavesim.core.scene.model import Integrator
+from cavesim.core.scene.model import Integrator, Motion
 from cavesim.tools.numerics import order as order_rule
 from cavesim.tools.numerics.cases import HELD_ORDER_TOLERANCE, REPORT_DT, TAU, Case
 from cavesim.tools.numerics.cloud import CLOUD_CELL
@@ -179,9 +179,14 @@ def build_report(cases: list[Case], dts: tuple[float, ...], final_time: float,
         "report_dt": dt_label(REPORT_DT),
         "particles": len(cases[0].particles),
         "methods": [{"integrator": m.name, "order": m.order, "tolerance": m.tolerance,
-                     "evaluations": m.evaluations, "exact_in": sorted(m.exact_in),
+                     "evaluations": m.evaluations,
+                     "tracer_method": m.integrator.tracer_method.value,
+                     "tracer_order": m.order_for(Motion.TRACER),
+                     "tracer_evaluations": m.evaluations_for(Motion.TRACER),
+                     "exact_in": sorted(m.exact_in),
                      "forgets_in": sorted(m.forgets_in)} for m in METHODS],
         "cases": [{"name": c.name, "description": c.description, "held_to_order": c.held_to_order,
+                   "motion": c.motion.value, "particles": len(c.particles),
                    "closed_form": c.closed_form,
                    "order_limit": c.order_limit, "filtering": c.filtering, "cloud": c.cloud,
                    "integrators": [i.value for i in c.integrators],

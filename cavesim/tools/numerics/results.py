@@ -97,7 +97,7 @@ def make_rows(case: Case, method: Method, reference: Reference, gpu: list[Run],
         portable_rms, portable_max = rms_and_max(p.pos, ref)
         rows.append(Row(
             case=case.name, integrator=method.name, dt=g.dt, dt_label=dt_label(g.dt),
-            steps=g.steps, evaluations=g.steps * method.evaluations,
+            steps=g.steps, evaluations=g.steps * method.evaluations_for(case.motion),
             gpu_rms=gpu_rms, gpu_max=gpu_max, twin_rms=twin_rms, twin_max=twin_max,
             gpu_vel_rms=gpu_vel_rms, gpu_vel_max=gpu_vel_max, twin_vel_rms=twin_vel_rms,
             twin_vel_max=twin_vel_max, gpu_cloud=gpu_cloud, twin_cloud=twin_cloud,
@@ -116,7 +116,7 @@ def make_rows(case: Case, method: Method, reference: Reference, gpu: list[Run],
 class Summary:
     case: str
     integrator: str
-    order: int  # theoretical
+    order: int  # theoretical, for the case's motion (a tracer's: its tracer method's)
     expected: float | None  # what the tests hold it to; None: not held to an order
     observed: float  # NaN when too few dts lie above round-off
     fit_dts: tuple[str, ...]
@@ -161,7 +161,7 @@ def summarize(case: Case, method: Method, rows: list[Row], report_dt: float) -> 
     exact, forgets = method.is_exact(case.name), method.forgets(case.name)
     twin_max_error = max(r.twin_rms for r in rows)
     held = case.held_to_order and not exact and not forgets
-    expected = method.expected_order(case.order_limit) if held else None
+    expected = method.expected_order(case.order_limit, case.motion) if held else None
     if exact:
         verdict = "exact" if twin_max_error < EXACT_TOLERANCE else "NOT exact"
     elif forgets:
@@ -172,10 +172,11 @@ def summarize(case: Case, method: Method, rows: list[Row], report_dt: float) -> 
         tolerance = method.tolerance if case.order_tolerance is None else case.order_tolerance
         verdict = "ok" if fit.found and abs(fit.order - expected) <= tolerance else "OFF"
     return Summary(
-        case=case.name, integrator=method.name, order=method.order, expected=expected,
+        case=case.name, integrator=method.name, order=method.order_for(case.motion),
+        expected=expected,
         observed=fit.order, fit_dts=tuple(dt_label(dt) for dt in fit.dts), exact=exact,
         forgets=forgets, verdict=verdict, twin_max_error=twin_max_error,
-        evaluations=method.evaluations, gpu_rms=at.gpu_rms, gpu_max=at.gpu_max,
+        evaluations=method.evaluations_for(case.motion), gpu_rms=at.gpu_rms, gpu_max=at.gpu_max,
         twin_rms=at.twin_rms, gpu_vel_rms=at.gpu_vel_rms, gpu_vel_max=at.gpu_vel_max,
         twin_vel_rms=at.twin_vel_rms, gpu_cloud=at.gpu_cloud, twin_cloud=at.twin_cloud,
         gpu_step_ms=at.gpu_step_ms, gpu_ns_per_particle=at.gpu_ns_per_particle,
