@@ -19,13 +19,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from cavesim.core.errors import ProtocolError
+from cavesim.core.operations import Operations
 
 START, MIDDLE, END = 0, 1, 2  # the stages of a step at which a flow is evaluated
 STAGE_FRACTIONS = (0.0, 0.5, 1.0)  # of the step, at START, MIDDLE and END
 STAGE_OF_FRACTION = dict(zip(STAGE_FRACTIONS, (START, MIDDLE, END), strict=True))
 FIELD_TIME_PARAMS = 6  # three pairs, then three weights, at the end of a frame's parameters
-# The flow u at points (N, 3) at a stage of the step: what the twins' force models hold
-FlowSampler = Callable[[np.ndarray, int], np.ndarray]
+# The flow u at points (N, 3) at a stage of the step, or at a fraction (N,) of it for each
+# point (an adaptive tracer's substeps): what the twins' force models hold
+FlowSampler = Callable[[np.ndarray, int | np.ndarray], np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -68,3 +70,21 @@ def field_time_at(times: Sequence[float], t: float, dt: float) -> FieldTime:
         weights.append(min(max((at - start) / (end - start), 0.0), 1.0))
     weights32 = np.asarray(weights, dtype=np.float32).tolist()
     return FieldTime(tuple(pairs), tuple(weights32))
+
+
+def places_in_step(field_time: FieldTime, fraction: np.ndarray, snapshots: int,
+                   ops: Operations) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's pair and weight at `fraction` (N,) of the step: field.glsl's flow_in_step,
+    in `ops`' arithmetic. The place pair + weight runs linearly in time from stage to stage
+    (START to MIDDLE, MIDDLE to END), as it does within one interval of the series."""
+    dtype = fraction.dtype.type
+    pairs, weights = np.array(field_time.pairs), np.array(field_time.weights, dtype=dtype)
+    half = (fraction > 0.5).astype(np.intp)  # START's half or MIDDLE's
+    local = ops.sub(ops.mul(dtype(2.0), fraction), half.astype(dtype))
+    span = ops.add((pairs[half + 1] - pairs[half]).astype(dtype),
+                   ops.sub(weights[half + 1], weights[half]))
+    place = ops.add(weights[half], ops.mul(local, span))
+    whole = np.floor(place)
+    pair, weight = pairs[half] + whole.astype(np.intp), ops.sub(place, whole)
+    beyond = pair > snapshots - 2
+    return np.where(beyond, snapshots - 2, pair), np.where(beyond, dtype(1.0), weight)

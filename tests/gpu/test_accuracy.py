@@ -20,28 +20,26 @@ import pytest
 from rich.console import Console
 
 from cavesim.core.scene.model import FieldInterpolation, Integrator, Motion
+from cavesim.core.substeps import DP54_A, DP54_B4, DP54_B5, DP54_C
 from cavesim.core.twin.integrators import INTEGRATORS
 from cavesim.core.twin.tracers import TRACERS
 from cavesim.tools.numerics import METHODS, QUICK_DTS, run_command
 from cavesim.tools.numerics.accuracy import run_accuracy
-from cavesim.tools.numerics.adaptive import (
-    DP54_A,
-    DP54_B4,
-    DP54_B5,
-    DP54_C,
-    dormand_prince,
-)
+from cavesim.tools.numerics.adaptive import dormand_prince
 from cavesim.tools.numerics.cases import (
     CATMULL_ROM_ORDER_LIMIT,
     FINAL_TIME,
+    HELD_ORDER_TOLERANCE,
     HELICOPTER_SCENE,
     QUICK_PARTICLES,
     REPORT_DT,
     ROTATING_METHODS,
     SAND_METHODS,
     TAU,
+    TIME_INTERPOLATION_ORDER,
     TRACER_PARTICLES,
     rotating_case,
+    rotating_tracer_case,
     smooth_vortex_case,
     tracer_case,
     uniform_case,
@@ -85,9 +83,10 @@ def quick_run(gl_session, tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def tracer_run(gl_session, tmp_path_factory):
-    """The tracer case alone over the quick dts: about 12 s on 2 cores."""
+    """The tracer cases alone over the quick dts."""
     folder = tmp_path_factory.mktemp("tracer")
-    return run_accuracy([tracer_case(TRACER_PARTICLES, folder)], QUICK_DTS, folder / "out",
+    return run_accuracy([tracer_case(TRACER_PARTICLES, folder),
+                         rotating_tracer_case(TRACER_PARTICLES)], QUICK_DTS, folder / "out",
                         Console(file=io.StringIO(), width=200), gl_session, workers=1)
 
 
@@ -355,6 +354,18 @@ def test_tracer_orders_match_the_tracer_methods(tracer_run, method):
         f"{method.name} tracers: observed order {summary.observed:.2f}, expected {expected}")
     assert summary.verdict == "ok"
     assert summary.evaluations == method.integrator.tracer_method.field_evaluations
+
+
+@pytest.mark.parametrize("method", [m for m in METHODS if m.integrator in ROTATING_METHODS],
+                         ids=lambda m: m.name)
+def test_tracers_in_a_time_series_converge_at_most_at_its_order_in_time(tracer_run, method):
+    """Tracers in the turning flow's snapshots: Euler's tracers at 1, the others at the
+    time interpolation's 2, RK4's too."""
+    summary = summary_of(tracer_run, "rotating_tracer", method)
+    expected = min(method.integrator.tracer_method.order, TIME_INTERPOLATION_ORDER)
+    assert summary.expected == expected and len(summary.fit_dts) >= MIN_FIT_POINTS
+    assert abs(summary.observed - expected) <= HELD_ORDER_TOLERANCE, summary
+    assert summary.verdict == "ok"
 
 
 def test_tracers_on_the_gpu_follow_the_float64_twin(tracer_run):

@@ -19,7 +19,7 @@ from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.scene.model import ENGINE_PATHS, Engine
 from cavesim.core.wire.network import NetworkSettings
 from cavesim.gpu.engine.capacity import capacity_limits, check_field_texture
-from cavesim.gpu.engine.domain_exits import counts_exits
+from cavesim.gpu.engine.frame_counts import counts_exits
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
 from cavesim.gpu.gl.fence import FIRST_WAIT_NS, WAIT_LIMIT_SECONDS, first_wait_ns

@@ -192,21 +192,29 @@ def test_emission_into_a_full_pool_drops_the_same_particles(pair):
     assert set(both.dropped[5:30]) == {233, 234}, "full, nobody dead: all of a frame's new"
 
 
-@pytest.mark.parametrize("integrator", ["rk4", "etd2rk"])
-def test_tracers_mixed_with_inertial_classes_hold_the_same_bytes(pair, integrator):
+@pytest.mark.parametrize(("integrator", "tracer_method"),
+                         [("rk4", None), ("etd2rk", None), ("etd2rk", "rk45")])
+def test_tracers_mixed_with_inertial_classes_hold_the_same_bytes(pair, integrator,
+                                                                  tracer_method):
     """Sand and smoke, a passive tracer class, from two fountains onto a ground: the per
-    particle branch between integrator and tracer method gives both paths one state."""
+    particle branch between integrator and tracer method gives both paths one state (with
+    RK45, substeps held to a tolerance that makes the tracers divide their frames)."""
     sand = dict(FOUNTAIN, rate=300.0)
     smoke = dict(FOUNTAIN, name="smoke", particle_class="dust", rate=300.0)
     data = scene_dict(integrator=integrator, emitters=[sand, smoke],
                       collision={"kind": "plane", "height": 0.2, "friction": 0.3,
                                  "resilience": 0.5})
+    if tracer_method is not None:
+        data["simulation"] |= {"tracer_method": tracer_method, "tracer_tolerance": 1e-7}
     both = pair(parse_scene(with_smoke(data), name="tracers"))
     for _ in range(200):
         both.step()
     both.assert_same_bytes()
     classes = both.gs_tf.read_particles()["class_id"]
     assert (classes == 0).sum() > 100 and (classes == 1).sum() > 100
+    if tracer_method is not None:
+        substeps = both.gs_tf.tracer_substeps()
+        assert substeps == both.compute.tracer_substeps() and substeps.retaken > 0, substeps
 
 
 def test_a_frame_with_more_emission_segments_than_one_dispatch_allows(pair):

@@ -30,6 +30,7 @@ from cavesim.core.random_texture import draw_transform
 from cavesim.core.record_diff import differences
 from cavesim.core.scene import Arithmetic, Integrator, Scene, parse_scene
 from cavesim.core.scene.model import ENGINE_PATHS
+from cavesim.core.substeps import UNITS, SubstepCounts
 from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.kernels import PORTABLE
 from cavesim.gpu.engine import ParticleSystem
@@ -82,6 +83,8 @@ class Lockstep:
         self.counts: list[int] = []
         self.exits = np.zeros(len(scene.particle_classes), dtype=np.int64)  # the twin's
         self.dropped: list[int] = []  # the twin's, each frame
+        self.substeps: list[SubstepCounts] = []  # the twin's adaptive tracers', each frame
+        self.substeps_counted = dict.fromkeys(ENGINE_PATHS, 0)  # frames each GPU counted
         if start is not None:
             for system in (self.twin, *self.gpus.values()):
                 system.write_particles(start)
@@ -102,11 +105,18 @@ class Lockstep:
             if exits is not None and exits != tuple(self.twin.domain_exits):
                 pytest.fail(f"frame {self.frames}, {engine.value} path: {exits} particles per "
                             f"class left the field's box, the twin {self.twin.domain_exits}")
+            substeps = gpu.tracer_substeps()
+            if substeps is not None and substeps != self.twin.tracer_substeps:
+                pytest.fail(f"frame {self.frames}, {engine.value} path: tracer substeps "
+                            f"{substeps}, the twin's {self.twin.tracer_substeps}")
+            self.substeps_counted[engine] += substeps is not None
             if gpu.dropped() != self.twin.dropped:
                 pytest.fail(f"frame {self.frames}, {engine.value} path: {gpu.dropped()} "
                             f"particles dropped at the capacity, the twin {self.twin.dropped}")
         self.counts.append(expected.particles)
         self.dropped.append(self.twin.dropped)
+        if self.twin.tracer_substeps is not None:
+            self.substeps.append(self.twin.tracer_substeps)
         self.exits += self.twin.domain_exits
 
     def release(self) -> None:
@@ -250,6 +260,45 @@ def test_tracers_mixed_with_inertial_classes_have_the_portable_twins_bits(lockst
         run.step()
     smoke = run.twin.particles.class_id == 2
     assert smoke.sum() > 150 and (~smoke).sum() > 150, "the test needs both kinds"
+
+
+def test_adaptive_tracers_have_the_portable_twins_bits_and_substeps(lockstep, terrain):
+    """Smoke stepped by RK45 in substeps beside sand and dust over a height field: the same
+    bits and the same substeps taken and retaken as the portable twin, on both paths, with
+    a tolerance that makes the fast tracers divide their frames."""
+    data = scene_dict(integrator="etd2rk", collision=terrain, emitters=[FOUNTAIN],
+                      arithmetic="portable")
+    data["simulation"] |= {"tracer_method": "rk45", "tracer_tolerance": 1e-9}
+    data["particle_class"] = [*data["particle_class"], SMOKE]
+    data["emitter"][0]["particle_class"] = "smoke"
+    start = particle_cloud(450)
+    start["class_id"] = np.arange(len(start)) % 3
+    run = lockstep(parse_scene(data, name="adaptive"), start)
+    for _ in range(SMALL_FRAMES):
+        run.step()
+    assert all(run.substeps_counted[engine] == SMALL_FRAMES for engine in ENGINE_PATHS)
+    tracers = int((run.twin.particles.class_id == 2).sum())
+    assert tracers > 150, "the test needs tracers"
+    last = run.substeps[-1]
+    assert last.taken > tracers and last.retaken > 0 and 1 < last.most <= UNITS, last
+
+
+def test_adaptive_tracers_in_a_time_series_have_the_portable_twins_bits(lockstep):
+    """Smoke by RK45 in config/fields/pulsing_vortex.nc: its substeps take the flow between
+    the stages, where the series' place runs linearly in time, the same on every path."""
+    path = Path(__file__).parents[2] / "config" / "fields" / "pulsing_vortex.nc"
+    smoke = dict(FOUNTAIN, position=[2.0, 0.0, 3.0], speed=0.5, speed_spread=0.2,
+                 lifetime=[1.5, 2.5], particle_class="smoke")
+    data = scene_dict("rk4", emitters=[smoke], capacity=3000)
+    data["particle_class"] = [*data["particle_class"], SMOKE]
+    data["simulation"] |= {"arithmetic": "portable", "tracer_method": "rk45",
+                           "tracer_tolerance": 1e-8}
+    data["field"] = {"kind": "file", "file": str(path)}
+    both = lockstep(parse_scene(data, name=path.stem))
+    for _ in range(SMALL_FRAMES):
+        both.step()
+    assert both.counts[-1] > 500
+    assert sum(s.retaken for s in both.substeps) > 0, "no substep was refused"
 
 
 def test_still_air_outside_the_field_has_the_portable_twins_bits(lockstep):

@@ -4,7 +4,7 @@ form, 60 steps of 1/60 s. The flow is linear, so trilinear interpolation is exac
 is left is the method's error (about 1e-9 m) and float32's: the grid's node values and the
 GPU's arithmetic (measured: 2.9e-8 m RMS on the GPU, 4.5e-8 m for the float64 twin on the
 same float32 grid, 1.7e-8 m between them). What only this test proves: the GPU's tracer
-branch, through the particle pass, has that accuracy."""
+branch, through the particle pass, has that accuracy; and RK45's, at one substep a frame."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from cavesim.core.fields import save_field
 from cavesim.core.position import extended_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
+from cavesim.core.substeps import SubstepCounts
 from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.numerics.solid_body import BOX, disk, rotated, solid_body, solid_body_grid
@@ -31,7 +32,7 @@ IDENTITY = np.eye(3, dtype=np.float32)
 
 
 @pytest.fixture(scope="module")
-def vortex_scene(tmp_path_factory):
+def vortex_data(tmp_path_factory) -> dict:
     """Only smoke, a tracer class, carried by the gridded solid-body vortex with RK4."""
     path = tmp_path_factory.mktemp("vortex") / "solid_body.npz"
     save_field(path, solid_body_grid(NODES))
@@ -39,7 +40,12 @@ def vortex_scene(tmp_path_factory):
     data["particle_class"] = [{"name": "smoke", "diameter": 1e-5, "motion": "tracer"}]
     data["field"] = {"kind": "file", "file": str(path), "box_min": list(BOX[0]),
                      "box_max": list(BOX[1])}
-    return parse_scene(data, name="solid_body")
+    return data
+
+
+@pytest.fixture(scope="module")
+def vortex_scene(vortex_data):
+    return parse_scene(vortex_data, name="solid_body")
 
 
 def disk_records() -> np.ndarray:
@@ -74,6 +80,26 @@ def test_rk4_tracers_on_the_gpu_follow_the_gridded_vortex_to_2e_7_m(ctx, vortex_
     # the record's velocity is the flow at the new position
     np.testing.assert_allclose(end["vel"], solid_body(end["pos"].astype(np.float64)),
                                atol=2e-7)
+
+
+def test_adaptive_tracers_on_the_gpu_follow_the_gridded_vortex_in_one_substep_a_frame(
+        ctx, vortex_data):
+    """RK45 at its default tolerance: Dormand-Prince's error in this flow is far below it,
+    so every frame is one substep, and the error is float32's, as RK4's is."""
+    data = copy.deepcopy(vortex_data)
+    data["simulation"]["tracer_method"] = "rk45"
+    start = disk_records()
+    gpu = ParticleSystem(ctx, parse_scene(data, name="solid_body"))
+    try:
+        gpu.write_particles(start)
+        for _ in range(STEPS):
+            gpu.step(FrameInput(DT, IDENTITY))
+            assert gpu.tracer_substeps() == SubstepCounts(PARTICLES, 0, 1)
+        end = gpu.read_particles()
+    finally:
+        gpu.release()
+    rms = rms_against_rotation(start["pos"], extended_position(end))
+    assert rms <= GPU_RMS_LIMIT, f"RMS {rms:.3g} m"
 
 
 def test_the_float64_twin_follows_the_gridded_vortex_to_the_grids_rounding(vortex_scene):

@@ -85,8 +85,10 @@ def rms_error(method: TracerMethod, dt: float) -> float:
 
 @pytest.mark.parametrize("method", list(TracerMethod), ids=lambda m: m.value)
 def test_each_tracer_method_has_its_order_in_the_analytic_vortex(method):
-    errors = [rms_error(method, dt) for dt in ORDER_DTS]
-    order = np.polyfit(np.log(ORDER_DTS), np.log(errors), 1)[0]
+    # a fifth-order step meets float64's rounding by 1/240 s: its steps are twice as long
+    dts = ORDER_DTS if method.order < 5 else tuple(2 * dt for dt in ORDER_DTS)
+    errors = [rms_error(method, dt) for dt in dts]
+    order = np.polyfit(np.log(dts), np.log(errors), 1)[0]
     assert order == pytest.approx(method.order, abs=0.1), errors
 
 

@@ -7,12 +7,16 @@ Same signature as the float64 twin's (cavesim/core/twin/tracers.py): (p, h, forc
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from cavesim.core.field_time import END, MIDDLE, START
+from cavesim.core.operations import PORTABLE_OPERATIONS
 from cavesim.core.portable.arithmetic import f_add, f_div, f_mul
 from cavesim.core.portable.integrators import HALF, SIX, rk4_sum
+from cavesim.core.position import move
 from cavesim.core.scene.model import TracerMethod
+from cavesim.core.substeps import adaptive_trace, stage_nodes, tableau
 
 
 def _carried(p, forces):
@@ -47,6 +51,18 @@ def rk4(p, h, forces):
     k3 = forces.flow(f_add(p, f_mul(half_h, k2)), MIDDLE)
     k4 = forces.flow(f_add(p, f_mul(h, k3)), END)
     return _carried(forces.move(p, f_mul(f_div(h, SIX), rk4_sum(k1, k2, k3, k4))), forces)
+
+
+def rk45(p, h, forces, tolerance=math.inf, record=None):
+    """Dormand-Prince 5(4) in substeps held to `tolerance` (cavesim/core/substeps.py)."""
+    return adaptive_trace(p, h, forces, tolerance, PORTABLE_OPERATIONS, _moved, tableau(),
+                          stage_nodes(), record)
+
+
+def _moved(forces, rows, p, dp):
+    """position.glsl's move of the points of `rows`, their low parts carried in forces."""
+    p, forces.position_low[rows] = move(p, forces.position_low[rows], dp)
+    return p
 
 
 # Each tracer method's step is the function above named as the table names it.

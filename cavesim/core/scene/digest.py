@@ -21,12 +21,16 @@ from pathlib import Path
 from typing import Any
 
 from cavesim.core.errors import SceneError
-from cavesim.core.scene.model import Motion, ParticleClass, Scene
+from cavesim.core.scene.model import ParticleClass, Scene
 
 NOT_CONTENT = ("name", "source", "engine")  # fields of a Scene that change no bit
+def _defaults(cls: type, *names: str) -> dict[tuple[type, str], Any]:
+    return {(cls, f.name): f.default for f in dataclasses.fields(cls) if f.name in names}
+
+
 # Fields added with a default after frame logs were recorded: at that default a field is
 # left out, so that the scenes that do not use it keep their digests and their logs replay
-LATER_DEFAULTS = {(ParticleClass, "motion"): Motion.INERTIAL}
+LATER_DEFAULTS = {**_defaults(ParticleClass, "motion"), **_defaults(Scene, "tracer_tolerance")}
 
 
 def scene_digest(scene: Scene) -> str:

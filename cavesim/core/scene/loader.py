@@ -140,7 +140,7 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
     if forces.dispersion is not None:
         _check_dispersion(top, forces, collision, sim)
-    _check_tracers(class_tables, classes, forces)
+    _check_tracers(top, class_tables, classes, forces, sim)
     classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
 
     return relative_to_origin(Scene(
@@ -163,13 +163,18 @@ def _particle_class(t: Table) -> ParticleClass:
     return particle
 
 
-def _check_tracers(class_tables: list[Table], classes: tuple[ParticleClass, ...],
-                   forces: Forces) -> None:
+def _check_tracers(top: Table, class_tables: list[Table], classes: tuple[ParticleClass, ...],
+                   forces: Forces, sim) -> None:
     """A tracer moves with the flow, which reaches the particles through forces.drag; the
-    random walk of dispersion is drag's, so a scene has tracers or dispersion."""
+    random walk of dispersion is drag's, so a scene has tracers or dispersion. A method for
+    tracers needs a tracer class to step."""
     tracers = [t for t, c in zip(class_tables, classes, strict=True)
                if c.motion is Motion.TRACER]
     if not tracers:
+        if sim.tracer_method is not None:
+            raise top.table("simulation").bad(
+                "tracer_method", 'only with a [[particle_class]] of motion = "tracer": no '
+                                 'class of this scene is one')
         return
     if forces.drag is None:
         raise tracers[0].bad("motion", '"tracer" needs forces.drag and a [field]: the flow '

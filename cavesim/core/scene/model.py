@@ -38,9 +38,9 @@ class TracerMethod(StrEnum):
     row's name in cavesim/core/twin/tracers.py and cavesim/core/portable/tracers.py."""
 
     gpu_id: int  # physics.glsl's #define TRACER_<NAME>: the TRACER_METHOD define's value
-    order: int  # theoretical order of accuracy
-    # flow samples per particle and step, besides the one at the new position that gives
-    # the record its velocity
+    order: int  # theoretical order of accuracy (an adaptive method's at a fixed substep)
+    # flow samples per particle and step (an adaptive method's per substep tried), besides
+    # the one at the new position that gives the record its velocity
     field_evaluations: int
 
     def __new__(cls, name: str, gpu_id: int, order: int, field_evaluations: int
@@ -57,6 +57,7 @@ class TracerMethod(StrEnum):
     MIDPOINT = "midpoint", 1, 2, 2
     HEUN = "heun", 2, 2, 2  # the explicit trapezoid rule
     RK4 = "rk4", 3, 4, 4
+    RK45 = "rk45", 4, 5, 6  # Dormand-Prince 5(4) in substeps held to tracer_tolerance
 
 
 class Integrator(StrEnum):
@@ -371,6 +372,11 @@ class Simulation:
     # world position of the scene's own origin, positions kept relative to it (None: the
     # world's; cavesim.core.scene.origin): a scene kilometres out keeps the floor of one at 0
     origin: Vec3 | None = None
+    # how tracer classes step (not set: the integrator's form without inertia, its row's
+    # tracer_method); "rk45" divides each frame into substeps held to tracer_tolerance
+    tracer_method: TracerMethod | None = None
+    # m: the largest error a substep of "rk45" may estimate (its largest component)
+    tracer_tolerance: Annotated[float, Range(ge=1e-10, le=1.0)] = 1e-6
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -405,6 +411,11 @@ class Scene(Simulation):
         return tuple(0.0 if c.motion is Motion.TRACER else 1.0 / tau
                      for c, tau in zip(self.particle_classes, self.relaxation_times(),
                                        strict=True))
+
+    @property
+    def method_for_tracers(self) -> TracerMethod:
+        """How the tracer classes step: the scene's tracer_method, else the integrator's."""
+        return self.tracer_method or self.integrator.tracer_method
 
     @property
     def tracer_classes(self) -> tuple[bool, ...]:

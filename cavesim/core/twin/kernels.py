@@ -15,9 +15,10 @@ import numpy as np
 
 from cavesim.core import dispersion
 from cavesim.core._grids import mix
-from cavesim.core.field_time import FieldTime
+from cavesim.core.field_time import FieldTime, places_in_step
 from cavesim.core.fields import FieldSeries, outside_box, sample_field
 from cavesim.core.helicopter.downwash import downwash
+from cavesim.core.operations import PORTABLE_OPERATIONS, REFERENCE_OPERATIONS, Operations
 from cavesim.core.portable import dispersion as portable_dispersion
 from cavesim.core.portable import field as portable_field
 from cavesim.core.portable import ground as portable_ground
@@ -50,19 +51,31 @@ class Kernels:
     collide: Callable  # (p, v, collision, heights) -> (p, v)
     turbulence: Callable  # (forces, p, v, ground, mixing_length, xi, h) -> u_t
     spawn: Callable  # (table, e, serials, random, transform, origin) -> records
+    operations: Operations  # add, sub, mul as the kernels compute them
 
     def series_flow(self, series: FieldSeries, p: np.ndarray, out_of_domain,
-                    field_time: FieldTime, stage: int | None) -> np.ndarray:
-        """u(p) at a stage of the step: flow_at of shaders/include/field.glsl (a steady
-        field's one snapshot, else the stage's pair mixed by its weight)."""
+                    field_time: FieldTime, stage: int | np.ndarray | None) -> np.ndarray:
+        """u(p) at a stage of the step, or at each point's fraction of it: flow_at and
+        flow_in_step of shaders/include/field.glsl (a steady field's one snapshot, else the
+        pair there mixed by its weight)."""
         if series.steady:
             return self.field_flow(series.first, p, out_of_domain)
         if stage is None:
             raise ValueError("a time series' flow is known at a step's start, middle and end")
-        pair, weight = field_time.pairs[stage], self.dtype(field_time.weights[stage])
-        first, second = series.snapshots[pair], series.snapshots[pair + 1]
-        return self.mix(self.field_flow(first, p, out_of_domain),
-                        self.field_flow(second, p, out_of_domain), weight)
+        if isinstance(stage, np.ndarray):  # each point's fraction of the step
+            pairs, weights = places_in_step(field_time, stage, len(series.snapshots),
+                                            self.operations)
+        else:
+            pairs = np.full(len(p), field_time.pairs[stage])
+            weights = np.full(len(p), field_time.weights[stage], dtype=self.dtype)
+        flow = np.empty_like(p)
+        for pair in np.unique(pairs):
+            rows = pairs == pair
+            first, second = series.snapshots[pair], series.snapshots[pair + 1]
+            flow[rows] = self.mix(self.field_flow(first, p[rows], out_of_domain),
+                                  self.field_flow(second, p[rows], out_of_domain),
+                                  weights[rows][:, None])
+        return flow
 
 
 def reference_kernels(dtype) -> Kernels:
@@ -70,10 +83,11 @@ def reference_kernels(dtype) -> Kernels:
     return Kernels(dtype, INTEGRATORS, TRACERS, ForceModel, partial(downwash, dtype=dtype),
                    partial(sample_field, dtype=dtype), mix, partial(outside_box, dtype=dtype),
                    partial(collision.ground, dtype=dtype),
-                   collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype))
+                   collision.collide, dispersion.turbulence, partial(emission.spawn, dtype=dtype),
+                   REFERENCE_OPERATIONS)
 
 
 PORTABLE = Kernels(np.float32, PORTABLE_INTEGRATORS, PORTABLE_TRACERS, PortableForces,
                    portable_rotor.flow_at, portable_field.flow_at, f_mix,
                    portable_field.outside_field, portable_ground.ground_at, portable_ground.collide,
-                   portable_dispersion.turbulence, portable_spawn.spawn)
+                   portable_dispersion.turbulence, portable_spawn.spawn, PORTABLE_OPERATIONS)

@@ -25,8 +25,9 @@ from cavesim.core.portable.forces import PortableForces
 from cavesim.core.position import low_code, low_part, split_position
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
-from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene
+from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene, TracerMethod
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
+from cavesim.core.substeps import SubstepCounts
 from cavesim.core.twin.emission import emission_order, update_emitters
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.kernels import PORTABLE, Kernels, reference_kernels
@@ -109,13 +110,22 @@ class TwinSystem:
         self.reynolds_per_speed = np.array(scene.reynolds_per_speed() or (0.0,),
                                            dtype=np.float32)
         self.integrate = self.kernels.integrators[scene.integrator]
-        self.trace = self.kernels.tracers[scene.integrator.tracer_method]
+        self.trace = self.kernels.tracers[scene.method_for_tracers]
+        # what the adaptive tracers did in the last step (None: the scene has none)
+        self.tracer_substeps: SubstepCounts | None = None
+        if scene.method_for_tracers is TracerMethod.RK45 and any(scene.tracer_classes):
+            self.trace = partial(self.trace, tolerance=np.float32(scene.tracer_tolerance),
+                                 record=self._record_substeps)
+            self.tracer_substeps = SubstepCounts(0, 0, 0)
         self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
         # per class, the particles that left the field's box in the last step (a grid's)
         self.domain_exits = np.zeros(len(scene.particle_classes), dtype=np.int64)
         self.dropped = 0  # new particles the last step dropped because the capacity was full
+
+    def _record_substeps(self, counts: SubstepCounts) -> None:
+        self.tracer_substeps = counts
 
     @property
     def live_count(self) -> int:
@@ -212,6 +222,8 @@ class TwinSystem:
         its tracer method (physics.glsl's branch in advance). The two groups step apart,
         each with the forces of its rows; a portable model gets its rows' low parts back."""
         tracer = self.tracer_classes[np.minimum(q.class_id, len(self.tracer_classes) - 1)]
+        if self.tracer_substeps is not None:  # a step without tracers takes no substeps
+            self.tracer_substeps = SubstepCounts(0, 0, 0)
         if not tracer.any():
             return self.integrate(start, q.vel, h, forces)
         inertial, tracers = forces.of_rows(~tracer), forces.of_rows(tracer)

@@ -8,12 +8,15 @@ position as its velocity, for drawing.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 
 from cavesim.core.field_time import END, STAGE_OF_FRACTION
+from cavesim.core.operations import REFERENCE_OPERATIONS
 from cavesim.core.scene.model import TracerMethod
+from cavesim.core.substeps import adaptive_trace, stage_nodes, tableau
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import (
     RK2_MIDPOINT_A,
@@ -54,6 +57,18 @@ heun = _tracer_runge_kutta(HEUN_A, HEUN_B)
 heun.__doc__ = "Heun's method (explicit trapezoid) on the flow, order 2."
 rk4 = _tracer_runge_kutta(RK4_CLASSIC_A, RK4_CLASSIC_B)
 rk4.__doc__ = "Classic Runge-Kutta on the flow, order 4."
+
+
+def rk45(p, h, forces, tolerance=math.inf, record=None):
+    """Dormand-Prince 5(4) in substeps held to `tolerance` (cavesim/core/substeps.py), order 5
+    at a fixed substep; `record` gets the frame's SubstepCounts."""
+    return adaptive_trace(p, h, forces, tolerance, REFERENCE_OPERATIONS, _moved, tableau(p.dtype),
+                          stage_nodes(p.dtype), record)
+
+
+def _moved(forces, rows, p, dp):
+    return p + dp
+
 
 # Each tracer method's step is the function above named as the table names it.
 TRACERS: dict[TracerMethod, TracerStep] = {m: globals()[m.value] for m in TracerMethod}

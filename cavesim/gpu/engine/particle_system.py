@@ -54,14 +54,22 @@ from cavesim.core.scene.model import (
     Scene,
 )
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
+from cavesim.core.substeps import SubstepCounts
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
-from cavesim.gpu.engine.domain_exits import DomainExits
 from cavesim.gpu.engine.drops import read_dropped
 from cavesim.gpu.engine.emission import EmitterUpdate
+from cavesim.gpu.engine.frame_counts import (
+    DOMAIN_EXITS,
+    SUBSTEP_COUNTS,
+    TRACER_SUBSTEPS,
+    FrameCounts,
+    substep_counts,
+)
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
+from cavesim.gpu.engine.programs import counts_substeps
 from cavesim.gpu.engine.uniforms import (
     dispersion_uniforms,
     field_time_uniforms,
@@ -105,8 +113,10 @@ class ParticleSystem:
         self.field_series: FieldSeries | None = None
         self.ground_grid: HeightGrid | None = None
         self.random_words: np.ndarray | None = None  # the random texture's, if it has one
-        self._exits = DomainExits(self._buffer("domain_exits", 4 * len(scene.particle_classes))
-                                  ) if scene.gridded_flow else None
+        self._exits = FrameCounts(self._buffer("domain_exits", 4 * len(scene.particle_classes)),
+                                  DOMAIN_EXITS) if scene.gridded_flow else None
+        self._substeps = FrameCounts(self._buffer("tracer_substeps", 4 * SUBSTEP_COUNTS),
+                                     TRACER_SUBSTEPS) if counts_substeps(scene) else None
         self._textures_for_physics()
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         if len(self.emitters) or scene.forces.dispersion is not None:
@@ -254,6 +264,8 @@ class ParticleSystem:
             write_uniforms(program, {"random_transform": frame.random_transform.T})
         if self._exits is not None and self._passes.counts_exits:
             self._exits.start_frame()
+        if self._substeps is not None and self._passes.counts_substeps:
+            self._substeps.start_frame()
         self._passes.advance(front, back, live, emission)
         self._live = self._dropped = None  # the frame's counts are on the GPU
         self._current = back
@@ -261,11 +273,19 @@ class ParticleSystem:
 
     def domain_exits(self) -> tuple[int, ...] | None:
         """Per particle class, how many left the field's box in the last frame; None where
-        this scene or engine path counts none here (`domain_exits.counts_exits`). Read it
+        this scene or engine path counts none here (`frame_counts.counts_exits`). Read it
         after `checksum()`, whose wait it shares; before, it waits for the GPU itself."""
         if self._exits is None or not self._passes.counts_exits:
             return None
         return self._exits.read()
+
+    def tracer_substeps(self) -> SubstepCounts | None:
+        """What the adaptive tracers did in the last frame; None where this scene or engine
+        path counts no substeps here (`frame_counts.counts_tracer_substeps`). Read it after
+        `checksum()`, whose wait it shares; before, it waits for the GPU itself."""
+        if self._substeps is None or not self._passes.counts_substeps:
+            return None
+        return substep_counts(self._substeps)
 
     def dropped(self) -> int:
         """New particles the last frame dropped because the capacity was full (0 after a

@@ -62,7 +62,8 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
 # Drag beyond Stokes, dispersion (with the random texture's size it reads), a field given
 # as a time series, the count of particles leaving a grid and passive tracer classes,
 # checked by the gate in the variants `physics_variants` names, not in the full product.
-# TRACER_METHOD is not a choice of its own: the integrator's row names it (`reachable`).
+# TRACER_METHOD is the integrator's row's unless the scene steps its tracers adaptively
+# (`reachable`).
 TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
     "HAS_SCHILLER_NAUMANN": (0, 1),
     "HAS_DISPERSION": (0, 1),
@@ -70,6 +71,7 @@ TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
     "TRACER_METHOD": tuple(m.gpu_id for m in TracerMethod),
     "FIELD_TIME_SERIES": (0, 1),
     "COUNT_DOMAIN_EXITS": (0, 1),
+    "COUNT_TRACER_SUBSTEPS": (0, 1),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
 }
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
@@ -136,11 +138,17 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
         "HAS_DISPERSION": int(scene.forces.dispersion is not None),
         "HAS_TRACERS": int(any(scene.tracer_classes)),
-        "TRACER_METHOD": scene.integrator.tracer_method.gpu_id,
+        "TRACER_METHOD": scene.method_for_tracers.gpu_id,
         "FIELD_TIME_SERIES": int(scene.gridded_flow and field.times is not None),
         "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
+        "COUNT_TRACER_SUBSTEPS": int(counts_substeps(scene)),
         "RANDOM_SIZE": scene.random_texture_size,
     }
+
+
+def counts_substeps(scene: Scene) -> bool:
+    """Whether the scene's tracers step in substeps, which the particle pass counts."""
+    return any(scene.tracer_classes) and scene.method_for_tracers is TracerMethod.RK45
 
 
 def emission_defines(scene: Scene) -> dict[str, int]:
@@ -199,7 +207,9 @@ def physics_variants() -> Iterator[dict[str, int]]:
             yield defines
 
     off = {name: values[0] for name, values in TRANSPORT_FEATURES.items()}
-    on = {name: values[-1] for name, values in TRANSPORT_FEATURES.items()}
+    # tracers by the integrator's own method (the adaptive one is checked on its own below)
+    on = {**{name: values[-1] for name, values in TRANSPORT_FEATURES.items()},
+          "TRACER_METHOD": TracerMethod.EULER.gpu_id}
     native = {**PHYSICS_FEATURES, "ARITHMETIC": (ARITHMETIC_IDS[Arithmetic.NATIVE],)}
     for values in itertools.product(*native.values()):
         yield from once({**dict(zip(native, values, strict=True)), **off})
@@ -211,6 +221,11 @@ def physics_variants() -> Iterator[dict[str, int]]:
                              "FIELD_IS_ROTOR": rotor, "COLLISION": collision,
                              "HAS_SCHILLER_NAUMANN": drag_law, "HAS_DISPERSION": dispersion,
                              "FIELD_TIME_SERIES": series})
+    adaptive = {**every_feature, **on, "TRACER_METHOD": TracerMethod.RK45.gpu_id,
+                "HAS_SCHILLER_NAUMANN": 0, "HAS_DISPERSION": 0}
+    for rotor, series, counted in ((1, 0, 1), (0, 0, 1), (0, 1, 1), (0, 1, 0)):
+        yield from once({**adaptive, "FIELD_IS_ROTOR": rotor, "FIELD_TIME_SERIES": series,
+                         "COUNT_TRACER_SUBSTEPS": counted})
     fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
              "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
     features = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
@@ -218,6 +233,7 @@ def physics_variants() -> Iterator[dict[str, int]]:
                 if name not in (*fixed, "INTEGRATOR")}
     every_feature = {name: values[-1] for name, values in switched.items()}
     every_feature["FIELD_TIME_SERIES"] = 0  # switched on below, one variant per integrator
+    every_feature["TRACER_METHOD"] = TracerMethod.EULER.gpu_id  # the integrator's; RK45 below
     for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
         base = {**every_feature, **fixed, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": 0}
         yield from once(base)
@@ -225,6 +241,9 @@ def physics_variants() -> Iterator[dict[str, int]]:
             for value in values:
                 if value != base[name]:
                     yield from once({**base, name: value})
+    for series in (0, 1):  # tracers exclude dispersion, on in `base`
+        yield from once({**base, "HAS_DISPERSION": 0, "TRACER_METHOD": TracerMethod.RK45.gpu_id,
+                         "FIELD_TIME_SERIES": series})
 
 
 def reachable(defines: dict[str, int]) -> dict[str, int]:
@@ -232,9 +251,9 @@ def reachable(defines: dict[str, int]) -> dict[str, int]:
     grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; only a
     grid is a time series or counts exits; drag laws beyond Stokes and dispersion need
     drag, dispersion a ground too, tracers drag and no dispersion (physics.glsl's
-    #errors); TRACER_METHOD is the integrator's."""
+    #errors); TRACER_METHOD is the integrator's unless the tracers step adaptively, and only
+    they count substeps."""
     out = dict(defines)
-    out["TRACER_METHOD"] = INTEGRATORS_BY_GPU_ID[out["INTEGRATOR"]].tracer_method.gpu_id
     if not out["HAS_DRAG"] or out["FIELD_IS_ROTOR"]:
         out["FIELD_TIME_SERIES"] = out["COUNT_DOMAIN_EXITS"] = 0
     grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
@@ -247,15 +266,19 @@ def reachable(defines: dict[str, int]) -> dict[str, int]:
         out["HAS_DISPERSION"] = 0
     if not out["HAS_DRAG"] or out["HAS_DISPERSION"]:
         out["HAS_TRACERS"] = 0
+    if not out["HAS_TRACERS"] or out["TRACER_METHOD"] != TracerMethod.RK45.gpu_id:
+        out["TRACER_METHOD"] = INTEGRATORS_BY_GPU_ID[out["INTEGRATOR"]].tracer_method.gpu_id
+        out["COUNT_TRACER_SUBSTEPS"] = 0
     return out
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene,
-                            count_exits: bool = True) -> moderngl.Program:
-    """The GS/TF particle pass; `count_exits` False where its vertex stage cannot write
-    storage (`cavesim.gpu.engine.domain_exits`)."""
+                            vertex_storage: bool = True) -> moderngl.Program:
+    """The GS/TF particle pass; `vertex_storage` False where its vertex stage cannot write
+    storage, and so counts nothing (`cavesim.gpu.engine.frame_counts`)."""
     defines = physics_defines(scene)
-    defines["COUNT_DOMAIN_EXITS"] &= int(count_exits)
+    defines["COUNT_DOMAIN_EXITS"] &= int(vertex_storage)
+    defines["COUNT_TRACER_SUBSTEPS"] &= int(vertex_storage)
     return PARTICLE_UPDATE.build(ctx, defines)
 
 

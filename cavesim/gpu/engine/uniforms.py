@@ -14,7 +14,8 @@ from cavesim.core.fields import FieldSeries
 from cavesim.core.heightfield import HeightGrid
 from cavesim.core.helicopter.flight import ground_height
 from cavesim.core.helicopter.inputs import FrameRotor
-from cavesim.core.scene.model import CollisionKind, Scene
+from cavesim.core.scene.model import CollisionKind, Scene, TracerMethod
+from cavesim.core.substeps import stage_nodes, tableau
 
 
 def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid | None,
@@ -32,6 +33,8 @@ def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid
         if any(scene.tracer_classes):  # uvec2: bit c of the 64 for class c
             bits = sum(1 << c for c, tracer in enumerate(scene.tracer_classes) if tracer)
             values["tracer_classes"] = np.array([bits & 0xFFFFFFFF, bits >> 32], dtype=np.uint32)
+            if scene.method_for_tracers is TracerMethod.RK45:
+                values.update(adaptive_tracer_uniforms(scene))
         if any(scene.reynolds_per_speed()):  # vec4[(CLASS_COUNT + 3) / 4]: four a vec4
             per_class = np.array(scene.reynolds_per_speed(), dtype=np.float32)
             values["reynolds_per_speed"] = np.pad(per_class, (0, -len(per_class) % 4))
@@ -58,6 +61,12 @@ def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid
             values["ground_box_min"] = np.array(ground.box_min, dtype=np.float32)
             values["ground_index_scale"] = ground.index_scale
     return values
+
+
+def adaptive_tracer_uniforms(scene: Scene) -> dict[str, object]:
+    """Dormand-Prince's coefficients and the substeps' tolerance (cavesim.core.substeps)."""
+    return {"rk45_tableau": tableau(np.float32), "rk45_nodes": stage_nodes(np.float32)[1:5],
+            "tracer_tolerance": np.float32(scene.tracer_tolerance)}
 
 
 def dispersion_uniforms(random: np.ndarray) -> dict[str, object]:

@@ -19,22 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from cavesim.core.errors import CavesimError
+from cavesim.core.substeps import DP54_A, DP54_B4, DP54_B5, NEW_STAGES
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import runge_kutta_stages
-
-DP54_C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0)
-DP54_A = (
-    (),
-    (1 / 5,),
-    (3 / 40, 9 / 40),
-    (44 / 45, -56 / 15, 32 / 9),
-    (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
-    (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656),
-    (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84),
-)
-DP54_B5 = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0)
-DP54_B4 = (5179 / 57600, 0.0, 7571 / 16695, 393 / 640, -92097 / 339200, 187 / 2100, 1 / 40)
-NEW_STAGES = 6  # field evaluations per step: the last stage is the next step's first
 
 SAFETY, GROW_MAX, SHRINK_MAX = 0.9, 5.0, 0.2  # step factor limits (Hairer II.4)
 INITIAL_STEP = 1e-3  # s: the controller corrects it within a few steps

@@ -13,8 +13,11 @@ the real loader), a fixed seeded particle set and the frame parameters of every 
             two steps apart and interpolated linearly in time: a closed form exists
   tracer    passive tracers (motion = "tracer") in a solid-body vortex on a grid, each
             method held to its tracer method's order: a closed form exists (a rotation)
+  rotating_tracer
+            passive tracers in the rotating case's time series: a closed form exists (an
+            arc), and linear interpolation in time caps every method at order 2
 
-Apart from the tracer case, one particle class with tau = 0.1 s, so a run lasts T = 10 tau:
+Apart from the tracer cases, one particle class with tau = 0.1 s, so a run lasts T = 10 tau:
 the particles forget how they started and follow the flow, the regime of the demo's cloud
 (the sand: tau = 0.18 s, Re about 10). No emitters, no collision, nothing dies before T.
 """
@@ -34,6 +37,7 @@ from cavesim.core._toml import read_toml
 from cavesim.core.errors import SceneError
 from cavesim.core.field_time import field_time_at
 from cavesim.core.fields import save_field
+from cavesim.core.flows import rotating_velocity
 from cavesim.core.helicopter.rotor import induced_velocity
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
@@ -232,6 +236,23 @@ def tracer_case(count: int, field_dir: Path) -> Case:
                 closed_form="solid_body", motion=Motion.TRACER)
 
 
+def rotating_tracer_case(count: int) -> Case:
+    """Tracers in the rotating case's turning flow, a time series: each path is an arc and
+    a climb in closed form, and linear interpolation in time caps every method at order 2."""
+    rotating = rotating_case(count)
+    data = copy.deepcopy(rotating.data)
+    data["particle_class"] = [dict(SMOKE)]
+    data["forces"] = {"drag": {}}  # what brings the flow in; no gravity acts on a tracer
+    records = _box_particles(count, SEED + 5)
+    records["vel"] = rotating_velocity(0.0, data["field"]["params"])  # a tracer's record
+    return dataclasses.replace(
+        rotating, name="rotating_tracer", data=data, particles=records,
+        closed_form="rotating_tracer", motion=Motion.TRACER,
+        description=f"passive tracers in a uniform flow (3, 0, 0.5) m/s turning at "
+                    f"{ROTATION:g} rad/s, snapshots {SNAPSHOT_STEPS} steps apart, linear in "
+                    "time: closed form")
+
+
 def smooth_vortex_case(count: int, interpolation: FieldInterpolation, order_limit: int) -> Case:
     """The vortex case's grid and particles, interpolated by a cubic (cavesim.core.interpolation)
     instead of trilinearly: RK4's observed order rises with the field's smoothness."""
@@ -288,11 +309,12 @@ def sand_case(case: Case) -> Case:
 
 
 def build_cases(helicopter_scene: Path, count: int, field_dir: Path) -> list[Case]:
-    """The nine cases with `count` particles each (the tracer case: at most
+    """The ten cases with `count` particles each (the tracer cases: at most
     TRACER_PARTICLES), writing grid files to `field_dir`."""
     downwash = downwash_case(helicopter_scene, count)
     return [uniform_case(count), rotating_case(count), vortex_case(count),
             smooth_vortex_case(count, FieldInterpolation.CATMULL_ROM, CATMULL_ROM_ORDER_LIMIT),
             smooth_vortex_case(count, FieldInterpolation.BSPLINE, BSPLINE_ORDER_LIMIT),
             downwash, sand_case(vortex_case(count)), sand_case(downwash),
-            tracer_case(min(count, TRACER_PARTICLES), field_dir)]
+            tracer_case(min(count, TRACER_PARTICLES), field_dir),
+            rotating_tracer_case(min(count, TRACER_PARTICLES))]

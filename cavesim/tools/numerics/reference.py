@@ -112,8 +112,25 @@ def solid_body_closed_form(case: Case, t: float) -> Reference:
     return Reference(t, pos, solid_body(pos), centripetal(pos), None)
 
 
+def rotating_tracer_closed_form(case: Case, t: float) -> Reference:
+    """Exact state at t of tracers in the flow u(t) = R(omega t) U turning about z: as
+    complex numbers x + iy, x(t) = x0 + U (e^(i omega t) - 1) / (i omega), and z climbs at
+    U's vertical speed; each moves with the flow, which turns at omega."""
+    params = case.scene(Integrator.RK4).field.params
+    omega = params["angular_speed"]
+    ux, uy, uz = rotating_velocity(0.0, params)
+    p0 = case.particles["pos"].astype(np.float64)
+    x_xy = p0[:, 0] + 1j * p0[:, 1] + complex(ux, uy) * (np.exp(1j * omega * t) - 1) / (1j * omega)
+    pos = np.stack([x_xy.real, x_xy.imag, p0[:, 2] + uz * t], axis=1)
+    u = rotating_velocity(t, params)
+    turning = np.array([-omega * u[1], omega * u[0], 0.0])  # du/dt
+    return Reference(t, pos, np.broadcast_to(u, pos.shape).copy(),
+                     np.broadcast_to(turning, pos.shape).copy(), None)
+
+
 CLOSED_FORMS = {"uniform": closed_form, "rotating": rotating_closed_form,
-                "solid_body": solid_body_closed_form}  # Case.closed_form
+                "solid_body": solid_body_closed_form,
+                "rotating_tracer": rotating_tracer_closed_form}  # Case.closed_form
 
 
 def fine_rk4(case: Case, t: float, step: float) -> Reference:

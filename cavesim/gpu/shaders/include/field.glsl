@@ -140,14 +140,45 @@ vec3 snapshot_flow(vec3 p, int snapshot) {
 #endif
 }
 
+#if FIELD_TIME_SERIES
+// The flow at p between snapshot `pair` and the next, `weight` of the way to it
+vec3 series_flow(vec3 p, int pair, float weight) {
+    vec3 ends[2];
+    for (int k = 0; k < 2; ++k) {  // one call site: RK4 inlines flow_at four times
+        ends[k] = snapshot_flow(p, pair + k);
+    }
+    return f_mix(ends[0], ends[1], weight);
+}
+#endif
+
 // The flow at p at a stage of the step (STAGE_START, STAGE_MIDDLE, STAGE_END)
 vec3 flow_at(vec3 p, int stage) {
 #if FIELD_TIME_SERIES
-    vec3 ends[2];
-    for (int k = 0; k < 2; ++k) {  // one call site: RK4 inlines flow_at four times
-        ends[k] = snapshot_flow(p, field_pair[stage] + k);
+    return series_flow(p, field_pair[stage], field_weight[stage]);
+#else
+    return snapshot_flow(p, 0);
+#endif
+}
+
+// The flow at p at `fraction` of the step, for an adaptive tracer's substeps, which stop
+// between the stages. In a series the place pair + weight runs linearly in time from stage
+// to stage (START to MIDDLE, MIDDLE to END): exact unless that half of the step crosses a
+// snapshot between two intervals of unequal length (cavesim/core/field_time.py: places_in_step).
+vec3 flow_in_step(vec3 p, float fraction) {
+#if FIELD_TIME_SERIES
+    int a = fraction <= 0.5 ? STAGE_START : STAGE_MIDDLE;
+    float local = f_sub(f_mul(2.0, fraction), float(a));  // 0 to 1 through the half
+    float span = f_add(float(field_pair[a + 1] - field_pair[a]),
+                       f_sub(field_weight[a + 1], field_weight[a]));
+    float place = f_add(field_weight[a], f_mul(local, span));
+    float whole = floor(place);
+    int pair = field_pair[a] + int(whole);
+    float weight = f_sub(place, whole);
+    if (pair > field_snapshots - 2) {
+        pair = field_snapshots - 2;
+        weight = 1.0;
     }
-    return f_mix(ends[0], ends[1], field_weight[stage]);
+    return series_flow(p, pair, weight);
 #else
     return snapshot_flow(p, 0);
 #endif

@@ -158,3 +158,8 @@ vec3 flow_at(vec3 p, int stage) {
     float up = f_mul(vi, f_add(G, f_mul(q, G_q)));
     return vec3(f_mul(offset, f_mul(0.5, f_mul(vi, G_z))), height < 0.0 ? up : -up);
 }
+
+// the same at every time of a step
+vec3 flow_in_step(vec3 p, float fraction) {
+    return flow_at(p, STAGE_START);
+}
