@@ -51,6 +51,7 @@ GROWTH_MARGIN = 32.0  # 2^5: how much the error estimate grows when the substep 
 STAGES = len(DP54_C)  # 7, the last the next substep's first
 NEW_STAGES = STAGES - 1  # flow samples per attempt
 ERROR_WEIGHTS = tuple(b5 - b4 for b5, b4 in zip(DP54_B5, DP54_B4, strict=True))
+SUBSTEP_COUNTS = 4  # SubstepCounts' fields, as the GPU's TracerSubsteps holds them
 TABLEAU_UNIFORM_VEC4S = 7  # physics.glsl's rk45_tableau: A's rows 2..7, then ERROR_WEIGHTS
 
 
@@ -70,19 +71,23 @@ def stage_nodes(dtype=np.float32) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SubstepCounts:
-    """What the adaptive tracers did in one frame, summed over every tracer."""
+    """What the adaptive tracers did in one frame."""
 
-    taken: int  # substeps taken
+    tracers: int  # tracers stepped
+    taken: int  # substeps taken, summed over them
     retaken: int  # substeps refused and taken again at half the size
     most: int  # the most substeps one tracer took
 
     @classmethod
     def of(cls, taken: np.ndarray, retaken: np.ndarray) -> SubstepCounts:
         """From per-tracer counts."""
-        return cls(int(taken.sum()), int(retaken.sum()), int(taken.max(initial=0)))
+        return cls(len(taken), int(taken.sum()), int(retaken.sum()), int(taken.max(initial=0)))
 
-    def as_dict(self) -> dict[str, int]:
-        return {"taken": self.taken, "retaken": self.retaken, "most": self.most}
+    def as_tuple(self) -> tuple[int, int, int, int]:
+        return (self.tracers, self.taken, self.retaken, self.most)
+
+
+NO_SUBSTEPS = SubstepCounts(0, 0, 0, 0)  # a frame without tracers
 
 
 def adaptive_trace(p: np.ndarray, h, forces, tolerance, ops: Operations, move: RowsMove,

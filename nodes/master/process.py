@@ -95,6 +95,7 @@ from nodes.master.run_record import (
     Stall,
     UserAction,
 )
+from nodes.master.substep_book import SubstepBook
 from nodes.master.tolerance import Tolerance, ToleranceMode
 from nodes.master.user_requests import Asked, UserRequests
 
@@ -186,6 +187,7 @@ class Master:
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
                                 node_walls=dict(config.node_walls),
                                 domain_exits=DomainExitBook(scene),
+                                tracer_substeps=SubstepBook(scene),
                                 capacity_drops=CapacityDropBook(scene.capacity, config.dt))
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
@@ -337,6 +339,7 @@ class Master:
                 vote = self._agree(k)
                 agreed = self.reports[vote.source]
                 self.record.domain_exits.add(k, agreed.domain_exits)
+                self.record.tracer_substeps.add(k, agreed.tracer_substeps)
                 self.record.capacity_drops.add(k, agreed.dropped)
                 self._admit_joiners(k, vote)
                 self._release_swap(k)

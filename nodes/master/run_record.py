@@ -17,6 +17,8 @@ from cavesim.core.drivers import FlightSample
 from cavesim.core.frame_cost import NOT_TIMED_US, PHASES
 from nodes.master.drop_book import REPORT_KEY, CapacityDropBook
 from nodes.master.exit_book import DomainExitBook
+from nodes.master.substep_book import REPORT_KEY as SUBSTEPS_KEY
+from nodes.master.substep_book import SubstepBook
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
@@ -194,6 +196,7 @@ class RunRecord:
     node_walls: dict[str, tuple[str, ...]] = field(default_factory=dict)  # as MasterConfig's
     domain_exits: DomainExitBook | None = None  # a gridded flow's: who left its box
     capacity_drops: CapacityDropBook | None = None  # what the full capacity dropped
+    tracer_substeps: SubstepBook | None = None  # adaptive tracers': their substeps
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -251,6 +254,8 @@ class RunRecord:
             **({} if self.tolerance is None else {"tolerance": self.tolerance.summary()}),
             "domain_exits": {} if self.domain_exits is None else self.domain_exits.summary(),
             REPORT_KEY: {} if self.capacity_drops is None else self.capacity_drops.summary(),
+            SUBSTEPS_KEY: ({} if self.tracer_substeps is None
+                           else self.tracer_substeps.summary()),
         }
 
 

@@ -398,10 +398,12 @@ class WallNode:
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
         exits = self.system.domain_exits() or ()  # read after the checksum's wait, as is
+        substeps = self.system.tracer_substeps()  # and this
         self._publish(ReportMessage(k, self.config.name, state.digest, state.particles,
                                     state.emitters, self.timer.cost_us(), self.rejects.total,
                                     sample=self._sample(), domain_exits=exits,
-                                    dropped=self.system.dropped()))
+                                    dropped=self.system.dropped(),
+                                    tracer_substeps=substeps.as_tuple() if substeps else ()))
         self.timer.reported()
 
     def _flip_one_bit(self) -> None:

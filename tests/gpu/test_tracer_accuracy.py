@@ -94,7 +94,7 @@ def test_adaptive_tracers_on_the_gpu_follow_the_gridded_vortex_in_one_substep_a_
         gpu.write_particles(start)
         for _ in range(STEPS):
             gpu.step(FrameInput(DT, IDENTITY))
-            assert gpu.tracer_substeps() == SubstepCounts(PARTICLES, 0, 1)
+            assert gpu.tracer_substeps() == SubstepCounts(PARTICLES, PARTICLES, 0, 1)
         end = gpu.read_particles()
     finally:
         gpu.release()

@@ -1,7 +1,7 @@
 """A scene whose flow is a NetCDF time series, as processes: the master's clock moves the
 field through its snapshots, the walls stay identical and the frame log replays bit for
 bit; the sand thrown out of the field's box is counted per frame and class in report.json
-and warned about once."""
+and warned about once; the smoke's substeps (tracers by RK45) are counted there too."""
 
 import json
 import os
@@ -22,6 +22,8 @@ name = "pulsing"
 capacity = 3000
 seed = 5
 integrator = "etd2rk"
+tracer_method = "rk45"
+tracer_tolerance = 1e-8
 
 [[particle_class]]
 name = "sand"
@@ -32,6 +34,19 @@ density = 2650.0
 name = "dust"
 diameter = 20e-6
 density = 2650.0
+
+[[particle_class]]
+name = "smoke"
+diameter = 1e-5
+motion = "tracer"
+
+[[emitter]]
+name = "smoker"
+position = [0.0, 1.0, 2.0]
+rate = 200.0
+speed = 0.5
+lifetime = [1.0, 2.0]
+particle_class = "smoke"
 
 [[emitter]]
 name = "thrower"
@@ -66,12 +81,17 @@ def test_a_time_series_scene_runs_identical_walls_and_counts_the_sand_leaving(tm
     report = json.loads((tmp_path / "out" / "report.json").read_text())
     assert report["divergences"] == [] and report["frames"] == FRAMES
     exits = report["domain_exits"]
-    assert exits["classes"] == ["sand", "dust"] and exits["box_max"] == [6.0, 6.0, 10.0]
+    assert exits["classes"] == ["sand", "dust", "smoke"]
+    assert exits["box_max"] == [6.0, 6.0, 10.0]
     assert exits["total"]["sand"] > 100 and exits["total"]["dust"] == 0
     assert len(exits["per_frame"]) == FRAMES and exits["frames_uncounted"] == 0
-    assert sum(sand for sand, _ in exits["per_frame"]) == exits["total"]["sand"]
+    assert sum(counts[0] for counts in exits["per_frame"]) == exits["total"]["sand"]
     first = exits["first_frame"]["sand"]
     assert f"{exits['total']['sand']:,} sand from frame {first}" in result.stdout
+    substeps = report["tracer_substeps"]
+    assert substeps["frames_uncounted"] == 0 and len(substeps["per_frame"]) == FRAMES
+    assert substeps["taken"] > substeps["tracer_frames"] > 100 and substeps["retaken"] > 0
+    assert f"{substeps['per_tracer_frame']} a tracer a frame" in result.stdout
     master_log = (tmp_path / "out" / "logs" / "master.log").read_text()
     assert master_log.count("particles left the field's box") == 1
     assert f"frame {first}: particles left the field's box [-6.0, -6.0, 0.0]" in master_log

@@ -53,14 +53,14 @@ def test_a_tighter_tolerance_takes_more_substeps_and_errs_less():
 
 def test_without_a_tolerance_each_frame_is_one_dormand_prince_step():
     _, counts = vortex_run(math.inf)
-    assert counts == [SubstepCounts(TRACERS, 0, 1)] * FRAMES
+    assert counts == [SubstepCounts(TRACERS, TRACERS, 0, 1)] * FRAMES
 
 
 def test_a_tolerance_no_substep_meets_ends_at_the_smallest_substep():
     """Six refusals take the first substep down to h / 64, which is always taken: the frame
     still ends at h, in UNITS substeps, and never loops on."""
     _, counts = vortex_run(1e-300)
-    assert counts[0] == SubstepCounts(TRACERS * UNITS, TRACERS * MAX_LEVEL, UNITS)
+    assert counts[0] == SubstepCounts(TRACERS, TRACERS * UNITS, TRACERS * MAX_LEVEL, UNITS)
 
 
 def test_a_substep_grows_again_where_the_flow_allows():

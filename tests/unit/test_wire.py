@@ -45,6 +45,7 @@ from cavesim.core.wire import envelope
 from cavesim.core.wire.credentials import Credentials, generate, of_master
 from cavesim.core.wire.envelope import VERSION, Kind, decode, decode_envelope, encode, session_id
 from cavesim.core.wire.payloads.from_master import (
+    EVENTS_SINCE,
     MAX_PARAMS,
     Command,
     ControlMessage,
@@ -183,10 +184,13 @@ COST = tuple(range(3, 3 + len(PHASES)))  # a report's phase times, microseconds
 
 
 def report_body(node: bytes = b"front", status: int = 0, extra: bytes = b"",
-                particles: int = 1, exits: bytes = b"\x00", dropped: int = 0) -> bytes:
-    """A report: name, the fixed fields, the domain exits (by default: none counted)."""
+                particles: int = 1, exits: bytes = b"\x00", dropped: int = 0,
+                substeps: bytes = b"\x00") -> bytes:
+    """A report: name, the fixed fields, the domain exits and the tracer substeps (by
+    default: none counted)."""
     return name(node) + struct.pack(f"<16sIII{len(PHASES)}IIB", bytes.fromhex(DIGEST),
-                                    particles, 2, dropped, *COST, 5, status) + exits + extra
+                                    particles, 2, dropped, *COST, 5, status) + exits \
+        + substeps + extra
 
 
 def sample_tail(count: int, records: int | None = None) -> bytes:
@@ -730,6 +734,10 @@ REJECTIONS = [
      None, "bad-payload"),
     ("report-exits-short", craft(Kind.REPORT, report_body(exits=b"\x02" + bytes(7))), None,
      "bad-payload"),
+    ("report-substeps-two", craft(Kind.REPORT, report_body(substeps=b"\x02" + bytes(8))), None,
+     "bad-payload"),
+    ("report-substeps-short", craft(Kind.REPORT, report_body(substeps=b"\x04" + bytes(15))),
+     None, "bad-payload"),
     ("report-sample-beyond-live", craft(Kind.REPORT, report_body(extra=sample_tail(2))),
      None, "bad-payload"),
     ("report-sample-beyond-max", craft(Kind.REPORT, report_body(
@@ -1052,7 +1060,8 @@ def test_a_frame_log_reads_older_frames_that_the_wire_refuses():
     log (one before version 11 has no events byte: no reset); on the wire only this version
     is spoken, and a frame of another layout is refused everywhere."""
     for version in envelope.FRAME_VERSIONS[:-1]:
-        frame = craft(Kind.FRAME, frame_body(events=None), frame=9, version=version)
+        events = None if version < EVENTS_SINCE else 0
+        frame = craft(Kind.FRAME, frame_body(events=events), frame=9, version=version)
         with pytest.raises(ProtocolError, match="bad-version"):
             decode(frame, SESSION)
         old = decode(frame, SESSION, versions=envelope.FRAME_VERSIONS)

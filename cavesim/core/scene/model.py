@@ -418,6 +418,11 @@ class Scene(Simulation):
         return self.tracer_method or self.integrator.tracer_method
 
     @property
+    def tracers_take_substeps(self) -> bool:
+        """Whether the scene has tracers and steps them in substeps (TracerMethod.RK45)."""
+        return any(self.tracer_classes) and self.method_for_tracers is TracerMethod.RK45
+
+    @property
     def tracer_classes(self) -> tuple[bool, ...]:
         """Whether each particle class is a passive tracer."""
         return tuple(c.motion is Motion.TRACER for c in self.particle_classes)

@@ -25,9 +25,9 @@ from cavesim.core.portable.forces import PortableForces
 from cavesim.core.position import low_code, low_part, split_position
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
-from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene, TracerMethod
+from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
-from cavesim.core.substeps import SubstepCounts
+from cavesim.core.substeps import NO_SUBSTEPS, SubstepCounts
 from cavesim.core.twin.emission import emission_order, update_emitters
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.kernels import PORTABLE, Kernels, reference_kernels
@@ -113,10 +113,10 @@ class TwinSystem:
         self.trace = self.kernels.tracers[scene.method_for_tracers]
         # what the adaptive tracers did in the last step (None: the scene has none)
         self.tracer_substeps: SubstepCounts | None = None
-        if scene.method_for_tracers is TracerMethod.RK45 and any(scene.tracer_classes):
+        if scene.tracers_take_substeps:
             self.trace = partial(self.trace, tolerance=np.float32(scene.tracer_tolerance),
                                  record=self._record_substeps)
-            self.tracer_substeps = SubstepCounts(0, 0, 0)
+            self.tracer_substeps = NO_SUBSTEPS
         self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
@@ -223,7 +223,7 @@ class TwinSystem:
         each with the forces of its rows; a portable model gets its rows' low parts back."""
         tracer = self.tracer_classes[np.minimum(q.class_id, len(self.tracer_classes) - 1)]
         if self.tracer_substeps is not None:  # a step without tracers takes no substeps
-            self.tracer_substeps = SubstepCounts(0, 0, 0)
+            self.tracer_substeps = NO_SUBSTEPS
         if not tracer.any():
             return self.integrate(start, q.vel, h, forces)
         inertial, tracers = forces.of_rows(~tracer), forces.of_rows(tracer)

@@ -48,7 +48,7 @@ from cavesim.core.wire.payloads.state_transfer import (
 )
 
 MAGIC = b"CVSM"
-VERSION = 11  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 12  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
 # take part in the swap barrier; 4: a run id in the header, the master's signature, requests
 # (block requests and replies came later as new kinds, which an older build refuses as such);
@@ -61,12 +61,13 @@ VERSION = 11  # 2: frames carry the head pose; 3: snapshots stream as a header a
 # GPU passes and its wait for the GPU too; 10: it counts the particles of each class that
 # left the field's box, and a frame of a time-series field ends in the field's time; 11: it
 # counts the new particles the full capacity dropped, a frame ends in a byte of events (a
-# reset), and a tracking message may carry the preview's session controls (pause, reset, quit)
+# reset), and a tracking message may carry the preview's session controls (pause, reset, quit);
+# 12: it counts its adaptive tracers' substeps (frames as in 11)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 # the versions whose frame message (kind, header and payload) this build reads, those before
 # 11 without the events byte (from_master.frame_payload_of): a frame log recorded by any of
 # them replays (on the wire, only VERSION is spoken)
-FRAME_VERSIONS = (4, 5, 6, 7, 8, 9, 10, VERSION)
+FRAME_VERSIONS = (4, 5, 6, 7, 8, 9, 10, 11, VERSION)
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED, MEMBER_SIGNED = 0x01, 0x02, 0x04
 

@@ -4,9 +4,9 @@ the field's box; and the substeps adaptive tracers take.
 The particle pass (physics.glsl) adds to uints in a storage buffer: step_particle one to its
 class's when a particle's step takes it from inside the field's closed box to outside it
 (COUNT_DOMAIN_EXITS; a runaway is dropped, not counted), and an adaptive tracer's `trace`
-its substeps taken and retaken and the most it took (COUNT_TRACER_SUBSTEPS). Each buffer is
-cleared before each frame and read after the frame's wait, so the read costs a copy, not a
-stall.
+one for itself, its substeps taken and retaken, and the most it took
+(COUNT_TRACER_SUBSTEPS). Each buffer is cleared before each frame and read after the frame's
+wait, so the read costs a copy, not a stall.
 
 Only a gridded field has a box; only tracers stepped by TracerMethod.RK45 take substeps. The
 compute path always counts. The GS/TF path steps in its vertex stage, which GL 4.3 need not
@@ -23,11 +23,9 @@ import numpy as np
 
 from cavesim.core.scene.model import Engine, Scene
 from cavesim.core.substeps import SubstepCounts
-from cavesim.gpu.engine.programs import counts_substeps
 
 DOMAIN_EXITS = 6  # the storage-buffer bindings physics.glsl declares
 TRACER_SUBSTEPS = 7
-SUBSTEP_COUNTS = 3  # taken, retaken, most: TracerSubsteps' uints
 
 
 def stage_counts(engine: Engine, info: Mapping[str, object]) -> bool:
@@ -43,7 +41,7 @@ def counts_exits(scene: Scene, engine: Engine, info: Mapping[str, object]) -> bo
 
 def counts_tracer_substeps(scene: Scene, engine: Engine, info: Mapping[str, object]) -> bool:
     """Whether the scene's particle pass on `engine` counts its tracers' substeps."""
-    return counts_substeps(scene) and stage_counts(engine, info)
+    return scene.tracers_take_substeps and stage_counts(engine, info)
 
 
 class FrameCounts:

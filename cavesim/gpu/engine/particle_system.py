@@ -54,7 +54,7 @@ from cavesim.core.scene.model import (
     Scene,
 )
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
-from cavesim.core.substeps import SubstepCounts
+from cavesim.core.substeps import SUBSTEP_COUNTS, SubstepCounts
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
@@ -62,14 +62,12 @@ from cavesim.gpu.engine.drops import read_dropped
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.frame_counts import (
     DOMAIN_EXITS,
-    SUBSTEP_COUNTS,
     TRACER_SUBSTEPS,
     FrameCounts,
     substep_counts,
 )
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
-from cavesim.gpu.engine.programs import counts_substeps
 from cavesim.gpu.engine.uniforms import (
     dispersion_uniforms,
     field_time_uniforms,
@@ -116,7 +114,7 @@ class ParticleSystem:
         self._exits = FrameCounts(self._buffer("domain_exits", 4 * len(scene.particle_classes)),
                                   DOMAIN_EXITS) if scene.gridded_flow else None
         self._substeps = FrameCounts(self._buffer("tracer_substeps", 4 * SUBSTEP_COUNTS),
-                                     TRACER_SUBSTEPS) if counts_substeps(scene) else None
+                                     TRACER_SUBSTEPS) if scene.tracers_take_substeps else None
         self._textures_for_physics()
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         if len(self.emitters) or scene.forces.dispersion is not None:

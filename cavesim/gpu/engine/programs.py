@@ -141,14 +141,10 @@ def physics_defines(scene: Scene) -> dict[str, int]:
         "TRACER_METHOD": scene.method_for_tracers.gpu_id,
         "FIELD_TIME_SERIES": int(scene.gridded_flow and field.times is not None),
         "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
-        "COUNT_TRACER_SUBSTEPS": int(counts_substeps(scene)),
+        "COUNT_TRACER_SUBSTEPS": int(scene.tracers_take_substeps),
         "RANDOM_SIZE": scene.random_texture_size,
     }
 
-
-def counts_substeps(scene: Scene) -> bool:
-    """Whether the scene's tracers step in substeps, which the particle pass counts."""
-    return any(scene.tracer_classes) and scene.method_for_tracers is TracerMethod.RK45
 
 
 def emission_defines(scene: Scene) -> dict[str, int]:

@@ -14,7 +14,7 @@ from cavesim.core.fields import FieldSeries
 from cavesim.core.heightfield import HeightGrid
 from cavesim.core.helicopter.flight import ground_height
 from cavesim.core.helicopter.inputs import FrameRotor
-from cavesim.core.scene.model import CollisionKind, Scene, TracerMethod
+from cavesim.core.scene.model import CollisionKind, Scene
 from cavesim.core.substeps import stage_nodes, tableau
 
 
@@ -33,7 +33,7 @@ def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid
         if any(scene.tracer_classes):  # uvec2: bit c of the 64 for class c
             bits = sum(1 << c for c, tracer in enumerate(scene.tracer_classes) if tracer)
             values["tracer_classes"] = np.array([bits & 0xFFFFFFFF, bits >> 32], dtype=np.uint32)
-            if scene.method_for_tracers is TracerMethod.RK45:
+            if scene.tracers_take_substeps:
                 values.update(adaptive_tracer_uniforms(scene))
         if any(scene.reynolds_per_speed()):  # vec4[(CLASS_COUNT + 3) / 4]: four a vec4
             per_class = np.array(scene.reynolds_per_speed(), dtype=np.float32)

@@ -19,6 +19,7 @@ def summary_table(report: dict) -> Table:
          f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
         *drop_rows(report.get("capacity_drops", {})),
         *exit_rows(report.get("domain_exits", {})),
+        *substep_rows(report.get("tracer_substeps", {})),
         ("lost for good", ", ".join(report["final"].get("lost", ())) or "none"),
         ("divergences", report["event_totals"]["divergences"]),
         ("resyncs", report["event_totals"]["resyncs"]),
@@ -49,6 +50,19 @@ def exit_rows(exits: dict) -> list[tuple[str, str]]:
     if exits["frames_uncounted"]:
         left += f" ({exits['frames_uncounted']:,} frames not counted)"
     return [("left the field's box", left)]
+
+
+def substep_rows(substeps: dict) -> list[tuple[str, str]]:
+    """What the adaptive tracers' substeps came to (a scene whose tracers take them)."""
+    if not substeps:
+        return []
+    if not substeps["tracer_frames"]:
+        return [("tracer substeps", "no tracer stepped")]
+    taken = (f"{substeps['per_tracer_frame']} a tracer a frame, {substeps['retaken']:,} "
+             f"retaken, at most {substeps['most']} (frame {substeps['most_frame']})")
+    if substeps["frames_uncounted"]:
+        taken += f" ({substeps['frames_uncounted']:,} frames not counted)"
+    return [("tracer substeps", taken)]
 
 
 def nodes_and_walls(report: dict) -> str:

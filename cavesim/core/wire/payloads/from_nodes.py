@@ -13,6 +13,7 @@ from cavesim.core.errors import ProtocolError
 from cavesim.core.frame_cost import PHASES
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene.model import Engine
+from cavesim.core.substeps import SUBSTEP_COUNTS
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
@@ -20,6 +21,7 @@ MAX_TEXT = 255  # characters of one string of an info message (a one-byte length
 # phase's microseconds (FRAME_PHASES), rejected, status
 _REPORT = struct.Struct(f"<16sIII{len(PHASES)}IIB")
 _EXITS = struct.Struct("<B")  # classes whose domain exits follow, a uint each (0: not counted)
+_SUBSTEPS = struct.Struct("<B")  # uints of adaptive tracers' substeps that follow: 0 or 3
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED, INFO_COMPUTE = 0x01, 0x02, 0x04  # COMPUTE: else GS/TF
@@ -49,6 +51,9 @@ class ReportMessage:
     # per particle class, those that left the field's box this frame; () where not counted
     domain_exits: tuple[int, ...] = ()
     dropped: int = 0  # new particles this frame that the full capacity dropped
+    # adaptive tracers' substeps this frame: taken, retaken, the most of one tracer
+    # (cavesim.core.substeps.SubstepCounts); () where not counted
+    tracer_substeps: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -117,6 +122,11 @@ def write_report(m: ReportMessage) -> bytes:
         m.status)
     body += _EXITS.pack(len(m.domain_exits)) + struct.pack(f"<{len(m.domain_exits)}I",
                                                             *m.domain_exits)
+    if len(m.tracer_substeps) not in (0, SUBSTEP_COUNTS):
+        raise ValueError(f"a report's tracer substeps are {SUBSTEP_COUNTS} counts or none, got "
+                         f"{len(m.tracer_substeps)}")
+    body += _SUBSTEPS.pack(len(m.tracer_substeps)) + struct.pack(
+        f"<{len(m.tracer_substeps)}I", *m.tracer_substeps)
     if m.sample is None:  # the bit-exact mode's report: no tail
         return body
     if len(m.sample) > m.particles:
@@ -138,9 +148,10 @@ def read_report(frame: int, payload: bytes) -> ReportMessage:
         raise ProtocolError("bad-value", f"a report drops {dropped} particles at the "
                                          f"capacity with none live: a drop needs a full pool")
     exits, tail = _read_exits(rest[_REPORT.size:])
+    substeps, tail = _read_substeps(tail)
     sample = _read_sample(tail, particles) if tail else None
     return ReportMessage(frame, node, digest.hex(), particles, emitters, tuple(cost_us),
-                         rejected, Status(status), sample, exits, dropped)
+                         rejected, Status(status), sample, exits, dropped, substeps)
 
 
 def _read_exits(tail: bytes) -> tuple[tuple[int, ...], bytes]:
@@ -155,6 +166,19 @@ def _read_exits(tail: bytes) -> tuple[tuple[int, ...], bytes]:
                                            f"{len(tail) - _EXITS.size} bytes: expected at most "
                                            f"{MAX_PARTICLE_CLASSES} classes of 4 bytes each")
     return struct.unpack_from(f"<{classes}I", tail, _EXITS.size), tail[end:]
+
+
+def _read_substeps(tail: bytes) -> tuple[tuple[int, ...], bytes]:
+    """A report's tracer substeps (none, or taken, retaken and most) and what follows."""
+    if len(tail) < _SUBSTEPS.size:
+        raise ProtocolError("bad-payload", "a report ends before its count of tracer substeps")
+    (counts,) = _SUBSTEPS.unpack_from(tail)
+    end = _SUBSTEPS.size + 4 * counts
+    if counts not in (0, SUBSTEP_COUNTS) or len(tail) < end:
+        raise ProtocolError("bad-payload", f"tracer substeps of {counts} counts in "
+                                           f"{len(tail) - _SUBSTEPS.size} bytes: expected 0 or "
+                                           f"{SUBSTEP_COUNTS} counts of 4 bytes each")
+    return struct.unpack_from(f"<{counts}I", tail, _SUBSTEPS.size), tail[end:]
 
 
 def _read_sample(tail: bytes, particles: int) -> DriftSample:

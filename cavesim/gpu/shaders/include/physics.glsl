@@ -376,10 +376,10 @@ float rk45_node(int stage) {
 }
 
 #if COUNT_TRACER_SUBSTEPS && !defined GEOMETRY_SHADER
-// taken, retaken, and the most one tracer took, summed over the frame's tracers
+// the frame's tracers, their substeps taken and retaken, and the most one tracer took
 // (cavesim/gpu/engine/frame_counts.py clears it before the frame and reads it after)
 layout(std430, binding = 7) buffer TracerSubsteps {
-    uint tracer_substeps[3];
+    uint tracer_substeps[4];
 };
 #define COUNTS_SUBSTEPS_HERE 1
 #else
@@ -432,9 +432,10 @@ vec3 trace_in_substeps(inout vec3 p, vec3 k1, float h) {
         }
     }
 #if COUNTS_SUBSTEPS_HERE
-    atomicAdd(tracer_substeps[0], taken);
-    atomicAdd(tracer_substeps[1], retaken);
-    atomicMax(tracer_substeps[2], taken);
+    atomicAdd(tracer_substeps[0], 1u);
+    atomicAdd(tracer_substeps[1], taken);
+    atomicAdd(tracer_substeps[2], retaken);
+    atomicMax(tracer_substeps[3], taken);
 #endif
     return k[0];
 }
