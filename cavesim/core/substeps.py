@@ -95,8 +95,8 @@ def adaptive_trace(p: np.ndarray, h, forces, tolerance, ops: Operations, move: R
                    record: Callable[[SubstepCounts], None] | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
     """One frame's step h of tracers at p (N, 3): `trace` of physics.glsl (TRACER_RK45) in
-    the arithmetic of `ops` and `move`, with the coefficients `tableau` (tableau_words'
-    order) and stage `nodes` in p's dtype. The tracers still stepping step together; each
+    the arithmetic of `ops` and `move`, with `coefficients` in `tableau`'s order and the
+    stage `nodes`, both in p's dtype. The tracers still stepping step together; each
     keeps its own level and progress. Returns (p, v): v the flow at the end, where the last
     substep took it. `record` gets the frame's counts."""
     dtype = p.dtype.type
