@@ -244,13 +244,13 @@ def test_drag_beyond_stokes_and_dispersion_have_the_portable_twins_bits(lockstep
         run.step()
 
 
-@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
-def test_tracers_mixed_with_inertial_classes_have_the_portable_twins_bits(lockstep, terrain,
-                                                                          integrator):
-    """Smoke, a passive tracer class stepped by the integrator's tracer method, beside the
-    sand and dust every force acts on, over a height field; the fountain emits smoke."""
-    data = scene_dict(integrator=integrator.value, damping=0.3, collision=terrain,
+def smoke_beside_grains(lockstep, terrain, integrator: str, **simulation) -> Lockstep:
+    """Smoke, a passive tracer class, beside the sand and dust every force acts on, over a
+    height field (a third of the start cloud each; the fountain emits smoke), stepped
+    SMALL_FRAMES in lockstep."""
+    data = scene_dict(integrator=integrator, damping=0.3, collision=terrain,
                       emitters=[FOUNTAIN], arithmetic="portable")
+    data["simulation"] |= simulation
     data["particle_class"] = [*data["particle_class"], SMOKE]
     data["emitter"][0]["particle_class"] = "smoke"
     start = particle_cloud(450)
@@ -260,27 +260,26 @@ def test_tracers_mixed_with_inertial_classes_have_the_portable_twins_bits(lockst
         run.step()
     smoke = run.twin.particles.class_id == 2
     assert smoke.sum() > 150 and (~smoke).sum() > 150, "the test needs both kinds"
+    return run
+
+
+@pytest.mark.parametrize("integrator", list(Integrator), ids=lambda i: i.value)
+def test_tracers_mixed_with_inertial_classes_have_the_portable_twins_bits(lockstep, terrain,
+                                                                          integrator):
+    """The smoke stepped by the integrator's tracer method."""
+    smoke_beside_grains(lockstep, terrain, integrator.value)
 
 
 def test_adaptive_tracers_have_the_portable_twins_bits_and_substeps(lockstep, terrain):
-    """Smoke stepped by RK45 in substeps beside sand and dust over a height field: the same
-    bits and the same substeps taken and retaken as the portable twin, on both paths, with
-    a tolerance that makes the fast tracers divide their frames."""
-    data = scene_dict(integrator="etd2rk", collision=terrain, emitters=[FOUNTAIN],
-                      arithmetic="portable")
-    data["simulation"] |= {"tracer_method": "rk45", "tracer_tolerance": 1e-9}
-    data["particle_class"] = [*data["particle_class"], SMOKE]
-    data["emitter"][0]["particle_class"] = "smoke"
-    start = particle_cloud(450)
-    start["class_id"] = np.arange(len(start)) % 3
-    run = lockstep(parse_scene(data, name="adaptive"), start)
-    for _ in range(SMALL_FRAMES):
-        run.step()
+    """The smoke stepped by RK45 in substeps: the same bits and the same substeps taken and
+    retaken as the portable twin, on both paths, with a tolerance that makes the fast
+    tracers divide their frames and grow their substeps again."""
+    run = smoke_beside_grains(lockstep, terrain, "etd2rk", tracer_method="rk45",
+                              tracer_tolerance=1e-9)
     assert all(run.substeps_counted[engine] == SMALL_FRAMES for engine in ENGINE_PATHS)
-    tracers = int((run.twin.particles.class_id == 2).sum())
-    assert tracers > 150, "the test needs tracers"
     last = run.substeps[-1]
-    assert last.taken > tracers and last.retaken > 0 and 1 < last.most <= UNITS, last
+    assert last.taken > last.tracers > 150 and last.retaken > 0 and 1 < last.most <= UNITS, \
+        last
 
 
 def test_adaptive_tracers_in_a_time_series_have_the_portable_twins_bits(lockstep):
