@@ -1,0 +1,1 @@
+"""Comparisons of cavesim with other tools, each run as a script: python benchmarks/NAME.py."""
