@@ -2,15 +2,23 @@
 compaction, the tracked particles' rows, and trajectories.parquet (docs/trajectories.md).
 
 Pure numpy and pyarrow; the GL engine's readback is `cavesim.gpu.engine.trajectory_stream`.
+Names are imported on first use, so a command that only parses its flags does not load
+pyarrow.
 """
 
-from cavesim.core.trajectories.identity import HOST_BYTES_PER_PARTICLE, BirthIndex
-from cavesim.core.trajectories.recorder import TrajectoryRecorder
-from cavesim.core.trajectories.recording import TrajectoryRecording, TrajectoryRequest
-from cavesim.core.trajectories.schema import COLUMNS, FILE_NAME, arrow_schema
-from cavesim.core.trajectories.selection import MAX_TRAJECTORIES, Selection
-from cavesim.core.trajectories.stream import ParticleStream, TwinStream
+from importlib import import_module
 
-__all__ = ["COLUMNS", "FILE_NAME", "HOST_BYTES_PER_PARTICLE", "MAX_TRAJECTORIES",
-           "BirthIndex", "ParticleStream", "Selection", "TrajectoryRecorder",
-           "TrajectoryRecording", "TrajectoryRequest", "TwinStream", "arrow_schema"]
+_WHERE = {
+    "COLUMNS": "schema", "FILE_NAME": "file_name", "arrow_schema": "schema",
+    "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity",
+    "Selection": "selection", "TrajectoryRecorder": "recorder",
+    "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",
+    "ParticleStream": "stream", "TwinStream": "stream",
+}
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)

@@ -61,6 +61,14 @@ class BirthIndex:
         self.class_id = np.concatenate([self.class_id[alive], newborns["class_id"]])
         self.next_id += born
 
+    def holds(self, records: np.ndarray) -> bool:
+        """Whether `records` (a stream loaded from elsewhere) are the particles this index
+        follows: the same count, ages, lifetimes and classes, in order."""
+        return (len(records) == len(self.ids)
+                and np.array_equal(records["age"], self.age)
+                and np.array_equal(records["lifetime"], self.lifetime)
+                and np.array_equal(records["class_id"], self.class_id))
+
     def _match_survivors(self, age: np.ndarray, alive: np.ndarray,
                          records: np.ndarray) -> np.ndarray:
         """Which old particles the survivors' `records` are: the stream keeps their order, so

@@ -30,6 +30,7 @@ class TrajectoryFile:
         self.schema = arrow_schema(metadata)
         self._pending: list[pa.Table] = []
         self._pending_rows = 0
+        self._named = False
         with writing(self.partial):
             self._writer = pq.ParquetWriter(self.partial, self.schema, compression="zstd")
 
@@ -56,13 +57,16 @@ class TrajectoryFile:
             with writing(self.partial):
                 self._writer.close()
                 os.replace(self.partial, self.path)
+            self._named = True
         except BaseException:
             self.abort()
             raise
         return self.path
 
     def abort(self) -> None:
-        """Drop the file: nothing is left under either name."""
+        """Drop the file, unless `finish` named it: nothing is left under either name."""
+        if self._named:
+            return
         try:
             self._writer.close()
         except (OSError, pa.ArrowException):  # the file is removed whatever its state

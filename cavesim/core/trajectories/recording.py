@@ -9,11 +9,13 @@ from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
+import numpy as np
+
 from cavesim.core.scene.digest import scene_digest
 from cavesim.core.scene.model import Scene
+from cavesim.core.trajectories.file_name import FILE_NAME
 from cavesim.core.trajectories.parquet_file import TrajectoryFile
 from cavesim.core.trajectories.recorder import TrajectoryRecorder
-from cavesim.core.trajectories.schema import FILE_NAME
 from cavesim.core.trajectories.selection import Selection
 from cavesim.core.trajectories.stream import ParticleStream
 
@@ -22,19 +24,20 @@ from cavesim.core.trajectories.stream import ParticleStream
 class TrajectoryRequest:
     count: int  # N: particles to track (at most)
     every: int  # K: a row every K frames (frame % K == 0)
-    frames: int  # the run's planned frames (the stride's births)
-    dt: float  # the run's nominal frame time, s
+    seconds: float  # the run's planned frames × its nominal dt (the stride's births)
 
 
 class TrajectoryRecording:
     """trajectories.parquet in `folder`, filled frame by frame; `finish` or `abort` it."""
 
-    def __init__(self, folder: Path, scene: Scene, request: TrajectoryRequest) -> None:
-        self.selection = Selection.for_run(scene, request.count, request.frames, request.dt)
+    def __init__(self, folder: Path, scene: Scene, request: TrajectoryRequest,
+                 digest: str | None = None) -> None:
+        """`digest`: the scene file's (a node's scene may differ in its engine path only)."""
+        self.selection = Selection.for_run(scene, request.count, request.seconds)
         origin = scene.origin or (0.0, 0.0, 0.0)
         self.file = TrajectoryFile(Path(folder) / FILE_NAME, {
             "cavesim_version": cavesim_version(), "scene": scene.name,
-            "scene_digest": scene_digest(scene),
+            "scene_digest": digest or scene_digest(scene),
             "scene_origin": ",".join(repr(float(c)) for c in origin),
             "trajectories": str(request.count), "every": str(request.every),
             "stride": str(self.selection.stride)})
@@ -50,6 +53,10 @@ class TrajectoryRecording:
         except BaseException:
             self.file.abort()
             raise
+
+    def holds(self, records: np.ndarray) -> bool:
+        """Whether a stream loaded from elsewhere (a resync) is the one being followed."""
+        return self.recorder.index.holds(records)
 
     def finish(self) -> Path:
         """The complete file, named; its footer says the last frame followed."""

@@ -35,7 +35,6 @@ COLUMNS = (
 METADATA_AT_OPEN = ("cavesim_version", "scene", "scene_digest", "scene_origin",
                     "trajectories", "every", "stride")
 METADATA_AT_CLOSE = ("frames", "ambiguous_drops")
-FILE_NAME = "trajectories.parquet"
 SORT_ORDER = ("frame", "id")
 
 
