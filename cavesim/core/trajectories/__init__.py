@@ -9,7 +9,7 @@ pyarrow.
 from importlib import import_module
 
 _WHERE = {
-    "COLUMNS": "schema", "FILE_NAME": "file_name", "arrow_schema": "schema",
+    "COLUMNS": "columns", "FILE_NAME": "file_name", "arrow_schema": "columns",
     "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity",
     "Selection": "selection", "TrajectoryRecorder": "recorder",
     "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",

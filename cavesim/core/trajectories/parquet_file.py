@@ -16,7 +16,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from cavesim.core.output import writing
-from cavesim.core.trajectories.schema import arrow_schema
+from cavesim.core.trajectories.columns import arrow_schema
 
 ROW_GROUP_ROWS = 65_536
 
