@@ -4,16 +4,14 @@ particles): the same ids every frame, through deaths, capacity drops and a runaw
 on each engine path; positions to the float32 state's precision."""
 
 import dataclasses
-import tomllib
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from fountain import DT, fountain, frames
 
-from cavesim.core.frame import FrameInput
-from cavesim.core.random_texture import draw_transform
-from cavesim.core.scene import Engine, parse_scene
+from cavesim.core.scene import Engine
 from cavesim.core.trajectories import (
     FILE_NAME,
     Selection,
@@ -27,35 +25,30 @@ from cavesim.core.twin import TwinSystem
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.engine.trajectory_stream import EngineStream
 
-DT, FRAMES, EVERY, COUNT = 1 / 60, 150, 2, 30
+FRAMES, EVERY, COUNT = 150, 2, 30
 RUNAWAY_AT = 100  # this frame's step drops a particle sent past the speed limit
 
 
-def fountain(engine: Engine):
-    with open("config/scenes/minimal.toml", "rb") as f:
-        data = tomllib.load(f)
-    data["simulation"]["capacity"] = 150  # full from about frame 60: newborns are dropped
-    data["emitter"][0].update(rate=600.0, lifetime=[0.1, 0.4])
-    return dataclasses.replace(parse_scene(data, name="fountain"), engine=engine)
+def fountain_on(engine: Engine):
+    """Full from about frame 60: newborns are dropped at the capacity."""
+    return dataclasses.replace(fountain(rate=600.0, capacity=150), engine=engine)
 
 
 @pytest.mark.parametrize("engine", [Engine.GS_TF, Engine.COMPUTE])
 def test_the_engine_writes_the_twins_rows(ctx, tmp_path, engine):
-    scene = fountain(engine)
+    scene = fountain_on(engine)
     gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
     recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(COUNT, EVERY, FRAMES * DT))
     twin_rows: list[pa.Table] = []
     twin_recorder = TrajectoryRecorder(scene, Selection.for_run(scene, COUNT, FRAMES * DT),
                                        EVERY, twin_rows.append)
-    rng = np.random.default_rng(3)
     dropped = 0
-    for k in range(1, FRAMES + 1):
+    for k, frame in frames(scene, FRAMES, seed=3):
         if k == RUNAWAY_AT:
             for system in (gpu, twin):  # each its own records: lifetimes differ by an ulp
                 records = system.read_particles() if system is gpu else twin.particles.records()
                 records["vel"][5] = 1e9
                 system.write_particles(records)
-        frame = FrameInput(DT, draw_transform(rng, scene.random_texture_size))
         gpu.step(frame)
         twin.step(frame)
         dropped += gpu.dropped()

@@ -8,15 +8,11 @@ newborn (age 0) takes the next ids in stream order."""
 
 from __future__ import annotations
 
-import tomllib
-
 import numpy as np
 import pyarrow as pa
 import pytest
+from fountain import DT, fountain, steps
 
-from cavesim.core.frame import FrameInput
-from cavesim.core.random_texture import draw_transform
-from cavesim.core.scene import parse_scene
 from cavesim.core.trajectories import (
     BirthIndex,
     Selection,
@@ -26,17 +22,6 @@ from cavesim.core.trajectories import (
 )
 from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.system import TwinParticles
-
-DT = 1 / 60
-
-
-def fountain(rate=300.0, capacity=10_000, lifetime=(0.1, 0.4)):
-    """config/scenes/minimal.toml, with births and deaths every frame."""
-    with open("config/scenes/minimal.toml", "rb") as f:
-        data = tomllib.load(f)
-    data["simulation"]["capacity"] = capacity
-    data["emitter"][0].update(rate=rate, lifetime=list(lifetime))
-    return parse_scene(data, name="fountain")
 
 
 class Truth:
@@ -63,13 +48,6 @@ def follow(index: BirthIndex, stream: TwinStream) -> None:
     survivors = stream.survivors()
     index.advance(DT, survivors, stream.records(survivors, stream.live_count - survivors),
                   lambda: stream.records(0, survivors))
-
-
-def steps(twin, frames, seed=1):
-    rng = np.random.default_rng(seed)
-    for k in range(1, frames + 1):
-        twin.step(FrameInput(DT, draw_transform(rng, twin.scene.random_texture_size)))
-        yield k
 
 
 @pytest.mark.parametrize("capacity", [10_000, 60], ids=["roomy", "capacity-drops"])

@@ -14,6 +14,7 @@ _WHERE = {
     "Selection": "selection", "TrajectoryRecorder": "recorder",
     "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",
     "ParticleStream": "stream", "TwinStream": "stream",
+    "file_metadata": "loading", "read_table": "loading", "to_dataset": "loading",
 }
 __all__ = sorted(_WHERE)
 
