@@ -15,6 +15,11 @@ class Column:
     unit: str  # "" where the value has none
     meaning: str
 
+    @property
+    def type_name(self) -> str:
+        """The type as docs/trajectories.md names it (numpy's names for floats)."""
+        return {"double": "float64", "float": "float32"}.get(str(self.type), str(self.type))
+
 
 COLUMNS = (
     Column("frame", pa.int64(), "", "the master's frame number, after that frame's step"),
