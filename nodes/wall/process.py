@@ -47,7 +47,6 @@ from cavesim.core.drivers import driver_for
 from cavesim.core.errors import (
     ClusterError,
     ContextError,
-    OutputError,
     ProtocolError,
     TrajectoryError,
 )
@@ -423,10 +422,11 @@ class WallNode:
             self._follow_trajectories(k, used.dt)
 
     def _follow_trajectories(self, k: int, dt: float) -> None:
-        """Follow frame k's step; a file that cannot go on is dropped, not the run."""
+        """Follow frame k's step. A lost stream drops the file, not the run; a write that
+        fails (OutputError) ends the node, and so the run, as every failed write does."""
         try:
             self.trajectories.after_step(k, dt, EngineStream(self.system))
-        except (TrajectoryError, OutputError) as e:
+        except TrajectoryError as e:
             log.error("%s: frame %d: %s; trajectories.parquet is not written",
                       self.config.name, k, e)
             self.trajectories = None
