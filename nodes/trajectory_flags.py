@@ -35,16 +35,19 @@ def requested(args: argparse.Namespace, command: str) -> tuple[int, int] | None:
 def add_node_arguments(parser: argparse.ArgumentParser) -> None:
     """`cavesim node`'s: the run's flags, its planned length and the folder to write in."""
     add_arguments(parser)
-    parser.add_argument("--trajectory-seconds", type=number_in(float, 0.0, 1e12, "seconds"),
-                        help="with --trajectories: the run's planned frames x nominal dt (the "
-                             "selection's stride comes from it)")
+    parser.add_argument("--trajectory-frames", type=number_in(int, 1, 10**9, "frames"),
+                        help="with --trajectories: the run's planned frames (the selection's "
+                             "stride comes from them and --trajectory-dt)")
+    parser.add_argument("--trajectory-dt", type=number_in(float, 1e-6, 1.0, "seconds"),
+                        help="with --trajectories: the run's nominal dt")
     parser.add_argument("--trajectory-out", type=output_folder,
                         help="with --trajectories: the folder for trajectories.parquet")
 
 
-def node_flags(count: int, every: int, seconds: float, folder: Path) -> tuple[str, ...]:
-    return ("--trajectories", str(count), "--every", str(every),
-            "--trajectory-seconds", repr(seconds), "--trajectory-out", str(folder))
+def node_flags(count: int, every: int, frames: int, dt: float,
+               folder: Path) -> tuple[str, ...]:
+    return ("--trajectories", str(count), "--every", str(every), "--trajectory-frames",
+            str(frames), "--trajectory-dt", repr(dt), "--trajectory-out", str(folder))
 
 
 def node_request(args: argparse.Namespace):
@@ -55,7 +58,8 @@ def node_request(args: argparse.Namespace):
     tracks = requested(args, "node")
     if tracks is None:
         return None
-    if args.trajectory_seconds is None or args.trajectory_out is None:
+    given = (args.trajectory_frames, args.trajectory_dt, args.trajectory_out)
+    if None in given:
         raise UsageError("cavesim node: error: argument --trajectories: give "
-                         "--trajectory-seconds and --trajectory-out too")
-    return TrajectoryRequest(*tracks, args.trajectory_seconds), args.trajectory_out
+                         "--trajectory-frames, --trajectory-dt and --trajectory-out too")
+    return TrajectoryRequest(*tracks, *given[:2]), args.trajectory_out

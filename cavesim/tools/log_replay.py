@@ -91,7 +91,7 @@ class LogReplay:
         """Write trajectories.parquet into `folder` as the run did (`cavesim run
         --trajectories`): its selection comes from the log header's planned frames and dt."""
         self.trajectories = TrajectoryRecording(folder, self.scene, TrajectoryRequest(
-            count, every, run_seconds(self.header, self.frames)))
+            count, every, *planned_run(self.header, self.frames)))
 
     def release(self) -> None:
         if self.trajectories is not None:
@@ -122,13 +122,13 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
     return run.result
 
 
-def run_seconds(header: dict, frames: LoggedFrames) -> float:
-    """The run's planned frames × its nominal dt, as its header says (a log older than
-    that: its whole records × the first one's dt)."""
+def planned_run(header: dict, frames: LoggedFrames) -> tuple[int, float]:
+    """The run's planned frames and nominal dt, as its header says (a log older than that:
+    its whole records and the first one's dt)."""
     if "frames" in header and "dt" in header:
-        return header["frames"] * header["dt"]
+        return header["frames"], header["dt"]
     first = next(iter(frames), None)
-    return len(frames) * (float(first.message.inputs.dt) if first is not None else 0.0)
+    return len(frames), float(first.message.inputs.dt) if first is not None else 1 / 60
 
 
 def scene_warnings(logged: str | None, digest: str, scene_path: Path,

@@ -116,7 +116,7 @@ class RunPlan:
     def trajectory_args(self, node: str) -> tuple[str, ...]:
         if node != self.trajectory_node:
             return ()
-        return trajectory_flags(*self.trajectories, self.frames * MasterConfig.dt, self.out)
+        return trajectory_flags(*self.trajectories, self.frames, MasterConfig.dt, self.out)
 
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,

@@ -35,7 +35,7 @@ def test_the_loading_example_runs(tmp_path):
     folder.mkdir(parents=True)
     scene = fountain()
     twin = TwinSystem(scene)
-    recording = TrajectoryRecording(folder, scene, TrajectoryRequest(20, 2, 60 * DT))
+    recording = TrajectoryRecording(folder, scene, TrajectoryRequest(20, 2, 60, DT))
     for k in steps(twin, 60):
         recording.after_step(k, DT, TwinStream(twin))
     recording.finish()

@@ -38,9 +38,9 @@ def fountain_on(engine: Engine):
 def test_the_engine_writes_the_twins_rows(ctx, tmp_path, engine):
     scene = fountain_on(engine)
     gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
-    recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(COUNT, EVERY, FRAMES * DT))
+    recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(COUNT, EVERY, FRAMES, DT))
     twin_rows: list[pa.Table] = []
-    twin_recorder = TrajectoryRecorder(scene, Selection.for_run(scene, COUNT, FRAMES * DT),
+    twin_recorder = TrajectoryRecorder(scene, Selection.for_run(scene, COUNT, FRAMES, DT),
                                        EVERY, twin_rows.append)
     dropped = 0
     for k, frame in frames(scene, FRAMES, seed=3):

@@ -20,7 +20,7 @@ from cavesim.core.twin import TwinSystem
 def recorded(tmp_path, frames=30):
     scene = fountain()
     twin = TwinSystem(scene)
-    recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(10, 3, frames * DT))
+    recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(10, 3, frames, DT))
     for k in steps(twin, frames):
         recording.after_step(k, DT, TwinStream(twin))
     return recording

