@@ -44,12 +44,7 @@ from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
-from cavesim.core.errors import (
-    ClusterError,
-    ContextError,
-    ProtocolError,
-    TrajectoryError,
-)
+from cavesim.core.errors import ClusterError, ContextError, ProtocolError, TrajectoryError
 from cavesim.core.frame_cost import NO_COST
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
