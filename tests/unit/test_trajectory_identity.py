@@ -127,3 +127,16 @@ def test_the_rows_are_the_tracked_particles_of_the_twin():
         assert part["time"].to_pylist() == [pytest.approx(k * DT)] * n
         assert set(part["class"].to_pylist()) <= {"drop"}
     assert at == rows.num_rows
+
+
+def test_a_loaded_stream_is_held_only_if_it_is_the_one_followed():
+    """A node resynced to another state (it diverged or fell behind) must drop its file."""
+    twin = TwinSystem(fountain())
+    stream, index = TwinStream(twin), BirthIndex()
+    for _ in steps(twin, 30):
+        follow(index, stream)
+    records = twin.particles.records()
+    assert index.holds(records)
+    behind = records.copy()
+    behind["age"] += np.float64(np.float32(DT))  # a frame further on
+    assert not index.holds(behind) and not index.holds(records[1:])
