@@ -60,6 +60,11 @@ class TrackerError(CavesimError, ValueError):
     and what is allowed) or its UDP port cannot be opened (names the address)."""
 
 
+class TrajectoryError(CavesimError, RuntimeError):
+    """The trajectory recorder lost the particle stream's identity (its prediction of the
+    survivors and the engine's count disagree in a way no runaway drop explains)."""
+
+
 class ClusterError(CavesimError, RuntimeError):
     """A cluster process failed, or the cluster cannot go on: names the process, its own
     error line and its log."""

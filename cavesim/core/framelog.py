@@ -19,7 +19,8 @@ crash, a full disk) or a corrupt record; nothing after it is read, as every fram
 depends on the ones before.
 
 The header names the session, the scene's path and its digest (`scene_digest`, of its
-content: `cavesim.core.scene.digest`), the walls and the clock's seed; a log written
+content: `cavesim.core.scene.digest`), the walls and the clock's seed, and the run's
+planned frames and nominal dt (which fix a replay's trajectory selection); a log written
 before the digest was added has none, and a replay says so.
 
 Version 2 added the checks; version 1 logs are refused, not read: they are

@@ -46,3 +46,5 @@ DEFAULT_MASTER_PORT = 7447  # deploy/launch.sh and config/ write it as a literal
 RUNAWAY = 1e15
 SPEED_LIMIT = 1e7  # m/s
 MAX_LAUNCH_SPEED = SPEED_LIMIT / 4  # m/s, an emitter's speed: speed ± spread stays inside
+
+MAX_TRAJECTORIES = 1_000_000  # particles a run may track (`cavesim run --trajectories`)

@@ -14,11 +14,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from cavesim.core.drivers import driver_for
-from cavesim.core.framelog import Damage, LoggedFrame, read_frame_log
+from cavesim.core.framelog import Damage, LoggedFrame, LoggedFrames, read_frame_log
 from cavesim.core.scene import load_scene
 from cavesim.core.scene.digest import scene_digest
 from cavesim.core.scene_frame import SceneFrame
+from cavesim.core.trajectories import TrajectoryRecording, TrajectoryRequest
 from cavesim.gpu.engine import ParticleSystem
+from cavesim.gpu.engine.trajectory_stream import EngineStream
 from cavesim.gpu.gl.context import create_context
 
 
@@ -30,6 +32,7 @@ class ReplayResult:
     mismatches: list[dict] = field(default_factory=list)
     damage: Damage | None = None  # where the log stops being readable
     warnings: list[str] = field(default_factory=list)  # about the scene it was given
+    trajectories: str | None = None  # the trajectories file written, if asked
 
     @property
     def equal(self) -> bool:
@@ -40,7 +43,7 @@ class ReplayResult:
                 "equal": self.equal, "mismatches": self.mismatches[:100],
                 "mismatch_count": len(self.mismatches),
                 "damage": self.damage.to_json() if self.damage else None,
-                "warnings": self.warnings}
+                "warnings": self.warnings, "trajectories": self.trajectories}
 
 
 class LogReplay:
@@ -48,7 +51,8 @@ class LogReplay:
     what came back (ValueError when the log's own scene file no longer holds the run's
     scene)."""
 
-    def __init__(self, log_path: Path, scene_path: Path | None = None, ctx=None) -> None:
+    def __init__(self, log_path: Path, scene_path: Path | None = None, ctx=None,
+                 trajectories: TrajectoryRecording | None = None) -> None:
         self.header, self.frames = read_frame_log(log_path)
         given = scene_path is not None
         scene_path = Path(scene_path or self.header["scene"])
@@ -59,6 +63,8 @@ class LogReplay:
             driver_for(scene)
         self.result = ReplayResult(str(log_path), str(scene_path), damage=self.frames.damage,
                                    warnings=warnings)
+        self.scene = scene
+        self.trajectories: TrajectoryRecording | None = None
 
     def step(self, logged: LoggedFrame) -> SceneFrame:
         """Step one logged frame and compare its checksum (a mismatch joins `result`);
@@ -66,7 +72,12 @@ class LogReplay:
         scene = self.driver.decode(logged.message.params)
         if logged.message.reset:  # the run went back to the scene's start before this step
             self.system.restart(self.system.scene.seed)
+            if self.trajectories is not None:
+                self.trajectories.restart()
         self.system.step(logged.message.inputs, scene)
+        if self.trajectories is not None:
+            self.trajectories.after_step(logged.message.frame, logged.message.inputs.dt,
+                                         EngineStream(self.system))
         state = self.system.checksum()
         self.result.frames += 1
         if state.digest != logged.digest or state.particles != logged.particles:
@@ -76,7 +87,15 @@ class LogReplay:
                 "replayed_particles": state.particles})
         return scene
 
+    def record_trajectories(self, folder: Path, count: int, every: int) -> None:
+        """Write trajectories.parquet into `folder` as the run did (`cavesim run
+        --trajectories`): its selection comes from the log header's planned frames and dt."""
+        self.trajectories = TrajectoryRecording(folder, self.scene, TrajectoryRequest(
+            count, every, *planned_run(self.header, self.frames)))
+
     def release(self) -> None:
+        if self.trajectories is not None:
+            self.trajectories.abort()  # unless finished: then there is nothing to remove
         self.system.release()
 
     def __enter__(self) -> LogReplay:
@@ -87,14 +106,29 @@ class LogReplay:
 
 
 def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
-           progress: Callable[[int], None] = lambda k: None) -> ReplayResult:
+           progress: Callable[[int], None] = lambda k: None,
+           trajectories: tuple[Path, int, int] | None = None) -> ReplayResult:
     """Step the logged inputs on one context and compare each frame's checksum (ValueError
-    when the log's own scene file no longer holds the run's scene)."""
+    when the log's own scene file no longer holds the run's scene); with `trajectories`
+    (folder, N, K), write trajectories.parquet there."""
     with LogReplay(log_path, scene_path, ctx) as run:
+        if trajectories is not None:
+            run.record_trajectories(*trajectories)
         for logged in run.frames:
             run.step(logged)
             progress(logged.message.frame)
+        if run.trajectories is not None:
+            run.result.trajectories = str(run.trajectories.finish())
     return run.result
+
+
+def planned_run(header: dict, frames: LoggedFrames) -> tuple[int, float]:
+    """The run's planned frames and nominal dt, as its header says (a log older than that:
+    its whole records and the first one's dt)."""
+    if "frames" in header and "dt" in header:
+        return header["frames"], header["dt"]
+    first = next(iter(frames), None)
+    return len(frames), float(first.message.inputs.dt) if first is not None else 1 / 60
 
 
 def scene_warnings(logged: str | None, digest: str, scene_path: Path,

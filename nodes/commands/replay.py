@@ -23,6 +23,8 @@ from nodes.arguments import (
     output_folder,
     scene_file,
 )
+from nodes.trajectory_flags import add_arguments as add_trajectory_arguments
+from nodes.trajectory_flags import requested as trajectories_requested
 
 
 def add(commands) -> None:
@@ -30,7 +32,9 @@ def add(commands) -> None:
     parser.add_argument("log", type=Path,
                         help="frames.log written by the master, or the run's folder holding it")
     parser.add_argument("--scene", type=scene_file, help="override the scene named in the log")
-    parser.add_argument("--out", type=output_folder, help="write replay.json here (a directory)")
+    parser.add_argument("--out", type=output_folder,
+                        help="write replay.json (and trajectories.parquet) here (a directory)")
+    add_trajectory_arguments(parser)
     parser.set_defaults(handler=replay)
 
 
@@ -38,13 +42,18 @@ def replay(args: argparse.Namespace, console) -> int:
     from cavesim.tools.log_replay import replay as replay_log
 
     args.log = frame_log_path(args.log, "replay")
+    tracks = trajectories_requested(args, "replay")
+    if tracks is not None and not args.out:
+        raise UsageError("cavesim replay: error: argument --trajectories: give --out DIR for "
+                         "trajectories.parquet")
     if args.out:
         output_directory(args.out, "replay")
     try:
         with Progress(console=console) as progress:
             task = progress.add_task("replaying", total=None)
-            result = replay_log(args.log, args.scene,
-                                progress=lambda k: progress.update(task, completed=k))
+            result = replay_log(
+                args.log, args.scene, progress=lambda k: progress.update(task, completed=k),
+                trajectories=None if tracks is None else (args.out, *tracks))
     except ValueError as e:
         raise UsageError(f"cavesim replay: error: argument log: {e}") from e
     if args.out:
@@ -53,6 +62,8 @@ def replay(args: argparse.Namespace, console) -> int:
     for warning in result.warnings:
         console.print(f"[yellow]warning: {escape(warning)}")
     console.print(f"{result.frames} frames replayed: {verdict(result)}")
+    if result.trajectories:
+        console.print(f"wrote {escape(result.trajectories)}")
     damage = result.damage
     if damage is not None:
         colour = "yellow" if damage.kind == TORN else "red"

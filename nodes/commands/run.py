@@ -21,6 +21,7 @@ from cavesim.core.errors import CaveError, ContextError, ModelError, SceneError
 from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
+from cavesim.core.trajectories.file_name import FILE_NAME as TRAJECTORIES
 from cavesim.core.wire.credentials import Credentials
 from cavesim.tools.reports.run_tables import (
     demo_table,
@@ -56,6 +57,9 @@ from nodes.mixed_hardware import node_arguments, tolerance_from
 from nodes.progress import rated_progress
 from nodes.run_folder import add_arguments as add_out_arguments
 from nodes.run_folder import own_folder
+from nodes.trajectory_flags import add_arguments as add_trajectory_arguments
+from nodes.trajectory_flags import node_flags as trajectory_flags
+from nodes.trajectory_flags import requested as trajectories_requested
 
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
@@ -77,6 +81,7 @@ class RunPlan:
     preview: bool = False  # a member "preview" shows the CAVE unfolded in a desktop window
     engine: Engine | None = None  # every wall's particle engine path (None: the scene's)
     tolerance: Tolerance | None = None  # the mixed-hardware mode (None: bit-exact)
+    trajectories: tuple[int, int] | None = None  # (N, K): the first wall's node writes them
 
     @property
     def members(self) -> tuple[str, ...]:
@@ -102,6 +107,17 @@ class RunPlan:
             return (*gpu, *engine)
         return (*draws, *(("--stereo",) if self.stereo else ()), *gpu, *engine)
 
+    @property
+    def trajectory_node(self) -> str | None:
+        """The node that writes trajectories.parquet: the first wall's (each holds the same
+        bytes); None without --trajectories."""
+        return None if self.trajectories is None else next(iter(self.nodes))
+
+    def trajectory_args(self, node: str) -> tuple[str, ...]:
+        if node != self.trajectory_node:
+            return ()
+        return trajectory_flags(*self.trajectories, self.frames, MasterConfig.dt, self.out)
+
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
@@ -111,7 +127,8 @@ class RunPlan:
             else frozenset({PREVIEW} & set(self.members))
         mixed = node_arguments(self.tolerance)
         return ClusterPlan(master, self.out,
-                           {node: (*self.node_args(node), *mixed) for node in self.members},
+                           {node: (*self.node_args(node), *mixed, *self.trajectory_args(node))
+                            for node in self.members},
                            drawing)
 
 
@@ -148,9 +165,15 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
                         load_cave(plan.cave), plan.out, MasterConfig.dt * plan.render_every,
                         progress, "run")
                 report["plots"] = [str(p) for p in write_plots(report, plan.out, console)]
+            trajectories = plan.out / TRAJECTORIES
+            if plan.trajectories is not None:  # its node finished it at STOP, or said why not
+                report["trajectories"] = str(trajectories) if trajectories.exists() else None
         report_file.finish(report, record.interrupted, record.user_stopped)
     frame_log, logs = plan.out / FRAME_LOG, plan.out / "logs"
     check_written(report_file.path, frame_log, logs)
+    if plan.trajectories is not None and not report["trajectories"]:
+        console.print(f"[yellow]{TRAJECTORIES} was not written: see "
+                      f"{logs / (plan.trajectory_node + '.log')}")
     console.print(summary_table(report))
     for line in forensic_lines(report):
         console.print(line, markup=False, highlight=False, soft_wrap=True)
@@ -159,7 +182,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     console.print(gpu_table(report))
     if report.get("flight"):
         console.print(demo_table(report))
-    console.print(f"wrote {report_file.path}, {frame_log}, logs in {logs}")
+    written = f", {report['trajectories']}" if report.get("trajectories") else ""
+    console.print(f"wrote {report_file.path}, {frame_log}{written}, logs in {logs}")
     return report
 
 
@@ -235,6 +259,7 @@ def add(commands) -> None:
                              "each node gets its own wall's key, issued for the run (never "
                              "written into --out)")
     add_mixed_hardware_arguments(parser, master=True)
+    add_trajectory_arguments(parser)
     parser.set_defaults(handler=run)
 
 
@@ -250,13 +275,15 @@ def run(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim run: error: argument --cave: a wall or node may not be "
                          f"called {PREVIEW!r} (the preview's name)")
     tolerance = tolerance_from(args, tuple(nodes), "run")
+    trajectories = trajectories_requested(args, "run")
     frames = args.frames or default_frames(scene)
     with own_folder(args.out, "run", args.force) as folder, sigterm_as_interrupt():
         plan = RunPlan(nodes, args.scene, frames, folder.path, args.session, credentials,
                        on_loss=args.on_loss or "continue",
                        cave=None if args.walls else args.cave, render_every=args.render_every,
                        stereo=args.stereo, gpus=gpus, display=args.display,
-                       preview=args.preview, engine=args.engine, tolerance=tolerance)
+                       preview=args.preview, engine=args.engine, tolerance=tolerance,
+                       trajectories=trajectories)
         report = run_walls(plan, console)
     if report["interrupted"]:
         return INTERRUPTED

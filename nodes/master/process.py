@@ -323,7 +323,8 @@ class Master:
             log_writer = FrameLogWriter(self.config.frame_log, {
                 "session": self.config.session, "scene": str(self.config.scene),
                 "scene_digest": self.scene_digest,
-                "walls": list(self.config.walls), "clock_seed": self.config.clock_seed})
+                "walls": list(self.config.walls), "clock_seed": self.config.clock_seed,
+                "frames": self.config.frames, "dt": self.config.dt})
         started = time.monotonic()
         try:
             for k in range(1, self.config.frames + 1):

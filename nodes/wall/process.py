@@ -44,13 +44,14 @@ from cavesim.core.cave.geometry import Cave, Display, load_cave
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
-from cavesim.core.errors import ClusterError, ContextError, ProtocolError
+from cavesim.core.errors import ClusterError, ContextError, ProtocolError, TrajectoryError
 from cavesim.core.frame_cost import NO_COST
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Engine, load_scene
 from cavesim.core.scene.digest import scene_digest
 from cavesim.core.scene_frame import SceneFrame
+from cavesim.core.trajectories import TrajectoryRecording, TrajectoryRequest
 from cavesim.core.wire import (
     BlockRequest,
     Command,
@@ -76,6 +77,7 @@ from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
+from cavesim.gpu.engine.trajectory_stream import EngineStream
 from cavesim.gpu.gl.context import create_context, gpu_of
 from cavesim.gpu.render.painter import WallPainter
 from cavesim.gpu.render.unfold import slots_of
@@ -136,6 +138,8 @@ class NodeConfig:
     master_wait: float = 60.0  # s to wait for a master's WELCOME, or for a new master
     drift_sample: int = 0  # mixed-hardware mode: records sampled into each report (0: none)
     resync: str = "delta"  # how a RESYNC loads the named state: one of RESYNC_MODES
+    trajectories: TrajectoryRequest | None = None  # write trajectories.parquet ...
+    trajectory_folder: Path | None = None  # ... into this folder
 
     @property
     def drawn(self) -> tuple[str, ...]:
@@ -188,6 +192,8 @@ class WallNode:
         self.master_gone_at: float | None = None
         self.behind_said = 0.0
         self.running = True
+        self.trajectories = None if config.trajectories is None else TrajectoryRecording(
+            config.trajectory_folder, scene, config.trajectories, self.scene_digest)
 
     @property
     def done(self) -> int:
@@ -292,6 +298,8 @@ class WallNode:
 
     def _start_over(self) -> None:
         self.system.restart(self.seed)
+        if self.trajectories is not None:
+            self.trajectories.restart()
         self.view.done = 0
         self.last_report = self.previous_inputs = None
         if self.live is not None:
@@ -377,6 +385,8 @@ class WallNode:
     def _step(self, k: int, inputs: FrameInput, scene: SceneFrame, reset: bool) -> None:
         if reset:  # the master's reset: the scene's start state, then this frame's step
             self.system.restart(self.seed)
+            if self.trajectories is not None:
+                self.trajectories.restart()
         used = inputs
         if self._fault("stale", k) and self.previous_inputs is not None:
             used = FrameInput(inputs.dt, self.previous_inputs.random_transform)
@@ -405,6 +415,25 @@ class WallNode:
                                     dropped=self.system.dropped(),
                                     tracer_substeps=substeps.as_tuple() if substeps else ()))
         self.timer.reported()
+        if self.trajectories is not None:  # after the report: the barrier does not wait on it
+            self._follow_trajectories(k, used.dt)
+
+    def _follow_trajectories(self, k: int, dt: float) -> None:
+        """Follow frame k's step. A lost stream drops the file, not the run; a write that
+        fails (OutputError) ends the node, and so the run, as every failed write does."""
+        try:
+            self.trajectories.after_step(k, dt, EngineStream(self.system))
+        except TrajectoryError as e:
+            log.error("%s: frame %d: %s; trajectories.parquet is not written",
+                      self.config.name, k, e)
+            self.trajectories = None
+
+    def finish_trajectories(self) -> None:
+        """The run is over (STOP): give trajectories.parquet its footer and its name."""
+        if self.trajectories is not None:
+            path = self.trajectories.finish()
+            log.info("%s: wrote %s (%d rows)", self.config.name, path,
+                     self.trajectories.recorder.rows)
 
     def _flip_one_bit(self) -> None:
         """Flip the bit `bitflip_target` names, in that one record (patched on the GPU)."""
@@ -523,6 +552,12 @@ class WallNode:
 
     def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
         self.view.done = frame
+        if self.trajectories is not None and not self.trajectories.holds(
+                self.system.read_particles()):
+            log.error("%s: resynced to a state the trajectories did not follow: "
+                      "trajectories.parquet is not written", self.config.name)
+            self.trajectories.abort()
+            self.trajectories = None
         state = self.system.checksum()
         self.system.keep_history(frame)
         log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.name, frame,
@@ -568,9 +603,12 @@ def main(config: NodeConfig) -> int:
                  gpu["version"], node.system.engine)
         try:
             node.run()
+            node.finish_trajectories()
         except KeyboardInterrupt:
             log.info("%s: interrupted", config.name)
         finally:
+            if node.trajectories is not None:
+                node.trajectories.abort()  # a file not finished is not left
             for declaration in reversed(declarations):
                 declaration.undeclare()
             if node.live is not None:

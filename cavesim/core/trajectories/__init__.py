@@ -1,0 +1,25 @@
+"""Particle trajectories: a stable identity (the birth index) across the engine's
+compaction, the tracked particles' rows, and trajectories.parquet (docs/trajectories.md).
+
+Pure numpy and pyarrow; the GL engine's readback is `cavesim.gpu.engine.trajectory_stream`.
+Names are imported on first use, so a command that only parses its flags does not load
+pyarrow.
+"""
+
+from importlib import import_module
+
+_WHERE = {
+    "COLUMNS": "columns", "FILE_NAME": "file_name", "arrow_schema": "columns",
+    "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity",
+    "Selection": "selection", "TrajectoryRecorder": "recorder",
+    "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",
+    "ParticleStream": "stream", "TwinStream": "stream",
+    "file_metadata": "loading", "read_table": "loading", "to_dataset": "loading",
+}
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)
