@@ -71,11 +71,15 @@ def test_a_move_keeps_the_sum_exact_until_the_record_rounds_it():
 def test_a_steady_motion_on_the_gpu_ends_where_the_exact_sum_of_its_increments_does(ctx):
     """No forces, 960 steps of 1/960 s: each step adds the same float32 increment h v. A
     float32 position alone rounds it the same way every step and ends up to 480 spacings
-    off; hi + low rounds it to a 256th of a spacing, up to 960 / 512 spacings."""
+    off; hi + low rounds it to a 256th of a spacing each step: half a 256th off, or a whole
+    one where low lies within half a 256th of half a spacing and its byte's 128 is kept as
+    127, so at most 960 / 256 spacings. Its own generator: the particles do not depend on
+    which tests of the module ran before on the same worker."""
+    rng = np.random.default_rng(16)
     scene = make_scene(integrator="explicit_euler", drag=False, gravity=False, capacity=64)
     records = np.zeros(64, PARTICLE_DTYPE)
-    records["pos"] = RNG.uniform(2, 9, (64, 3))
-    records["vel"] = RNG.uniform(-0.7, 0.7, (64, 3))
+    records["pos"] = rng.uniform(2, 9, (64, 3))
+    records["vel"] = rng.uniform(-0.7, 0.7, (64, 3))
     records["lifetime"] = 1e6
     gpu = ParticleSystem(ctx, scene)
     gpu.write_particles(records)
@@ -87,7 +91,7 @@ def test_a_steady_motion_on_the_gpu_ends_where_the_exact_sum_of_its_increments_d
     end = gpu.read_particles()
     widest = spacing(np.maximum(np.abs(records["pos"]), np.abs(end["pos"])))  # on the way
     kept = np.abs(extended_position(end) - exact) / widest
-    assert kept.max() <= steps / 512, kept.max()
+    assert kept.max() <= steps / 256, kept.max()
     float32_alone = records["pos"].copy()
     for _ in range(steps):
         float32_alone = float32_alone + (h * records["vel"])
