@@ -83,9 +83,6 @@ class SubstepCounts:
         """From per-tracer counts."""
         return cls(len(taken), int(taken.sum()), int(retaken.sum()), int(taken.max(initial=0)))
 
-    def as_tuple(self) -> tuple[int, int, int, int]:
-        return (self.tracers, self.taken, self.retaken, self.most)
-
 
 NO_SUBSTEPS = SubstepCounts(0, 0, 0, 0)  # a frame without tracers
 

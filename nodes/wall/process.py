@@ -409,11 +409,12 @@ class WallNode:
             time.sleep(self.config.slow_delay)
         exits = self.system.domain_exits() or ()  # read after the checksum's wait, as is
         substeps = self.system.tracer_substeps()  # and this
+        substep_counts = dataclasses.astuple(substeps) if substeps else ()
         self._publish(ReportMessage(k, self.config.name, state.digest, state.particles,
                                     state.emitters, self.timer.cost_us(), self.rejects.total,
                                     sample=self._sample(), domain_exits=exits,
                                     dropped=self.system.dropped(),
-                                    tracer_substeps=substeps.as_tuple() if substeps else ()))
+                                    tracer_substeps=substep_counts))
         self.timer.reported()
         if self.trajectories is not None:  # after the report: the barrier does not wait on it
             self._follow_trajectories(k, used.dt)

@@ -24,6 +24,12 @@ class ParticleStream(Protocol):
         """Records at the ascending stream `indices` (PARTICLE_DTYPE)."""
 
 
+def survivors_of(live: int, dropped: int, emitters: np.ndarray) -> int:
+    """Particles of the stream before a step still in it after: live = survivors + emitted -
+    dropped (cavesim/gpu/engine/drops.py), from the emitter stream's counts (EMITTER_DTYPE)."""
+    return live + dropped - int(emitters["count"].sum())
+
+
 class TwinStream:
     """A `TwinSystem` as a ParticleStream (its records as the GPU would hold them)."""
 
@@ -35,8 +41,7 @@ class TwinStream:
         return self.twin.live_count
 
     def survivors(self) -> int:
-        emitted = int(self.twin.emitters["count"].sum())
-        return self.twin.live_count + self.twin.dropped - emitted
+        return survivors_of(self.twin.live_count, self.twin.dropped, self.twin.emitters)
 
     def records(self, first: int, count: int) -> np.ndarray:
         return self.twin.particles.select(slice(first, first + count)).records()

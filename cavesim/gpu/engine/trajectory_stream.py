@@ -9,6 +9,7 @@ import numpy as np
 
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.records import PARTICLE_DTYPE
+from cavesim.core.trajectories.stream import survivors_of
 from cavesim.gpu.engine.particle_system import ParticleSystem
 
 
@@ -23,9 +24,8 @@ class EngineStream:
         return self.system.live_count
 
     def survivors(self) -> int:
-        """live = survivors + emitted - dropped (cavesim/gpu/engine/drops.py)."""
-        emitted = int(self.system.read_emitters()["count"].sum())
-        return self.system.live_count + self.system.dropped() - emitted
+        return survivors_of(self.system.live_count, self.system.dropped(),
+                            self.system.read_emitters())
 
     def records(self, first: int, count: int) -> np.ndarray:
         return np.frombuffer(self.system.read_particle_chunk(first, count), PARTICLE_DTYPE)
