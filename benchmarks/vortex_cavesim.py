@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 
 from benchmarks.vortex_case import DT, NODES, STEPS, Run, position_errors, time_steps
-from cavesim.core.fields import save_field
+from cavesim.core.fields.grid import save_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.position import extended_position
 from cavesim.core.records import PARTICLE_DTYPE

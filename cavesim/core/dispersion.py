@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cavesim.core.field_time import START, FlowSampler
+from cavesim.core.fields.snapshot_time import START, FlowSampler
 from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import WORDS_PER_TEXEL, moved_texel
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.field_time import FieldTime
+from cavesim.core.fields.snapshot_time import FieldTime
 
 MESH_HUB_HEIGHT = 1.3  # m from the skids up to the rotor hub of the drawn model (meshes.py)
 MESH_ROTOR_RADIUS = 5.0  # m, the drawn rotor's radius before scaling

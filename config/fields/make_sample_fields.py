@@ -1,7 +1,7 @@
 """Write the sample flow files vortex.nc (NetCDF, CF-1.8), vortex.vti (VTK XML ImageData)
 and the time series pulsing_vortex.nc (NetCDF, CF-1.8).
 
-The first two hold the same Lamb–Oseen vortex (cavesim.core.flows.vortex_velocity):
+The first two hold the same Lamb–Oseen vortex (cavesim.core.fields.analytic.vortex_velocity):
 circulation 20 m²/s, core radius 1 m, axis through (0, 0), axial flow 0.5 m/s upward, on
 25 × 25 × 3 nodes over x, y in [-6, 6] m and z in [0, 10] m. pulsing_vortex.nc holds that
 vortex at 9 times, every 0.5 s, its circulation 20 (1 + 0.5 sin(2π t / 4 s)) m²/s.
@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from cavesim.core.flows import vortex_velocity
+from cavesim.core.fields.analytic import vortex_velocity
 
 HERE = Path(__file__).resolve().parent
 VORTEX = {"center": (0.0, 0.0), "circulation": 20.0, "core_radius": 1.0, "axial_speed": 0.5}

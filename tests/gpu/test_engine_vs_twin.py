@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scenes import VORTEX_FIELD, make_scene, particle_cloud, scene_dict, with_smoke
 
-from cavesim.core.fields import FieldGrid, build_field, save_field
-from cavesim.core.heightfield import HeightGrid, save_heightfield
+from cavesim.core.fields.grid import FieldGrid, build_field, save_field
+from cavesim.core.fields.heights import HeightGrid, save_heightfield
 from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import FieldSampling, Integrator
 from cavesim.core.twin import TwinSystem

@@ -23,8 +23,8 @@ from scenes import FOUNTAIN, SMOKE, particle_cloud, scene_dict
 from cavesim.core.digest.shape import StateChecksum
 from cavesim.core.digest.twin import reference_checksum
 from cavesim.core.drivers import driver_for
+from cavesim.core.fields.heights import HeightGrid, save_heightfield
 from cavesim.core.frame import FrameInput
-from cavesim.core.heightfield import HeightGrid, save_heightfield
 from cavesim.core.portable import constants
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.record_diff import differences

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from scenes import FOUNTAIN, scene_dict
 
+from cavesim.core.fields.heights import HeightGrid, load_heightfield, save_heightfield
 from cavesim.core.frame import FrameInput
-from cavesim.core.heightfield import HeightGrid, load_heightfield, save_heightfield
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
 from cavesim.core.twin import TwinSystem

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from scenes import scene_dict
 
-from cavesim.core.fields import save_field
+from cavesim.core.fields.grid import save_field
 from cavesim.core.position import extended_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene

@@ -18,7 +18,7 @@ hold 1.002, 1.017, 1.011, 0.988 and 0.997 of uniform at 1/60 s.
 import numpy as np
 import pytest
 
-from cavesim.core.fields import FieldGrid, save_field
+from cavesim.core.fields.grid import FieldGrid, save_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import draw_transform

@@ -12,7 +12,7 @@ import pytest
 from scenes import SMOKE, scene_dict
 
 from cavesim.core.errors import SceneError
-from cavesim.core.field_time import FieldTime, places_in_step
+from cavesim.core.fields.snapshot_time import FieldTime, places_in_step
 from cavesim.core.operations import PORTABLE_OPERATIONS, REFERENCE_OPERATIONS
 from cavesim.core.scene import TracerMethod, parse_scene
 from cavesim.core.scene.digest import scene_digest

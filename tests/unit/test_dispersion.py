@@ -16,8 +16,8 @@ from cavesim.core.dispersion import (
     seen_turbulence,
     shear_samples,
 )
-from cavesim.core.field_time import START
-from cavesim.core.fields import FieldGrid, save_field
+from cavesim.core.fields.grid import FieldGrid, save_field
+from cavesim.core.fields.snapshot_time import START
 from cavesim.core.frame import FrameInput
 from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import WORDS_PER_TEXEL, draw_transform, random_words

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from cavesim.core.drag import STOKES_REYNOLDS_LIMIT, drag_factor, terminal_speed
-from cavesim.core.field_time import END
+from cavesim.core.fields.snapshot_time import END
 from cavesim.core.scene import (
     AIR_VISCOSITY,
     Drag,

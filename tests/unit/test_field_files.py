@@ -12,7 +12,7 @@ import pytest
 import xarray as xr
 
 from cavesim.core.errors import FieldError
-from cavesim.core.field_files import read_flow_file
+from cavesim.core.fields.flow_files import read_flow_file
 
 SAMPLES = Path(__file__).resolve().parents[2] / "config" / "fields"
 X, Y, Z = np.arange(4.0), np.array([0.0, 2.0, 4.0]), np.array([10.0, 11.0])

@@ -10,9 +10,9 @@ from scenes import scene_dict
 
 from cavesim.core.drivers import FieldClock, StillDriver, driver_for
 from cavesim.core.errors import FieldError, ProtocolError, SceneError
-from cavesim.core.field_time import FIELD_TIME_PARAMS, FieldTime, field_time_at
-from cavesim.core.fields import build_field, build_series, sample_field
-from cavesim.core.flows import rotating_velocity
+from cavesim.core.fields.analytic import rotating_velocity
+from cavesim.core.fields.grid import build_field, build_series, sample_field
+from cavesim.core.fields.snapshot_time import FIELD_TIME_PARAMS, FieldTime, field_time_at
 from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import OutOfDomain
 from cavesim.core.twin.kernels import PORTABLE, reference_kernels

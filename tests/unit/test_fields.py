@@ -8,9 +8,14 @@ import numpy as np
 import pytest
 
 from cavesim.core.errors import FieldError
-from cavesim.core.fields import FieldGrid, build_field, sample_field, save_field
-from cavesim.core.flows import downwash_velocity, vortex_velocity
-from cavesim.core.heightfield import HeightGrid, load_heightfield, sample_height, save_heightfield
+from cavesim.core.fields.analytic import downwash_velocity, vortex_velocity
+from cavesim.core.fields.grid import FieldGrid, build_field, sample_field, save_field
+from cavesim.core.fields.heights import (
+    HeightGrid,
+    load_heightfield,
+    sample_height,
+    save_heightfield,
+)
 from cavesim.core.scene.model import Field, FieldKind, OutOfDomain
 
 BOX_MIN, BOX_MAX = (-2.0, -1.5, 0.0), (3.0, 2.5, 2.0)

@@ -13,8 +13,8 @@ from decimal import Decimal, getcontext
 import numpy as np
 import pytest
 
-from cavesim.core.field_time import END
-from cavesim.core.flows import vortex_velocity
+from cavesim.core.fields.analytic import vortex_velocity
+from cavesim.core.fields.snapshot_time import END
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import (

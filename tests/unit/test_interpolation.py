@@ -1,14 +1,15 @@
-"""Smooth interpolation of gridded flows (cavesim/core/interpolation.py): Catmull-Rom (C1) and
-the prefiltered cubic B-spline (C2) beside trilinear, in the float64 twin `sample_field`."""
+"""Smooth interpolation of gridded flows (cavesim/core/fields/interpolation.py): Catmull-Rom
+(C1) and the prefiltered cubic B-spline (C2) beside trilinear, in the float64 twin
+`sample_field`."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from cavesim.core.fields import FieldGrid, build_field, sample_field, save_field
-from cavesim.core.flows import vortex_velocity
-from cavesim.core.interpolation import axis_map, weights
+from cavesim.core.fields.analytic import vortex_velocity
+from cavesim.core.fields.grid import FieldGrid, build_field, sample_field, save_field
+from cavesim.core.fields.interpolation import axis_map, weights
 from cavesim.core.scene.model import Field, FieldInterpolation, FieldKind, OutOfDomain
 
 TRILINEAR, CATMULL_ROM, BSPLINE = FieldInterpolation

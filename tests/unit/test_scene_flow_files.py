@@ -7,7 +7,7 @@ import pytest
 from scenes import scene_dict
 
 from cavesim.core.errors import FieldError, SceneError
-from cavesim.core.field_files import read_flow_file
+from cavesim.core.fields.flow_files import read_flow_file
 from cavesim.core.scene import parse_scene
 
 FIELDS = Path(__file__).parents[2] / "config" / "fields"

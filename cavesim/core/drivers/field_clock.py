@@ -1,7 +1,7 @@
 """A scene whose field is a time series: its own driver's frame, plus where the field stands.
 
 The master's clock places each stage of the frame's step between two snapshots
-(`cavesim.core.field_time`); those six float32 values follow the scene driver's own
+(`cavesim.core.fields.snapshot_time`); those six float32 values follow the scene driver's own
 parameters in the frame message, and every node decodes them from there.
 """
 
@@ -13,7 +13,12 @@ from dataclasses import dataclass
 
 from cavesim.core.drivers.scene_driver import DriverStep, SceneDriver
 from cavesim.core.errors import ProtocolError
-from cavesim.core.field_time import FIELD_TIME_PARAMS, FIRST_SNAPSHOT, FieldTime, field_time_at
+from cavesim.core.fields.snapshot_time import (
+    FIELD_TIME_PARAMS,
+    FIRST_SNAPSHOT,
+    FieldTime,
+    field_time_at,
+)
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.wire.payloads.poses import WandState
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cavesim.core.field_time import START
+from cavesim.core.fields.snapshot_time import START
 from cavesim.core.portable.arithmetic import f_add, f_div, f_length, f_mul, f_sqrt, f_sub
 from cavesim.core.portable.builtins import glsl_max
 from cavesim.core.portable.constants import (

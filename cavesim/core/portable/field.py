@@ -1,6 +1,6 @@
 """The gridded flow in portable arithmetic: `flow_at` of shaders/include/field.glsl with
 manual sampling, trilinear or cubic, operation by operation in float32 (float64 reference:
-cavesim/core/fields.py sample_field).
+cavesim/core/fields/grid.py sample_field).
 """
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from cavesim.core.fields import FieldGrid
-from cavesim.core.interpolation import is_cubic, weights
+from cavesim.core.fields.grid import FieldGrid
+from cavesim.core.fields.interpolation import is_cubic, weights
 from cavesim.core.portable.arithmetic import f_add, f_mix, f_mul, f_sub
 from cavesim.core.portable.builtins import first_node, glsl_clamp, nodes
 from cavesim.core.scene.model import OutOfDomain

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.field_time import END, START, FlowSampler
+from cavesim.core.fields.snapshot_time import END, START, FlowSampler
 from cavesim.core.portable.arithmetic import f_add, f_length, f_mul, f_pow, f_sub
 from cavesim.core.portable.constants import (
     SCHILLER_NAUMANN_COEFFICIENT,

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cavesim.core.heightfield import HeightGrid
+from cavesim.core.fields.heights import HeightGrid
 from cavesim.core.portable.arithmetic import (
     f_dot,
     f_length,

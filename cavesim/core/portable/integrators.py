@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cavesim.core.field_time import END, MIDDLE
+from cavesim.core.fields.snapshot_time import END, MIDDLE
 from cavesim.core.portable.arithmetic import f_add, f_div, f_exp, f_mul, f_sub
 from cavesim.core.portable.constants import (
     INV_FACTORIAL_3,

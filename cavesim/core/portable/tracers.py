@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from cavesim.core.field_time import END, MIDDLE, START
+from cavesim.core.fields.snapshot_time import END, MIDDLE, START
 from cavesim.core.operations import PORTABLE_OPERATIONS
 from cavesim.core.portable.arithmetic import f_add, f_div, f_mul
 from cavesim.core.portable.integrators import HALF, SIX, rk4_sum

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 from numpy.lib import format as npy_format
 
-from cavesim.core._grids import npz_times
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
-from cavesim.core.field_files import FLOW_FILE_SUFFIXES, read_flow_file
+from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
+from cavesim.core.fields.regular_grid import npz_times
 from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_EMITTERS,
@@ -345,8 +345,8 @@ def _file_resolution(t: Table, path: Path
     """The (nx, ny, nz) of a kind="file" .npz field, from its "velocity" array (nz, ny, nx, 3),
     and its times: None, or with an array "times" (nt,) of a series (nt, nz, ny, nx, 3).
 
-    The layout is the one `cavesim.core.fields` reads and writes: x varies fastest, as in the 3D
-    texture. Values (dtype, finiteness) are checked there, when the grid is built.
+    The layout is the one `cavesim.core.fields.grid` reads and writes: x varies fastest, as in
+    the 3D texture. Values (dtype, finiteness) are checked there, when the grid is built.
     """
     lo, hi = FIELD_RESOLUTION_RANGE
     allowed = (f"must be a .nc (NetCDF) or .vti (VTK image) file, or an .npz holding an "

@@ -131,7 +131,8 @@ class FieldSampling(StrEnum):
 
 
 class FieldInterpolation(StrEnum):
-    """How a gridded flow is interpolated between its nodes (cavesim/core/interpolation.py)."""
+    """How a gridded flow is interpolated between its nodes
+    (cavesim/core/fields/interpolation.py)."""
 
     TRILINEAR = "trilinear"  # C0, error O(h²): 8 texels; caps RK4 at order 2
     CATMULL_ROM = "catmull_rom"  # C1, error O(h³): 64 texels; caps RK4 at order 3
@@ -275,7 +276,7 @@ class Field:
     interpolation: FieldInterpolation = FieldInterpolation.TRILINEAR
     params: dict[str, object] = field(default_factory=dict)  # file.FIELD_PARAMS[kind] as a dict
     # for FILE: .npz with array "velocity" (nz, ny, nx, 3); .nc (NetCDF, CF conventions)
-    # or .vti (VTK XML ImageData), whose coordinates give the box (cavesim.core.field_files)
+    # or .vti (VTK XML ImageData), whose coordinates give the box (cavesim.core.fields.flow_files)
     file: Path | None = None
     # .nc: the x, y and z velocity variables (default: by CF standard_name, else u, v, w)
     variables: tuple[str, str, str] | None = None
@@ -289,7 +290,7 @@ class Field:
 
     @property
     def named_variables(self) -> tuple[str, ...] | None:
-        """What the file is read for (`cavesim.core.field_files.read_flow_file`): a .nc's
+        """What the file is read for (`cavesim.core.fields.flow_files.read_flow_file`): a .nc's
         three velocity variables or a .vti's vector array, if the scene names them."""
         return self.variables if self.vector is None else (self.vector,)
 

@@ -7,7 +7,7 @@ position of the scene's own origin. The scene file keeps world coordinates; the 
 takes `origin` from every coordinate the scene holds, so the engine, both twins, the
 renderer and the helicopter's flight all work near zero, with the floor of a scene at the
 world's origin. The height field's file is read relative to it too
-(`cavesim.core.heightfield.load_heightfield`). What is not a coordinate (velocities, the
+(`cavesim.core.fields.heights.load_heightfield`). What is not a coordinate (velocities, the
 wand's room positions, sizes) is left alone; positions in outputs are relative to it.
 """
 

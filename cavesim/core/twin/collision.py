@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from cavesim.core.heightfield import HeightGrid, sample_height
+from cavesim.core.fields.heights import HeightGrid, sample_height
 from cavesim.core.scene.model import Collision, CollisionKind
 
 

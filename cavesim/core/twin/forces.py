@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cavesim.core.drag import drag_factor
-from cavesim.core.field_time import END, START, FlowSampler
+from cavesim.core.fields.snapshot_time import END, START, FlowSampler
 
 PER_PARTICLE = ("inv_tau", "reynolds_per_speed", "turbulence")  # ForceModel's (N, k) columns
 

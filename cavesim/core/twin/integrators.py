@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cavesim.core.field_time import END, STAGE_OF_FRACTION
+from cavesim.core.fields.snapshot_time import END, STAGE_OF_FRACTION
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin.forces import ForceModel
 

@@ -14,9 +14,9 @@ from functools import partial
 import numpy as np
 
 from cavesim.core import dispersion
-from cavesim.core._grids import mix
-from cavesim.core.field_time import FieldTime, places_in_step
-from cavesim.core.fields import FieldSeries, outside_box, sample_field
+from cavesim.core.fields.grid import FieldSeries, outside_box, sample_field
+from cavesim.core.fields.regular_grid import mix
+from cavesim.core.fields.snapshot_time import FieldTime, places_in_step
 from cavesim.core.helicopter.downwash import downwash
 from cavesim.core.operations import PORTABLE_OPERATIONS, REFERENCE_OPERATIONS, Operations
 from cavesim.core.portable import dispersion as portable_dispersion

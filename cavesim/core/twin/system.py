@@ -15,10 +15,10 @@ import numpy as np
 
 from cavesim.core.dispersion import draw_moments, draws
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
-from cavesim.core.field_time import FIRST_SNAPSHOT, FieldTime
-from cavesim.core.fields import FieldSeries, build_series
+from cavesim.core.fields.grid import FieldSeries, build_series
+from cavesim.core.fields.heights import HeightGrid, load_heightfield
+from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT, FieldTime
 from cavesim.core.frame import FrameInput
-from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
 from cavesim.core.limits import RUNAWAY, SPEED_LIMIT
 from cavesim.core.portable.forces import PortableForces

@@ -13,7 +13,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from cavesim.core.field_time import END, STAGE_OF_FRACTION
+from cavesim.core.fields.snapshot_time import END, STAGE_OF_FRACTION
 from cavesim.core.operations import REFERENCE_OPERATIONS
 from cavesim.core.scene.model import TracerMethod
 from cavesim.core.substeps import adaptive_trace, stage_nodes, tableau

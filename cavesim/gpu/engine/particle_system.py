@@ -34,10 +34,10 @@ from cavesim.core.digest.history import HistoryEntry, HistoryRing
 from cavesim.core.digest.shape import EMITTERS, PARTICLES, StateChecksum, index_runs
 from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.core.errors import StateError
-from cavesim.core.field_time import FIRST_SNAPSHOT
-from cavesim.core.fields import FieldSeries, build_series
+from cavesim.core.fields.grid import FieldSeries, build_series
+from cavesim.core.fields.heights import HeightGrid, load_heightfield
+from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
 from cavesim.core.frame import FrameInput
-from cavesim.core.heightfield import HeightGrid, load_heightfield
 from cavesim.core.helicopter.inputs import RotorInputs
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import (

@@ -9,9 +9,9 @@ import numpy as np
 
 from cavesim.core.dispersion import draw_moments
 from cavesim.core.errors import ShaderError
-from cavesim.core.field_time import FIRST_SNAPSHOT, FieldTime
-from cavesim.core.fields import FieldSeries
-from cavesim.core.heightfield import HeightGrid
+from cavesim.core.fields.grid import FieldSeries
+from cavesim.core.fields.heights import HeightGrid
+from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT, FieldTime
 from cavesim.core.helicopter.flight import ground_height
 from cavesim.core.helicopter.inputs import FrameRotor
 from cavesim.core.scene.model import CollisionKind, Scene

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.heightfield import HeightGrid, sample_height
+from cavesim.core.fields.heights import HeightGrid, sample_height
 from cavesim.core.scene_frame import MESH_HUB_HEIGHT
 
 SAND = (0.76, 0.66, 0.47)

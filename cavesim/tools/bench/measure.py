@@ -19,7 +19,7 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import CavesimError
-from cavesim.core.heightfield import HeightGrid, load_heightfield
+from cavesim.core.fields.heights import HeightGrid, load_heightfield
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.scene.model import ENGINE_PATHS, Arithmetic, CollisionKind, Engine, Scene
 from cavesim.core.twin import TwinSystem

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from cavesim.core.drivers import driver_for
+from cavesim.core.fields.heights import HeightGrid
 from cavesim.core.frame import FrameInput
-from cavesim.core.heightfield import HeightGrid
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene.model import CollisionKind, Scene

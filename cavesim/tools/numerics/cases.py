@@ -35,9 +35,9 @@ import numpy as np
 
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import SceneError
-from cavesim.core.field_time import field_time_at
-from cavesim.core.fields import save_field
-from cavesim.core.flows import rotating_velocity
+from cavesim.core.fields.analytic import rotating_velocity
+from cavesim.core.fields.grid import save_field
+from cavesim.core.fields.snapshot_time import field_time_at
 from cavesim.core.helicopter.rotor import induced_velocity
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
@@ -254,8 +254,9 @@ def rotating_tracer_case(count: int) -> Case:
 
 
 def smooth_vortex_case(count: int, interpolation: FieldInterpolation, order_limit: int) -> Case:
-    """The vortex case's grid and particles, interpolated by a cubic (cavesim.core.interpolation)
-    instead of trilinearly: RK4's observed order rises with the field's smoothness."""
+    """The vortex case's grid and particles, interpolated by a cubic
+    (cavesim.core.fields.interpolation) instead of trilinearly: RK4's observed order rises
+    with the field's smoothness."""
     vortex = vortex_case(count)
     data = copy.deepcopy(vortex.data)
     data["field"]["interpolation"] = interpolation.value

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from cavesim.core.flows import rotating_velocity
+from cavesim.core.fields.analytic import rotating_velocity
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.forces import ForceModel

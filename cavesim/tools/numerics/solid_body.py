@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from cavesim.core.field_time import START
-from cavesim.core.fields import FieldGrid
+from cavesim.core.fields.grid import FieldGrid
+from cavesim.core.fields.snapshot_time import START
 
 OMEGA = 1.0  # rad/s
 BOX = ((-1.0, -1.0, 0.0), (1.0, 1.0, 1.0))  # m: holds the disk below at every angle

@@ -7,7 +7,7 @@
 // in filter weights, so the scene loader refuses it with portable arithmetic or a cubic).
 // FIELD_TIME_SERIES: the snapshots of a time series stacked along z, each the same texels
 // deep; the flow at a stage of the step mixes the stage's pair linearly in time
-// (cavesim/core/field_time.py).
+// (cavesim/core/fields/snapshot_time.py).
 #pragma once
 #include "arithmetic.glsl"
 
@@ -21,7 +21,7 @@ uniform vec3 field_weight;  // per stage: the weight of the pair's second snapsh
 #endif
 
 #if FIELD_INTERPOLATION != INTERPOLATION_TRILINEAR
-// Smooth interpolation (cavesim/core/interpolation.py): 4 texels per axis, 64 in all, with
+// Smooth interpolation (cavesim/core/fields/interpolation.py): 4 texels per axis, 64 in all, with
 // cubic weights of the fraction t. They are integer polynomials: the texels carry the cubic's
 // 1/2 (Catmull-Rom) or 1/6 (B-spline) per axis, so every constant here is exact.
 // w1 = (3t - A) t^2 + B and w2 = w1(1 - t).
@@ -163,7 +163,7 @@ vec3 flow_at(vec3 p, int stage) {
 // The flow at p at `fraction` of the step, for an adaptive tracer's substeps, which stop
 // between the stages. In a series the place pair + weight runs linearly in time from stage
 // to stage (START to MIDDLE, MIDDLE to END): exact unless that half of the step crosses a
-// snapshot between two intervals of unequal length (cavesim/core/field_time.py: places_in_step).
+// snapshot between two intervals of unequal length (cavesim/core/fields/snapshot_time.py: places_in_step).
 vec3 flow_in_step(vec3 p, float fraction) {
 #if FIELD_TIME_SERIES
     int a = fraction <= 0.5 ? STAGE_START : STAGE_MIDDLE;

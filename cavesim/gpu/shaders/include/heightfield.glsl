@@ -1,6 +1,6 @@
 // Ground height and upward normal from the scene's height field (R32F, nx by ny), the
 // bilinear surface with the index clamped to the grid: outside the box the edge height
-// continues, flat across the edge. Twins: cavesim/core/heightfield.py sample_height
+// continues, flat across the edge. Twins: cavesim/core/fields/heights.py sample_height
 // (float64), cavesim/core/portable/ground.py (portable arithmetic).
 #pragma once
 #include "arithmetic.glsl"

@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cavesim.core._grids import (
+from cavesim.core.errors import FieldError
+from cavesim.core.fields.regular_grid import (
     cells,
     check_box,
     corner_of,
@@ -22,7 +23,6 @@ from cavesim.core._grids import (
     mix,
     read_npz,
 )
-from cavesim.core.errors import FieldError
 
 MAX_HEIGHT_NODES = 4096  # per axis, a common GL_MAX_TEXTURE_SIZE floor
 

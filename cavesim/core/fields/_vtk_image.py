@@ -1,6 +1,6 @@
 """Decoding VTK XML ImageData (.vti) files: the grid's geometry and one point vector array.
 
-Only the format lives here; `cavesim.core.field_files` checks sizes, units and values.
+Only the format lives here; `cavesim.core.fields.flow_files` checks sizes, units and values.
 Every malformed input becomes one FieldError naming the file and the element or attribute.
 """
 

@@ -3,7 +3,7 @@
 `read_flow_file` turns one such file into a `GriddedFlow`: the velocity in m/s at the nodes of
 a regular grid, x varying fastest, the box of its first and last nodes in metres, and for a
 NetCDF time series its snapshot times. The caller reads cavesim's own .npz archives itself
-(`cavesim.core.fields`). Every bad input becomes one FieldError naming the file, the
+(`cavesim.core.fields.grid`). Every bad input becomes one FieldError naming the file, the
 variable or attribute and what was expected.
 """
 
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from cavesim.core._vtk_image import point_vectors, read_image_data
 from cavesim.core.errors import FieldError
+from cavesim.core.fields._vtk_image import point_vectors, read_image_data
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE, MAX_FIELD_NODES, MAX_FIELD_SERIES_NODES
 
 # The velocity components: axis, the variable name used when no standard_name matches, and

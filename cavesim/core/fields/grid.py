@@ -4,9 +4,9 @@ Data flow: the scene loader gives a `Field`; `build_series` turns it into a `Fie
 once per scene: one `FieldGrid` for a steady field (an analytic model evaluated at the
 nodes, or a file checked at the door), or one per snapshot of a time series. The GL engine
 uploads `series.texels().tobytes()` as a 3-component 3D texture (the nodes, or for a cubic
-interpolation the texels of `cavesim.core.interpolation`; a series' snapshots stacked along
+interpolation the texels of `cavesim.core.fields.interpolation`; a series' snapshots stacked along
 z), and every frame the drag stage samples it. `sample_field` is the numpy twin of that
-shader lookup on one snapshot; `cavesim.core.field_time` says how snapshots mix in time.
+shader lookup on one snapshot; `cavesim.core.fields.snapshot_time` says how snapshots mix in time.
 """
 
 from __future__ import annotations
@@ -19,7 +19,11 @@ from pathlib import Path
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from cavesim.core._grids import (
+from cavesim.core.errors import FieldError
+from cavesim.core.fields.analytic import MODELS, rotating_velocity
+from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
+from cavesim.core.fields.interpolation import is_cubic, texels, weights
+from cavesim.core.fields.regular_grid import (
     cells,
     check_box,
     corner_of,
@@ -29,10 +33,6 @@ from cavesim.core._grids import (
     npz_times,
     read_npz,
 )
-from cavesim.core.errors import FieldError
-from cavesim.core.field_files import FLOW_FILE_SUFFIXES, read_flow_file
-from cavesim.core.flows import MODELS, rotating_velocity
-from cavesim.core.interpolation import is_cubic, texels, weights
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
 from cavesim.core.scene.model import Field, FieldInterpolation, FieldKind, OutOfDomain
 
@@ -195,7 +195,7 @@ def sample_field(grid: FieldGrid, points, out_of_domain: OutOfDomain,
               mix(mix(c100, c101, tx), mix(c110, c111, tx), ty), tz).
     CATMULL_ROM, BSPLINE: v = sum over a, b, c in 0..3 of
       wz[c] · wy[b] · wx[a] · texels[i0z + c, i0y + b, i0x + a]
-    with the weights and texels of `cavesim.core.interpolation`.
+    with the weights and texels of `cavesim.core.fields.interpolation`.
     CLAMP: as above (outside the box, the flow of the nearest boundary point).
     ZERO: 0 where p lies outside the closed box on any axis, else as above.
     A point with a NaN coordinate gives NaN.
