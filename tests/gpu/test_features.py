@@ -194,7 +194,7 @@ def test_a_uniform_the_source_never_declares_is_an_error_not_skipped(ctx):
     ("OUT_OF_DOMAIN_", OUT_OF_DOMAIN_IDS), ("SAMPLING_", SAMPLING_IDS),
     ("INTERPOLATION_", INTERPOLATION_IDS)])
 def test_feature_ids_are_the_same_on_both_sides(prefix, ids):
-    physics = (SHADER_ROOT / "include" / "physics.glsl").read_text()
+    physics = (SHADER_ROOT / "include" / "feature_ids.glsl").read_text()
     glsl = {name: int(value) for name, value
             in re.findall(rf"#define {prefix}(\w+) (\d+)", physics)}
     python = {("NONE" if key is None else key.name): value for key, value in ids.items()}
