@@ -25,7 +25,6 @@ MAX_PARAMS = 32
 _FIELDS = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
 # then n float32 parameters, then (in a layout with events) one byte of the frame's events:
 RESET = 0x01  # every node goes back to the scene's start state before it steps this frame
-EVENTS_SINCE = 11  # the wire version that added the events byte; older frames have none
 _CONTROL_TAIL = struct.Struct("<16sQB")  # a digest (RESYNC, WELCOME), nonce and engine
 # (WELCOME)
 _ENGINE_CODES = {None: 0, Engine.GS_TF: 1, Engine.COMPUTE: 2}  # a WELCOME's engine byte
@@ -149,12 +148,6 @@ def read_frame_fields(layout: FrameLayout, frame: int, data: bytes) -> FrameMess
     return FrameMessage(frame, inputs, WandState(wand[:3], wand[3:], buttons, axes),
                         tuple(params.tolist()), HeadState(head[:3], head[3:]),
                         bool(events & RESET))
-
-
-def frame_payload_of(version: int, payload: bytes) -> bytes:
-    """A frame payload of wire `version` in this build's layout: a frame older than
-    EVENTS_SINCE (a frame log's) had no events byte, and none happened."""
-    return payload + bytes(1) if version < EVENTS_SINCE else payload
 
 
 def write_control(m: ControlMessage) -> bytes:
