@@ -24,8 +24,6 @@ from cavesim.core.framelog.log_file import (
     CORRUPT,
     FORMAT,
     FRAME_LOG,
-    READERS,
-    SYNC_SECONDS,
     TORN,
     Damage,
     FrameLogError,
@@ -35,6 +33,5 @@ from cavesim.core.framelog.log_file import (
 )
 from cavesim.core.framelog.version4 import VERSION, LoggedFrame
 
-__all__ = ["CORRUPT", "FORMAT", "FRAME_LOG", "READERS", "SYNC_SECONDS", "TORN", "VERSION",
-           "Damage", "FrameLogError", "FrameLogWriter", "LoggedFrame", "LoggedFrames",
-           "read_frame_log"]
+__all__ = ["CORRUPT", "FORMAT", "FRAME_LOG", "TORN", "VERSION", "Damage", "FrameLogError",
+           "FrameLogWriter", "LoggedFrame", "LoggedFrames", "read_frame_log"]
