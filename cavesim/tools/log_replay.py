@@ -1,10 +1,12 @@
 """Replaying a frame log on one engine: every recorded checksum must come back bit for bit.
 
 The replay takes the log's whole records and stops where it is torn or corrupt (every
-frame depends on the ones before); `damage` says where. The scene must be the run's: its
-digest (`cavesim.core.scene.digest`) must be the one the log's header names. A scene given
-by hand overrides that check, with a warning; a log written before headers named the
-digest is replayed with a warning that nothing could be checked.
+frame depends on the ones before); `damage` says where. A log of any version the frame log
+reads (4, or 3 from before the log had a record layout of its own) replays the same way.
+The scene must be the run's: its digest (`cavesim.core.scene.digest`) must be the one the
+log's header names. A scene given by hand overrides that check, with a warning; a log
+written before headers named the digest is replayed with a warning that nothing could be
+checked.
 """
 
 from __future__ import annotations

@@ -14,13 +14,21 @@ import pytest
 
 from cavesim.core.drivers import driver_for
 from cavesim.core.errors import OutputError
-from cavesim.core.framelog import CORRUPT, TORN, Damage, FrameLogWriter, read_frame_log
+from cavesim.core.framelog import (
+    CORRUPT,
+    TORN,
+    Damage,
+    FrameLogError,
+    FrameLogWriter,
+    read_frame_log,
+)
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene
 from cavesim.core.wire import FrameMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.log_replay import replay
 from nodes import cli
+from nodes.arguments import USAGE_ERROR
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.master.process import MasterConfig
 
@@ -52,7 +60,7 @@ def write_log(path: Path, frames: int = FRAMES) -> bytes:
 def test_a_whole_log_reads_back_every_frame(tmp_path):
     write_log(tmp_path / "frames.log")
     header, frames = read_frame_log(tmp_path / "frames.log")
-    assert header["version"] == 3 and frames.damage is None and len(frames) == FRAMES
+    assert header["version"] == 4 and frames.damage is None and len(frames) == FRAMES
     assert [(f.message.frame, f.digest, f.particles) for f in frames] == \
         [(k, f"{k:032x}", 100 * k) for k in range(1, FRAMES + 1)]
 
@@ -101,12 +109,27 @@ def test_a_flipped_byte_in_a_middle_record_is_found_and_nothing_after_it_is_read
 
 @pytest.mark.parametrize(("content", "message"), [
     (b"", "not a cavesim frame log"), (b'{"format": "cavesim-frame-l', "not a cavesim frame log"),
-    (b'{"format": "cavesim-frame-log", "version": 1, "session": "t"}\n', "version 1, expected"),
+    (b'{"format": "cavesim-frame-log", "version": 1, "session": "t"}\n',
+     "version 1; this build reads versions 3 and 4"),
+    (b'{"format": "cavesim-frame-log", "version": 2, "session": "t"}\n',
+     "version 2; this build reads versions 3 and 4"),
 ])
-def test_a_file_that_is_no_version_2_log_is_refused_by_name(tmp_path, content, message):
+def test_a_file_that_is_no_log_this_build_reads_is_refused_by_name(tmp_path, content,
+                                                                   message):
     (tmp_path / "frames.log").write_bytes(content)
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(FrameLogError, match=message):
         read_frame_log(tmp_path / "frames.log")
+
+
+@pytest.mark.parametrize("command", ["replay", "render"])
+def test_replay_and_render_refuse_a_version_2_log_in_one_line(tmp_path, capsys, command):
+    log = tmp_path / "frames.log"
+    log.write_bytes(b'{"format": "cavesim-frame-log", "version": 2, "session": "t"}\n')
+    assert cli.main([command, str(log), "--scene", str(MINIMAL)]) == USAGE_ERROR
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line == (f"cavesim {command}: error: argument log: {log}: cavesim-frame-log "
+                    f"version 2; this build reads versions 3 and 4 (a version 1 or 2 log is "
+                    f"replayed by the build that wrote it)")
 
 
 def test_a_full_disk_is_an_output_error_naming_the_log():

@@ -64,10 +64,8 @@ VERSION = 12  # 2: frames carry the head pose; 3: snapshots stream as a header a
 # reset), and a tracking message may carry the preview's session controls (pause, reset, quit);
 # 12: it counts its adaptive tracers' substeps (frames as in 11)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
-# the versions whose frame message (kind, header and payload) this build reads, those before
-# 11 without the events byte (from_master.frame_payload_of): a frame log recorded by any of
-# them replays (on the wire, only VERSION is spoken)
-FRAME_VERSIONS = (4, 5, 6, 7, 8, 9, 10, 11, VERSION)
+# Only VERSION is spoken or read. A frame log keeps its frames in layouts of its own and
+# reads its older records itself (cavesim.core.framelog), so VERSION moves without it.
 SIGNATURE_BYTES = 32
 SIGNED, MASTER_SIGNED, MEMBER_SIGNED = 0x01, 0x02, 0x04
 
@@ -189,15 +187,13 @@ def encode(message: Message, session: str, credentials: Credentials | None = Non
     return data + _signature(credentials.secret, data)
 
 
-def decode(data: bytes, session: str, credentials: Credentials | None = None,
-           versions: tuple[int, ...] = (VERSION,)) -> Message:
-    """Check and parse one message of `session` in one of `versions`; ProtocolError names
-    what is wrong."""
-    return decode_envelope(data, session, credentials, versions).message
+def decode(data: bytes, session: str, credentials: Credentials | None = None) -> Message:
+    """Check and parse one message of `session`; ProtocolError names what is wrong."""
+    return decode_envelope(data, session, credentials).message
 
 
-def decode_envelope(data: bytes, session: str, credentials: Credentials | None = None,
-                    versions: tuple[int, ...] = (VERSION,)) -> Envelope:
+def decode_envelope(data: bytes, session: str,
+                    credentials: Credentials | None = None) -> Envelope:
     """Check and parse one message of `session`, keeping its run id; ProtocolError names
     what is wrong. With credentials, every message must carry the session's HMAC and the
     master's kinds the master's signature; a member's card and signature must verify."""
@@ -207,9 +203,8 @@ def decode_envelope(data: bytes, session: str, credentials: Credentials | None =
     magic, version, kind, flags, reserved, sid, run_id, frame, length = HEADER.unpack_from(data)
     if magic != MAGIC:
         raise ProtocolError("bad-magic", f"starts with {magic!r}, expected {MAGIC!r}")
-    if version not in versions:
-        raise ProtocolError("bad-version", f"version {version}, this build reads "
-                                           f"{', '.join(map(str, versions))}")
+    if version != VERSION:
+        raise ProtocolError("bad-version", f"version {version}, this build speaks {VERSION}")
     if kind not in Kind.__members__.values():
         raise ProtocolError("bad-kind", f"kind {kind}, expected one of {[k.value for k in Kind]}")
     if sid != session_id(session):
@@ -253,8 +248,6 @@ def decode_envelope(data: bytes, session: str, credentials: Credentials | None =
     elif flags:
         raise ProtocolError("unexpected-signature", "signed message, but the session has no key")
     payload = data[HEADER.size:HEADER.size + length]
-    if kind == Kind.FRAME:
-        payload = from_master.frame_payload_of(version, payload)
     return Envelope(_PAYLOADS[Kind(kind)].read(frame, payload), run_id, signer,
                     credentials is not None)
 

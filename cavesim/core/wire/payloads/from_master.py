@@ -1,5 +1,9 @@
 """What only the master sends, under its own signature: a frame's inputs, a command
-(resync, stop, swap, welcome), and its question to a node about its GPU."""
+(resync, stop, swap, welcome), and its question to a node about its GPU.
+
+A frame's fields are written and read by one codec that speaks a named `FrameLayout`: the
+wire speaks `WIRE_FRAME`, and the frame log (`cavesim.core.framelog`) names layouts of its
+own, so that the wire's frame can move on without changing what a log writes or reads."""
 
 from __future__ import annotations
 
@@ -18,10 +22,9 @@ from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_na
 from cavesim.core.wire.payloads.poses import HeadState, WandState
 
 MAX_PARAMS = 32
-_FRAME = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
-# then n float32 parameters, then one byte of the frame's events:
+_FIELDS = struct.Struct("<I9f3f4f3f4fI4fH")  # dt bits, matrix, head, wand, buttons, axes, n
+# then n float32 parameters, then (in a layout with events) one byte of the frame's events:
 RESET = 0x01  # every node goes back to the scene's start state before it steps this frame
-EVENTS_SINCE = 11  # the wire version that added the events byte; older frames have none
 _CONTROL_TAIL = struct.Struct("<16sQB")  # a digest (RESYNC, WELCOME), nonce and engine
 # (WELCOME)
 _ENGINE_CODES = {None: 0, Engine.GS_TF: 1, Engine.COMPUTE: 2}  # a WELCOME's engine byte
@@ -48,6 +51,26 @@ class FrameMessage:
 
 
 @dataclass(frozen=True)
+class FrameLayout:
+    """A named byte layout of a frame message's fields, all but its number (which the wire
+    carries in its header and a frame log in its record): dt as float32 bits, the
+    random-texture matrix, head, wand, buttons, axes, the parameter count and the
+    parameters, then, `events` or not, a byte of the frame's events.
+
+    Whoever writes frames names the layout it speaks, and reads only its own: the wire
+    `WIRE_FRAME`, the frame log each of its versions' (`cavesim.core.framelog`). A change of
+    the wire's frame is a new option here (a field without a default, so that every layout
+    states it) that `WIRE_FRAME` takes up; every other layout, and so every log, keeps its
+    bytes."""
+
+    name: str  # what a reader's error calls it
+    events: bool  # ends in a byte of events (RESET); frames of wire versions 4-10 did not
+
+
+WIRE_FRAME = FrameLayout("frame payload", events=True)  # the wire's, since version 11
+
+
+@dataclass(frozen=True)
 class ControlMessage:
     frame: int
     command: Command
@@ -69,8 +92,19 @@ class InfoRequest:
 
 
 def write_frame(m: FrameMessage) -> bytes:
+    return write_frame_fields(WIRE_FRAME, m)
+
+
+def read_frame(frame: int, payload: bytes) -> FrameMessage:
+    return read_frame_fields(WIRE_FRAME, frame, payload)
+
+
+def write_frame_fields(layout: FrameLayout, m: FrameMessage) -> bytes:
+    """`m`'s fields (not its number) in `layout`; ValueError if they do not fit it."""
     if len(m.params) > MAX_PARAMS:
         raise ValueError(f"at most {MAX_PARAMS} scene parameters, got {len(m.params)}")
+    if m.reset and not layout.events:
+        raise ValueError(f"a {layout.name} has no events byte: it cannot carry a reset")
     w, h = m.wand, m.head
     values = np.array([*h.position, *h.orientation, *w.position, *w.orientation, *w.axes,
                        *m.params], dtype=np.float64)
@@ -78,29 +112,33 @@ def write_frame(m: FrameMessage) -> bytes:
         raise ValueError(f"head, wand and scene parameters must be finite float32 values, "
                          f"got {h}, {w} and {m.params}")
     dt_bits = int(np.float32(m.inputs.dt).view(np.uint32))
-    body = _FRAME.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *h.position,
-                       *h.orientation, *w.position, *w.orientation, w.buttons, *w.axes,
-                       len(m.params))
-    return body + np.asarray(m.params, dtype="<f4").tobytes() + bytes([RESET * m.reset])
+    body = _FIELDS.pack(dt_bits, *m.inputs.random_transform.ravel().tolist(), *h.position,
+                        *h.orientation, *w.position, *w.orientation, w.buttons, *w.axes,
+                        len(m.params))
+    events = bytes([RESET * m.reset]) if layout.events else b""
+    return body + np.asarray(m.params, dtype="<f4").tobytes() + events
 
 
-def read_frame(frame: int, payload: bytes) -> FrameMessage:
-    if len(payload) < _FRAME.size:
-        raise ProtocolError("bad-payload", f"frame payload of {len(payload)} bytes is too short")
-    values = _FRAME.unpack_from(payload)
-    count = values[-1]
-    if count > MAX_PARAMS or len(payload) != _FRAME.size + 4 * count + 1:
-        raise ProtocolError("bad-payload", f"frame announces {count} parameters in a payload "
-                                           f"of {len(payload)} bytes (at most {MAX_PARAMS}, "
-                                           f"then one byte of events)")
-    events = payload[-1]
+def read_frame_fields(layout: FrameLayout, frame: int, data: bytes) -> FrameMessage:
+    """The frame message numbered `frame` whose fields `data` holds in `layout`, all of
+    `data`; ProtocolError names what is wrong."""
+    if len(data) < _FIELDS.size:
+        raise ProtocolError("bad-payload", f"{layout.name} of {len(data)} bytes is too short "
+                                           f"(at least {_FIELDS.size})")
+    values = _FIELDS.unpack_from(data)
+    count, tail = values[-1], 1 if layout.events else 0
+    if count > MAX_PARAMS or len(data) != _FIELDS.size + 4 * count + tail:
+        then = ", then one byte of events" if layout.events else ""
+        raise ProtocolError("bad-payload", f"{layout.name} announces {count} parameters in "
+                                           f"{len(data)} bytes (at most {MAX_PARAMS}{then})")
+    events = data[-1] if layout.events else 0
     if events & ~RESET:
         raise ProtocolError("bad-value", f"frame events {events:#04x}: only {RESET:#04x} "
                                          f"(reset) is defined")
     dt = np.array([values[0]], dtype=np.uint32).view(np.float32)[0]
     matrix = np.array(values[1:10], dtype=np.float32).reshape(3, 3)
     head, wand, buttons, axes = values[10:17], values[17:24], values[24], values[25:29]
-    params = np.frombuffer(payload, dtype="<f4", offset=_FRAME.size, count=count)
+    params = np.frombuffer(data, dtype="<f4", offset=_FIELDS.size, count=count)
     if not all(math.isfinite(v) for v in (*head, *wand, *axes, *params.tolist())):
         raise ProtocolError("bad-value", "head, wand and scene parameters must be finite")
     try:
@@ -110,12 +148,6 @@ def read_frame(frame: int, payload: bytes) -> FrameMessage:
     return FrameMessage(frame, inputs, WandState(wand[:3], wand[3:], buttons, axes),
                         tuple(params.tolist()), HeadState(head[:3], head[3:]),
                         bool(events & RESET))
-
-
-def frame_payload_of(version: int, payload: bytes) -> bytes:
-    """A frame payload of wire `version` in this build's layout: a frame older than
-    EVENTS_SINCE (a frame log's) had no events byte, and none happened."""
-    return payload + bytes(1) if version < EVENTS_SINCE else payload
 
 
 def write_control(m: ControlMessage) -> bytes:

@@ -1,12 +1,11 @@
-"""The master's frame log: every frame's inputs and the checksum the cluster agreed on.
-
-A JSON header line, then one record per frame, appended as the frame is agreed:
+"""The frame log's file: a JSON header line, then one checked record per frame, appended by
+the master as each frame is agreed and read back by a replay.
 
     u32 payload size | u32 CRC32 of those 4 bytes | payload | u32 CRC32 of the payload
-    payload = the frame message (as sent, unsigned) | 16-byte agreed digest | u32 live count
 
-`cavesim replay` steps one engine through the inputs and must reproduce every digest bit
-for bit. The size has a check of its own so that a damaged size is told from a torn tail.
+The payload is a record of the version the header line names (READERS): this build writes
+version 4 (version4.py) and reads 3 as well (_version3.py). The size has a check of its own
+so that a damaged size is told from a torn tail.
 
 Crash safety. Each record is flushed to the kernel as it is written, so a crash or SIGKILL
 of the master loses nothing that was appended. A power loss can still take what the
@@ -16,15 +15,8 @@ against 2-4 us for the flush: up to a whole frame of a 1,000 frames/s run; once 
 second it is under 0.1%. A reader takes every whole record whose checks pass and stops at
 the first that is not (`Damage`): a torn tail (the writer stopped inside a record: a
 crash, a full disk) or a corrupt record; nothing after it is read, as every frame
-depends on the ones before.
-
-The header names the session, the scene's path and its digest (`scene_digest`, of its
-content: `cavesim.core.scene.digest`), the walls and the clock's seed, and the run's
-planned frames and nominal dt (which fix a replay's trajectory selection); a log written
-before the digest was added has none, and a replay says so.
-
-Version 2 added the checks; version 1 logs are refused, not read: they are
-replayed by the build that wrote them (the wire format they hold changes with builds too).
+depends on the ones before. A whole record that does not parse (a writer's bug, not
+damage) is a `FrameLogError` naming its byte, raised when it is reached.
 """
 
 from __future__ import annotations
@@ -33,30 +25,32 @@ import json
 import os
 import struct
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from zlib import crc32
 
+from cavesim.core.errors import CavesimError
+from cavesim.core.framelog import _version3, version4
+from cavesim.core.framelog.version4 import VERSION, LoggedFrame
 from cavesim.core.output import writing
-from cavesim.core.wire import FrameMessage, decode, encode
-from cavesim.core.wire.envelope import FRAME_VERSIONS
+from cavesim.core.wire import FrameMessage
 
 FRAME_LOG = "frames.log"  # the name a run gives its frame log, in its folder
 
 FORMAT = "cavesim-frame-log"
-VERSION = 3  # 3: digests of records that keep the position's low part (position.py)
+# how each version's records read, given the header line; versions 1 and 2 are refused
+# (they are replayed by the build that wrote them)
+READERS: dict[int, Callable[[dict], Callable[[bytes], LoggedFrame]]] = {
+    _version3.VERSION: _version3.record_reader, VERSION: version4.record_reader}
 SYNC_SECONDS = 1.0  # most time between fsyncs: what a power loss may take
 TORN, CORRUPT = "torn", "corrupt"
 _U32 = struct.Struct("<I")  # a payload size or a CRC32
-_TAIL = struct.Struct("<16sI")  # the agreed digest and live particle count
 
 
-@dataclass(frozen=True)
-class LoggedFrame:
-    message: FrameMessage
-    digest: str
-    particles: int
+class FrameLogError(CavesimError, ValueError):
+    """A file this build does not read as a frame log: no header line, another format or
+    version, or a whole record that does not parse; names the file (and the record)."""
 
 
 @dataclass(frozen=True)
@@ -82,20 +76,24 @@ class Damage:
 
 
 class FrameLogWriter:
-    """Appends one checked record per frame; an OSError is an OutputError naming the file."""
+    """Appends one checked record of version 4 per frame; an OSError is an OutputError
+    naming the file. The header line's format and version are the writer's: a `header`
+    copied from another log keeps only its other keys."""
 
     def __init__(self, path: Path, header: dict) -> None:
         self.path = Path(path)
-        self.session = header["session"]
-        line = json.dumps({"format": FORMAT, "version": VERSION, **header}) + "\n"
+        fields = {"format": FORMAT, "version": VERSION}
+        fields.update((key, value) for key, value in header.items() if key not in fields)
         with writing(self.path):
             self._file = open(self.path, "wb")  # noqa: SIM115 - closed by close()
-            self._file.write(line.encode())
+            self._file.write(json.dumps(fields).encode() + b"\n")
             self._file.flush()
         self._synced = time.monotonic()
 
     def append(self, message: FrameMessage, digest: str, particles: int) -> None:
-        payload = encode(message, self.session) + _TAIL.pack(bytes.fromhex(digest), particles)
+        """Append the frame and what the walls agreed on after it; ValueError names a value
+        the record cannot hold."""
+        payload = version4.write_record(message, digest, particles)
         size = _U32.pack(len(payload))
         with writing(self.path):
             self._file.write(size + _U32.pack(crc32(size)) + payload + _U32.pack(crc32(payload)))
@@ -118,14 +116,16 @@ class FrameLogWriter:
 
 
 class LoggedFrames:
-    """The whole, checked records of a frame log, decoded as they are iterated; `damage`
-    says where the rest, if any, stops being readable."""
+    """The whole, checked records of a frame log, read as they are iterated (FrameLogError
+    at one that does not parse); `damage` says where the rest, if any, stops being
+    readable."""
 
-    def __init__(self, data: bytes, spans: list[tuple[int, int]], session: str,
-                 damage: Damage | None) -> None:
+    def __init__(self, path: Path, data: bytes, spans: list[tuple[int, int]],
+                 read: Callable[[bytes], LoggedFrame], damage: Damage | None) -> None:
+        self._path = path
         self._data = data
         self._spans = spans  # each record's payload: [start, end)
-        self._session = session
+        self._read = read
         self.damage = damage
 
     def __len__(self) -> int:
@@ -133,14 +133,17 @@ class LoggedFrames:
 
     def __iter__(self) -> Iterator[LoggedFrame]:
         for start, end in self._spans:
-            digest, particles = _TAIL.unpack_from(self._data, end - _TAIL.size)
-            frame = decode(self._data[start:end - _TAIL.size], self._session,
-                           versions=FRAME_VERSIONS)
-            yield LoggedFrame(frame, digest.hex(), particles)
+            try:
+                logged = self._read(self._data[start:end])
+            except ValueError as e:
+                raise FrameLogError(f"{self._path}: the record at byte {start - 2 * _U32.size} "
+                                    f"passes its checks but does not read: {e}") from e
+            yield logged
 
 
 def read_frame_log(path: Path) -> tuple[dict, LoggedFrames]:
-    """The header and the whole records; ValueError if the file is no version-2 frame log."""
+    """The header and the whole records; FrameLogError if the file is no frame log of a
+    version this build reads."""
     data = Path(path).read_bytes()
     end = data.find(b"\n")
     try:
@@ -148,12 +151,20 @@ def read_frame_log(path: Path) -> tuple[dict, LoggedFrames]:
     except ValueError:
         header = None
     if not isinstance(header, dict):
-        raise ValueError(f"{path}: not a cavesim frame log (no JSON header line)")
-    if header.get("format") != FORMAT or header.get("version") != VERSION:
-        raise ValueError(f"{path}: format {header.get('format')!r} version "
-                         f"{header.get('version')!r}, expected {FORMAT!r} {VERSION}")
+        raise FrameLogError(f"{path}: not a cavesim frame log (no JSON header line)")
+    if header.get("format") != FORMAT:
+        raise FrameLogError(f"{path}: format {header.get('format')!r}, expected {FORMAT!r}")
+    version = header.get("version")
+    if type(version) is not int or version not in READERS:
+        raise FrameLogError(f"{path}: {FORMAT} version {version!r}; this build reads versions "
+                            f"{' and '.join(map(str, READERS))} (a version 1 or 2 log is "
+                            f"replayed by the build that wrote it)")
+    try:
+        read = READERS[version](header)
+    except ValueError as e:
+        raise FrameLogError(f"{path}: {e}") from e
     spans, damage = _scan(data, end + 1)
-    return header, LoggedFrames(data, spans, header["session"], damage)
+    return header, LoggedFrames(Path(path), data, spans, read, damage)
 
 
 def _scan(data: bytes, offset: int) -> tuple[list[tuple[int, int]], Damage | None]:
