@@ -1,18 +1,24 @@
 """A scene far from the world's origin keeps the float32 floor of one at it: `[simulation]
 origin` takes the scene's own origin from every coordinate it holds
-(cavesim.core.scene.origin), so the GPU steps the same bytes as for the scene at 0."""
+(cavesim.core.scene.origin), so the GPU steps the same bytes as for the scene at 0. A flow
+file's grid moves with it (tests/unit/test_scene_flow_files.py holds the twins to it)."""
 
 import copy
+import dataclasses
 
 import numpy as np
 import pytest
+from far_fields import FORMATS, expected_positions, far_scene, tracers, write_far_field
 from scenes import FOUNTAIN, scene_dict
 
+from cavesim.core.digest.twin import reference_checksum
 from cavesim.core.fields.heights import HeightGrid, load_heightfield, save_heightfield
 from cavesim.core.frame import FrameInput
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
+from cavesim.core.scene.model import ENGINE_PATHS
 from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.kernels import PORTABLE
 from cavesim.gpu.engine import ParticleSystem
 
 OUT = (5000.0, -3000.0, 100.0)  # m: where the scene lies in the world
@@ -100,3 +106,53 @@ def test_particles_5_km_out_keep_the_float32_floor_only_with_the_origin(ctx, ori
     floor = float(np.sqrt(np.mean(np.sum((moved - twin.particles.pos) ** 2, axis=1))))
     gpu.release()
     assert (floor <= FLOOR) is within_floor, floor
+
+
+FILE_FRAMES, FILE_DT = 60, np.float32(1 / 60)
+
+
+@pytest.mark.parametrize("engine", ENGINE_PATHS)
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_a_flow_file_5_km_out_carries_tracers_where_it_lies_on_both_paths(ctx, tmp_path,
+                                                                          suffix, engine):
+    """A .nc, .vti or .npz grid in world coordinates, the scene's origin at its centre: the
+    tracers move in its flow at their place (2 m/s at the centre), not still."""
+    data = far_scene(write_far_field(tmp_path, suffix), engine=engine.value)
+    gpu = ParticleSystem(ctx, parse_scene(data, name="far"))
+    start = tracers(64)
+    gpu.write_particles(start)
+    for _ in range(FILE_FRAMES):
+        gpu.step(FrameInput(FILE_DT, IDENTITY))
+    moved = gpu.read_particles()["pos"].astype(np.float64)
+    gpu.release()
+    np.testing.assert_allclose(moved, expected_positions(start["pos"],
+                                                         FILE_FRAMES * float(FILE_DT)),
+                               rtol=0, atol=1e-5)
+
+
+@pytest.mark.parametrize("suffix", FORMATS)
+def test_a_flow_file_5_km_out_in_portable_arithmetic_gives_the_twins_bits(ctx, tmp_path,
+                                                                          suffix):
+    """Both engine paths step the portable twin's bits every frame, and the twin's tracers
+    end where the file's flow carries them."""
+    scene = parse_scene(far_scene(write_far_field(tmp_path, suffix), arithmetic="portable"),
+                        name="far")
+    twin = TwinSystem(scene)
+    assert twin.kernels is PORTABLE
+    gpus = {engine: ParticleSystem(ctx, dataclasses.replace(scene, engine=engine))
+            for engine in ENGINE_PATHS}
+    start = tracers(64)
+    for system in (twin, *gpus.values()):
+        system.write_particles(start)
+    for frame in range(1, FILE_FRAMES + 1):
+        inputs = FrameInput(FILE_DT, IDENTITY)
+        twin.step(inputs)
+        expected = reference_checksum(twin.particles.records().view(np.uint32),
+                                      twin.emitters.view(np.uint32), scene.seed)
+        for engine, gpu in gpus.items():
+            gpu.step(inputs)
+            assert gpu.checksum() == expected, f"frame {frame}, {engine.value} path"
+    for gpu in gpus.values():
+        gpu.release()
+    np.testing.assert_allclose(twin.particles.pos, expected_positions(
+        start["pos"], FILE_FRAMES * float(FILE_DT)), rtol=0, atol=1e-5)

@@ -261,9 +261,6 @@ WITH_NAN[2, 0, 0, 2] = np.inf
     ({"velocity": np.zeros((2, 2, 257, 3), np.float32)}, ["'velocity'", "257", "256"]),
     ({"velocity": np.zeros((1, 2, 2, 3), np.float32)}, ["'velocity'", "(1, 2, 2, 3)"]),
     ({"speed": GOOD}, ["missing array 'velocity'", "'speed'"]),
-    ({"velocity": GOOD, "box_min": np.array([-2.0, -1.5, 0.1])}, ["'box_min'", "0.1", "scene"]),
-    ({"velocity": GOOD, "box_max": np.array([3.0, 2.5])}, ["'box_max'", "(2,)"]),
-    ({"velocity": GOOD, "box_max": np.array([3.0, 2.5, np.nan])}, ["'box_max'", "finite"]),
 ])
 def test_bad_field_files_are_refused(tmp_path, arrays, words):
     path = write_npz(tmp_path / "bad.npz", **arrays)
@@ -273,10 +270,13 @@ def test_bad_field_files_are_refused(tmp_path, arrays, words):
         assert word in str(error.value)
 
 
-def test_field_box_agrees_within_relative_tolerance(tmp_path):
-    path = write_npz(tmp_path / "f.npz", velocity=GOOD, box_min=np.array(BOX_MIN) * (1 + 1e-12),
-                     box_max=np.array(BOX_MAX) + 1e-12)
-    assert build_field(file_field(path)).box_min == BOX_MIN
+def test_a_file_fields_grid_takes_the_fields_box_not_the_files(tmp_path):
+    """The loader reads an .npz's box (tests/unit/test_scene_flow_files.py) and the scene's
+    origin moves it; the grid does not read the file's world box again."""
+    path = write_npz(tmp_path / "f.npz", velocity=GOOD, box_min=np.array(BOX_MIN) + 5000.0,
+                     box_max=np.array(BOX_MAX) + 5000.0)
+    grid = build_field(file_field(path))
+    assert (grid.box_min, grid.box_max) == (BOX_MIN, BOX_MAX)
 
 
 @pytest.mark.parametrize("content, words", [

@@ -12,7 +12,6 @@ shader lookup on one snapshot; `cavesim.core.fields.snapshot_time` says how snap
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,7 +25,6 @@ from cavesim.core.fields.interpolation import is_cubic, texels, weights
 from cavesim.core.fields.regular_grid import (
     cells,
     check_box,
-    corner_of,
     float_grid,
     index_scale,
     mix,
@@ -35,8 +33,6 @@ from cavesim.core.fields.regular_grid import (
 )
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
 from cavesim.core.scene.model import Field, FieldInterpolation, FieldKind, OutOfDomain
-
-_BOX_RTOL = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,7 +140,8 @@ def build_series(field: Field) -> FieldSeries:
                       for t in field.times)
         return FieldSeries(grids, field.times)
     if kind is FieldKind.FILE and field.times is not None:
-        velocity, box_min, box_max, times = _read_flow(field)
+        box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
+        velocity, times = _read_flow(field)
         return FieldSeries(tuple(FieldGrid(v, box_min, box_max, field.interpolation)
                                  for v in velocity), times)
     return FieldSeries((build_field(field),))
@@ -153,7 +150,8 @@ def build_series(field: Field) -> FieldSeries:
 def build_field(field: Field) -> FieldGrid:
     """The grid of a steady field: its file's for FILE, else the analytic model at the nodes.
 
-    For FILE the resolution comes from the file and `field.resolution` is not used.
+    For FILE the resolution comes from the file and `field.resolution` is not used; the box
+    is the field's, as the loader read it and the scene's origin moved it.
     """
     kind = FieldKind(field.kind)
     if field.times is not None:
@@ -161,7 +159,7 @@ def build_field(field: Field) -> FieldGrid:
                          "snapshots; its grids come from build_series")
     box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
     if kind is FieldKind.FILE:
-        velocity, box_min, box_max, times = _read_flow(field)
+        velocity, times = _read_flow(field)
         if len(times) > 1:
             raise FieldError(f"{field.file}: holds {len(times)} snapshots, but the field was "
                              "given as steady (a scene the loader did not read)")
@@ -253,24 +251,27 @@ def save_field(path, grid: FieldGrid) -> None:
                  box_max=np.asarray(grid.box_max))
 
 
-def _read_flow(field: Field) -> tuple[np.ndarray, tuple, tuple, tuple[float, ...]]:
-    """A FILE field's (velocity (nt, nz, ny, nx, 3), box_min, box_max, times)."""
+def _read_flow(field: Field) -> tuple[np.ndarray, tuple[float, ...]]:
+    """A FILE field's velocity (nt, nz, ny, nx, 3) and times.
+
+    Not its box: the loader read that from the file once (or from the scene, for an .npz),
+    and `[simulation] origin` moved it with every other coordinate; the file's own box is
+    in world coordinates.
+    """
     if field.file is None:
         raise FieldError("field of kind 'file' names no file")
     path = Path(field.file)
     if path.suffix.lower() in FLOW_FILE_SUFFIXES:
         flow = read_flow_file(path, field.named_variables, field.velocity_units,
                               field.length_units, field.time_units)
-        return flow.velocity, flow.box_min, flow.box_max, flow.times
-    box_min, box_max = check_box(field.box_min, field.box_max, 3, "field")
-    velocity, times = _load_field_file(path, box_min, box_max)
-    return velocity, box_min, box_max, times
+        return flow.velocity, flow.times
+    return _load_field_file(path)
 
 
-def _load_field_file(path: Path, box_min, box_max) -> tuple[np.ndarray, tuple[float, ...]]:
+def _load_field_file(path: Path) -> tuple[np.ndarray, tuple[float, ...]]:
     """An .npz field's velocity (nt, nz, ny, nx, 3) and times: "velocity" (nz, ny, nx, 3),
     or with "times" (nt,) in seconds a series (nt, nz, ny, nx, 3)."""
-    arrays = read_npz(path, required=("velocity",), optional=("box_min", "box_max", "times"))
+    arrays = read_npz(path, required=("velocity",), optional=("times",))
     if "times" in arrays:
         times = npz_times(path, arrays["times"], arrays["velocity"].shape)
         velocity = np.stack([float_grid(path, f"velocity[{n}]", snapshot, "(nz, ny, nx, 3)",
@@ -280,14 +281,4 @@ def _load_field_file(path: Path, box_min, box_max) -> tuple[np.ndarray, tuple[fl
         times = (0.0,)
         velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
                               FIELD_RESOLUTION_RANGE[1], components=3)[np.newaxis]
-    for name, scene_corner in (("box_min", box_min), ("box_max", box_max)):
-        if name not in arrays:
-            continue
-        file_corner = corner_of(path, name, arrays[name], 3)
-        extents = (b - a for a, b in zip(box_min, box_max, strict=True))
-        if not all(math.isclose(f, s, rel_tol=_BOX_RTOL, abs_tol=_BOX_RTOL * e)
-                   for f, s, e in zip(file_corner, scene_corner, extents, strict=True)):
-            raise FieldError(f"{path}: array {name!r} is {file_corner}, but the scene's field box "
-                             f"has {name} = {scene_corner}; they must agree to 1e-9 relative")
     return velocity, times
-

@@ -1,6 +1,7 @@
 """Reading and checking grids at the file edge, and the cell lookup of trilinear sampling.
 
-Shared by the flow field (fields.py) and the height field (heightfield.py).
+Shared by the flow field (grid.py), the height field (heights.py) and the scene loader,
+which reads an .npz field's times and box.
 """
 
 from __future__ import annotations
@@ -62,6 +63,13 @@ def corner_of(path: Path, name: str, array: np.ndarray, n: int) -> tuple[float, 
         raise FieldError(f"{path}: array {name!r} has shape {array.shape}, dtype {array.dtype} "
                          f"and values {array.ravel()[:8].tolist()!r}, expected {n} finite numbers")
     return tuple(float(v) for v in array)
+
+
+def npz_corners(path: Path, n: int) -> dict[str, tuple[float, ...]]:
+    """The box corners an .npz grid holds: those of its arrays "box_min" and "box_max" it
+    has (n finite numbers each), by name."""
+    arrays = read_npz(path, required=(), optional=("box_min", "box_max"))
+    return {name: corner_of(path, name, array, n) for name, array in arrays.items()}
 
 
 def check_box(box_min, box_max, n: int, what: str) -> tuple[tuple[float, ...], ...]:

@@ -25,7 +25,7 @@ from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
 from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
-from cavesim.core.fields.regular_grid import npz_times
+from cavesim.core.fields.regular_grid import check_box, npz_corners, npz_times
 from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_EMITTERS,
@@ -268,6 +268,7 @@ def _field(t: Table) -> Field:
             for key in FLOW_FILE_KEYS:
                 t.forbid(key, "only allowed with a .nc or .vti file: an .npz is in m, s and m/s")
             given["resolution"], given["times"] = _file_resolution(t, given["file"])
+            given.update(_npz_box(t, given["file"]))
     else:
         for key in ("file", *FLOW_FILE_KEYS):
             t.forbid(key, f'only allowed with kind = "file", not {kind.value!r}')
@@ -316,10 +317,12 @@ def _npy_shape(path: Path, array: str) -> tuple[int, ...]:
 
 FLOW_FILE_KEYS = ("variables", "vector", "velocity_units", "length_units",  # .nc, .vti
                   "time_units")
+NPZ_BOX_RTOL = 1e-9  # how far an .npz's own box may stray from the scene's: of value and extent
 
 
 def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
-    """The resolution and box of a .nc or .vti field, from the file; the scene gives no box."""
+    """The resolution and box of a .nc or .vti field, from the file; the scene gives no box.
+    The box is read here only, in world coordinates, for `[simulation] origin` to move."""
     for key in ("box_min", "box_max"):
         t.forbid(key, f"not allowed with a {path.suffix} file: its coordinates give the box")
     if path.suffix.lower() == ".vti":
@@ -372,3 +375,32 @@ def _file_resolution(t: Table, path: Path
         raise t.bad("file", str(e)) from e
     nz, ny, nx = grid[:3]
     return (nx, ny, nz), seconds
+
+
+def _npz_box(t: Table, path: Path) -> dict[str, tuple[float, ...]]:
+    """The box of an .npz field: box_min and box_max from the scene, else the file's arrays
+    of those names (as `save_field` writes them); given by both, they must agree. Both are
+    world coordinates here: `[simulation] origin` moves the field's box afterwards."""
+    try:
+        held = npz_corners(path, 3)
+    except FieldError as e:
+        raise t.bad("file", str(e)) from e
+    box = {}
+    for key in ("box_min", "box_max"):
+        if not t.has(key) and key not in held:
+            raise t.source.fail(f"{t.sub(key)} is missing: required, a list of 3 finite "
+                                f"numbers, as {path} holds no array {key!r} (which would give it)")
+        box[key] = t.get(key) if t.has(key) else held[key]
+    extents = [abs(b - a) for a, b in zip(box["box_min"], box["box_max"], strict=True)]
+    for key in (k for k in ("box_min", "box_max") if k in held and t.has(k)):
+        if not all(math.isclose(f, s, rel_tol=NPZ_BOX_RTOL, abs_tol=NPZ_BOX_RTOL * e)
+                   for f, s, e in zip(held[key], box[key], extents, strict=True)):
+            raise t.bad(key, f"must agree with {path}'s array {key!r} = {list(held[key])} (to "
+                             f"{NPZ_BOX_RTOL:g} relative, in world coordinates), or be left "
+                             "out: the file gives the box")
+    if any(key in held and not t.has(key) for key in box):
+        try:
+            check_box(box["box_min"], box["box_max"], 3, f"{path}: the field's")
+        except FieldError as e:
+            raise t.bad("file", str(e)) from e
+    return box

@@ -6,9 +6,11 @@ at 500 m at 1/960 s, far more at kilometres). `[simulation] origin` names the wo
 position of the scene's own origin. The scene file keeps world coordinates; the loader
 takes `origin` from every coordinate the scene holds, so the engine, both twins, the
 renderer and the helicopter's flight all work near zero, with the floor of a scene at the
-world's origin. The height field's file is read relative to it too
-(`cavesim.core.fields.heights.load_heightfield`). What is not a coordinate (velocities, the
-wand's room positions, sizes) is left alone; positions in outputs are relative to it.
+world's origin. A flow file's box is the field's, read once by the loader and moved here
+with the rest (its grid takes it: `cavesim.core.fields.grid`); the height field's file is
+read relative to the origin (`cavesim.core.fields.heights.load_heightfield`). What is not a
+coordinate (velocities, the wand's room positions, sizes) is left alone; positions in
+outputs are relative to it.
 """
 
 from __future__ import annotations
