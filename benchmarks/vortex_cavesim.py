@@ -16,7 +16,7 @@ from cavesim.core.position import extended_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import Engine, Scene
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.tools.numerics.solid_body import BOX, solid_body, solid_body_grid
 

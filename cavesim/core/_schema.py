@@ -69,6 +69,14 @@ class Note:
 
 
 @dataclass(frozen=True)
+class Coordinate:
+    """Marks a key that holds a world position, or some of its axes ("xy", "z"): the scene's
+    origin is taken from it (cavesim/core/features/origin.py), whichever table it is in."""
+
+    axes: str = "xyz"
+
+
+@dataclass(frozen=True)
 class Source:
     """Where tables come from: the file errors name, the folder relative paths start from,
     and the error class to raise (SceneError, CaveError)."""

@@ -6,7 +6,7 @@ Schiller & Naumann (1933) fit it as C_D = 24/Re (1 + 0.15 Re^0.687), within abou
 standard drag curve for Re < 800 (Clift, Grace & Weber 1978, "Bubbles, Drops, and
 Particles", table 5.2). The drag is the Stokes drag times f(Re) = 1 + 0.15 Re^0.687, so the
 slip relaxes at the rate f(Re)/tau. Twin of `drag_rate` in shaders/include/physics.glsl;
-the loader gives each class its law (`cavesim.core.scene.drag_choice`) unless the scene
+the loader gives each class its law (`cavesim.core.features.schiller_naumann`) unless the scene
 names one.
 """
 

@@ -12,7 +12,7 @@ from fountain import DT, fountain, steps
 
 from cavesim.core.trajectories import COLUMNS, TrajectoryRecording, TrajectoryRequest, TwinStream
 from cavesim.core.trajectories.columns import METADATA_AT_CLOSE, METADATA_AT_OPEN
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 
 ROOT = Path(__file__).parents[2]
 PAGE = ROOT / "docs/trajectories.md"

@@ -5,7 +5,7 @@ import pytest
 from scenes import FOUNTAIN, make_scene
 
 from cavesim.core.random_texture import draw_transform
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 

@@ -11,7 +11,7 @@ from cavesim.core.fields.grid import FieldGrid, build_field, save_field
 from cavesim.core.fields.heights import HeightGrid, save_heightfield
 from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import FieldSampling, Integrator
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.gpu.gl.filtering import filter_weight_error
 

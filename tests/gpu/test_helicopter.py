@@ -14,7 +14,7 @@ from cavesim.core.helicopter.rotor import ground_effect, induced_velocity, salta
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.scene_frame import NOTHING_MOVES
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 BROWNOUT = load_scene("config/scenes/brownout.toml")

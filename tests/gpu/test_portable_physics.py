@@ -31,8 +31,8 @@ from cavesim.core.record_diff import differences
 from cavesim.core.scene import Arithmetic, Integrator, Scene, parse_scene
 from cavesim.core.scene.model import ENGINE_PATHS
 from cavesim.core.substeps import UNITS, SubstepCounts
-from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.kernels import PORTABLE
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.engine.programs import (
     ARITHMETIC_IDS,

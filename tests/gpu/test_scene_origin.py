@@ -17,8 +17,8 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import ENGINE_PATHS
-from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.kernels import PORTABLE
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import ParticleSystem
 
 OUT = (5000.0, -3000.0, 100.0)  # m: where the scene lies in the world

@@ -20,7 +20,7 @@ from cavesim.core.position import extended_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene
 from cavesim.core.substeps import SubstepCounts
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.numerics.solid_body import BOX, disk, rotated, solid_body, solid_body_grid
 

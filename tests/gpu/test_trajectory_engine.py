@@ -21,7 +21,7 @@ from cavesim.core.trajectories import (
     TwinStream,
     arrow_schema,
 )
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.engine.trajectory_stream import EngineStream
 

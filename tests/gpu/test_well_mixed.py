@@ -9,7 +9,7 @@ concentration in 1 m bins from the ground up to 5 m must stay within TOLERANCE o
 uniform (the bins' counting noise is 1.4%).
 
 It holds because the walk's drift dK/dz meets draws of exactly zero mean: the random
-texture's draws are standardised over the texture (cavesim/core/dispersion.py). Raw, their
+texture's draws are standardised over the texture (cavesim/core/twin/dispersion.py). Raw, their
 mean of some 1e-3 gave a drift sqrt(2 K / h) x 1e-3 that, where K is small near the ground,
 emptied the lowest metre by 8-9 % at 1/60 s and 13-15 % at 1/240 s; now the five bins
 hold 1.002, 1.017, 1.011, 0.988 and 0.997 of uniform at 1/60 s.
@@ -18,9 +18,9 @@ hold 1.002, 1.017, 1.011, 0.988 and 0.997 of uniform at 1/60 s.
 import numpy as np
 import pytest
 
+from cavesim.core.air import KARMAN
 from cavesim.core.fields.grid import FieldGrid, save_field
 from cavesim.core.frame import FrameInput
-from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import parse_scene

@@ -5,7 +5,14 @@ well-mixed tracer well mixed, and the twin spreading tracers at sqrt(2 K t)."""
 import numpy as np
 import pytest
 
-from cavesim.core.dispersion import (
+from cavesim.core.air import KARMAN
+from cavesim.core.fields.grid import FieldGrid, save_field
+from cavesim.core.fields.snapshot_time import START
+from cavesim.core.frame import FrameInput
+from cavesim.core.random_texture import WORDS_PER_TEXEL, draw_transform, random_words
+from cavesim.core.records import PARTICLE_DTYPE
+from cavesim.core.scene import parse_scene
+from cavesim.core.twin.dispersion import (
     SHEAR_STEP,
     TURBULENCE_FLOOR,
     draw_moments,
@@ -16,14 +23,7 @@ from cavesim.core.dispersion import (
     seen_turbulence,
     shear_samples,
 )
-from cavesim.core.fields.grid import FieldGrid, save_field
-from cavesim.core.fields.snapshot_time import START
-from cavesim.core.frame import FrameInput
-from cavesim.core.helicopter.downwash import KARMAN
-from cavesim.core.random_texture import WORDS_PER_TEXEL, draw_transform, random_words
-from cavesim.core.records import PARTICLE_DTYPE
-from cavesim.core.scene import parse_scene
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 
 SIZE = 64
 WORDS = random_words(5, SIZE)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from cavesim.core.drag import STOKES_REYNOLDS_LIMIT, drag_factor, terminal_speed
+from cavesim.core.features.schiller_naumann import chosen_law, flow_scales
 from cavesim.core.fields.snapshot_time import END
 from cavesim.core.scene import (
     AIR_VISCOSITY,
@@ -19,9 +20,8 @@ from cavesim.core.scene import (
     load_scene,
     parse_scene,
 )
-from cavesim.core.scene.drag_choice import chosen_law, flow_scales
-from cavesim.core.twin import INTEGRATORS, TwinSystem
-from cavesim.core.twin.integrators import exponential_weights
+from cavesim.core.twin.integrators import INTEGRATORS, exponential_weights
+from cavesim.core.twin.system import TwinSystem
 
 SAND = ParticleClass("sand", 150e-6, 2650.0)
 AIR = Drag()

@@ -11,7 +11,7 @@ from cavesim.core.frame import FrameInput
 from cavesim.core.limits import MAX_LAUNCH_SPEED, RUNAWAY, SPEED_LIMIT
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Integrator, parse_scene
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.shader_source import SHADER_ROOT
 from cavesim.tools.stability.extremes import busy_scene, busy_scene_data
 

@@ -26,8 +26,8 @@ from cavesim.core.fields.grid import build_series, sample_field
 from cavesim.core.frame import FrameInput
 from cavesim.core.scene import parse_scene
 from cavesim.core.scene.model import OutOfDomain
-from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.kernels import PORTABLE
+from cavesim.core.twin.system import TwinSystem
 
 FIELDS = Path(__file__).parents[2] / "config" / "fields"
 

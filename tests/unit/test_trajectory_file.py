@@ -14,7 +14,7 @@ from cavesim.core.trajectories.columns import METADATA_AT_CLOSE, METADATA_AT_OPE
 from cavesim.core.trajectories.parquet_file import TrajectoryFile
 from cavesim.core.trajectories.recording import TrajectoryRecording, TrajectoryRequest
 from cavesim.core.trajectories.stream import TwinStream
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 
 
 def recorded(tmp_path, frames=30):

@@ -20,8 +20,7 @@ from cavesim.core.trajectories import (
     TwinStream,
     arrow_schema,
 )
-from cavesim.core.twin import TwinSystem
-from cavesim.core.twin.system import TwinParticles
+from cavesim.core.twin.system import TwinParticles, TwinSystem
 
 
 class Truth:

@@ -7,16 +7,3 @@ interpolants and their texels, `snapshot_time.py` where a frame falls between a 
 snapshots, `regular_grid.py` what every regular grid shares (cells, boxes, .npz arrays), and
 `heights.py` a height field's ground.
 """
-
-from cavesim.core.fields.grid import (
-    FieldGrid,
-    FieldSeries,
-    build_field,
-    build_series,
-    outside_box,
-    sample_field,
-    save_field,
-)
-
-__all__ = ["FieldGrid", "FieldSeries", "build_field", "build_series", "outside_box",
-           "sample_field", "save_field"]

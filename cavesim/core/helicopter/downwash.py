@@ -40,10 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.core.air import KARMAN
 from cavesim.core.helicopter.rotor import ground_effect
 from cavesim.core.scene.model import Helicopter
-
-KARMAN = 0.4
 
 # The far wake spreads as a round turbulent jet: half-width 0.094 d (Hussein, Capp &
 # George 1994, J. Fluid Mech. 258; Pope, Turbulent Flows 2000, sec. 5.1). With sigma the

@@ -47,7 +47,7 @@ TWO_PI = _bits(0x40C90FDB)
 SCHILLER_NAUMANN_COEFFICIENT = _bits(0x3E19999A)  # 0.15
 SCHILLER_NAUMANN_EXPONENT = _bits(0x3F2FDF3B)  # 0.687
 
-# dispersion.glsl (cavesim/core/dispersion.py)
+# dispersion.glsl (cavesim/core/twin/dispersion.py)
 KARMAN = _bits(0x3ECCCCCD)  # 0.4
 SHEAR_STEP = _bits(0x3DCCCCCD)  # 0.1
 HALF_SHEAR_STEP = _bits(0x3D4CCCCD)  # 0.05

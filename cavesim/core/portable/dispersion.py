@@ -1,6 +1,6 @@
 """Turbulent dispersion in portable arithmetic: `turbulence_seen` of
 shaders/include/dispersion.glsl, operation by operation in float32 (the model:
-cavesim/core/dispersion.py). Its draws xi are cavesim.core.dispersion.draws in float32:
+cavesim/core/twin/dispersion.py). Its draws xi are cavesim.core.twin.dispersion.draws in float32:
 exact but for the last product by sqrt(3), which numpy rounds as f_mul does.
 """
 

@@ -24,6 +24,7 @@ from numpy.lib import format as npy_format
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
+from cavesim.core.features.schiller_naumann import chosen_law, flow_scales
 from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
 from cavesim.core.fields.regular_grid import check_box, npz_corners, npz_times
 from cavesim.core.limits import (
@@ -35,7 +36,6 @@ from cavesim.core.limits import (
     MAX_RATE,
 )
 from cavesim.core.random_texture import WORDS_PER_TEXEL
-from cavesim.core.scene.drag_choice import chosen_law, flow_scales
 from cavesim.core.scene.file import FIELD_PARAMS, SceneFile
 from cavesim.core.scene.model import (
     Arithmetic,

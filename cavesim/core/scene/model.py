@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Annotated
 
 from cavesim.core._schema import Range, Rule
+from cavesim.core.air import AIR_DENSITY, AIR_VISCOSITY
 from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_DIAMETER,
@@ -28,8 +29,6 @@ from cavesim.core.limits import (
 
 Vec3 = tuple[float, float, float]
 
-AIR_VISCOSITY = 1.81e-5  # Pa·s, dry air at 15 °C
-AIR_DENSITY = 1.225  # kg/m³, dry air at 15 °C and sea level (ISA)
 
 
 class TracerMethod(StrEnum):
@@ -248,7 +247,7 @@ class Drag:
 @dataclass(frozen=True)
 class Dispersion:
     """[forces.dispersion]: turbulent dispersion, a random walk of the flow each particle
-    sees with the eddy diffusivity of Prandtl's mixing length (cavesim.core.dispersion)."""
+    sees with the eddy diffusivity of Prandtl's mixing length (cavesim.core.twin.dispersion)."""
 
     # m: the largest eddies' size, Blackadar's l_inf of l = kappa z / (1 + kappa z / l_inf)
     mixing_length: Annotated[float, Range(gt=0.0, le=1000.0)]

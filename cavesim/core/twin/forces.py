@@ -18,7 +18,7 @@ class ForceModel:
     """a(p, v) = (u(p) + u_t - v) lambda(|u(p) - v|) + g - k v, with each term present only
     if configured: lambda = f(Re)/tau is the drag rate (f = 1 for Stokes particles,
     Schiller-Naumann's 1 + 0.15 Re^0.687 with Re = |u - v| d/nu for the others) and u_t
-    the turbulence a particle sees over the step (cavesim.core.dispersion)."""
+    the turbulence a particle sees over the step (cavesim.core.twin.dispersion)."""
 
     gravity: np.ndarray | None  # (3,)
     damping: float | None  # k, 1/s

@@ -13,7 +13,6 @@ from functools import partial
 
 import numpy as np
 
-from cavesim.core import dispersion
 from cavesim.core.fields.grid import FieldSeries, outside_box, sample_field
 from cavesim.core.fields.regular_grid import mix
 from cavesim.core.fields.snapshot_time import FieldTime, places_in_step
@@ -29,7 +28,7 @@ from cavesim.core.portable.forces import PortableForces
 from cavesim.core.portable.integrators import INTEGRATORS as PORTABLE_INTEGRATORS
 from cavesim.core.portable.tracers import TRACERS as PORTABLE_TRACERS
 from cavesim.core.scene.model import Integrator, TracerMethod
-from cavesim.core.twin import collision, emission
+from cavesim.core.twin import collision, dispersion, emission
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import INTEGRATORS
 from cavesim.core.twin.tracers import TRACERS

@@ -13,7 +13,6 @@ from functools import partial
 
 import numpy as np
 
-from cavesim.core.dispersion import draw_moments, draws
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
 from cavesim.core.fields.grid import FieldSeries, build_series
 from cavesim.core.fields.heights import HeightGrid, load_heightfield
@@ -28,6 +27,7 @@ from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.core.substeps import NO_SUBSTEPS, SubstepCounts
+from cavesim.core.twin.dispersion import draw_moments, draws
 from cavesim.core.twin.emission import emission_order, update_emitters
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.kernels import PORTABLE, Kernels, reference_kernels

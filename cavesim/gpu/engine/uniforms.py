@@ -7,7 +7,6 @@ from collections.abc import Mapping
 import moderngl
 import numpy as np
 
-from cavesim.core.dispersion import draw_moments
 from cavesim.core.errors import ShaderError
 from cavesim.core.fields.grid import FieldSeries
 from cavesim.core.fields.heights import HeightGrid
@@ -16,6 +15,7 @@ from cavesim.core.helicopter.flight import ground_height
 from cavesim.core.helicopter.inputs import FrameRotor
 from cavesim.core.scene.model import CollisionKind, Scene
 from cavesim.core.substeps import stage_nodes, tableau
+from cavesim.core.twin.dispersion import draw_moments
 
 
 def physics_uniforms(scene: Scene, field: FieldSeries | None, ground: HeightGrid | None,

@@ -22,7 +22,7 @@ from cavesim.core.errors import CavesimError
 from cavesim.core.fields.heights import HeightGrid, load_heightfield
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.scene.model import ENGINE_PATHS, Arithmetic, CollisionKind, Engine, Scene
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine.particle_system import ParticleSystem
 from cavesim.tools.bench.figures import SizeFigures
 from cavesim.tools.bench.workload import FRAME_DT, frame_inputs, preload

@@ -25,9 +25,9 @@ import numpy as np
 
 from cavesim.core.fields.analytic import rotating_velocity
 from cavesim.core.scene.model import Integrator
-from cavesim.core.twin import TwinSystem
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.core.twin.system import TwinSystem
 from cavesim.tools.numerics.adaptive import dormand_prince
 from cavesim.tools.numerics.cases import Case
 from cavesim.tools.numerics.solid_body import centripetal, rotated, solid_body

@@ -20,7 +20,7 @@ import numpy as np
 from cavesim.core.errors import CavesimError
 from cavesim.core.position import extended_position
 from cavesim.core.scene.model import Arithmetic, FieldSampling, Integrator, Scene
-from cavesim.core.twin import TwinSystem
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.numerics.cases import Case
 

@@ -23,7 +23,8 @@ import numpy as np
 from cavesim.core.position import extended_position, split_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene.model import Integrator
-from cavesim.core.twin import INTEGRATORS, TwinSystem
+from cavesim.core.twin.integrators import INTEGRATORS
+from cavesim.core.twin.system import TwinSystem
 from cavesim.tools.numerics.cases import Case
 
 

@@ -1,6 +1,6 @@
 // Turbulent dispersion: what a particle sees besides the flow over one step, a random walk
 // drawn from the shared random texture, so every node draws the same numbers. The model
-// and its sources: cavesim/core/dispersion.py (float64 twin); portable twin:
+// and its sources: cavesim/core/twin/dispersion.py (float64 twin); portable twin:
 // cavesim/core/portable/dispersion.py. Included by physics.glsl where HAS_DISPERSION.
 //   K = l sigma, sigma = max(l |du/dz|, 0.1 |u|), l = kappa z / (1 + kappa z / l_inf)
 //   K_p = K lambda / (lambda + sigma / l)                     (the particle's share)
@@ -25,7 +25,7 @@ const float INVERSE_SHEAR_STEP = 10.0;
 // xi of the particle at `index` in the stream: word index & 3 of lattice texel index >> 2
 // (base 0) in this frame's map, three 10-bit fields j, sqrt(3) ((2j + 1)/1024 - 1)
 // (all exact but the last product), standardised over the texture: uniform, zero mean,
-// unit variance (cavesim/core/dispersion.py says why).
+// unit variance (cavesim/core/twin/dispersion.py says why).
 vec3 dispersion_draws(uint index) {
     uint word = random_texel(uvec2(0u), index >> 2u)[index & 3u];
     uvec3 fields = (uvec3(word) >> uvec3(0u, 10u, 20u)) & uvec3(1023u);

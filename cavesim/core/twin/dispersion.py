@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from cavesim.core.air import KARMAN
 from cavesim.core.fields.snapshot_time import START, FlowSampler
-from cavesim.core.helicopter.downwash import KARMAN
 from cavesim.core.random_texture import WORDS_PER_TEXEL, moved_texel
 
 SHEAR_STEP = 0.1  # m: the flow is sampled this far above and below a particle

@@ -1,18 +1,54 @@
-"""Which drag law a particle class gets when its scene names none: the loader's rule.
-
-Schiller-Naumann (cavesim.core.drag) where the class's particle Reynolds number at the slip
-it keeps at the scene's speeds reaches STOKES_REYNOLDS_LIMIT, Stokes below, where it is
-within 5% and cheaper (its code is compiled out of a scene with no such class). The slip
-scale is the larger of the class's settling speed and its lag behind the flow.
+"""Drag beyond Stokes: Schiller & Naumann's law for classes whose particle Reynolds number
+nears one (cavesim/core/drag.py holds the law). A class names its law ([[particle_class]]
+drag), or the loader gives it the one its Reynolds number at the scene's speeds asks for
+(`chosen_law`): Schiller-Naumann where it reaches STOKES_REYNOLDS_LIMIT, Stokes below,
+where it is within 5% and cheaper (its code is compiled out of a scene with no such class).
+It scales drag's rate by 1 + 0.15 Re^0.687 (shaders/include/forces.glsl,
+HAS_SCHILLER_NAUMANN).
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from cavesim.core.drag import STOKES_REYNOLDS_LIMIT, terminal_speed
+from cavesim.core.features.feature import Feature
+from cavesim.core.features.rules import Rule
 from cavesim.core.limits import ROTOR_SPEED_RANGE
 from cavesim.core.scene.model import DragLaw, Field, FieldKind, Helicopter, ParticleClass
+
+
+class SchillerNaumann(Feature):
+    name = "schiller_naumann"
+    keys = ("particle_class.drag",)
+    defines = {"HAS_SCHILLER_NAUMANN": (0, 1)}
+    rules = (Rule("HAS_SCHILLER_NAUMANN", "HAS_DRAG", "particle_class[].drag",
+                  "a drag law acts through forces.drag, which is missing"),)
+
+    def present(self, scene):
+        return any(c.drag is DragLaw.SCHILLER_NAUMANN for c in scene.particle_classes)
+
+    def where(self, scene, key):
+        index = next(i for i, c in enumerate(scene.particle_classes)
+                     if c.drag is DragLaw.SCHILLER_NAUMANN)
+        return f"particle_class[{index}].drag", DragLaw.SCHILLER_NAUMANN.value
+
+    def load(self, scene, random):
+        """d / nu of each class (Re = this × |u - v|), 0 for a Stokes one, float32."""
+        return np.array(scene.reynolds_per_speed(), dtype=np.float32)
+
+    def uniforms(self, scene, data):
+        # four classes to a vec4: (CLASS_COUNT + 3) / 4 of them (shaders/include/forces.glsl)
+        return {"reynolds_per_speed": np.pad(data, (0, -len(data) % 4))}
+
+    def force_terms(self, scene, data, kernels, class_id, state):
+        index = np.minimum(class_id, len(data) - 1)
+        return {"reynolds_per_speed": data[index].astype(kernels.dtype)[:, None]}
+
+
+SCHILLER_NAUMANN = SchillerNaumann()
 
 
 def flow_scales(field: Field | None, helicopter: Helicopter | None) -> tuple[float, float]:

@@ -1,0 +1,96 @@
+"""What a feature requires and excludes, written once, and the three things made from it.
+
+A `Rule` is a condition on the particle pass's defines that needs another:
+`Rule("HAS_TRACERS", "!HAS_DISPERSION", ...)`. Conditions are written as the C preprocessor
+reads them (names, integers, `== != < <= > >=`, `! && ||`, parentheses; a name is a define
+or an id of the table `ids` gives), so the same text
+  - refuses a scene in one line naming its key (`check_scene`, called by the loader),
+  - stops a compile of a combination no scene can make (`glsl_checks`: an `#error` block
+    the assembler pastes into the particle pass),
+  - and tells the shader gate which combinations exist (`holds`).
+Each feature declares its rules (`Feature.rules`); the registry gathers them.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from cavesim.core.errors import SceneError
+
+if TYPE_CHECKING:
+    from cavesim.core.features.feature import Feature
+    from cavesim.core.scene.model import Scene
+
+_TOKEN = re.compile(r"\s*(?:(?P<name>[A-Z_][A-Z0-9_]*)|(?P<number>\d+)"
+                    r"|(?P<operator>==|!=|<=|>=|&&|\|\||[<>!()]))")
+_PYTHON = {"&&": " and ", "||": " or ", "!": " not "}
+
+
+@dataclass(frozen=True)
+class Rule:
+    """`subject` needs `needs`, where `key` (a dotted scene key, `[]` where it is an array's)
+    is what the scene gives: the loader's error names it and ends in `why`."""
+
+    subject: str
+    needs: str
+    key: str
+    why: str
+
+    def broken(self, values: Mapping[str, int]) -> bool:
+        return evaluate(self.subject, values) and not evaluate(self.needs, values)
+
+
+def evaluate(condition: str, values: Mapping[str, int]) -> bool:
+    """The truth of a preprocessor condition where each name has its value in `values`
+    (KeyError names one it does not have)."""
+    python = []
+    position = 0
+    while position < len(condition):
+        match = _TOKEN.match(condition, position)
+        if match is None or match.end() == position:
+            if condition[position:].strip():
+                raise ValueError(f"condition {condition!r}: cannot read from {position}")
+            break
+        position = match.end()
+        if match["name"]:
+            python.append(repr(int(values[match["name"]])))
+        elif match["number"]:
+            python.append(match["number"])
+        else:
+            python.append(_PYTHON.get(match["operator"], match["operator"]))
+    return bool(eval("".join(python), {"__builtins__": {}}))  # noqa: S307 - only numbers
+    # and operators reach it: every token was read above
+
+
+def check_scene(scene: Scene, features: Iterable[Feature], values: Mapping[str, int],
+                source: str) -> None:
+    """SceneError for the first rule the scene's defines `values` break, naming its key."""
+    for feature in features:
+        for rule in feature.rules:
+            if rule.broken(values):
+                key, value = feature.where(scene, rule.key)
+                what = f"{key} = {value!r} is not allowed" if value is not None else key
+                raise SceneError(f"{source}: {what}: {rule.why}")
+
+
+def holds(rules: Iterable[Rule], values: Mapping[str, int]) -> bool:
+    """Whether a combination of defines keeps every rule (one a scene can make)."""
+    return not any(rule.broken(values) for rule in rules)
+
+
+def glsl_checks(rules: Iterable[Rule]) -> str:
+    """The `#error` block of the rules, for the particle pass."""
+    lines = []
+    for rule in rules:
+        lines += [f"#if ({rule.subject}) && !({rule.needs})",
+                  f"#error {_words(rule.subject)} needs {_words(rule.needs)}", "#endif"]
+    return "\n".join(lines) + "\n"
+
+
+def _words(condition: str) -> str:
+    """A condition as an #error's words: the same tokens, written out."""
+    return condition.replace("&&", "and").replace("||", "or").replace("!=", "is not") \
+        .replace("==", "is").replace("!", "not ")
