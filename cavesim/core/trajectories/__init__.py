@@ -11,7 +11,7 @@ from importlib import import_module
 _WHERE = {
     "COLUMNS": "columns", "FILE_NAME": "file_name", "arrow_schema": "columns",
     "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity",
-    "Selection": "selection", "TrajectoryRecorder": "recorder",
+    "Selection": "identity", "TrajectoryRecorder": "recorder",
     "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",
     "ParticleStream": "stream", "TwinStream": "stream",
     "file_metadata": "loading", "read_table": "loading", "to_dataset": "loading",
