@@ -21,7 +21,7 @@ from cavesim.core.errors import CaveError, ContextError, ModelError, SceneError
 from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
-from cavesim.core.trajectories.file_name import FILE_NAME as TRAJECTORIES
+from cavesim.core.trajectories import FILE_NAME as TRAJECTORIES
 from cavesim.core.wire.credentials import Credentials
 from cavesim.tools.reports.run_tables import (
     demo_table,

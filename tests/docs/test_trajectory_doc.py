@@ -11,7 +11,7 @@ from pathlib import Path
 from fountain import DT, fountain, steps
 
 from cavesim.core.trajectories import COLUMNS, TrajectoryRecording, TrajectoryRequest, TwinStream
-from cavesim.core.trajectories.columns import METADATA_AT_CLOSE, METADATA_AT_OPEN
+from cavesim.core.trajectories.parquet_file import METADATA_AT_CLOSE, METADATA_AT_OPEN
 from cavesim.core.twin import TwinSystem
 
 ROOT = Path(__file__).parents[2]

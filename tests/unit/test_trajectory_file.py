@@ -10,8 +10,11 @@ from fountain import DT, fountain, steps
 
 from cavesim.core.errors import OutputError
 from cavesim.core.trajectories import Selection, TrajectoryRecorder, file_metadata
-from cavesim.core.trajectories.columns import METADATA_AT_CLOSE, METADATA_AT_OPEN
-from cavesim.core.trajectories.parquet_file import TrajectoryFile
+from cavesim.core.trajectories.parquet_file import (
+    METADATA_AT_CLOSE,
+    METADATA_AT_OPEN,
+    TrajectoryFile,
+)
 from cavesim.core.trajectories.recording import TrajectoryRecording, TrajectoryRequest
 from cavesim.core.trajectories.stream import TwinStream
 from cavesim.core.twin import TwinSystem

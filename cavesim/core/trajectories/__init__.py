@@ -8,15 +8,16 @@ pyarrow.
 
 from importlib import import_module
 
+FILE_NAME = "trajectories.parquet"  # in a run's or a replay's folder; here: the CLI reads it
+
 _WHERE = {
-    "COLUMNS": "columns", "FILE_NAME": "file_name", "arrow_schema": "columns",
-    "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity",
-    "Selection": "identity", "TrajectoryRecorder": "recorder",
-    "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",
-    "ParticleStream": "stream", "TwinStream": "stream",
-    "file_metadata": "loading", "read_table": "loading", "to_dataset": "loading",
+    "COLUMNS": "parquet_file", "arrow_schema": "parquet_file",
+    "file_metadata": "parquet_file", "read_table": "parquet_file", "to_dataset": "parquet_file",
+    "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity", "Selection": "identity",
+    "TrajectoryRecorder": "recorder", "TrajectoryRecording": "recording",
+    "TrajectoryRequest": "recording", "ParticleStream": "stream", "TwinStream": "stream",
 }
-__all__ = sorted(_WHERE)
+__all__ = sorted([*_WHERE, "FILE_NAME"])
 
 
 def __getattr__(name: str):

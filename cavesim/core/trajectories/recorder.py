@@ -13,8 +13,8 @@ import pyarrow as pa
 
 from cavesim.core.position import low_part
 from cavesim.core.scene.model import Scene
-from cavesim.core.trajectories.columns import arrow_schema
 from cavesim.core.trajectories.identity import BirthIndex, Selection
+from cavesim.core.trajectories.parquet_file import arrow_schema
 from cavesim.core.trajectories.stream import ParticleStream
 
 

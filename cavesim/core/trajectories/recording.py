@@ -13,7 +13,7 @@ import numpy as np
 
 from cavesim.core.scene.digest import scene_digest
 from cavesim.core.scene.model import Scene
-from cavesim.core.trajectories.file_name import FILE_NAME
+from cavesim.core.trajectories import FILE_NAME
 from cavesim.core.trajectories.identity import Selection
 from cavesim.core.trajectories.parquet_file import TrajectoryFile
 from cavesim.core.trajectories.recorder import TrajectoryRecorder
