@@ -41,7 +41,7 @@ class TwinStream:
         return self.twin.live_count
 
     def survivors(self) -> int:
-        return survivors_of(self.twin.live_count, self.twin.dropped, self.twin.emitters)
+        return survivors_of(self.twin.live_count, self.twin.dropped(), self.twin.emitters)
 
     def records(self, first: int, count: int) -> np.ndarray:
         return self.twin.particles.select(slice(first, first + count)).records()
