@@ -16,7 +16,6 @@ from cavesim.core.trajectories.parquet_file import (
     TrajectoryFile,
 )
 from cavesim.core.trajectories.recording import TrajectoryRecording, TrajectoryRequest
-from cavesim.core.trajectories.stream import TwinStream
 from cavesim.core.twin import TwinSystem
 
 
@@ -25,7 +24,7 @@ def recorded(tmp_path, frames=30):
     twin = TwinSystem(scene)
     recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(10, 3, frames, DT))
     for k in steps(twin, frames):
-        recording.after_step(k, DT, TwinStream(twin))
+        recording.after_step(k, DT, twin)
     return recording
 
 
