@@ -1,5 +1,6 @@
 """What every `cavesim` command shares at its edge: argument types with one-line errors,
-the output folder made before any work, logging, and the network flags."""
+the output folder made before any work, logging, the network flags, and the flags of
+`cavesim run`, `replay` and `node` that write trajectories.parquet."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 from cavesim.core.framelog import FRAME_LOG
-from cavesim.core.limits import DEFAULT_MASTER_PORT
+from cavesim.core.limits import DEFAULT_MASTER_PORT, MAX_TRAJECTORIES
 from cavesim.core.wire.credentials import MASTER, Credentials
 from cavesim.core.wire.key_expressions import check_name
 from cavesim.core.wire.key_files import read_key_file
@@ -22,6 +23,7 @@ DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
 USAGE_ERROR, RUN_ERROR, INTERRUPTED = 2, 1, 130
 CAVE_WALL_NAMES = ("front", "left", "right", "floor", "ceiling", "back")
 MAX_WALLS = 64
+MAX_EVERY = 10**9  # frames between two rows of trajectories.parquet
 
 
 class UsageError(Exception):
@@ -247,6 +249,61 @@ def master_credentials(path: Path | None, command: str):
         return read_key(path, MASTER)
     except ValueError as e:
         raise UsageError(f"cavesim {command}: error: {e}") from e
+
+
+def add_trajectory_arguments(parser: argparse.ArgumentParser) -> None:
+    """`--trajectories N` and `--every K` (docs/trajectories.md), of `cavesim run` and
+    `cavesim replay`."""
+    parser.add_argument("--trajectories", type=number_in(int, 1, MAX_TRAJECTORIES, "particles"),
+                        metavar="N",
+                        help="write the tracks of about N evenly chosen particles to "
+                             "trajectories.parquet (docs/trajectories.md)")
+    parser.add_argument("--every", type=number_in(int, 1, MAX_EVERY, "frames"), metavar="K",
+                        help="with --trajectories: a row every K frames (default 1)")
+
+
+def trajectories_requested(args: argparse.Namespace, command: str) -> tuple[int, int] | None:
+    """(N, K) when --trajectories was given; --every alone is a usage error."""
+    if args.trajectories is None:
+        if args.every is not None:
+            raise UsageError(f"cavesim {command}: error: argument --every: only with "
+                             f"--trajectories N")
+        return None
+    return args.trajectories, args.every or 1
+
+
+def add_node_trajectory_arguments(parser: argparse.ArgumentParser) -> None:
+    """`cavesim node`'s: the run's flags, its planned length and the folder to write in, by
+    which `cavesim run` asks one node to write the file (`trajectory_node_flags`)."""
+    add_trajectory_arguments(parser)
+    parser.add_argument("--trajectory-frames", type=number_in(int, 1, 10**9, "frames"),
+                        help="with --trajectories: the run's planned frames (the selection's "
+                             "stride comes from them and --trajectory-dt)")
+    parser.add_argument("--trajectory-dt", type=number_in(float, 1e-6, 1.0, "seconds"),
+                        help="with --trajectories: the run's nominal dt")
+    parser.add_argument("--trajectory-out", type=output_folder,
+                        help="with --trajectories: the folder for trajectories.parquet")
+
+
+def trajectory_node_flags(count: int, every: int, frames: int, dt: float,
+                          folder: Path) -> tuple[str, ...]:
+    return ("--trajectories", str(count), "--every", str(every), "--trajectory-frames",
+            str(frames), "--trajectory-dt", repr(dt), "--trajectory-out", str(folder))
+
+
+def trajectory_node_request(args: argparse.Namespace):
+    """What `trajectory_node_flags` said, (TrajectoryRequest, folder), or None; a flag
+    missing is a usage error."""
+    from cavesim.core.trajectories import TrajectoryRequest  # pyarrow: only when asked
+
+    tracks = trajectories_requested(args, "node")
+    if tracks is None:
+        return None
+    given = (args.trajectory_frames, args.trajectory_dt, args.trajectory_out)
+    if None in given:
+        raise UsageError("cavesim node: error: argument --trajectories: give "
+                         "--trajectory-frames, --trajectory-dt and --trajectory-out too")
+    return TrajectoryRequest(*tracks, *given[:2]), args.trajectory_out
 
 
 def lost_walls_code(lost, on_loss: str | None, command: str) -> int:

@@ -22,7 +22,6 @@ from cavesim.core.scene.digest import scene_digest
 from cavesim.core.scene_frame import SceneFrame
 from cavesim.core.trajectories import TrajectoryRecording, TrajectoryRequest
 from cavesim.gpu.engine import ParticleSystem
-from cavesim.gpu.engine.trajectory_stream import EngineStream
 from cavesim.gpu.gl.context import create_context
 
 
@@ -79,7 +78,7 @@ class LogReplay:
         self.system.step(logged.message.inputs, scene)
         if self.trajectories is not None:
             self.trajectories.after_step(logged.message.frame, logged.message.inputs.dt,
-                                         EngineStream(self.system))
+                                         self.system)
         state = self.system.checksum()
         self.result.frames += 1
         if state.digest != logged.digest or state.particles != logged.particles:

@@ -16,6 +16,7 @@ from nodes.arguments import (
     DEFAULT_SCENE,
     UsageError,
     add_network_arguments,
+    add_node_trajectory_arguments,
     cave_file,
     configure_logging,
     fault_spec,
@@ -24,13 +25,12 @@ from nodes.arguments import (
     output_folder,
     scene_file,
     seconds,
+    trajectory_node_request,
     wall_list,
 )
 from nodes.lockstep import MASTER_LOSS_POLICIES, RESYNC_MODES
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_sample_from
-from nodes.trajectory_flags import add_node_arguments as add_trajectory_arguments
-from nodes.trajectory_flags import node_request as trajectory_request
 
 
 def add(commands) -> None:
@@ -83,7 +83,7 @@ def add(commands) -> None:
                         help="how a RESYNC loads the healthy state: fetch only the records "
                              "under the differing blocks of the checksum tree, falling back "
                              "to the full snapshot (delta, default), or the full snapshot")
-    add_trajectory_arguments(parser)
+    add_node_trajectory_arguments(parser)
     parser.add_argument("--verbose", action="store_true")
     add_mixed_hardware_arguments(parser, master=False)
     add_network_arguments(parser)
@@ -108,7 +108,7 @@ def run(args: argparse.Namespace, console) -> int:
     if (args.display or args.preview) and args.gpu is not None:
         raise UsageError("cavesim node: error: argument --gpu: a window computes on its X "
                          "display's GPU; choose the display ([wall.display] x_display)")
-    trajectories, trajectory_folder = trajectory_request(args) or (None, None)
+    trajectories, trajectory_folder = trajectory_node_request(args) or (None, None)
     config = NodeConfig(name=args.node, scene=args.scene, session=args.session,
                         network=network, credentials=credentials, faults=tuple(args.inject),
                         slow_delay=args.slow_delay, cave=args.cave,

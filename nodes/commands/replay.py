@@ -18,13 +18,13 @@ from cavesim.core.output import writing
 from nodes.arguments import (
     RUN_ERROR,
     UsageError,
+    add_trajectory_arguments,
     frame_log_path,
     output_directory,
     output_folder,
     scene_file,
+    trajectories_requested,
 )
-from nodes.trajectory_flags import add_arguments as add_trajectory_arguments
-from nodes.trajectory_flags import requested as trajectories_requested
 
 
 def add(commands) -> None:

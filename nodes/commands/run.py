@@ -21,7 +21,7 @@ from cavesim.core.errors import CaveError, ContextError, ModelError, SceneError
 from cavesim.core.framelog import FRAME_LOG
 from cavesim.core.output import check_written, writing
 from cavesim.core.scene.model import Engine
-from cavesim.core.trajectories.file_name import FILE_NAME as TRAJECTORIES
+from cavesim.core.trajectories import FILE_NAME as TRAJECTORIES
 from cavesim.core.wire.credentials import Credentials
 from cavesim.tools.reports.run_tables import (
     demo_table,
@@ -35,6 +35,7 @@ from nodes.arguments import (
     DEFAULT_SCENE,
     INTERRUPTED,
     UsageError,
+    add_trajectory_arguments,
     cave_file,
     frame_count,
     lost_walls_code,
@@ -42,6 +43,8 @@ from nodes.arguments import (
     number_in,
     scene_file,
     session_name,
+    trajectories_requested,
+    trajectory_node_flags,
     wall_count,
     wall_names,
 )
@@ -57,9 +60,6 @@ from nodes.mixed_hardware import node_arguments, tolerance_from
 from nodes.progress import rated_progress
 from nodes.run_folder import add_arguments as add_out_arguments
 from nodes.run_folder import own_folder
-from nodes.trajectory_flags import add_arguments as add_trajectory_arguments
-from nodes.trajectory_flags import node_flags as trajectory_flags
-from nodes.trajectory_flags import requested as trajectories_requested
 
 PREVIEW = "preview"  # the member that shows the whole CAVE on a desktop
 
@@ -116,7 +116,7 @@ class RunPlan:
     def trajectory_args(self, node: str) -> tuple[str, ...]:
         if node != self.trajectory_node:
             return ()
-        return trajectory_flags(*self.trajectories, self.frames, MasterConfig.dt, self.out)
+        return trajectory_node_flags(*self.trajectories, self.frames, MasterConfig.dt, self.out)
 
     def cluster(self) -> ClusterPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,

@@ -77,7 +77,6 @@ from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
-from cavesim.gpu.engine.trajectory_stream import EngineStream
 from cavesim.gpu.gl.context import create_context, gpu_of
 from cavesim.gpu.render.painter import WallPainter
 from cavesim.gpu.render.unfold import slots_of
@@ -423,7 +422,7 @@ class WallNode:
         """Follow frame k's step. A lost stream drops the file, not the run; a write that
         fails (OutputError) ends the node, and so the run, as every failed write does."""
         try:
-            self.trajectories.after_step(k, dt, EngineStream(self.system))
+            self.trajectories.after_step(k, dt, self.system)
         except TrajectoryError as e:
             log.error("%s: frame %d: %s; trajectories.parquet is not written",
                       self.config.name, k, e)

@@ -10,8 +10,8 @@ from pathlib import Path
 
 from fountain import DT, fountain, steps
 
-from cavesim.core.trajectories import COLUMNS, TrajectoryRecording, TrajectoryRequest, TwinStream
-from cavesim.core.trajectories.columns import METADATA_AT_CLOSE, METADATA_AT_OPEN
+from cavesim.core.trajectories import COLUMNS, TrajectoryRecording, TrajectoryRequest
+from cavesim.core.trajectories.parquet_file import METADATA_AT_CLOSE, METADATA_AT_OPEN
 from cavesim.core.twin.system import TwinSystem
 
 ROOT = Path(__file__).parents[2]
@@ -37,7 +37,7 @@ def test_the_loading_example_runs(tmp_path):
     twin = TwinSystem(scene)
     recording = TrajectoryRecording(folder, scene, TrajectoryRequest(20, 2, 60, DT))
     for k in steps(twin, 60):
-        recording.after_step(k, DT, TwinStream(twin))
+        recording.after_step(k, DT, twin)
     recording.finish()
     (example,) = re.findall(r"```python\n(.*?)```", PAGE.read_text(), re.S)
     result = subprocess.run([sys.executable, "-c", example], cwd=tmp_path, capture_output=True,

@@ -110,11 +110,11 @@ class Lockstep:
                 pytest.fail(f"frame {self.frames}, {engine.value} path: tracer substeps "
                             f"{substeps}, the twin's {self.twin.tracer_substeps}")
             self.substeps_counted[engine] += substeps is not None
-            if gpu.dropped() != self.twin.dropped:
+            if gpu.dropped() != self.twin.dropped():
                 pytest.fail(f"frame {self.frames}, {engine.value} path: {gpu.dropped()} "
-                            f"particles dropped at the capacity, the twin {self.twin.dropped}")
+                            f"particles dropped at the capacity, the twin {self.twin.dropped()}")
         self.counts.append(expected.particles)
-        self.dropped.append(self.twin.dropped)
+        self.dropped.append(self.twin.dropped())
         if self.twin.tracer_substeps is not None:
             self.substeps.append(self.twin.tracer_substeps)
         self.exits += self.twin.domain_exits

@@ -18,12 +18,10 @@ from cavesim.core.trajectories import (
     TrajectoryRecorder,
     TrajectoryRecording,
     TrajectoryRequest,
-    TwinStream,
     arrow_schema,
 )
 from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine import ParticleSystem
-from cavesim.gpu.engine.trajectory_stream import EngineStream
 
 FRAMES, EVERY, COUNT = 150, 2, 30
 RUNAWAY_AT = 100  # this frame's step drops a particle sent past the speed limit
@@ -52,8 +50,8 @@ def test_the_engine_writes_the_twins_rows(ctx, tmp_path, engine):
         gpu.step(frame)
         twin.step(frame)
         dropped += gpu.dropped()
-        recording.after_step(k, DT, EngineStream(gpu))
-        twin_recorder.after_step(k, DT, TwinStream(twin))
+        recording.after_step(k, DT, gpu)
+        twin_recorder.after_step(k, DT, twin)
     path = recording.finish()
     gpu.release()
     assert path == tmp_path / FILE_NAME and dropped > 0

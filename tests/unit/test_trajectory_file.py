@@ -10,10 +10,12 @@ from fountain import DT, fountain, steps
 
 from cavesim.core.errors import OutputError
 from cavesim.core.trajectories import Selection, TrajectoryRecorder, file_metadata
-from cavesim.core.trajectories.columns import METADATA_AT_CLOSE, METADATA_AT_OPEN
-from cavesim.core.trajectories.parquet_file import TrajectoryFile
+from cavesim.core.trajectories.parquet_file import (
+    METADATA_AT_CLOSE,
+    METADATA_AT_OPEN,
+    TrajectoryFile,
+)
 from cavesim.core.trajectories.recording import TrajectoryRecording, TrajectoryRequest
-from cavesim.core.trajectories.stream import TwinStream
 from cavesim.core.twin.system import TwinSystem
 
 
@@ -22,7 +24,7 @@ def recorded(tmp_path, frames=30):
     twin = TwinSystem(scene)
     recording = TrajectoryRecording(tmp_path, scene, TrajectoryRequest(10, 3, frames, DT))
     for k in steps(twin, frames):
-        recording.after_step(k, DT, TwinStream(twin))
+        recording.after_step(k, DT, twin)
     return recording
 
 

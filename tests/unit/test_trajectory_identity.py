@@ -13,14 +13,10 @@ import pyarrow as pa
 import pytest
 from fountain import DT, fountain, steps
 
-from cavesim.core.trajectories import (
-    BirthIndex,
-    Selection,
-    TrajectoryRecorder,
-    TwinStream,
-    arrow_schema,
-)
-from cavesim.core.twin.system import TwinParticles, TwinSystem
+from cavesim.core.trajectories import BirthIndex, Selection, TrajectoryRecorder, arrow_schema
+from cavesim.core.trajectories.recording import read_span, survivors
+from cavesim.core.twin.system import TwinSystem
+from cavesim.core.twin.system import TwinParticles
 
 
 class Truth:
@@ -42,22 +38,22 @@ class Truth:
         return np.array(ids, np.uint64)
 
 
-def follow(index: BirthIndex, stream: TwinStream) -> None:
+def follow(index: BirthIndex, twin: TwinSystem) -> None:
     """One step of `index` after the twin's, reading its survivors when asked."""
-    survivors = stream.survivors()
-    index.advance(DT, survivors, stream.records(survivors, stream.live_count - survivors),
-                  lambda: stream.records(0, survivors))
+    kept = survivors(twin)
+    index.advance(DT, kept, read_span(twin, kept, twin.live_count - kept),
+                  lambda: read_span(twin, 0, kept))
 
 
 @pytest.mark.parametrize("capacity", [10_000, 60], ids=["roomy", "capacity-drops"])
 def test_the_birth_index_follows_the_twin_through_births_and_deaths(capacity):
     twin = TwinSystem(fountain(capacity=capacity))
-    stream, index, truth = TwinStream(twin), BirthIndex(), Truth()
+    index, truth = BirthIndex(), Truth()
     deaths = 0
     for _ in steps(twin, 300):
-        survivors = stream.survivors()
-        deaths += len(index) - survivors
-        index.advance(DT, survivors, stream.records(survivors, twin.live_count - survivors),
+        kept = survivors(twin)
+        deaths += len(index) - kept
+        index.advance(DT, kept, read_span(twin, kept, twin.live_count - kept),
                       lambda: pytest.fail("no runaway here: no survivor should be read"))
         np.testing.assert_array_equal(index.ids, truth.follow(twin.particles.records()))
     assert deaths > 1000 and index.next_id > 1000
@@ -67,12 +63,12 @@ def test_the_birth_index_follows_the_twin_through_births_and_deaths(capacity):
 
 def test_a_runaway_drop_is_found_by_matching_the_survivors():
     twin = TwinSystem(fountain())
-    stream, index, truth = TwinStream(twin), BirthIndex(), Truth()
+    index, truth = BirthIndex(), Truth()
     for k in steps(twin, 60):
         if k == 30:  # the next step finds these not sane and drops them
             assert index.ambiguous_drops == 0
             twin.particles.vel[[3, 17, len(index) - 1]] = 1e9
-        follow(index, stream)
+        follow(index, twin)
         np.testing.assert_array_equal(index.ids, truth.follow(twin.particles.records()))
     assert index.ambiguous_drops == 0
 
@@ -80,11 +76,11 @@ def test_a_runaway_drop_is_found_by_matching_the_survivors():
 def test_a_runaway_among_twins_is_counted_ambiguous():
     """Fixed lifetimes: every particle of one frame has the same age, lifetime and class."""
     twin = TwinSystem(fountain(lifetime=(0.3, 0.3)))
-    stream, index = TwinStream(twin), BirthIndex()
+    index = BirthIndex()
     for k in steps(twin, 12):
         if k == 10:
             twin.particles.vel[len(index) - 2] = 1e9  # a newborn among its frame's twins
-        follow(index, stream)
+        follow(index, twin)
     assert index.ambiguous_drops == 1
     assert np.all(np.diff(index.ids.astype(np.int64)) > 0)
 
@@ -98,7 +94,7 @@ def test_the_rows_are_the_tracked_particles_of_the_twin():
     truth = Truth()
     expected = []
     for k in steps(twin, 300):
-        recorder.after_step(k, DT, TwinStream(twin))
+        recorder.after_step(k, DT, twin)
         records = twin.particles.records()
         ids = truth.follow(records)
         tracked = selection.tracked(ids)
@@ -131,9 +127,9 @@ def test_the_rows_are_the_tracked_particles_of_the_twin():
 def test_a_loaded_stream_is_held_only_if_it_is_the_one_followed():
     """A node resynced to another state (it diverged or fell behind) must drop its file."""
     twin = TwinSystem(fountain())
-    stream, index = TwinStream(twin), BirthIndex()
+    index = BirthIndex()
     for _ in steps(twin, 30):
-        follow(index, stream)
+        follow(index, twin)
     records = twin.particles.records()
     assert index.holds(records)
     behind = records.copy()

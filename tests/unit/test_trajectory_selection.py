@@ -7,7 +7,7 @@ from fountain import DT, fountain
 
 from cavesim.core.scene import load_scene
 from cavesim.core.trajectories import Selection
-from cavesim.core.trajectories.selection import expected_births
+from cavesim.core.trajectories.identity import expected_births
 
 
 def test_a_still_scene_expects_its_rates_times_the_run():

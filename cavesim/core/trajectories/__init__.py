@@ -1,22 +1,26 @@
 """Particle trajectories: a stable identity (the birth index) across the engine's
 compaction, the tracked particles' rows, and trajectories.parquet (docs/trajectories.md).
 
-Pure numpy and pyarrow; the GL engine's readback is `cavesim.gpu.engine.trajectory_stream`.
-Names are imported on first use, so a command that only parses its flags does not load
-pyarrow.
+Three modules, in the order of the data's flow: `identity` (which particles a run follows,
+and each live particle's birth index across compaction), `recording` (after each step of the
+GL engine or the float64 twin, the tracked particles' rows) and `parquet_file` (the file: its
+columns and metadata, its writing, and its loading for pandas and xarray). Pure numpy and
+pyarrow. Names are imported on first use, so a command that only parses its flags does not
+load pyarrow.
 """
 
 from importlib import import_module
 
+FILE_NAME = "trajectories.parquet"  # in a run's or a replay's folder; here: the CLI reads it
+
 _WHERE = {
-    "COLUMNS": "columns", "FILE_NAME": "file_name", "arrow_schema": "columns",
-    "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity",
-    "Selection": "selection", "TrajectoryRecorder": "recorder",
+    "COLUMNS": "parquet_file", "arrow_schema": "parquet_file",
+    "file_metadata": "parquet_file", "read_table": "parquet_file", "to_dataset": "parquet_file",
+    "HOST_BYTES_PER_PARTICLE": "identity", "BirthIndex": "identity", "Selection": "identity",
+    "SteppedSystem": "recording", "TrajectoryRecorder": "recording",
     "TrajectoryRecording": "recording", "TrajectoryRequest": "recording",
-    "ParticleStream": "stream", "TwinStream": "stream",
-    "file_metadata": "loading", "read_table": "loading", "to_dataset": "loading",
 }
-__all__ = sorted(_WHERE)
+__all__ = sorted([*_WHERE, "FILE_NAME"])
 
 
 def __getattr__(name: str):

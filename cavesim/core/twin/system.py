@@ -13,6 +13,7 @@ from functools import partial
 
 import numpy as np
 
+from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
 from cavesim.core.fields.grid import FieldSeries, build_series
 from cavesim.core.fields.heights import HeightGrid, load_heightfield
@@ -122,7 +123,7 @@ class TwinSystem:
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
         # per class, the particles that left the field's box in the last step (a grid's)
         self.domain_exits = np.zeros(len(scene.particle_classes), dtype=np.int64)
-        self.dropped = 0  # new particles the last step dropped because the capacity was full
+        self._dropped = 0  # new particles the last step dropped because the capacity was full
 
     def _record_substeps(self, counts: SubstepCounts) -> None:
         self.tracer_substeps = counts
@@ -133,7 +134,29 @@ class TwinSystem:
 
     def write_particles(self, records: np.ndarray) -> None:
         self.particles = TwinParticles.from_records(records, self.dtype)
-        self.dropped = 0
+        self._dropped = 0
+
+    # the engine's reads, for code that reads either (the trajectory recorder)
+    def dropped(self) -> int:
+        """New particles the last step dropped because the capacity was full (0 after a
+        load)."""
+        return self._dropped
+
+    def read_emitters(self) -> np.ndarray:
+        """A copy of the emitter stream (EMITTER_DTYPE)."""
+        return self.emitters.copy()
+
+    def read_particle_chunk(self, first: int, count: int) -> bytes:
+        """Records [first, first + count) of the live particle stream, as bytes."""
+        return self.particles.select(slice(first, first + count)).records().tobytes()
+
+    def read_records(self, stream: int, indices: np.ndarray) -> bytes:
+        """Records `indices` (ascending, live) of `stream` (PARTICLES or EMITTERS), as bytes
+        in that order."""
+        indices = np.asarray(indices, dtype=np.int64)
+        if stream == EMITTERS:
+            return self.emitters[indices].tobytes()
+        return self.particles.select(indices).records().tobytes()
 
     def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None,
                    turbulence: np.ndarray | None = None,
@@ -183,7 +206,7 @@ class TwinSystem:
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
         # cavesim/gpu/engine/drops.py's count: survivors + emitted - live
-        self.dropped = len(moved.age) + int(self.emitters["count"].sum()) - self.live_count
+        self._dropped = len(moved.age) + int(self.emitters["count"].sum()) - self.live_count
 
     def _count_exits(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray) -> None:
         """step_particle's count: a sane step from inside the field's box to outside it."""
