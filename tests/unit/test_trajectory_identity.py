@@ -15,8 +15,7 @@ from fountain import DT, fountain, steps
 
 from cavesim.core.trajectories import BirthIndex, Selection, TrajectoryRecorder, arrow_schema
 from cavesim.core.trajectories.recording import read_span, survivors
-from cavesim.core.twin.system import TwinSystem
-from cavesim.core.twin.system import TwinParticles
+from cavesim.core.twin.system import TwinParticles, TwinSystem
 
 
 class Truth:
