@@ -10,10 +10,10 @@ import pytest
 
 from cavesim.core.drag import STOKES_REYNOLDS_LIMIT, drag_factor, terminal_speed
 from cavesim.core.features.schiller_naumann import chosen_law, flow_scales
+from cavesim.core.features.stokes_drag import Drag
 from cavesim.core.fields.snapshot_time import END
 from cavesim.core.scene import (
     AIR_VISCOSITY,
-    Drag,
     DragLaw,
     Integrator,
     ParticleClass,

@@ -13,13 +13,12 @@ import numpy as np
 import pytest
 
 from cavesim.core.errors import SceneError
+from cavesim.core.features.collision import Collision, CollisionKind
+from cavesim.core.features.dispersion import Dispersion
+from cavesim.core.features.stokes_drag import Drag
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLE_CLASSES, MAX_PARTICLES
 from cavesim.core.scene import (
     AIR_VISCOSITY,
-    Collision,
-    CollisionKind,
-    Dispersion,
-    Drag,
     DragLaw,
     Emitter,
     Field,

@@ -40,11 +40,14 @@ if TYPE_CHECKING:
 class Texture:
     """A texture a feature's GLSL samples with texelFetch (or, `linear`, the texture unit's
     filter): its sampler uniform's name and its texels, (h, w, c) or (d, h, w, c), float32 or
-    uint32, uploaded as they are."""
+    uint32, uploaded as they are; `what` it is and what to have `fewer` of, for the line that
+    refuses one beyond the context's limits."""
 
     name: str
     texels: np.ndarray
     linear: bool = False
+    what: str = ""
+    fewer: str = "texels"
 
     @property
     def size(self) -> tuple[int, ...]:
@@ -70,7 +73,11 @@ class FrameState:
     field_time: FieldTime = FIRST_SNAPSHOT
 
 
-NOTHING_YET = FrameState()  # before any frame: the start of the scene
+def nothing_yet() -> FrameState:
+    """The state before any frame: no time passes, the random texture where it lies."""
+    from cavesim.core.frame import FrameInput  # the frame's module checks a map, as a
+    # frame's inputs are checked; it needs nothing of the features
+    return FrameState(FrameInput(0.0, np.eye(3, dtype=np.float32)))
 
 
 class Feature:
@@ -90,8 +97,8 @@ class Feature:
         return False
 
     def check(self, scene: Scene) -> None:
-        """Refuse what is wrong with its own keys in one line (SceneError); the rules
-        between features are `rules`'."""
+        """Refuse what is wrong with its own keys in one line (SceneError), whether or not
+        the scene has the feature; the rules between features are `rules`'."""
 
     def where(self, scene: Scene, key: str) -> tuple[str, Any]:
         """The dotted key, with its index where it is an array's, and the value a broken rule

@@ -12,10 +12,11 @@ import math
 
 import numpy as np
 
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.helicopter.downwash import friction_velocity
 from cavesim.core.helicopter.rotor import induced_velocity, saltation_factor
 from cavesim.core.limits import ROTOR_SPEED_RANGE
-from cavesim.core.scene.model import CollisionKind, Helicopter, Scene, WandKey
+from cavesim.core.scene.model import Helicopter, Scene, WandKey
 from cavesim.core.scene_frame import HelicopterPose, RotorFrame, SceneFrame
 
 TILT_GAIN = 0.25 / 30.0  # rotor speed per degree of tilt

@@ -1,5 +1,5 @@
 """The ground and the bounce in portable arithmetic: `ground_at` and `collide` of
-shaders/include/physics.glsl and heightfield.glsl, operation by operation in float32.
+shaders/include/collision.glsl and heightfield.glsl, operation by operation in float32.
 """
 
 from __future__ import annotations
@@ -16,15 +16,14 @@ from cavesim.core.portable.arithmetic import (
     f_sub,
 )
 from cavesim.core.portable.builtins import first_node, glsl_clamp, nodes
-from cavesim.core.scene.model import Collision, CollisionKind
 
 ONE = np.float32(1.0)
 
 
-def ground_at(collision: Collision, heights: HeightGrid | None,
+def ground_at(collision, heights: HeightGrid | None,
               xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Ground height (N,) and unit upward normal (N, 3) under each point (N, 2)."""
-    if collision.kind is CollisionKind.PLANE:
+    if heights is None:  # a plane
         normal = np.zeros((len(xy), 3), dtype=np.float32)
         normal[:, 2] = ONE
         return np.full(len(xy), np.float32(collision.height)), normal
@@ -51,7 +50,7 @@ def height_at(grid: HeightGrid, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return height, normal
 
 
-def collide(p: np.ndarray, v: np.ndarray, collision: Collision, heights: HeightGrid | None
+def collide(p: np.ndarray, v: np.ndarray, collision, heights: HeightGrid | None
             ) -> tuple[np.ndarray, np.ndarray]:
     """Push particles below the ground back onto it; bounce those heading in (Kolb et al.)."""
     height, n = ground_at(collision, heights, p[:, :2])

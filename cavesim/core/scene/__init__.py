@@ -4,14 +4,13 @@
 shader specializer and the numpy twin only ever see the frozen objects re-exported here.
 """
 
+from cavesim.core.features.collision import Collision, CollisionKind
+from cavesim.core.features.dispersion import Dispersion
+from cavesim.core.features.stokes_drag import Drag
 from cavesim.core.scene.loader import load_scene, parse_scene
 from cavesim.core.scene.model import (
     AIR_VISCOSITY,
     Arithmetic,
-    Collision,
-    CollisionKind,
-    Dispersion,
-    Drag,
     DragLaw,
     Emitter,
     Engine,

@@ -10,9 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Annotated
 
-from cavesim.core._schema import Note, Range
+from cavesim.core._schema import Coordinate, Note, Range
+from cavesim.core.features.collision import Collision
 from cavesim.core.scene.model import (
-    Collision,
     Emitter,
     Field,
     FieldKind,
@@ -52,7 +52,7 @@ class UniformParams:
 
 @dataclass(frozen=True)
 class VortexParams:
-    center: tuple[float, float]  # [x, y] of the vertical axis, m
+    center: Annotated[tuple[float, float], Coordinate("xy")]  # [x, y] of the vertical axis, m
     circulation: float  # Γ, m²/s: > 0 turns counter-clockwise seen from above
     core_radius: Annotated[float, Range(gt=0.0)]  # m
     axial_speed: float = 0.0  # m/s, upward
@@ -60,10 +60,10 @@ class VortexParams:
 
 @dataclass(frozen=True)
 class DownwashParams:
-    rotor_center: Vec3  # m, above ground_height
+    rotor_center: Annotated[Vec3, Coordinate()]  # m, above ground_height
     rotor_radius: Annotated[float, Range(gt=0.0)]  # m
     induced_velocity: Annotated[float, Range(ge=0.0)]  # m/s through the disk
-    ground_height: float = 0.0  # m
+    ground_height: Annotated[float, Coordinate("z")] = 0.0  # m
 
 
 @dataclass(frozen=True)

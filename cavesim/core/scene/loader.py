@@ -24,6 +24,9 @@ from numpy.lib import format as npy_format
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
+from cavesim.core.features.collision import Collision, CollisionKind
+from cavesim.core.features.origin import relative_to_origin
+from cavesim.core.features.registry import check_features
 from cavesim.core.features.schiller_naumann import chosen_law, flow_scales
 from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
 from cavesim.core.fields.regular_grid import check_box, npz_corners, npz_times
@@ -35,24 +38,17 @@ from cavesim.core.limits import (
     MAX_PARTICLE_CLASSES,
     MAX_RATE,
 )
-from cavesim.core.random_texture import WORDS_PER_TEXEL
 from cavesim.core.scene.file import FIELD_PARAMS, SceneFile
 from cavesim.core.scene.model import (
-    Arithmetic,
-    Collision,
-    CollisionKind,
     Emitter,
     Field,
-    FieldInterpolation,
     FieldKind,
-    FieldSampling,
     Forces,
     Helicopter,
     Motion,
     ParticleClass,
     Scene,
 )
-from cavesim.core.scene.origin import relative_to_origin
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -125,11 +121,6 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
                               "forces.drag, which is missing (without drag nothing samples "
                               "the field)")
     field = _field(top.table("field")) if top.has("field") else None
-    if (sim.arithmetic is Arithmetic.PORTABLE and field is not None
-            and field.sampling is FieldSampling.HARDWARE):
-        raise top.table("field").bad("sampling", 'must be "manual" with simulation.arithmetic '
-                                     '= "portable": the texture unit\'s filter weights differ '
-                                     'from vendor to vendor')
     collision = _collision(top.table("collision")) if top.has("collision") else None
 
     helicopter = _helicopter(top.table("helicopter")) if top.has("helicopter") else None
@@ -138,15 +129,12 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         needs_rotor.append("field.kind = 'rotor'")
     if needs_rotor and helicopter is None:
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
-    if forces.dispersion is not None:
-        _check_dispersion(top, forces, collision, sim)
-    _check_tracers(top, class_tables, classes, forces, sim)
     classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
-
-    return relative_to_origin(Scene(
-        name=scene_name, source=source, **asdict(sim), particle_classes=classes,
-        emitters=emitters, forces=forces, field=field, collision=collision,
-        helicopter=helicopter))
+    scene = Scene(name=scene_name, source=source, **asdict(sim), particle_classes=classes,
+                  emitters=emitters, forces=forces, field=field, collision=collision,
+                  helicopter=helicopter)
+    check_features(scene)
+    return relative_to_origin(scene)
 
 
 def _particle_class(t: Table) -> ParticleClass:
@@ -163,27 +151,6 @@ def _particle_class(t: Table) -> ParticleClass:
     return particle
 
 
-def _check_tracers(top: Table, class_tables: list[Table], classes: tuple[ParticleClass, ...],
-                   forces: Forces, sim) -> None:
-    """A tracer moves with the flow, which reaches the particles through forces.drag; the
-    random walk of dispersion is drag's, so a scene has tracers or dispersion. A method for
-    tracers needs a tracer class to step."""
-    tracers = [t for t, c in zip(class_tables, classes, strict=True)
-               if c.motion is Motion.TRACER]
-    if not tracers:
-        if sim.tracer_method is not None:
-            raise top.table("simulation").bad(
-                "tracer_method", 'only with a [[particle_class]] of motion = "tracer": no '
-                                 'class of this scene is one')
-        return
-    if forces.drag is None:
-        raise tracers[0].bad("motion", '"tracer" needs forces.drag and a [field]: the flow '
-                                       'that carries it')
-    if forces.dispersion is not None:
-        raise tracers[0].bad("motion", '"tracer" is not allowed with forces.dispersion: its '
-                                       'random walk acts through drag (allowed: "inertial")')
-
-
 def _with_drag_law(particle: ParticleClass, forces: Forces, field: Field | None,
                    helicopter: Helicopter | None) -> ParticleClass:
     """The class with its drag law: the file's, else the one its Reynolds number asks for
@@ -195,25 +162,6 @@ def _with_drag_law(particle: ParticleClass, forces: Forces, field: Field | None,
     law = chosen_law(particle, drag.kinematic_viscosity, drag.air_viscosity, gravity,
                      flow_scales(field, helicopter))
     return dataclasses.replace(particle, drag=law)
-
-
-def _check_dispersion(top: Table, forces: Forces, collision: Collision | None, sim) -> None:
-    """Dispersion acts through drag, grows its eddies from the ground, and draws one random
-    word per particle a frame, which must not repeat within a frame."""
-    table = top.table("forces").table("dispersion")
-    if forces.drag is None:
-        raise table.source.fail(f"{table.key} needs forces.drag: the random walk is in the "
-                                "flow each particle sees, which reaches it through drag")
-    if collision is None:
-        raise table.source.fail(f"{table.key} needs [collision]: the mixing length grows "
-                                "with the height above the ground")
-    words = WORDS_PER_TEXEL * sim.random_texture_size**2
-    if sim.capacity > words:
-        raise top.table("simulation").bad(
-            "capacity", f"must be <= {words} with forces.dispersion: one random word per "
-                        f"particle a frame, {WORDS_PER_TEXEL} per texel of the "
-                        f"{sim.random_texture_size}² random texture (raise "
-                        "simulation.random_texture_size)")
 
 
 def _scaled(top: Table, emitters: tuple[Emitter, ...]) -> tuple[Emitter, ...]:
@@ -285,10 +233,6 @@ def _field(t: Table) -> Field:
                                                f" = {params.ground_height!r}: the rotor is "
                                                "above ground")
     field = t.build(params=asdict(params), **given)
-    if field.sampling is FieldSampling.HARDWARE \
-            and field.interpolation is not FieldInterpolation.TRILINEAR:
-        raise t.bad("interpolation", 'must be "trilinear" with sampling = "hardware": the '
-                                     'texture unit filters trilinearly; use sampling = "manual"')
     if not all(a < b for a, b in zip(field.box_min, field.box_max, strict=True)):
         raise t.bad("box_max", f"must be > {t.sub('box_min')} = {list(field.box_min)!r} on "
                                "every axis")

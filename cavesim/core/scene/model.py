@@ -14,8 +14,11 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
-from cavesim.core._schema import Range, Rule
-from cavesim.core.air import AIR_DENSITY, AIR_VISCOSITY
+from cavesim.core._schema import Coordinate, Range, Rule
+from cavesim.core.air import AIR_VISCOSITY
+from cavesim.core.features.collision import Collision
+from cavesim.core.features.dispersion import Dispersion
+from cavesim.core.features.stokes_drag import Drag
 from cavesim.core.limits import (
     FIELD_RESOLUTION_RANGE,
     MAX_DIAMETER,
@@ -154,11 +157,6 @@ class DragLaw(StrEnum):
     SCHILLER_NAUMANN = "schiller_naumann"  # C_D = 24/Re (1 + 0.15 Re^0.687), Re up to 800
 
 
-class CollisionKind(StrEnum):
-    PLANE = "plane"  # flat ground at `height`
-    HEIGHTFIELD = "heightfield"  # terrain heights from `file`
-
-
 class Motion(StrEnum):
     """How a particle class moves (docs/numerics.md: passive tracers)."""
 
@@ -214,7 +212,7 @@ def _gltf_suffix(path: Path) -> bool:
 @dataclass(frozen=True, kw_only=True)
 class Emitter:
     name: str
-    position: Vec3  # centre of the emission box
+    position: Annotated[Vec3, Coordinate()]  # centre of the emission box
     # full edge lengths of the emission box (0 = a point along that axis)
     extent: Annotated[Vec3, Range(ge=0.0)] = (0.0, 0.0, 0.0)
     rate: Annotated[float, Range(ge=0.0, le=MAX_RATE)]  # particles per second
@@ -234,26 +232,6 @@ class Emitter:
 
 
 @dataclass(frozen=True)
-class Drag:
-    air_viscosity: Annotated[float, Range(gt=0.0)] = AIR_VISCOSITY  # mu, Pa·s
-    air_density: Annotated[float, Range(gt=0.0, le=10.0)] = AIR_DENSITY  # kg/m³
-
-    @property
-    def kinematic_viscosity(self) -> float:
-        """nu = mu / rho_air in m²/s."""
-        return self.air_viscosity / self.air_density
-
-
-@dataclass(frozen=True)
-class Dispersion:
-    """[forces.dispersion]: turbulent dispersion, a random walk of the flow each particle
-    sees with the eddy diffusivity of Prandtl's mixing length (cavesim.core.twin.dispersion)."""
-
-    # m: the largest eddies' size, Blackadar's l_inf of l = kappa z / (1 + kappa z / l_inf)
-    mixing_length: Annotated[float, Range(gt=0.0, le=1000.0)]
-
-
-@dataclass(frozen=True)
 class Forces:
     gravity: Vec3 | None = None  # None: no gravity compiled in
     drag: Drag | None = None  # None: no Stokes drag, and no field texture
@@ -265,8 +243,8 @@ class Forces:
 @dataclass(frozen=True)
 class Field:
     kind: FieldKind
-    box_min: Vec3
-    box_max: Vec3  # > box_min on every axis
+    box_min: Annotated[Vec3, Coordinate()]
+    box_max: Annotated[Vec3, Coordinate()]  # > box_min on every axis
     # grid nodes per axis (from the file for FILE)
     resolution: Annotated[tuple[int, int, int], Range.within(FIELD_RESOLUTION_RANGE),
                           Rule(f"at most {MAX_FIELD_NODES} nodes in all", _few_field_nodes)]
@@ -295,19 +273,6 @@ class Field:
 
 
 @dataclass(frozen=True)
-class Collision:
-    kind: CollisionKind
-    # ν: share of tangential speed lost at a bounce
-    friction: Annotated[float, Range(ge=0.0, le=1.0)]
-    # ε: share of normal speed kept at a bounce
-    resilience: Annotated[float, Range(ge=0.0, le=1.0)]
-    # m/s: below this speed no friction is applied
-    friction_min_speed: Annotated[float, Range(ge=0.0)] = 0.0
-    height: float = 0.0  # PLANE: ground height z
-    file: Path | None = None  # HEIGHTFIELD: .npz with "height" (nx, ny), "box_min", "box_max"
-
-
-@dataclass(frozen=True)
 class WandKey:
     """One key of a scripted wand timeline: where the wand is and how far it is tilted."""
 
@@ -329,7 +294,8 @@ class Helicopter:
     threshold_friction_velocity: Annotated[float, Range(gt=0.0)] = 0.25
     # m, of the ground, for the friction velocity
     roughness_length: Annotated[float, Range(gt=0.0, le=1.0)] = 1e-3
-    wand_origin: Vec3 = (0.0, 0.0, 0.0)  # world position of the room origin (for steering)
+    # world position of the room origin (for steering)
+    wand_origin: Annotated[Vec3, Coordinate()] = (0.0, 0.0, 0.0)
     # world metres per room metre of wand motion
     wand_scale: Annotated[float, Range(gt=0.0, le=1e4)] = 10.0
     # s: the helicopter follows the wand with this lag

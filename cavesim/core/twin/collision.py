@@ -1,24 +1,25 @@
-"""Ground collision (twin of `collide` in shaders/include/physics.glsl)."""
+"""Ground collision (twin of `collide` in shaders/include/collision.glsl). `collision` is the
+scene's [collision] table (cavesim.core.features.collision); `heights` its height field,
+None for a plane."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from cavesim.core.fields.heights import HeightGrid, sample_height
-from cavesim.core.scene.model import Collision, CollisionKind
 
 
-def ground(collision: Collision, heights: HeightGrid | None, xy: np.ndarray,
+def ground(collision, heights: HeightGrid | None, xy: np.ndarray,
            dtype) -> tuple[np.ndarray, np.ndarray]:
     """Ground height (N,) and unit upward normal (N, 3) under each point."""
-    if collision.kind is CollisionKind.PLANE:
+    if heights is None:  # a plane
         normal = np.zeros((len(xy), 3), dtype=dtype)
         normal[:, 2] = 1
         return np.full(len(xy), collision.height, dtype=dtype), normal
     return sample_height(heights, xy, dtype=dtype)
 
 
-def collide(p: np.ndarray, v: np.ndarray, collision: Collision, heights: HeightGrid | None
+def collide(p: np.ndarray, v: np.ndarray, collision, heights: HeightGrid | None
             ) -> tuple[np.ndarray, np.ndarray]:
     """Push particles below the ground back onto it; bounce those heading in (Kolb et al.).
 

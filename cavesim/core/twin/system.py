@@ -15,6 +15,7 @@ import numpy as np
 
 from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.fields.grid import FieldSeries, build_series
 from cavesim.core.fields.heights import HeightGrid, load_heightfield
 from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT, FieldTime
@@ -25,7 +26,7 @@ from cavesim.core.portable.forces import PortableForces
 from cavesim.core.position import low_code, low_part, split_position
 from cavesim.core.random_texture import random_words
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
-from cavesim.core.scene.model import Arithmetic, CollisionKind, Scene
+from cavesim.core.scene.model import Arithmetic, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.core.substeps import NO_SUBSTEPS, SubstepCounts
 from cavesim.core.twin.dispersion import draw_moments, draws

@@ -34,6 +34,7 @@ from cavesim.core.digest.history import HistoryEntry, HistoryRing
 from cavesim.core.digest.shape import EMITTERS, PARTICLES, StateChecksum, index_runs
 from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.core.errors import StateError
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.fields.grid import FieldSeries, build_series
 from cavesim.core.fields.heights import HeightGrid, load_heightfield
 from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
@@ -46,13 +47,7 @@ from cavesim.core.records import (
     PARTICLE_BYTES,
     PARTICLE_DTYPE,
 )
-from cavesim.core.scene.model import (
-    ENGINE_PATHS,
-    CollisionKind,
-    Engine,
-    FieldSampling,
-    Scene,
-)
+from cavesim.core.scene.model import ENGINE_PATHS, Engine, FieldSampling, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.core.substeps import SUBSTEP_COUNTS, SubstepCounts
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture

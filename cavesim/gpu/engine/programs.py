@@ -15,11 +15,11 @@ import moderngl
 
 from cavesim.core.digest.shape import FOLD, WORDS_PER_THREAD, WORKGROUP_SIZE
 from cavesim.core.emitters import EMIT_BATCH
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORDS
 from cavesim.core.scene.model import (
     Arithmetic,
-    CollisionKind,
     FieldInterpolation,
     FieldKind,
     FieldSampling,

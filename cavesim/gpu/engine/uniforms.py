@@ -8,12 +8,13 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import ShaderError
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.fields.grid import FieldSeries
 from cavesim.core.fields.heights import HeightGrid
 from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT, FieldTime
 from cavesim.core.helicopter.flight import ground_height
 from cavesim.core.helicopter.inputs import FrameRotor
-from cavesim.core.scene.model import CollisionKind, Scene
+from cavesim.core.scene.model import Scene
 from cavesim.core.substeps import stage_nodes, tableau
 from cavesim.core.twin.dispersion import draw_moments
 

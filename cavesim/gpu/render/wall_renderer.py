@@ -20,7 +20,7 @@ import numpy as np
 
 from cavesim.core.cave.geometry import Wall
 from cavesim.core.cave.projection import gl_matrix, off_axis, recut
-from cavesim.core.scene.model import CollisionKind
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes

@@ -19,9 +19,10 @@ import moderngl
 import numpy as np
 
 from cavesim.core.errors import CavesimError
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.fields.heights import HeightGrid, load_heightfield
 from cavesim.core.records import PARTICLE_BYTES
-from cavesim.core.scene.model import ENGINE_PATHS, Arithmetic, CollisionKind, Engine, Scene
+from cavesim.core.scene.model import ENGINE_PATHS, Arithmetic, Engine, Scene
 from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine.particle_system import ParticleSystem
 from cavesim.tools.bench.figures import SizeFigures

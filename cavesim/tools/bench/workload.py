@@ -9,11 +9,12 @@ from __future__ import annotations
 import numpy as np
 
 from cavesim.core.drivers import driver_for
+from cavesim.core.features.collision import CollisionKind
 from cavesim.core.fields.heights import HeightGrid
 from cavesim.core.frame import FrameInput
 from cavesim.core.random_texture import draw_transform
 from cavesim.core.records import PARTICLE_DTYPE
-from cavesim.core.scene.model import CollisionKind, Scene
+from cavesim.core.scene.model import Scene
 from cavesim.core.scene_frame import SceneFrame
 
 FRAME_DT = 1 / 60  # s

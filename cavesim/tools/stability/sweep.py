@@ -30,9 +30,10 @@ from cavesim.core.drag import (
     SCHILLER_NAUMANN_EXPONENT,
     terminal_speed,
 )
+from cavesim.core.features.stokes_drag import Drag
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene import Integrator, parse_scene
-from cavesim.core.scene.model import AIR_VISCOSITY, Drag, ParticleClass
+from cavesim.core.scene.model import AIR_VISCOSITY, ParticleClass
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 
 STEPS = (1 / 60, 1 / 30)
