@@ -147,10 +147,11 @@ def test_every_branch_a_valid_combination_takes_is_taken_native_and_portable(cov
     assert cover.errors == ()
     # what the shaders refuse, or compile only in another stage or arithmetic, is told apart
     unreachable = {(s.stage, s.arithmetic): s.unreachable for s in cover.stages}
-    physics = (SHADER_ROOT / "include" / "physics.glsl").read_text().splitlines()
-    unknown = physics.index("#error unknown INTEGRATOR")  # the #else above it, 1-based
-    assert all(has(found, f"include/physics.glsl:{unknown}", "#else")
-               for found in unreachable.values())
+    unknown = "#error unknown INTEGRATOR"
+    (where,) = [f"{path.relative_to(SHADER_ROOT)}:{lines.index(unknown)}"  # the #else above
+                for path in sorted((SHADER_ROOT / "include").glob("*.glsl"))
+                if unknown in (lines := path.read_text().splitlines())]
+    assert all(has(found, where, "#else") for found in unreachable.values())
     exits = "#if COUNT_DOMAIN_EXITS && !defined GEOMETRY_SHADER"
     assert has(unreachable["geometry", "native"], "include/physics.glsl", exits)
     assert not has(unreachable["vertex", "native"], "include/physics.glsl", exits)
@@ -195,8 +196,7 @@ def test_a_validity_that_lets_through_what_the_shaders_refuse_is_caught(scenes):
         return reachable({**defines, "COLLISION": 1}) == {**defines, "COLLISION": 1}
 
     cover = particle_cover(rows, forgets_the_ground)
-    assert cover.errors and all("#error HAS_DISPERSION needs a COLLISION ground" in e
-                                for e in cover.errors)
+    assert cover.errors and all("#error HAS_DISPERSION" in e for e in cover.errors)
 
 
 @pytest.mark.slow
