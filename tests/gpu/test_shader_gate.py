@@ -1,14 +1,22 @@
 """The portability gate: every program cavesim can build passes the Khronos reference
-front-end (glslangValidator), a lint for what NVIDIA rejects, and this GL context."""
+front-end (glslangValidator), a lint for what NVIDIA rejects, and this GL context; the
+particle passes in a few hundred variants at most that cover every pair of feature values
+and every #if branch, native and portable, and every scene shipped or under tests/."""
 
 import dataclasses
+import importlib.util
+import itertools
+import random
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
-from cavesim.core.scene import Arithmetic, Integrator
+from cavesim.core.scene import Arithmetic
+from cavesim.gpu import shader_gate
+from cavesim.gpu.covering_array import pairs
 from cavesim.gpu.engine.programs import (
     ARITHMETIC_IDS,
     BLOCK_DEFINES,
@@ -16,59 +24,246 @@ from cavesim.gpu.engine.programs import (
     PARTICLE_UPDATE,
     PHYSICS_FEATURES,
     TRANSPORT_FEATURES,
+    physics_defines,
+    reachable,
+    valid_physics,
 )
+from cavesim.gpu.gate_cover import FEATURES, PASSES, particle_cover
+from cavesim.gpu.gl import context
 from cavesim.gpu.render.programs import DUST
+from cavesim.gpu.shader_conditionals import Conditionals
 from cavesim.gpu.shader_gate import (
     Build,
+    Finding,
     all_builds,
     check_on_context,
     check_sources,
     context_builds,
     lint,
+    load_scenes,
+    main,
+    scene_cover,
+    scene_files,
+    summary,
     uniform_components,
 )
-from cavesim.gpu.shader_source import ProgramSpec, ShaderSource
+from cavesim.gpu.shader_source import SHADER_ROOT, ProgramSpec, ShaderSource
 
-SCENES = Path(__file__).parents[2] / "config" / "scenes"
+ROOT = Path(__file__).parents[2]
+SCENES = ROOT / "config" / "scenes"
 NATIVE, PORTABLE = ARITHMETIC_IDS[Arithmetic.NATIVE], ARITHMETIC_IDS[Arithmetic.PORTABLE]
 FIXTURES = Path(__file__).parents[1] / "glsl_fixtures"
+# scenes other tests write from a module constant: (module, constant)
+WRITTEN_SCENES = {"full": ("tests/unit/test_scene.py", "FULL_TOML"),
+                  "overflow": ("tests/processes/test_capacity_drops_run.py", "SCENE"),
+                  "pulsing": ("tests/processes/test_flow_file_run.py", "SCENE")}
+MOST_VARIANTS = 400  # per engine path
+
+
+def written_scenes(folder: Path) -> list[Path]:
+    """The scene files other tests write, written into `folder`."""
+    paths = []
+    for name, (module_path, constant) in WRITTEN_SCENES.items():
+        spec = importlib.util.spec_from_file_location(f"_gate_{name}", ROOT / module_path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        (path := folder / f"{name}.toml").write_text(getattr(module, constant))
+        paths.append(path)
+    return paths
 
 
 @pytest.fixture(scope="module")
-def builds():
-    return all_builds(SCENES)
+def scenes(tmp_path_factory):
+    return load_scenes([*scene_files(), *written_scenes(tmp_path_factory.mktemp("scenes"))])
 
 
-def test_the_gate_covers_every_scene_and_every_feature_combination(builds):
-    origins = {build.origin for build in builds}
-    assert {f"scene {path.stem}" for path in SCENES.glob("*.toml")} | {"probe"} <= origins
-    physics = [b for b in builds if b.spec == PARTICLE_UPDATE]
-    native = [b for b in physics if dict(b.defines)["ARITHMETIC"] == NATIVE]
-    portable = [dict(b.defines) for b in physics if dict(b.defines)["ARITHMETIC"] == PORTABLE]
-    combinations = 1
-    for name, values in PHYSICS_FEATURES.items():
-        combinations *= len(values) if name not in ("ARITHMETIC", "FIELD_INTERPOLATION") else 1
-    assert combinations >= 2 * 2 * 2 * 3 * len(Integrator) * 2 * 2 * 2 * 2
-    # the product, and the two cubic interpolations where they are compiled in: with drag
-    # from a grid sampled by hand, 1/8 of it; plus the scenes' own class counts
-    assert len(native) >= combinations * (1 + 2 / 8)
-    cubic = [d for b in native if (d := dict(b.defines))["FIELD_INTERPOLATION"]]
-    assert all(d["HAS_DRAG"] and not d["FIELD_IS_ROTOR"] and not d["FIELD_SAMPLING"]
-               for d in cubic)
-    gpu_ids = {i.gpu_id for i in Integrator}
-    assert {dict(b.defines)["INTEGRATOR"] for b in native} == gpu_ids
-    # portable: each integrator with every other feature at each of its values
-    for integrator in gpu_ids:
-        for name, values in PHYSICS_FEATURES.items():
-            if name not in ("ARITHMETIC", "FIELD_SAMPLING", "INTEGRATOR"):
-                seen = {d[name] for d in portable if d["INTEGRATOR"] == integrator}
-                assert seen == set(values), (integrator, name)
+@pytest.fixture(scope="module")
+def cover(scenes):
+    return scene_cover(scenes)
+
+
+@pytest.fixture(scope="module")
+def builds(scenes, cover):
+    return all_builds(scenes, cover)
+
+
+def sample(count: int, seed: int = 7) -> list[dict[str, int]]:
+    """Valid combinations of the particle pass's defines drawn at random, each once."""
+    draw, found = random.Random(seed), {}
+    while len(found) < count:
+        row = {name: draw.choice(values) for name, values in FEATURES.items()}
+        if valid_physics(row):
+            found[tuple(row.items())] = row
+    return list(found.values())
+
+
+def test_each_engine_path_builds_the_particle_pass_in_at_most_400_variants(cover, builds):
+    for spec in PASSES:
+        variants = [dict(b.defines) for b in builds if b.spec == spec]
+        assert len(variants) == len(cover.rows) <= MOST_VARIANTS
+        assert {d["ARITHMETIC"] for d in variants} == {NATIVE, PORTABLE}
+    assert all(valid_physics(row) for row in cover.rows)
     compiled = context_builds(builds)
+    native = [b for b in builds if b.spec in PASSES and dict(b.defines)["ARITHMETIC"] == NATIVE]
     assert all(b in compiled for b in native)
     assert not any(dict(b.defines)["ARITHMETIC"] == PORTABLE for b in compiled
-                   if b.spec in (PARTICLE_UPDATE, BLOCK_UPDATE))
+                   if b.spec in PASSES)
     assert any(dict(b.defines).get("CLASS_COUNT") == MAX_PARTICLE_CLASSES
                for b in builds if b.spec == DUST)
+
+
+def test_every_scene_shipped_or_under_tests_is_built_as_it_is(scenes, builds):
+    files = scene_files()
+    assert set(SCENES.glob("*.toml")) | set((ROOT / "tests" / "data" / "logs").glob("*.toml")) \
+        <= set(files)
+    assert {"full", "overflow", "pulsing", "smoke", "downwash_portable"} <= set(scenes)
+    built = {(b.spec, b.defines) for b in builds}
+    for name, scene in scenes.items():
+        physics = physics_defines(scene)
+        for spec, fixed in PASSES.items():
+            assert (spec, tuple(sorted({**physics, **fixed}.items()))) in built, name
+    origins = {build.origin for build in builds}  # a scene another's twin is built once
+    assert {f"scene {path.stem}" for path in SCENES.glob("*.toml")} | {"probe"} <= origins
+
+
+def test_every_pair_of_values_a_valid_combination_holds_is_in_a_variant(cover):
+    assert cover.uncovered == []
+    held = {pair for row in sample(500) for pair in pairs(row, tuple(FEATURES))}
+    assert held <= set(cover.pairs.required)
+    assert not held & set(cover.pairs.excluded)
+    # the loader's rules and physics.glsl's #errors, found by the search
+    assert (("ARITHMETIC", PORTABLE), ("FIELD_SAMPLING", 1)) in cover.pairs.excluded
+    assert (("HAS_DISPERSION", 1), ("HAS_TRACERS", 1)) in cover.pairs.excluded
+    assert (("FIELD_INTERPOLATION", 2), ("FIELD_TIME_SERIES", 1)) in cover.pairs.required
+
+
+def test_every_branch_a_valid_combination_takes_is_taken_native_and_portable(cover):
+    assert {(s.program, s.stage, s.arithmetic) for s in cover.stages} == {
+        (spec.name, stage, mode) for spec in PASSES for stage in spec.stages
+        for mode in ("native", "portable")}
+    for stage in cover.stages:
+        assert stage.missed == [] and stage.taken == stage.reachable, str(stage)
+        assert len(stage.reachable) > 100
+    assert cover.errors == ()
+    # what the shaders refuse, or compile only in another stage or arithmetic, is told apart
+    unreachable = {(s.stage, s.arithmetic): s.unreachable for s in cover.stages}
+    unknown = "#error unknown INTEGRATOR"
+    (where,) = [f"{path.relative_to(SHADER_ROOT)}:{lines.index(unknown)}"  # the #else above
+                for path in sorted((SHADER_ROOT / "include").glob("*.glsl"))
+                if unknown in (lines := path.read_text().splitlines())]
+    assert all(has(found, where, "#else") for found in unreachable.values())
+    exits = "#if COUNT_DOMAIN_EXITS && !defined GEOMETRY_SHADER"
+    assert has(unreachable["geometry", "native"], "include/physics.glsl", exits)
+    assert not has(unreachable["vertex", "native"], "include/physics.glsl", exits)
+    hardware = "#if FIELD_SAMPLING == SAMPLING_HARDWARE"
+    assert has(unreachable["compute", "portable"], "include/field.glsl", hardware)
+    assert not has(unreachable["compute", "native"], "include/field.glsl", hardware)
+
+
+def has(branches, where: str, directive: str) -> bool:
+    """Whether a branch of `directive` at `where` (a file, or file:line) is among these."""
+    return any(b.directive == directive and f"{b.where}:".startswith(f"{where}:")
+               for b in branches)
+
+
+def test_no_valid_combination_takes_a_branch_called_unreachable(cover):
+    stages = [(spec, stage, Conditionals(source.text, source.files)) for spec, fixed in
+              PASSES.items() for stage, source in spec.sources({**cover.rows[0],
+                                                                  **fixed}).items()]
+    reachable = {(s.program, s.stage, s.arithmetic): s.reachable for s in cover.stages}
+    mode = {NATIVE: "native", PORTABLE: "portable"}
+    for row in sample(150, seed=11):
+        for spec, stage, conditionals in stages:
+            outcome = conditionals.taken({**row, **PASSES[spec]})
+            assert outcome.errors == ()
+            assert outcome.taken <= reachable[spec.name, stage, mode[row["ARITHMETIC"]]], row
+
+
+def test_a_validity_that_refuses_a_scene_is_caught(scenes):
+    rows = {name: physics_defines(scene) for name, scene in scenes.items()}
+
+    def without_adaptive_tracers(defines):
+        return valid_physics(defines) and defines["TRACER_METHOD"] != 4
+
+    with pytest.raises(ValueError, match="not valid by the predicate without_adaptive_tracers"):
+        particle_cover(rows, without_adaptive_tracers)
+
+
+def test_a_validity_that_lets_through_what_the_shaders_refuse_is_caught(scenes):
+    rows = {name: physics_defines(scene) for name, scene in scenes.items()}
+
+    def forgets_the_ground(defines):  # dispersion without a ground: physics.glsl's #error
+        return reachable({**defines, "COLLISION": 1}) == {**defines, "COLLISION": 1}
+
+    cover = particle_cover(rows, forgets_the_ground)
+    assert cover.errors and all("#error HAS_DISPERSION" in e for e in cover.errors)
+
+
+@pytest.mark.slow
+def test_the_searches_find_what_every_valid_combination_holds_and_takes(cover):
+    """Slow (each of the 13,936 valid combinations of the defines the validity reads, and
+    3,000 valid rows through the preprocessor): the only test that holds the pair search to
+    the whole product, and the branches called unreachable to a large sample."""
+    free = {"HAS_GRAVITY", "HAS_DAMPING", "CLASS_COUNT", "RANDOM_SIZE"}
+    rows = sample(3000, seed=13)
+    assert all(valid_physics({**row, name: value}) for row in rows[:300] for name in free
+               for value in FEATURES[name]), "the validity reads one of the free names"
+    bound = [name for name in FEATURES if name not in free]
+    base = {name: FEATURES[name][0] for name in free}
+    held = set()
+    for values in itertools.product(*(FEATURES[name] for name in bound)):
+        row = {**dict(zip(bound, values, strict=True)), **base}
+        if valid_physics(row):
+            held |= set(pairs({name: row[name] for name in FEATURES}, tuple(FEATURES)))
+    # a free name takes each of its values beside every value a valid row holds
+    values = {value for pair in held for value in pair if value[0] not in free}
+    values |= {(name, value) for name in free for value in FEATURES[name]}
+    order = list(FEATURES)
+    held |= {(x, y) for x, y in itertools.product(values, repeat=2)
+             if order.index(x[0]) < order.index(y[0]) and free & {x[0], y[0]}}
+    assert held == set(cover.pairs.required)
+    stages = [(spec, stage, Conditionals(source.text, source.files)) for spec, fixed in
+              PASSES.items() for stage, source in spec.sources({**rows[0], **fixed}).items()]
+    reachable = {(s.program, s.stage, s.arithmetic): s.reachable for s in cover.stages}
+    mode = {NATIVE: "native", PORTABLE: "portable"}
+    for row in rows:
+        for spec, stage, conditionals in stages:
+            outcome = conditionals.taken({**row, **PASSES[spec]})
+            assert outcome.taken <= reachable[spec.name, stage, mode[row["ARITHMETIC"]]], row
+
+
+def test_the_summary_says_what_is_covered_without_compiling(scenes, cover, builds, capsys):
+    lines = summary(scenes, cover, builds)
+    assert lines[0] == f"variants per path: {len(cover.rows)}"
+    text = "\n".join(lines)
+    assert f"value pairs covered: {len(cover.pairs.required)} of {len(cover.pairs.required)}" \
+        in text
+    assert "branches a valid combination takes and no variant does: 0" in text
+    assert "particles/update_blocks.glsl compute portable: " in text
+    assert f"scenes included: {len(scenes)} (" in text
+    assert main(["--summary"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.startswith("variants per path: ") and "builds in all: " in printed
+
+
+def test_the_gate_prints_a_line_a_finding_and_fails(monkeypatch, capsys, cover, builds):
+    finding = Finding(builds[0], "vertex", "ERROR: particles/update.glsl:3: bad")
+    monkeypatch.setattr(shader_gate, "scene_cover", lambda scenes: cover)  # computed once
+    monkeypatch.setattr(shader_gate, "check_sources", lambda found: [finding])
+    monkeypatch.setattr(shader_gate, "check_on_context", lambda ctx, found: [])
+    monkeypatch.setattr(context, "create_context", lambda: SimpleNamespace(release=lambda: None))
+    assert main([]) == 1
+    assert capsys.readouterr().out.splitlines()[-1] == str(finding)
+
+
+def test_scene_files_are_the_shipped_ones_and_those_under_tests(tmp_path):
+    (shipped := tmp_path / "scenes").mkdir()
+    (logs := tmp_path / "tests" / "data").mkdir(parents=True)
+    (shipped / "a.toml").write_text('name = "a"\n')
+    (logs / "b.toml").write_text('name = "b"\n[simulation]\nseed = 1\n')
+    (logs / "cave.toml").write_text('name = "x"\n[[wall]]\nname = "front"\n')  # no scene
+    assert scene_files(shipped, tmp_path / "tests") == [shipped / "a.toml", logs / "b.toml"]
+    assert scene_files(shipped, tmp_path / "nowhere") == [shipped / "a.toml"]
 
 
 @pytest.mark.slow

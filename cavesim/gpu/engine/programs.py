@@ -2,14 +2,14 @@
 
 A feature the scene lacks is decided as 0 here, so its code is compiled out and the engine
 allocates no texture, uniform or buffer for it (the test reads the generated source). The
-same table tells the portability gate (`cavesim.gpu.shader_gate`) every program and every
-feature combination there is to check.
+same table tells the portability gate (`cavesim.gpu.shader_gate`) every program and the
+values each of its defines can take.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 
 import moderngl
 
@@ -60,8 +60,7 @@ PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
     "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
 }
 # Drag beyond Stokes, dispersion (with the random texture's size it reads), a field given
-# as a time series, the count of particles leaving a grid and passive tracer classes,
-# checked by the gate in the variants `physics_variants` names, not in the full product.
+# as a time series, the count of particles leaving a grid and passive tracer classes.
 # TRACER_METHOD is the integrator's row's unless the scene steps its tracers adaptively
 # (`reachable`).
 TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
@@ -171,11 +170,9 @@ def scene_programs(scene: Scene) -> list[tuple[ProgramSpec, dict[str, int]]]:
 
 
 def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
-    """Every engine program with every combination of the values its defines can take; in
-    portable arithmetic the particle passes in `physics_variants` only."""
-    for spec, fixed in ((PARTICLE_UPDATE, {}), (BLOCK_UPDATE, BLOCK_DEFINES)):
-        for defines in physics_variants():
-            yield spec, {**defines, **fixed}
+    """Every engine program but the particle passes with every combination of the values its
+    defines can take (a few each); the gate builds the particle passes in a cover of theirs
+    (`cavesim.gpu.shader_gate`, over `valid_physics`)."""
     for spec in (EMITTER_UPDATE, EMIT, APPEND):
         for values in itertools.product(*EMISSION_FEATURES.values()):
             yield spec, dict(zip(EMISSION_FEATURES, values, strict=True))
@@ -184,62 +181,17 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
         yield spec, dict(defines)
 
 
-def physics_variants() -> Iterator[dict[str, int]]:
-    """The particle pass's defines the gate checks, each once, as `physics_defines` could
-    give them (`reachable`). Native: every combination of PHYSICS_FEATURES with the
-    transport features off, and each drag law and dispersion with every integrator, both
-    flows and both grounds (all else on, a time series only with both: its code is apart
-    from theirs). Portable, whose inlined arithmetic makes a program many times larger (the
-    full product would take the reference front-end minutes): every integrator with every
-    feature on but the time series (the flow from a B-spline grid), and with each other
-    feature switched one at a time, which together hold every line and every #if of the
-    portable code. Hardware sampling is not among them: the loader refuses it."""
-    seen = set()
-
-    def once(defines: dict[str, int]) -> Iterator[dict[str, int]]:
-        defines = reachable(defines)
-        if (key := tuple(sorted(defines.items()))) not in seen:
-            seen.add(key)
-            yield defines
-
-    off = {name: values[0] for name, values in TRANSPORT_FEATURES.items()}
-    # tracers by the integrator's own method (the adaptive one is checked on its own below)
-    on = {**{name: values[-1] for name, values in TRANSPORT_FEATURES.items()},
-          "TRACER_METHOD": TracerMethod.EULER.gpu_id}
-    native = {**PHYSICS_FEATURES, "ARITHMETIC": (ARITHMETIC_IDS[Arithmetic.NATIVE],)}
-    for values in itertools.product(*native.values()):
-        yield from once({**dict(zip(native, values, strict=True)), **off})
-    every_feature = {name: values[-1] for name, values in native.items()}
-    for integrator, rotor, collision in itertools.product(
-            PHYSICS_FEATURES["INTEGRATOR"], (0, 1), (1, 2)):
-        for drag_law, dispersion, series in ((1, 0, 0), (0, 1, 0), (1, 1, 0), (1, 1, 1)):
-            yield from once({**every_feature, **on, "INTEGRATOR": integrator,
-                             "FIELD_IS_ROTOR": rotor, "COLLISION": collision,
-                             "HAS_SCHILLER_NAUMANN": drag_law, "HAS_DISPERSION": dispersion,
-                             "FIELD_TIME_SERIES": series})
-    adaptive = {**every_feature, **on, "TRACER_METHOD": TracerMethod.RK45.gpu_id,
-                "HAS_SCHILLER_NAUMANN": 0, "HAS_DISPERSION": 0}
-    for rotor, series, counted in ((1, 0, 1), (0, 0, 1), (0, 1, 1), (0, 1, 0)):
-        yield from once({**adaptive, "FIELD_IS_ROTOR": rotor, "FIELD_TIME_SERIES": series,
-                         "COUNT_TRACER_SUBSTEPS": counted})
-    fixed = {"ARITHMETIC": ARITHMETIC_IDS[Arithmetic.PORTABLE],
-             "FIELD_SAMPLING": SAMPLING_IDS[FieldSampling.MANUAL]}
-    features = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
-    switched = {name: values for name, values in features.items()
-                if name not in (*fixed, "INTEGRATOR")}
-    every_feature = {name: values[-1] for name, values in switched.items()}
-    every_feature["FIELD_TIME_SERIES"] = 0  # switched on below, one variant per integrator
-    every_feature["TRACER_METHOD"] = TracerMethod.EULER.gpu_id  # the integrator's; RK45 below
-    for integrator in PHYSICS_FEATURES["INTEGRATOR"]:
-        base = {**every_feature, **fixed, "INTEGRATOR": integrator, "FIELD_IS_ROTOR": 0}
-        yield from once(base)
-        for name, values in switched.items():
-            for value in values:
-                if value != base[name]:
-                    yield from once({**base, name: value})
-    for series in (0, 1):  # tracers exclude dispersion, on in `base`
-        yield from once({**base, "HAS_DISPERSION": 0, "TRACER_METHOD": TracerMethod.RK45.gpu_id,
-                         "FIELD_TIME_SERIES": series})
+def valid_physics(defines: Mapping[str, int]) -> bool:
+    """Whether a scene can give the particle pass `defines` (PHYSICS_FEATURES and
+    TRANSPORT_FEATURES): `reachable` leaves them as they are, and the loader allows them:
+    without drag there is no field, so every field define is 0; a field is not sampled by
+    the texture unit in portable arithmetic. The shader gate's cover holds every pair of
+    values this allows together."""
+    field_free = ("FIELD_OUT_OF_DOMAIN", "FIELD_SAMPLING", "FIELD_IS_ROTOR")
+    return (reachable(dict(defines)) == dict(defines)
+            and (defines["HAS_DRAG"] or not any(defines[name] for name in field_free))
+            and not (defines["ARITHMETIC"] == ARITHMETIC_IDS[Arithmetic.PORTABLE]
+                     and defines["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.HARDWARE]))
 
 
 def reachable(defines: dict[str, int]) -> dict[str, int]:
