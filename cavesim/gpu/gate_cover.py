@@ -1,7 +1,8 @@
 """The variants of the particle passes the shader gate compiles, and what they cover.
 
 The particle pass (`particles/update.glsl` on the GS/TF path, `particles/update_blocks.glsl`
-on the compute path) has nineteen feature defines: their product is millions of programs.
+on the compute path) has a define per setting of a feature (`programs.PASS_DEFINES`):
+their product is millions of programs.
 The gate (`cavesim.gpu.shader_gate`) compiles each path in the same few rows instead:
   1. every scene it is given, as the scene builds it;
   2. a covering array (`cavesim.gpu.covering_array`): every pair of values that a valid
@@ -26,14 +27,13 @@ from cavesim.gpu.engine.programs import (
     BLOCK_DEFINES,
     BLOCK_UPDATE,
     PARTICLE_UPDATE,
-    PHYSICS_FEATURES,
-    TRANSPORT_FEATURES,
+    PASS_DEFINES,
     valid_physics,
 )
 from cavesim.gpu.shader_conditionals import Branch, Conditionals
 from cavesim.gpu.shader_source import ProgramSpec
 
-FEATURES: dict[str, tuple[int, ...]] = {**PHYSICS_FEATURES, **TRANSPORT_FEATURES}
+FEATURES: dict[str, tuple[int, ...]] = PASS_DEFINES
 # each engine path's particle pass, and the defines it has besides FEATURES
 PASSES: dict[ProgramSpec, dict[str, int]] = {PARTICLE_UPDATE: {}, BLOCK_UPDATE: BLOCK_DEFINES}
 ARITHMETICS = {mode.value: ARITHMETIC_IDS[mode] for mode in Arithmetic}

@@ -34,6 +34,7 @@ _FLOAT32_MAX = 3.4028234663852886e38
 _INCLUDE = re.compile(r'\s*#\s*include\s+"([^"]+)"\s*')
 _PRAGMA_ONCE = re.compile(r"\s*#\s*pragma\s+once\s*")
 _DEFINE = re.compile(r"\s*#\s*define\s+(\w+)")
+_DEFINE_NAME = re.compile(r"^#define (\w+)", re.M)
 _VERSION = re.compile(r"\s*#\s*version\b")
 _LINE_MARKER = re.compile(r"#line \d+ \d+")
 _CONDITIONAL_BRANCH = re.compile(r"\s*#\s*(else|elif|endif)\b")
@@ -78,6 +79,7 @@ class ProgramSpec:
     allowed: tuple[str, ...] = ()
     varyings: tuple[str, ...] = ()
     root: Path = SHADER_ROOT
+    preamble: str = ""  # GLSL pasted after the defines, before the file (ids, #errors)
 
     def sources(self, defines: Defines) -> dict[str, ShaderSource]:
         """The assembled source of every stage."""
@@ -86,14 +88,15 @@ class ProgramSpec:
 
     def variant_sources(self, variants: Sequence[Defines]) -> list[dict[str, ShaderSource]]:
         """`sources` of each set of defines in `variants`, each stage's files pasted once."""
-        each = {stage: assemble_each(self.name, stage, variants, self.allowed, self.root)
+        each = {stage: assemble_each(self.name, stage, variants, self.allowed, self.root,
+                                     self.preamble)
                 for stage in self.stages}
         return [{stage: each[stage][k] for stage in self.stages} for k in range(len(variants))]
 
     def build(self, ctx: moderngl.Context,
               defines: Defines) -> moderngl.Program | moderngl.ComputeShader:
         return build_program(ctx, self.name, self.stages, defines, self.allowed,
-                             varyings=self.varyings, root=self.root)
+                             varyings=self.varyings, root=self.root, preamble=self.preamble)
 
 
 def assemble(
@@ -102,9 +105,10 @@ def assemble(
     defines: Defines,
     allowed: Collection[str],
     root: Path = SHADER_ROOT,
+    preamble: str = "",
 ) -> ShaderSource:
     """Return the source of one stage of the program `name` (relative to `root`)."""
-    (source,) = assemble_each(name, stage, [defines], allowed, root)
+    (source,) = assemble_each(name, stage, [defines], allowed, root, preamble)
     return source
 
 
@@ -114,16 +118,19 @@ def assemble_each(
     variants: Sequence[Defines],
     allowed: Collection[str],
     root: Path = SHADER_ROOT,
+    preamble: str = "",
 ) -> list[ShaderSource]:
-    """`assemble` for each set of defines in `variants`. Every set names each allowed define
-    (no more), so the pasted files are the same text for all: they are pasted once."""
+    """`assemble` for each set of defines in `variants`, `preamble` after the defines. Every
+    set names each allowed define (no more), so the pasted files are the same text for all:
+    they are pasted once."""
     if stage not in STAGE_MACROS:
         raise ShaderError(f"stage must be one of {sorted(STAGE_MACROS)}, got {stage=!r}")
     headers = [[f"#version {REQUIRED_GL_VERSION} core", *_define_lines(defines, allowed),
-                f"#define {STAGE_MACROS[stage]}"] for defines in variants]
+                f"#define {STAGE_MACROS[stage]}", *preamble.splitlines()] for defines in variants]
     if not headers:
         return []
-    paster = _Paster(root, injected={*variants[0], *STAGE_MACROS.values()})
+    paster = _Paster(root, injected={*variants[0], *STAGE_MACROS.values(),
+                                     *_DEFINE_NAME.findall(preamble)})
     body = paster.paste(_resolve(name, "", "shader"), chain=())
     # A position marker that nothing follows marks nothing, and NVIDIA's compiler rejects a
     # `#line` as the last line of a source (C0115: "#line source-string number invalid").
@@ -143,13 +150,15 @@ def build_program(
     varyings: Sequence[str] = (),
     varyings_capture_mode: str = "interleaved",
     root: Path = SHADER_ROOT,
+    preamble: str = "",
 ) -> moderngl.Program | moderngl.ComputeShader:
     """Compile the program `name` from `stages`; a compute shader if stages is ["compute"]."""
     if list(stages) != ["compute"] and ("vertex" not in stages or "compute" in stages):
         raise ShaderError(
             f"stages must be ['compute'] or include 'vertex' and not 'compute', got {stages=!r}"
         )
-    sources = {stage: assemble(name, stage, defines, allowed, root) for stage in stages}
+    sources = {stage: assemble(name, stage, defines, allowed, root, preamble)
+               for stage in stages}
     try:
         if "compute" in sources:
             program = ctx.compute_shader(sources["compute"].text)

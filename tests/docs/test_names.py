@@ -8,10 +8,13 @@ from pathlib import Path
 ROOT = Path(__file__).parents[2]
 PACKAGES = ("cavesim", "nodes")
 PARALLEL_ROLES = {  # file name: (the package whose docstring says so, the folders)
-    "dispersion.py": ("cavesim/core/portable", {"cavesim/core", "cavesim/core/portable"}),
+    "dispersion.py": ("cavesim/core/features", {"cavesim/core/features", "cavesim/core/twin",
+                                                "cavesim/core/portable"}),
+    "collision.py": ("cavesim/core/features", {"cavesim/core/features", "cavesim/core/twin"}),
     "forces.py": ("cavesim/core/portable", {"cavesim/core/twin", "cavesim/core/portable"}),
     "integrators.py": ("cavesim/core/portable", {"cavesim/core/twin", "cavesim/core/portable"}),
-    "tracers.py": ("cavesim/core/portable", {"cavesim/core/twin", "cavesim/core/portable"}),
+    "tracers.py": ("cavesim/core/features", {"cavesim/core/features", "cavesim/core/twin",
+                                             "cavesim/core/portable"}),
     "rotor.py": ("cavesim/core/portable", {"cavesim/core/helicopter", "cavesim/core/portable"}),
     "emission.py": ("cavesim/core/twin", {"cavesim/core/twin", "cavesim/gpu/engine"}),
     "programs.py": ("cavesim/gpu", {"cavesim/gpu/engine", "cavesim/gpu/render"}),

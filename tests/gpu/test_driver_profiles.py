@@ -10,15 +10,17 @@ import ast
 import copy
 from pathlib import Path
 
+import numpy as np
 import pytest
 from driver_doubles import RecordedDriver, load_profile, profile_names
 from scenes import scene_dict
 
 from cavesim.core.errors import ContextError, FieldError
+from cavesim.core.features.feature import Texture
 from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.scene.model import ENGINE_PATHS, Engine
 from cavesim.core.wire.network import NetworkSettings
-from cavesim.gpu.engine.capacity import capacity_limits, check_field_texture
+from cavesim.gpu.engine.capacity import capacity_limits, check_texture
 from cavesim.gpu.engine.frame_counts import counts_exits
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
@@ -254,13 +256,16 @@ def test_a_time_series_fits_the_3d_texture_size_each_context_reports(profile):
     for context in profile["contexts"]:
         asked = context["asked"][str(REQUIRED_GL_VERSION)]
         largest = asked["GL_MAX_3D_TEXTURE_SIZE"]
+        texture = Texture("flow_field", np.zeros((6400, 32, 32, 3), np.float32),
+                          what="the field's texture (200 snapshot(s) stacked along z)",
+                          fewer="snapshots or nodes")
         if largest >= 6400:
-            check_field_texture(asked, (32, 32, 6400), 200)
+            check_texture(asked, texture)
         else:
-            with pytest.raises(FieldError, match=f"32 x 32 x 6400 texels \\(200 snapshot\\(s\\) "
-                                                 f"stacked along z\\), beyond "
+            with pytest.raises(FieldError, match=f"\\(200 snapshot\\(s\\) stacked along z\\) "
+                                                 f"would be 32 x 32 x 6400 texels, beyond "
                                                  f"GL_MAX_3D_TEXTURE_SIZE = {largest} on "):
-                check_field_texture(asked, (32, 32, 6400), 200)
+                check_texture(asked, texture)
 
 
 def test_each_recorded_context_says_whether_gs_tf_counts_stay_on_the_gpu(profile):

@@ -11,16 +11,8 @@ from scenes import FOUNTAIN, VORTEX_FIELD, make_scene, scene_dict, with_smoke
 from cavesim.core.errors import ShaderError
 from cavesim.core.scene import load_scene, parse_scene
 from cavesim.gpu.engine import FrameInput, ParticleSystem
-from cavesim.gpu.engine.programs import (
-    COLLISION_IDS,
-    INTERPOLATION_IDS,
-    OUT_OF_DOMAIN_IDS,
-    PARTICLE_UPDATE,
-    SAMPLING_IDS,
-    physics_defines,
-)
+from cavesim.gpu.engine.programs import PARTICLE_UPDATE, physics_defines
 from cavesim.gpu.engine.uniforms import write_uniforms
-from cavesim.gpu.shader_source import SHADER_ROOT
 
 SCENES = Path(__file__).parents[2] / "config" / "scenes"
 FEATURE_CODE = {  # what each feature puts in the compiled particle pass
@@ -156,7 +148,7 @@ def test_a_cubic_field_texture_holds_the_padded_texels(ctx):
     texture = system.resources["flow_field"]
     nx, ny, nz = scene.field.resolution
     assert texture.size == (nx + 2, ny + 2, nz + 2)
-    assert texture.read() == system.field_series.texels().tobytes()
+    assert texture.read() == system.features.data["grid_flow"].texels().tobytes()
 
 
 def test_minimal_scene_allocates_no_field_ground_or_extra_uniforms(ctx):
@@ -187,15 +179,3 @@ def test_a_uniform_the_source_never_declares_is_an_error_not_skipped(ctx):
     write_uniforms(program, {"inv_tau": np.zeros(1, np.float32)})  # skipped, like a feature off
     with pytest.raises(ShaderError, match=r"particles/update.glsl declares no uniform gravty"):
         write_uniforms(program, {"gravty": np.zeros(3, np.float32)})
-
-
-@pytest.mark.parametrize(("prefix", "ids"), [
-    ("COLLISION_", COLLISION_IDS),
-    ("OUT_OF_DOMAIN_", OUT_OF_DOMAIN_IDS), ("SAMPLING_", SAMPLING_IDS),
-    ("INTERPOLATION_", INTERPOLATION_IDS)])
-def test_feature_ids_are_the_same_on_both_sides(prefix, ids):
-    physics = (SHADER_ROOT / "include" / "feature_ids.glsl").read_text()
-    glsl = {name: int(value) for name, value
-            in re.findall(rf"#define {prefix}(\w+) (\d+)", physics)}
-    python = {("NONE" if key is None else key.name): value for key, value in ids.items()}
-    assert glsl == python

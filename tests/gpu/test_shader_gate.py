@@ -22,10 +22,8 @@ from cavesim.gpu.engine.programs import (
     BLOCK_DEFINES,
     BLOCK_UPDATE,
     PARTICLE_UPDATE,
-    PHYSICS_FEATURES,
-    TRANSPORT_FEATURES,
+    PASS_DEFINES,
     physics_defines,
-    reachable,
     valid_physics,
 )
 from cavesim.gpu.gate_cover import FEATURES, PASSES, particle_cover
@@ -133,7 +131,7 @@ def test_every_pair_of_values_a_valid_combination_holds_is_in_a_variant(cover):
     assert not held & set(cover.pairs.excluded)
     # the loader's rules and physics.glsl's #errors, found by the search
     assert (("ARITHMETIC", PORTABLE), ("FIELD_SAMPLING", 1)) in cover.pairs.excluded
-    assert (("HAS_DISPERSION", 1), ("HAS_TRACERS", 1)) in cover.pairs.excluded
+    assert (("HAS_TRACERS", 1), ("HAS_DISPERSION", 1)) in cover.pairs.excluded
     assert (("FIELD_INTERPOLATION", 2), ("FIELD_TIME_SERIES", 1)) in cover.pairs.required
 
 
@@ -192,8 +190,8 @@ def test_a_validity_that_refuses_a_scene_is_caught(scenes):
 def test_a_validity_that_lets_through_what_the_shaders_refuse_is_caught(scenes):
     rows = {name: physics_defines(scene) for name, scene in scenes.items()}
 
-    def forgets_the_ground(defines):  # dispersion without a ground: physics.glsl's #error
-        return reachable({**defines, "COLLISION": 1}) == {**defines, "COLLISION": 1}
+    def forgets_the_ground(defines):  # dispersion without a ground: a rule's #error
+        return valid_physics({**defines, "COLLISION": 1})
 
     cover = particle_cover(rows, forgets_the_ground)
     assert cover.errors and all("#error HAS_DISPERSION" in e for e in cover.errors)
@@ -204,7 +202,7 @@ def test_the_searches_find_what_every_valid_combination_holds_and_takes(cover):
     """Slow (each of the 13,936 valid combinations of the defines the validity reads, and
     3,000 valid rows through the preprocessor): the only test that holds the pair search to
     the whole product, and the branches called unreachable to a large sample."""
-    free = {"HAS_GRAVITY", "HAS_DAMPING", "CLASS_COUNT", "RANDOM_SIZE"}
+    free = {"HAS_GRAVITY", "HAS_DAMPING", "CLASS_COUNT"}
     rows = sample(3000, seed=13)
     assert all(valid_physics({**row, name: value}) for row in rows[:300] for name in free
                for value in FEATURES[name]), "the validity reads one of the free names"
@@ -292,7 +290,7 @@ class EndsWithLine(ProgramSpec):
 def test_the_gate_fails_a_program_that_ends_with_a_line_directive():
     spec = EndsWithLine(**{f.name: getattr(PARTICLE_UPDATE, f.name)
                            for f in dataclasses.fields(ProgramSpec)})
-    defines = dict.fromkeys((*PHYSICS_FEATURES, *TRANSPORT_FEATURES), 0) | {"CLASS_COUNT": 1}
+    defines = dict.fromkeys(PASS_DEFINES, 0) | {"CLASS_COUNT": 1, "RANDOM_SIZE": 16}
     build = Build(spec, tuple(sorted(defines.items())), "test")
     findings = check_sources([build])
     assert {f.stage for f in findings} == {"vertex", "geometry"}
@@ -333,8 +331,8 @@ def test_a_missing_validator_is_named_with_its_package():
 
 def test_uniform_components_count_each_array_element_as_a_vec4(ctx):
     # inv_tau[CLASS_COUNT] and dt: 64 elements + 1 float, each a vec4 slot
-    defines = dict.fromkeys((*PHYSICS_FEATURES, *TRANSPORT_FEATURES), 0) | {
-        "HAS_DRAG": 1, "CLASS_COUNT": 64}
+    defines = dict.fromkeys(PASS_DEFINES, 0) | {
+        "HAS_DRAG": 1, "CLASS_COUNT": 64, "RANDOM_SIZE": 16}
     program = BLOCK_UPDATE.build(ctx, defines | BLOCK_DEFINES)
     try:
         assert uniform_components(program) >= 4 * 64 + 4

@@ -10,6 +10,7 @@ from scenes import scene_dict
 
 from cavesim.core.drivers import FieldClock, StillDriver, driver_for
 from cavesim.core.errors import FieldError, ProtocolError, SceneError
+from cavesim.core.features.grid_flow import series_flow
 from cavesim.core.fields.analytic import rotating_velocity
 from cavesim.core.fields.grid import build_field, build_series, sample_field
 from cavesim.core.fields.snapshot_time import FIELD_TIME_PARAMS, FieldTime, field_time_at
@@ -102,10 +103,10 @@ def test_the_twins_mix_each_stages_pair_linearly_in_time(kernels):
         t0, t1 = scene.field.times[pair], scene.field.times[pair + 1]
         a, b = (sample_field(series.snapshots[k], p, OutOfDomain.CLAMP) for k in (pair, pair + 1))
         expected = a + (t - t0) / (t1 - t0) * (b - a)
-        u = kernels.series_flow(series, p, OutOfDomain.CLAMP, field_time, stage)
+        u = series_flow(series, p, OutOfDomain.CLAMP, field_time, stage, kernels)
         np.testing.assert_allclose(u, expected, rtol=2e-6, atol=1e-6)
     with pytest.raises(ValueError, match="start, middle and end"):
-        kernels.series_flow(series, p, OutOfDomain.CLAMP, field_time, None)
+        series_flow(series, p, OutOfDomain.CLAMP, field_time, None, kernels)
 
 
 def series_dataset(times, units="seconds since 2026-01-01") -> xr.Dataset:

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from cavesim.core.features.registry import GLSL_IDS
 from cavesim.core.portable import integrators as portable_integrators
 from cavesim.core.portable import tracers as portable_tracers
 from cavesim.core.scene.model import Integrator, TracerMethod
@@ -14,7 +15,16 @@ from cavesim.core.twin import tracers as twin_tracers
 from cavesim.gpu.shader_source import SHADER_ROOT
 
 PACKAGE = Path(__file__).parents[2] / "cavesim"
-PHYSICS = (SHADER_ROOT / "include" / "physics.glsl").read_text()
+INCLUDES = SHADER_ROOT / "include"
+PHYSICS = "".join((INCLUDES / name).read_text()  # the particle step's integrators and tracers
+                  for name in ("physics.glsl", "integrators.glsl", "tracers.glsl"))
+SHADERS = "".join(path.read_text() for path in SHADER_ROOT.rglob("*.glsl"))
+
+
+def preamble_ids(prefix: str) -> dict[str, int]:
+    """The ids the particle pass's preamble defines with `prefix`, by name."""
+    return {name.removeprefix(prefix): number for name, number in GLSL_IDS.items()
+            if name.startswith(prefix)}
 
 
 def integrate_branches() -> list[str]:
@@ -37,9 +47,8 @@ def test_every_row_is_complete(integrator):
 def test_the_gpu_ids_are_distinct_and_the_shaders_own():
     ids = [i.gpu_id for i in Integrator]
     assert len(set(ids)) == len(ids)
-    glsl = {name: int(value) for name, value
-            in re.findall(r"#define INTEGRATOR_(\w+) (\d+)", PHYSICS)}
-    assert glsl == {i.name: i.gpu_id for i in Integrator}
+    assert preamble_ids("INTEGRATOR_") == {i.name: i.gpu_id for i in Integrator}
+    assert not re.search(r"#define INTEGRATOR_", SHADERS)  # the table's, not written twice
 
 
 def test_integrate_has_one_branch_per_integrator():
@@ -84,9 +93,8 @@ def test_every_tracer_method_but_the_adaptive_one_is_an_integrators_form_without
 
 
 def test_the_tracer_methods_are_the_shaders_and_both_twins():
-    glsl = {name: int(value) for name, value
-            in re.findall(r"#define TRACER_(\w+) (\d+)", PHYSICS)}
-    assert glsl == {m.name: m.gpu_id for m in TracerMethod}
+    assert preamble_ids("TRACER_") == {m.name: m.gpu_id for m in TracerMethod}
+    assert not re.search(r"#define TRACER_(EULER|RK4)\b", SHADERS)
     assert trace_branches() == [m.name for m in TracerMethod]
     for module in (twin_tracers, portable_tracers):
         assert list(module.TRACERS) == list(TracerMethod)

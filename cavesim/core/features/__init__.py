@@ -10,7 +10,7 @@ programs (cavesim/gpu/engine/programs.py), the engine (`ParticleSystem`), the tw
 feature.
 
 Modules named like others are the same feature's declaration beside its kernels:
-`dispersion`, `collision` (cavesim/core/twin/; the portable ones are in
-cavesim/core/portable/). This package imports none of its modules: the scene model imports
-the tables some of them hold.
+`dispersion`, `collision` and `tracers` (cavesim/core/twin/, the float64 twin's; the
+portable arithmetic's are in cavesim/core/portable/). This package imports none of its
+modules: the scene model imports the tables some of them hold.
 """

@@ -18,6 +18,7 @@ import numpy as np
 
 from cavesim.core._schema import Range
 from cavesim.core.errors import SceneError
+from cavesim.core.features.collision import COLLISION
 from cavesim.core.features.feature import Feature
 from cavesim.core.features.rules import Rule
 from cavesim.core.limits import RANDOM_TEXTURE_SIZE_RANGE
@@ -81,12 +82,14 @@ class TurbulentDispersion(Feature):
                 "draw_mean": mean, "draw_scale": scale}
 
     def frame_uniforms(self, scene, data, state):
+        if state is None:
+            return {}
         return {"random_transform": state.frame.random_transform.T}  # its draws move with it
 
     def seen(self, scene, data, kernels, twin, forces, state):
         random, moments = data
         q = twin.particles
-        ground = twin.ground_under(q.pos[:, :2])
+        ground = COLLISION.ground_at(scene, twin.data[COLLISION.name], kernels, q.pos[:, :2])
         xi = twin_dispersion.draws(random, state.frame.random_transform, len(q.age), moments,
                                    kernels.dtype)
         turbulence = portable_dispersion.turbulence if kernels.portable \

@@ -31,9 +31,12 @@ from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT, FieldTime
 if TYPE_CHECKING:
     from cavesim.core.features.rules import Rule
     from cavesim.core.frame import FrameInput
-    from cavesim.core.helicopter.inputs import FrameRotor
-    from cavesim.core.scene.model import Scene
-    from cavesim.core.twin.kernels import Kernels
+
+# The scene model imports the tables features hold, so a feature names these types without
+# importing them (not even for type checks: no module imports another in a circle)
+Scene = Any  # cavesim.core.scene.model.Scene
+Kernels = Any  # cavesim.core.twin.kernels.Kernels: a twin's arithmetic
+FrameRotor = Any  # cavesim.core.helicopter.inputs.FrameRotor: a helicopter's rotor this frame
 
 
 @dataclass(frozen=True)
@@ -73,11 +76,7 @@ class FrameState:
     field_time: FieldTime = FIRST_SNAPSHOT
 
 
-def nothing_yet() -> FrameState:
-    """The state before any frame: no time passes, the random texture where it lies."""
-    from cavesim.core.frame import FrameInput  # the frame's module checks a map, as a
-    # frame's inputs are checked; it needs nothing of the features
-    return FrameState(FrameInput(0.0, np.eye(3, dtype=np.float32)))
+NO_FRAME = FrameState()  # a state outside any frame: no rotor, a series at its start
 
 
 class Feature:
@@ -127,8 +126,9 @@ class Feature:
         """The particle pass's constants, as the exact bits they go up with."""
         return {}
 
-    def frame_uniforms(self, scene: Scene, data: Any, state: FrameState) -> dict[str, Any]:
-        """What changes each frame."""
+    def frame_uniforms(self, scene: Scene, data: Any, state: FrameState | None
+                       ) -> dict[str, Any]:
+        """What changes each frame; its values before the first frame for `state` None."""
         return {}
 
     # -- the twins ------------------------------------------------------------------------

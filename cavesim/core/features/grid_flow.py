@@ -18,9 +18,11 @@ from cavesim.core.fields.regular_grid import mix
 from cavesim.core.fields.snapshot_time import FieldTime, places_in_step
 from cavesim.core.portable import field as portable_field
 from cavesim.core.portable.arithmetic import f_mix
-from cavesim.core.scene.model import FieldInterpolation, FieldSampling, OutOfDomain
+from cavesim.core.scene.model import Arithmetic, FieldInterpolation, FieldSampling, OutOfDomain
 
 GRID = "HAS_DRAG && !FIELD_IS_ROTOR"  # a scene's flow is a grid
+# ARITHMETIC's value in native arithmetic (arithmetic.glsl names it after the rules' checks)
+NATIVE = list(Arithmetic).index(Arithmetic.NATIVE)
 
 
 def ids(prefix: str, table) -> dict[str, int]:
@@ -37,7 +39,7 @@ class GridFlow(Feature):
                "FIELD_SAMPLING": tuple(range(len(FieldSampling))),
                "FIELD_INTERPOLATION": tuple(range(len(FieldInterpolation)))}
     rules = (
-        Rule("FIELD_SAMPLING == SAMPLING_HARDWARE", "ARITHMETIC == ARITHMETIC_NATIVE",
+        Rule("FIELD_SAMPLING == SAMPLING_HARDWARE", f"ARITHMETIC == {NATIVE}",
              "field.sampling", 'must be "manual" with simulation.arithmetic = "portable": the '
              "texture unit's filter weights differ from vendor to vendor"),
         Rule("FIELD_INTERPOLATION != INTERPOLATION_TRILINEAR",

@@ -7,8 +7,10 @@ Adding a feature is a module of its own in this package and a line in FEATURES.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TYPE_CHECKING
+from collections.abc import Iterator, Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from cavesim.core.features.collision import COLLISION
 from cavesim.core.features.damping import DAMPING
@@ -48,6 +50,10 @@ BASE_IDS: dict[str, int] = {
 }
 IDS: dict[str, int] = {**BASE_IDS, **{name: number for feature in FEATURES
                                       for name, number in getattr(feature, "ids", {}).items()}}
+# the ids the particle pass's preamble defines: all but the arithmetic's (arithmetic.glsl
+# defines those, for every program)
+GLSL_IDS: dict[str, int] = {name: number for name, number in IDS.items()
+                            if not name.startswith("ARITHMETIC_")}
 PASS_DEFINES: dict[str, tuple[int, ...]] = {
     **BASE_DEFINES, **{name: values for feature in FEATURES
                        for name, values in feature.defines.items()}}
@@ -83,3 +89,25 @@ def possible(values: Mapping[str, int]) -> bool:
     """Whether a combination of the particle pass's defines keeps every rule: one a scene
     can make (the shader gate compiles only these)."""
     return holds(RULES, {**IDS, **values})
+
+
+class FeatureData(Mapping[str, Any]):
+    """What each feature of a scene loads (`Feature.load`), by its name, loaded once: the
+    engine's textures and uniforms and the twins' force terms read the same data."""
+
+    def __init__(self, scene: Scene, random: np.ndarray | None) -> None:
+        self._data = {feature.name: feature.load(scene, random if feature.draws_random
+                                                 else None) for feature in features_of(scene)}
+
+    def reload(self, feature: Feature, scene: Scene, random: np.ndarray | None) -> None:
+        """Load one feature's data again (a new seed: new random words)."""
+        self._data[feature.name] = feature.load(scene, random if feature.draws_random else None)
+
+    def __getitem__(self, name: str) -> Any:
+        return self._data[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        return len(self._data)

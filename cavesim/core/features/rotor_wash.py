@@ -34,12 +34,14 @@ class RotorWash(Feature):
                 "rotor_ground_z": np.float32(ground_height(scene))}
 
     def frame_uniforms(self, scene, data, state):
-        if state.rotor is None:  # before the first frame: nothing blows
+        if state is None or state.rotor is None:  # before the first frame: nothing blows
             return {}
         return {"rotor_hub": state.rotor.hub, "induced_velocity": state.rotor.induced_velocity}
 
     def force_terms(self, scene, data, kernels, class_id, state):
         rotor = state.rotor
+        if rotor is None:  # outside a frame: no wash
+            return {}
         radius, ground_z = scene.helicopter.rotor_radius, np.float32(ground_height(scene))
         if kernels.portable:
             def flow(p, stage):

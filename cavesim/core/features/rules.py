@@ -16,13 +16,9 @@ from __future__ import annotations
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Any
 
 from cavesim.core.errors import SceneError
-
-if TYPE_CHECKING:
-    from cavesim.core.features.feature import Feature
-    from cavesim.core.scene.model import Scene
 
 _TOKEN = re.compile(r"\s*(?:(?P<name>[A-Z_][A-Z0-9_]*)|(?P<number>\d+)"
                     r"|(?P<operator>==|!=|<=|>=|&&|\|\||[<>!()]))")
@@ -65,9 +61,10 @@ def evaluate(condition: str, values: Mapping[str, int]) -> bool:
     # and operators reach it: every token was read above
 
 
-def check_scene(scene: Scene, features: Iterable[Feature], values: Mapping[str, int],
+def check_scene(scene: Any, features: Iterable[Any], values: Mapping[str, int],
                 source: str) -> None:
-    """SceneError for the first rule the scene's defines `values` break, naming its key."""
+    """SceneError for the first rule of `features` (cavesim.core.features.feature.Feature)
+    the scene's defines `values` break, naming its key."""
     for feature in features:
         for rule in feature.rules:
             if rule.broken(values):

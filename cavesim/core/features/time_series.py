@@ -13,6 +13,7 @@ import numpy as np
 from cavesim.core.features.feature import Feature
 from cavesim.core.features.grid_flow import GRID
 from cavesim.core.features.rules import Rule
+from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
 
 
 class TimeSeries(Feature):
@@ -28,8 +29,9 @@ class TimeSeries(Feature):
         return {"field_snapshots": np.int32(len(scene.field.times))}
 
     def frame_uniforms(self, scene, data, state):
-        return {"field_pair": np.array(state.field_time.pairs, dtype=np.int32),
-                "field_weight": np.array(state.field_time.weights, dtype=np.float32)}
+        field_time = FIRST_SNAPSHOT if state is None else state.field_time
+        return {"field_pair": np.array(field_time.pairs, dtype=np.int32),
+                "field_weight": np.array(field_time.weights, dtype=np.float32)}
 
 
 TIME_SERIES = TimeSeries()

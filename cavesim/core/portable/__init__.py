@@ -2,7 +2,7 @@
 whose results are the same bits on every GPU and here (`arithmetic`).
 
 Modules named like others mirror them in portable arithmetic: `forces`, `integrators` and
-`tracers` (cavesim/core/twin/), `dispersion` (cavesim/core/), `rotor` (cavesim/core/helicopter/)."""
+`tracers` and `dispersion` (cavesim/core/twin/), `rotor` (cavesim/core/helicopter/)."""
 
 from cavesim.core.portable.arithmetic import (
     f_add,

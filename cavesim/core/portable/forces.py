@@ -32,10 +32,10 @@ class PortableForces:
     it (cavesim.core.twin.forces.ForceModel says what each is); and the low part of the
     positions being stepped, which `move` carries (physics.glsl's step_position_low)."""
 
-    gravity: np.ndarray | None  # (3,) float32
-    damping: np.float32 | None  # k, 1/s
-    inv_tau: np.ndarray | None  # (N, 1) float32 per particle; None without drag
-    flow: FlowSampler | None  # u(p, stage) for (N, 3); None without drag
+    gravity: np.ndarray | None = None  # (3,) float32
+    damping: np.float32 | None = None  # k, 1/s
+    inv_tau: np.ndarray | None = None  # (N, 1) float32 per particle; None without drag
+    flow: FlowSampler | None = None  # u(p, stage) for (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
     position_low: np.ndarray | None = None  # (N, 3) float32, set before a step

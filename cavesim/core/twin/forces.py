@@ -20,10 +20,10 @@ class ForceModel:
     Schiller-Naumann's 1 + 0.15 Re^0.687 with Re = |u - v| d/nu for the others) and u_t
     the turbulence a particle sees over the step (cavesim.core.twin.dispersion)."""
 
-    gravity: np.ndarray | None  # (3,)
-    damping: float | None  # k, 1/s
-    inv_tau: np.ndarray | None  # (N, 1) per particle; None without drag
-    flow: FlowSampler | None  # u(p) for points (N, 3); None without drag
+    gravity: np.ndarray | None = None  # (3,)
+    damping: float | None = None  # k, 1/s
+    inv_tau: np.ndarray | None = None  # (N, 1) per particle; None without drag
+    flow: FlowSampler | None = None  # u(p) for points (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
 

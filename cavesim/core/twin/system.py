@@ -15,12 +15,12 @@ import numpy as np
 
 from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
-from cavesim.core.features.collision import CollisionKind
-from cavesim.core.fields.grid import FieldSeries, build_series
-from cavesim.core.fields.heights import HeightGrid, load_heightfield
-from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT, FieldTime
+from cavesim.core.features import grid_flow
+from cavesim.core.features.feature import NO_FRAME, FrameState
+from cavesim.core.features.registry import FeatureData, features_of
+from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
 from cavesim.core.frame import FrameInput
-from cavesim.core.helicopter.inputs import FrameRotor, RotorInputs
+from cavesim.core.helicopter.inputs import RotorInputs
 from cavesim.core.limits import RUNAWAY, SPEED_LIMIT
 from cavesim.core.portable.forces import PortableForces
 from cavesim.core.position import low_code, low_part, split_position
@@ -29,7 +29,6 @@ from cavesim.core.records import EMITTER_DTYPE, PARTICLE_DTYPE
 from cavesim.core.scene.model import Arithmetic, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.core.substeps import NO_SUBSTEPS, SubstepCounts
-from cavesim.core.twin.dispersion import draw_moments, draws
 from cavesim.core.twin.emission import emission_order, update_emitters
 from cavesim.core.twin.forces import ForceModel
 from cavesim.core.twin.kernels import PORTABLE, Kernels, reference_kernels
@@ -98,19 +97,11 @@ class TwinSystem:
         self.dtype = self.kernels.dtype
         self.table = EmitterTable.from_scene(scene)
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
-        self.field: FieldSeries | None = build_series(scene.field) if scene.gridded_flow else None
-        self.heights: HeightGrid | None = None
-        if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
-            self.heights = load_heightfield(scene.collision.file, scene.origin)
-        drawn = len(self.table) or scene.forces.dispersion is not None
+        self.features = features_of(scene)
+        drawn = len(self.table) or any(f.draws_random for f in self.features)
         self.random = random_words(scene.seed, scene.random_texture_size) if drawn else None
-        self.draw_moments = None if scene.forces.dispersion is None else draw_moments(
-            self.random)
-        self.inv_tau = np.array(scene.inverse_relaxation_times() or (0.0,),
-                                dtype=np.float64).astype(np.float32)
+        self.data = FeatureData(scene, self.random)
         self.tracer_classes = np.array(scene.tracer_classes or (False,))
-        self.reynolds_per_speed = np.array(scene.reynolds_per_speed() or (0.0,),
-                                           dtype=np.float32)
         self.integrate = self.kernels.integrators[scene.integrator]
         self.trace = self.kernels.tracers[scene.method_for_tracers]
         # what the adaptive tracers did in the last step (None: the scene has none)
@@ -159,33 +150,15 @@ class TwinSystem:
             return self.emitters[indices].tobytes()
         return self.particles.select(indices).records().tobytes()
 
-    def forces_for(self, class_id: np.ndarray, rotor: FrameRotor | None = None,
-                   turbulence: np.ndarray | None = None,
-                   field_time: FieldTime = FIRST_SNAPSHOT) -> ForceModel | PortableForces:
-        """The force model of particles of the given classes (in this frame's rotor wash,
-        seeing `turbulence` besides the flow, a time-series field where `field_time` says)."""
-        f = self.scene.forces
-        dtype, kernels = self.dtype, self.kernels
-        flow = None
-        inv_tau = reynolds = None
-        if rotor is not None and f.drag is not None:
-            radius, ground_z = self.scene.helicopter.rotor_radius, self.rotor_inputs.ground
-
-            def flow(p, stage):
-                return kernels.rotor_flow(p, rotor.hub, float(rotor.induced_velocity), radius,
-                                          ground_z)
-        elif self.field is not None:
-            def flow(p, stage):
-                return kernels.series_flow(self.field, p, self.scene.field.out_of_domain,
-                                           field_time, stage)
-        if flow is not None:
-            index = np.minimum(class_id, len(self.inv_tau) - 1)
-            inv_tau = self.inv_tau[index].astype(dtype)[:, None]
-            if self.reynolds_per_speed.any():
-                reynolds = self.reynolds_per_speed[index].astype(dtype)[:, None]
-        gravity = None if f.gravity is None else np.array(f.gravity, dtype=np.float32).astype(dtype)
-        damping = None if f.damping is None else dtype(np.float32(f.damping))
-        return kernels.forces(gravity, damping, inv_tau, flow, reynolds, turbulence)
+    def forces_for(self, class_id: np.ndarray, state: FrameState = NO_FRAME,
+                   seen: dict | None = None) -> ForceModel | PortableForces:
+        """The force model of particles of the given classes in the frame `state`: each
+        feature's terms, and `seen`, what they see besides the flow this step."""
+        terms = dict(seen or {})
+        for feature in self.features:
+            terms |= feature.force_terms(self.scene, self.data.get(feature.name),
+                                         self.kernels, class_id, state)
+        return self.kernels.forces(**terms)
 
     def step(self, frame: FrameInput, scene: SceneFrame = NOTHING_MOVES) -> None:
         """Advance one frame exactly as the GPU does (survivors, then new particles)."""
@@ -193,11 +166,14 @@ class TwinSystem:
         q = self.particles
         age = q.age + np.float64(frame.dt)
         alive = age < q.lifetime.astype(np.float64)
-        field_time = scene.field_time or FIRST_SNAPSHOT
-        forces = self.forces_for(q.class_id, rotor, field_time=field_time)
-        if self.scene.forces.dispersion is not None:
-            forces = self.forces_for(q.class_id, rotor, self._turbulence(frame, forces),
-                                     field_time)
+        state = FrameState(frame, rotor, scene.field_time or FIRST_SNAPSHOT)
+        forces = self.forces_for(q.class_id, state)
+        seen = {}
+        for feature in self.features:
+            seen |= feature.seen(self.scene, self.data.get(feature.name), self.kernels, self,
+                                 forces, state)
+        if seen:
+            forces = self.forces_for(q.class_id, state, seen)
         sane = below(q.vel, SPEED_LIMIT)
         pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
         sane &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)
@@ -211,9 +187,10 @@ class TwinSystem:
 
     def _count_exits(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray) -> None:
         """step_particle's count: a sane step from inside the field's box to outside it."""
-        if self.field is None:
+        if not self.scene.gridded_flow:
             return
-        outside = partial(self.kernels.outside_field, self.field.first)
+        outside = partial(grid_flow.outside, self.data[grid_flow.GRID_FLOW.name],
+                          kernels=self.kernels)
         left = sane & ~outside(q.pos) & outside(moved)
         classes = np.minimum(q.class_id[left], len(self.domain_exits) - 1)
         self.domain_exits = np.bincount(classes, minlength=len(self.domain_exits))
@@ -232,10 +209,11 @@ class TwinSystem:
             start = q.position()
         pos, vel = self._stepped(start, q, h, forces)
         low = forces.position_low if portable else np.zeros_like(q.pos_low)
-        if self.scene.collision is not None:
-            moved = pos
-            pos, vel = self.kernels.collide(pos, vel, self.scene.collision, self.heights)
-            low[:, 2] = np.where(pos[:, 2] != moved[:, 2], np.float32(0.0), low[:, 2])
+        moved = pos
+        for feature in self.features:  # a bounce pushes a particle back onto the ground
+            pos, vel = feature.after_move(self.scene, self.data.get(feature.name),
+                                          self.kernels, pos, vel)
+        low[:, 2] = np.where(pos[:, 2] != moved[:, 2], np.float32(0.0), low[:, 2])
         if portable:
             low = low_part(pos, low_code(pos, low))
         return pos, low, vel
@@ -259,17 +237,6 @@ class TwinSystem:
             forces.position_low[~tracer] = inertial.position_low
             forces.position_low[tracer] = tracers.position_low
         return pos, vel
-
-    def _turbulence(self, frame: FrameInput, forces: ForceModel | PortableForces
-                    ) -> np.ndarray:
-        """What each particle sees besides the flow this step (dispersion.glsl's twin)."""
-        q = self.particles
-        ground, _ = self.kernels.ground(self.scene.collision, self.heights, q.pos[:, :2])
-        xi = draws(self.random, frame.random_transform, len(q.age), self.draw_moments,
-                   self.dtype)
-        return self.kernels.turbulence(forces, q.pos, q.vel, ground,
-                                       self.scene.forces.dispersion.mixing_length, xi,
-                                       self.dtype(frame.dt))
 
     def _emit(self, frame: FrameInput, survivors: int, rotor) -> list[TwinParticles]:
         if not len(self.table):

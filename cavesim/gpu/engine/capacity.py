@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from cavesim.core.digest.shape import WORDS_PER_GROUP
 from cavesim.core.errors import CapacityError, FieldError
+from cavesim.core.features.feature import Texture
 from cavesim.core.limits import MAX_BYTE_OFFSET, MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES, PARTICLE_WORDS
 
@@ -83,13 +84,13 @@ def capacity_limits(info: Mapping[str, object]) -> CapacityLimits:
     ), f"{info['GL_RENDERER']}, OpenGL {info['GL_VERSION']}")
 
 
-def check_field_texture(info: Mapping[str, object], texture_size: tuple[int, int, int],
-                        snapshots: int) -> None:
-    """FieldError unless the field's 3D texture (a series' snapshots stacked along z) fits
-    the context's GL_MAX_3D_TEXTURE_SIZE on every axis."""
-    largest = int(info["GL_MAX_3D_TEXTURE_SIZE"])
-    if max(texture_size) > largest:
-        nx, ny, nz = texture_size
-        raise FieldError(f"the field's texture would be {nx} x {ny} x {nz} texels ({snapshots} "
-                         f"snapshot(s) stacked along z), beyond GL_MAX_3D_TEXTURE_SIZE = "
-                         f"{largest} on {info['GL_RENDERER']}; use fewer snapshots or nodes")
+def check_texture(info: Mapping[str, object], texture: Texture) -> None:
+    """FieldError unless a feature's texture fits the context's largest texture on every
+    axis (GL_MAX_TEXTURE_SIZE for a 2D one, GL_MAX_3D_TEXTURE_SIZE for a 3D one)."""
+    limit = "GL_MAX_3D_TEXTURE_SIZE" if len(texture.size) == 3 else "GL_MAX_TEXTURE_SIZE"
+    largest = int(info[limit])
+    if max(texture.size) > largest:
+        size = " x ".join(map(str, texture.size))
+        raise FieldError(f"{texture.what or texture.name} would be {size} texels, beyond "
+                         f"{limit} = {largest} on {info['GL_RENDERER']}; use fewer "
+                         f"{texture.fewer}")

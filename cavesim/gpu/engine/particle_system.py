@@ -34,9 +34,8 @@ from cavesim.core.digest.history import HistoryEntry, HistoryRing
 from cavesim.core.digest.shape import EMITTERS, PARTICLES, StateChecksum, index_runs
 from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
 from cavesim.core.errors import StateError
-from cavesim.core.features.collision import CollisionKind
-from cavesim.core.fields.grid import FieldSeries, build_series
-from cavesim.core.fields.heights import HeightGrid, load_heightfield
+from cavesim.core.features.feature import FrameState, Texture
+from cavesim.core.features.registry import features_of
 from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
 from cavesim.core.frame import FrameInput
 from cavesim.core.helicopter.inputs import RotorInputs
@@ -47,14 +46,15 @@ from cavesim.core.records import (
     PARTICLE_BYTES,
     PARTICLE_DTYPE,
 )
-from cavesim.core.scene.model import ENGINE_PATHS, Engine, FieldSampling, Scene
+from cavesim.core.scene.model import ENGINE_PATHS, Engine, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
 from cavesim.core.substeps import SUBSTEP_COUNTS, SubstepCounts
-from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits, check_field_texture
+from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
 from cavesim.gpu.engine.drops import read_dropped
 from cavesim.gpu.engine.emission import EmitterUpdate
+from cavesim.gpu.engine.feature_resources import FeatureResources
 from cavesim.gpu.engine.frame_counts import (
     DOMAIN_EXITS,
     TRACER_SUBSTEPS,
@@ -63,16 +63,10 @@ from cavesim.gpu.engine.frame_counts import (
 )
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
-from cavesim.gpu.engine.uniforms import (
-    dispersion_uniforms,
-    field_time_uniforms,
-    physics_uniforms,
-    rotor_uniforms,
-    write_uniforms,
-)
+from cavesim.gpu.engine.uniforms import write_uniforms
 from cavesim.gpu.gl.fence import GpuFence
 
-FIELD_UNIT, GROUND_UNIT, RANDOM_UNIT, EMITTER_UNIT = 0, 1, 2, 3
+RANDOM_UNIT, EMITTER_UNIT, FIRST_FEATURE_UNIT = 0, 1, 2  # a feature's textures from the third
 
 
 class ParticleSystem:
@@ -103,17 +97,17 @@ class ParticleSystem:
         if (error := ctx.error) != "GL_NO_ERROR":  # GL_OUT_OF_MEMORY: no GL limit foretells it
             self.release()
             raise limits.allocation_error(scene.capacity, error)
-        self.field_series: FieldSeries | None = None
-        self.ground_grid: HeightGrid | None = None
-        self.random_words: np.ndarray | None = None  # the random texture's, if it has one
+        # the random texture's words, where emission or a feature draws from it
+        self.random_words: np.ndarray | None = None
         self._exits = FrameCounts(self._buffer("domain_exits", 4 * len(scene.particle_classes)),
                                   DOMAIN_EXITS) if scene.gridded_flow else None
         self._substeps = FrameCounts(self._buffer("tracer_substeps", 4 * SUBSTEP_COUNTS),
                                      TRACER_SUBSTEPS) if scene.tracers_take_substeps else None
-        self._textures_for_physics()
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
-        if len(self.emitters) or scene.forces.dispersion is not None:
+        if len(self.emitters) or any(f.draws_random for f in features_of(scene)):
             self._random_texture()
+        self.features = FeatureResources(ctx, scene, self.random_words, self._texture,
+                                         FIRST_FEATURE_UNIT)
         self._emitter_buffers: list[moderngl.Buffer] = []
         self._emitter_update = self._build_emission() if len(self.emitters) else None
         self._passes = self._passes_for(scene.engine)
@@ -132,9 +126,7 @@ class ParticleSystem:
             passes = GsTfPasses(self.ctx, self.scene, self._particle_buffers,
                                 self._emitter_buffers, self._bind_samplers, self._buffer,
                                 self.fence, self.timers)
-        write_uniforms(passes.program,
-                       physics_uniforms(self.scene, self.field_series, self.ground_grid,
-                                        self.random_words))
+        write_uniforms(passes.program, self.features.uniforms(self.scene))
         return passes
 
     def use_engine(self, engine: Engine) -> None:
@@ -152,38 +144,29 @@ class ParticleSystem:
         self.resources[name] = buffer
         return buffer
 
-    def _textures_for_physics(self) -> None:
-        scene = self.scene
-        if scene.gridded_flow:
-            series = build_series(scene.field)
-            check_field_texture(self.ctx.info, series.texture_size, len(series.snapshots))
-            texture = self.ctx.texture3d(series.texture_size, 3, series.texels().tobytes(),
-                                         dtype="f4")
-            hardware = scene.field.sampling is FieldSampling.HARDWARE
-            texture.filter = (moderngl.LINEAR, moderngl.LINEAR) if hardware else (
-                moderngl.NEAREST, moderngl.NEAREST)
-            texture.repeat_x = texture.repeat_y = texture.repeat_z = False
-            self.resources["flow_field"] = texture
-            self.field_series = series
-        if scene.collision is not None and scene.collision.kind is CollisionKind.HEIGHTFIELD:
-            ground = load_heightfield(scene.collision.file, scene.origin)
-            ny, nx = ground.height.shape
-            texture = self.ctx.texture((nx, ny), 1, ground.height.tobytes(), dtype="f4")
-            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            texture.repeat_x = texture.repeat_y = False
-            self.resources["ground_height"] = texture
-            self.ground_grid = ground
+    def _texture(self, name: str, texture: Texture) -> moderngl.Texture | moderngl.Texture3D:
+        """A texture of `texture.texels`, sampled by texelFetch (or filtered, `linear`)."""
+        make = self.ctx.texture3d if len(texture.size) == 3 else self.ctx.texture
+        made = make(texture.size, texture.components, texture.texels.tobytes(),
+                    dtype=texture.dtype)
+        made.filter = (moderngl.LINEAR, moderngl.LINEAR) if texture.linear else (
+            moderngl.NEAREST, moderngl.NEAREST)
+        made.repeat_x = made.repeat_y = False
+        if len(texture.size) == 3:
+            made.repeat_z = False
+        self.resources[name] = made
+        return made
 
     def _bind_samplers(self, program) -> None:
-        for name, unit in (("flow_field", FIELD_UNIT), ("ground_height", GROUND_UNIT),
-                           ("random_texture", RANDOM_UNIT), ("emitter_table", EMITTER_UNIT)):
+        for name, unit in (("random_texture", RANDOM_UNIT), ("emitter_table", EMITTER_UNIT),
+                           *self.features.units.items()):
             if name in self.resources:
                 self.resources[name].use(unit)
                 if (sampler := program.get(name, None)) is not None:
                     sampler.value = unit
 
     def _random_texture(self) -> None:
-        """The texture emission and dispersion draw from (determinism rule 2)."""
+        """The texture emission and the features that draw from it read (determinism rule 2)."""
         size = self.scene.random_texture_size
         self.random_words = random_words(self.scene.seed, size)
         random = self.ctx.texture((size, size), 4, self.random_words.tobytes(), dtype="u4")
@@ -247,14 +230,9 @@ class ParticleSystem:
         if self._emitter_update is not None:
             with self.timers.segment("emitter_pass"):
                 emission = self._emitter_update.run(front, back, frame, rotor)
-        program = self._passes.program
-        write_uniforms(program, {"dt": frame.dt})
-        if rotor is not None:
-            write_uniforms(program, rotor_uniforms(rotor))
-        if self.field_series is not None and not self.field_series.steady:
-            write_uniforms(program, field_time_uniforms(scene.field_time or FIRST_SNAPSHOT))
-        if self.scene.forces.dispersion is not None:  # its draws move with the frame's map
-            write_uniforms(program, {"random_transform": frame.random_transform.T})
+        state = FrameState(frame, rotor, scene.field_time or FIRST_SNAPSHOT)
+        write_uniforms(self._passes.program, {
+            "dt": frame.dt, **self.features.frame_uniforms(self.scene, state)})
         if self._exits is not None and self._passes.counts_exits:
             self._exits.start_frame()
         if self._substeps is not None and self._passes.counts_substeps:
@@ -308,8 +286,8 @@ class ParticleSystem:
         if "random_texture" in self.resources:
             self.random_words = random_words(seed, self.scene.random_texture_size)
             self.resources["random_texture"].write(self.random_words.tobytes())
-            if self.scene.forces.dispersion is not None:
-                write_uniforms(self._passes.program, dispersion_uniforms(self.random_words))
+            write_uniforms(self._passes.program,
+                           self.features.reseed(self.scene, self.random_words))
         if not len(self.emitters):
             return
         self._emitter_update.table = self.emitters

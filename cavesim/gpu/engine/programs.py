@@ -15,64 +15,32 @@ import moderngl
 
 from cavesim.core.digest.shape import FOLD, WORDS_PER_THREAD, WORKGROUP_SIZE
 from cavesim.core.emitters import EMIT_BATCH
-from cavesim.core.features.collision import CollisionKind
-from cavesim.core.limits import MAX_PARTICLE_CLASSES, RANDOM_TEXTURE_SIZE_RANGE
+from cavesim.core.features import registry
+from cavesim.core.features.grid_flow import GRID
+from cavesim.core.features.rules import Rule, glsl_checks, holds
+from cavesim.core.limits import RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORDS
-from cavesim.core.scene.model import (
-    Arithmetic,
-    FieldInterpolation,
-    FieldKind,
-    FieldSampling,
-    Integrator,
-    OutOfDomain,
-    Scene,
-    TracerMethod,
-)
+from cavesim.core.scene.model import Arithmetic, Scene
 from cavesim.gpu.shader_source import ProgramSpec
 
-# Feature ids as the shaders spell them (#define COLLISION_PLANE 1 ... in
-# shaders/include/physics.glsl, ARITHMETIC_PORTABLE in arithmetic.glsl); tests/gpu/test_features.py
-# and tests/gpu/test_portable_physics.py hold the two sides together. An integrator's id is its
-# `Integrator.gpu_id`, a tracer method's its `TracerMethod.gpu_id`
-# (tests/unit/test_integrator_table.py).
-ARITHMETIC_IDS = {Arithmetic.NATIVE: 0, Arithmetic.PORTABLE: 1}
-COLLISION_IDS = {None: 0, CollisionKind.PLANE: 1, CollisionKind.HEIGHTFIELD: 2}
-OUT_OF_DOMAIN_IDS = {OutOfDomain.CLAMP: 0, OutOfDomain.ZERO: 1}
-SAMPLING_IDS = {FieldSampling.MANUAL: 0, FieldSampling.HARDWARE: 1}
-INTERPOLATION_IDS = {FieldInterpolation.TRILINEAR: 0, FieldInterpolation.CATMULL_ROM: 1,
-                     FieldInterpolation.BSPLINE: 2}
-
-
-INTEGRATORS_BY_GPU_ID = {i.gpu_id: i for i in Integrator}
-
-# The values each define can take (numbers: the extremes a scene may ask for).
-PHYSICS_FEATURES: dict[str, tuple[int, ...]] = {
-    "ARITHMETIC": tuple(ARITHMETIC_IDS.values()),
-    "HAS_GRAVITY": (0, 1),
-    "HAS_DRAG": (0, 1),
-    "HAS_DAMPING": (0, 1),
-    "COLLISION": tuple(COLLISION_IDS.values()),
-    "INTEGRATOR": tuple(i.gpu_id for i in Integrator),
-    "FIELD_OUT_OF_DOMAIN": tuple(OUT_OF_DOMAIN_IDS.values()),
-    "FIELD_SAMPLING": tuple(SAMPLING_IDS.values()),
-    "FIELD_IS_ROTOR": (0, 1),
-    "FIELD_INTERPOLATION": tuple(INTERPOLATION_IDS.values()),
-    "CLASS_COUNT": (1, MAX_PARTICLE_CLASSES),
-}
-# Drag beyond Stokes, dispersion (with the random texture's size it reads), a field given
-# as a time series, the count of particles leaving a grid and passive tracer classes.
-# TRACER_METHOD is the integrator's row's unless the scene steps its tracers adaptively
-# (`reachable`).
-TRANSPORT_FEATURES: dict[str, tuple[int, ...]] = {
-    "HAS_SCHILLER_NAUMANN": (0, 1),
-    "HAS_DISPERSION": (0, 1),
-    "HAS_TRACERS": (0, 1),
-    "TRACER_METHOD": tuple(m.gpu_id for m in TracerMethod),
-    "FIELD_TIME_SERIES": (0, 1),
-    "COUNT_DOMAIN_EXITS": (0, 1),
-    "COUNT_TRACER_SUBSTEPS": (0, 1),
-    "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
-}
+ARITHMETIC_IDS = {mode: number for number, mode in enumerate(Arithmetic)}  # arithmetic.glsl's
+# What the particle pass counts, and where it may: each a switch, on where the scene has what
+# is counted (and, on the GS/TF path, where its vertex stage may write storage)
+COUNTER_DEFINES: dict[str, tuple[int, ...]] = {"COUNT_DOMAIN_EXITS": (0, 1),
+                                               "COUNT_TRACER_SUBSTEPS": (0, 1)}
+COUNTER_RULES = (
+    Rule("COUNT_DOMAIN_EXITS", GRID, "field", "only a grid has a box to leave"),
+    Rule("COUNT_TRACER_SUBSTEPS", "HAS_TRACERS && TRACER_METHOD == TRACER_RK45",
+         "simulation.tracer_method", "only tracers stepped by rk45 take substeps"),
+)
+# Every define of the particle pass, with the values it may take (numbers: the extremes a
+# scene may ask for): the base's and every feature's (`cavesim.core.features.registry`)
+PASS_DEFINES: dict[str, tuple[int, ...]] = {**registry.PASS_DEFINES, **COUNTER_DEFINES}
+PASS_RULES: tuple[Rule, ...] = (*registry.RULES, *COUNTER_RULES)
+# pasted into the particle pass after its defines: the ids its conditions compare with,
+# then an #error for every combination no scene can make
+PASS_PREAMBLE = "".join(f"#define {name} {number}\n" for name, number in registry.GLSL_IDS.items()
+                        ) + glsl_checks(PASS_RULES)
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
     "ARITHMETIC": tuple(ARITHMETIC_IDS.values()),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
@@ -90,7 +58,7 @@ BLOCK_DEFINES = {"WORKGROUP_SIZE": BLOCK_WORKGROUP_SIZE}
 SCAN_DEFINES = {"SCAN_SIZE": SCAN_SIZE, "EMIT_BATCH": EMIT_BATCH}
 
 PARTICLE_UPDATE = ProgramSpec("particles/update.glsl", ("vertex", "geometry"),
-                              (*PHYSICS_FEATURES, *TRANSPORT_FEATURES), PARTICLE_VARYINGS)
+                              tuple(PASS_DEFINES), PARTICLE_VARYINGS, preamble=PASS_PREAMBLE)
 EMITTER_UPDATE = ProgramSpec("particles/emitter_update.glsl", ("vertex",),
                              tuple(EMISSION_FEATURES), ("out_state",))
 EMIT = ProgramSpec("particles/emit.glsl", ("vertex", "geometry"), tuple(EMISSION_FEATURES),
@@ -110,7 +78,7 @@ CHECKSUM_PROGRAMS = (
 )
 # the compute path's four passes (cavesim/gpu/engine/compute.py)
 BLOCK_UPDATE = ProgramSpec("particles/update_blocks.glsl", ("compute",),
-                           (*PHYSICS_FEATURES, *TRANSPORT_FEATURES, *BLOCK_DEFINES))
+                           (*PASS_DEFINES, *BLOCK_DEFINES), preamble=PASS_PREAMBLE)
 SCAN = ProgramSpec("particles/scan.glsl", ("compute",), tuple(SCAN_DEFINES))
 COMPACT = ProgramSpec("particles/compact.glsl", ("compute",), tuple(BLOCK_DEFINES))
 APPEND = ProgramSpec("particles/append.glsl", ("compute",), tuple(EMISSION_FEATURES))
@@ -119,31 +87,10 @@ SPLICE = ProgramSpec("particles/splice.glsl", ("compute",), tuple(BLOCK_DEFINES)
 
 
 def physics_defines(scene: Scene) -> dict[str, int]:
-    """Feature switches of the particle pass (on either engine path)."""
-    field = scene.field
-    return {
-        "ARITHMETIC": ARITHMETIC_IDS[scene.arithmetic],
-        "HAS_GRAVITY": int(scene.forces.gravity is not None),
-        "HAS_DRAG": int(scene.forces.drag is not None),
-        "HAS_DAMPING": int(scene.forces.damping is not None),
-        "COLLISION": COLLISION_IDS[scene.collision.kind if scene.collision else None],
-        "INTEGRATOR": scene.integrator.gpu_id,
-        "FIELD_OUT_OF_DOMAIN": OUT_OF_DOMAIN_IDS[field.out_of_domain] if field else 0,
-        "FIELD_SAMPLING": SAMPLING_IDS[field.sampling] if field else 0,
-        "FIELD_IS_ROTOR": int(field is not None and field.kind is FieldKind.ROTOR),
-        # trilinear for a rotor and with hardware sampling: the scene loader sees to it
-        "FIELD_INTERPOLATION": INTERPOLATION_IDS[field.interpolation] if field else 0,
-        "CLASS_COUNT": max(1, len(scene.particle_classes)),
-        "HAS_SCHILLER_NAUMANN": int(any(scene.reynolds_per_speed())),
-        "HAS_DISPERSION": int(scene.forces.dispersion is not None),
-        "HAS_TRACERS": int(any(scene.tracer_classes)),
-        "TRACER_METHOD": scene.method_for_tracers.gpu_id,
-        "FIELD_TIME_SERIES": int(scene.gridded_flow and field.times is not None),
-        "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
-        "COUNT_TRACER_SUBSTEPS": int(scene.tracers_take_substeps),
-        "RANDOM_SIZE": scene.random_texture_size,
-    }
-
+    """The particle pass's defines (on either engine path): its features' and its counters'."""
+    return {**registry.pass_defines(scene),
+            "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
+            "COUNT_TRACER_SUBSTEPS": int(scene.tracers_take_substeps)}
 
 
 def emission_defines(scene: Scene) -> dict[str, int]:
@@ -182,42 +129,10 @@ def feature_combinations() -> Iterator[tuple[ProgramSpec, dict[str, int]]]:
 
 
 def valid_physics(defines: Mapping[str, int]) -> bool:
-    """Whether a scene can give the particle pass `defines` (PHYSICS_FEATURES and
-    TRANSPORT_FEATURES): `reachable` leaves them as they are, and the loader allows them:
-    without drag there is no field, so every field define is 0; a field is not sampled by
-    the texture unit in portable arithmetic. The shader gate's cover holds every pair of
-    values this allows together."""
-    field_free = ("FIELD_OUT_OF_DOMAIN", "FIELD_SAMPLING", "FIELD_IS_ROTOR")
-    return (reachable(dict(defines)) == dict(defines)
-            and (defines["HAS_DRAG"] or not any(defines[name] for name in field_free))
-            and not (defines["ARITHMETIC"] == ARITHMETIC_IDS[Arithmetic.PORTABLE]
-                     and defines["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.HARDWARE]))
-
-
-def reachable(defines: dict[str, int]) -> dict[str, int]:
-    """`defines` as `physics_defines` gives them: FIELD_INTERPOLATION selects code only for a
-    grid sampled by hand (drag, no rotor, manual), and is trilinear (0) otherwise; only a
-    grid is a time series or counts exits; drag laws beyond Stokes and dispersion need
-    drag, dispersion a ground too, tracers drag and no dispersion (physics.glsl's
-    #errors); TRACER_METHOD is the integrator's unless the tracers step adaptively, and only
-    they count substeps."""
-    out = dict(defines)
-    if not out["HAS_DRAG"] or out["FIELD_IS_ROTOR"]:
-        out["FIELD_TIME_SERIES"] = out["COUNT_DOMAIN_EXITS"] = 0
-    grid = (out["HAS_DRAG"] and not out["FIELD_IS_ROTOR"]
-            and out["FIELD_SAMPLING"] == SAMPLING_IDS[FieldSampling.MANUAL])
-    if not grid:
-        out["FIELD_INTERPOLATION"] = 0
-    if not out["HAS_DRAG"]:
-        out["HAS_SCHILLER_NAUMANN"] = out["HAS_DISPERSION"] = 0
-    if out["COLLISION"] == COLLISION_IDS[None]:
-        out["HAS_DISPERSION"] = 0
-    if not out["HAS_DRAG"] or out["HAS_DISPERSION"]:
-        out["HAS_TRACERS"] = 0
-    if not out["HAS_TRACERS"] or out["TRACER_METHOD"] != TracerMethod.RK45.gpu_id:
-        out["TRACER_METHOD"] = INTEGRATORS_BY_GPU_ID[out["INTEGRATOR"]].tracer_method.gpu_id
-        out["COUNT_TRACER_SUBSTEPS"] = 0
-    return out
+    """Whether a scene can give the particle pass `defines` (every one of PASS_DEFINES): the
+    rules of its features and counters hold (`cavesim.core.features.rules`). The shader
+    gate's cover holds every pair of values this allows together."""
+    return holds(PASS_RULES, {**registry.IDS, **defines})
 
 
 def particle_update_program(ctx: moderngl.Context, scene: Scene,

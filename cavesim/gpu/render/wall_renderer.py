@@ -20,7 +20,7 @@ import numpy as np
 
 from cavesim.core.cave.geometry import Wall
 from cavesim.core.cave.projection import gl_matrix, off_axis, recut
-from cavesim.core.features.collision import CollisionKind
+from cavesim.core.features.collision import COLLISION, CollisionKind
 from cavesim.core.scene_frame import MESH_ROTOR_RADIUS, HelicopterPose
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render import meshes
@@ -273,7 +273,7 @@ def _ground(system: ParticleSystem):
     if collision is None:
         return None
     if collision.kind is CollisionKind.HEIGHTFIELD:
-        grid = system.ground_grid
+        grid = system.features.data[COLLISION.name]
         return grid.box_min, grid.box_max, grid
     if scene.field is not None:
         return scene.field.box_min[:2], scene.field.box_max[:2], collision.height

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from cavesim.core.features.feature import FrameState
 from cavesim.core.fields.analytic import rotating_velocity
 from cavesim.core.scene.model import Integrator
 from cavesim.core.twin.forces import ForceModel
@@ -56,7 +57,7 @@ def twin_forces(case: Case) -> ForceModel:
     """The float64 twin's force model on the case's particles in the case's frame."""
     twin = TwinSystem(case.scene(Integrator.RK4), np.float64)
     rotor = twin.rotor_inputs.read(case.frame) if twin.rotor_inputs is not None else None
-    return twin.forces_for(case.particles["class_id"], rotor)
+    return twin.forces_for(case.particles["class_id"], FrameState(rotor=rotor))
 
 
 def closed_form(case: Case, t: float) -> Reference:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from cavesim.core.features.feature import FrameState
 from cavesim.core.position import extended_position, split_position
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.scene.model import Integrator
@@ -36,7 +37,7 @@ def storage_floors(case: Case, integrator: Integrator, dts: tuple[float, ...],
     float32 unless `round_velocity` is False)."""
     twin = TwinSystem(case.scene(integrator), np.float64)
     rotor = twin.rotor_inputs.read(case.frame) if twin.rotor_inputs is not None else None
-    forces = twin.forces_for(case.particles["class_id"], rotor)
+    forces = twin.forces_for(case.particles["class_id"], FrameState(rotor=rotor))
     step = INTEGRATORS[integrator]
     floors = []
     for dt in dts:

@@ -2,7 +2,6 @@
 // cavesim/core/twin/collision.py and cavesim/core/portable/ground.py.
 #pragma once
 #include "arithmetic.glsl"
-#include "feature_ids.glsl"
 #include "position.glsl"
 
 #if COLLISION != COLLISION_NONE

@@ -5,7 +5,6 @@
 // cavesim/core/portable/forces.py (portable arithmetic).
 #pragma once
 #include "arithmetic.glsl"
-#include "feature_ids.glsl"
 
 #if HAS_GRAVITY
 uniform vec3 gravity;

@@ -1,35 +1,26 @@
-// The forces on a particle and the integrators that advance it by one step. Each scene
-// compiles in only the forces it has (HAS_GRAVITY, HAS_DRAG, HAS_DAMPING, with drag
-// HAS_SCHILLER_NAUMANN and HAS_DISPERSION), one INTEGRATOR and one COLLISION kind;
-// cavesim/core/twin/ holds the float64 twin of every line. With HAS_TRACERS the classes
-// that tracer_classes marks are passive tracers, stepped by TRACER_METHOD instead (trace).
-// Every float operation goes through arithmetic.glsl (f_add, f_mul, ...): plain operators
-// for ARITHMETIC_NATIVE, the same bits on every GPU for ARITHMETIC_PORTABLE, mirrored
-// operation by operation in float32 by cavesim/core/portable/.
+// One frame of one particle: the step both engine paths' particle passes share. It is
+// composed of the features' code, each in its include and compiled in only where the scene
+// has the feature (cavesim/core/features/: forces.glsl for gravity, drag and damping,
+// field.glsl or rotor.glsl for the flow, tracers.glsl, collision.glsl, dispersion.glsl),
+// one INTEGRATOR (integrators.glsl). Every float operation goes through arithmetic.glsl
+// (f_add, f_mul, ...): plain operators for ARITHMETIC_NATIVE, the same bits on every GPU
+// for ARITHMETIC_PORTABLE, mirrored operation by operation in float32 by
+// cavesim/core/portable/; cavesim/core/twin/ holds the float64 twin of every line.
 #pragma once
 #include "arithmetic.glsl"
 #include "position.glsl"
-#include "feature_ids.glsl"
+
+// where in its step an integrator takes the flow (a time-series field moves between them);
+// the feature ids (INTEGRATOR_RK4, COLLISION_PLANE, ...) and an #error for every
+// combination of features no scene can make come before this file, from the features'
+// tables (cavesim/gpu/engine/programs.py: PASS_PREAMBLE)
+#define STAGE_START 0
+#define STAGE_MIDDLE 1
+#define STAGE_END 2
 
 uniform float dt;
 
 #include "forces.glsl"
-
-// Both act through drag; dispersion measures heights from the ground (the scene loader's
-// rules; programs.physics_defines and physics_variants keep to them)
-#if (HAS_SCHILLER_NAUMANN || HAS_DISPERSION) && !HAS_DRAG
-#error HAS_SCHILLER_NAUMANN and HAS_DISPERSION need HAS_DRAG
-#endif
-#if COUNT_DOMAIN_EXITS && (!HAS_DRAG || FIELD_IS_ROTOR)
-#error COUNT_DOMAIN_EXITS needs a gridded field
-#endif
-#if HAS_DISPERSION && COLLISION == COLLISION_NONE
-#error HAS_DISPERSION needs a COLLISION ground
-#endif
-// A tracer moves with the flow that drag brings in; dispersion's random walk is drag's
-#if HAS_TRACERS && (!HAS_DRAG || HAS_DISPERSION)
-#error HAS_TRACERS needs HAS_DRAG and no HAS_DISPERSION
-#endif
 
 #include "integrators.glsl"
 #include "tracers.glsl"
