@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from cavesim.core.features.collision import COLLISION
+from cavesim.core.features.coriolis import CORIOLIS
 from cavesim.core.features.damping import DAMPING
 from cavesim.core.features.dispersion import DISPERSION
 from cavesim.core.features.feature import Feature
@@ -32,7 +33,7 @@ if TYPE_CHECKING:
     from cavesim.core.scene.model import Scene
 
 FEATURES: tuple[Feature, ...] = (
-    GRAVITY, DAMPING, STOKES_DRAG, SCHILLER_NAUMANN, GRID_FLOW, TIME_SERIES, ROTOR_WASH,
+    GRAVITY, DAMPING, CORIOLIS, STOKES_DRAG, SCHILLER_NAUMANN, GRID_FLOW, TIME_SERIES, ROTOR_WASH,
     TRACERS, COLLISION, DISPERSION, ORIGIN)
 
 # What every particle pass is compiled with besides its features: the arithmetic, the

@@ -38,6 +38,7 @@ class PortableForces:
     flow: FlowSampler | None = None  # u(p, stage) for (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
+    frame_rotation: np.ndarray | None = None  # (3,) float32 Omega of a = -2 Omega x v
     position_low: np.ndarray | None = None  # (N, 3) float32, set before a step
 
     def of_rows(self, rows: np.ndarray) -> PortableForces:
@@ -74,7 +75,15 @@ class PortableForces:
             a = f_add(a, self.gravity)
         if self.damping is not None:
             a = f_sub(a, f_mul(self.damping, v))
-        return a
+        return self._with_coriolis(a, v)
+
+    def _with_coriolis(self, a: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """a - 2 Omega x v, as forces.glsl's coriolis() adds it (a as it is without)."""
+        if self.frame_rotation is None:
+            return a
+        w = self.frame_rotation
+        turn = f_sub(f_mul(w[[1, 2, 0]], v[:, [2, 0, 1]]), f_mul(w[[2, 0, 1]], v[:, [1, 2, 0]]))
+        return f_add(a, f_mul(np.float32(-2.0), turn))
 
     def _forcing(self, u: np.ndarray | None, drag: np.ndarray) -> np.ndarray:
         f = np.zeros((len(drag), 3), dtype=np.float32)
@@ -88,13 +97,13 @@ class PortableForces:
         """`remainder_at` of physics.glsl: what the linear part with the drag rate `held`
         (N, 1) leaves of the acceleration at (p, v) (the float64 twin's `remainder`)."""
         if self.flow is None:
-            return self._forcing(None, held)
+            return self._with_coriolis(self._forcing(None, held), v)
         u = self.flow(p, END)
         drag = self.drag_rate(f_sub(u, v))
         remainder = self._forcing(u, drag)
-        if self.reynolds_per_speed is None:
-            return remainder
-        return f_sub(remainder, f_mul(f_sub(drag, held), v))
+        if self.reynolds_per_speed is not None:
+            remainder = f_sub(remainder, f_mul(f_sub(drag, held), v))
+        return self._with_coriolis(remainder, v)
 
     def linear_parts(self, p: np.ndarray, v: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -106,4 +115,4 @@ class PortableForces:
             u = self.flow(p, START)
             drag = self.drag_rate(f_sub(u, v))
         lam = drag if self.damping is None else f_add(drag, self.damping)
-        return self._forcing(u, drag), lam, drag
+        return self._with_coriolis(self._forcing(u, drag), v), lam, drag

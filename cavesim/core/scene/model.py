@@ -238,6 +238,9 @@ class Forces:
     # linear damping rate k in a = -k v, 1/s
     damping: Annotated[float, Range(gt=0.0)] | None = None
     dispersion: Dispersion | None = None  # None: no turbulent random walk compiled in
+    # Omega, rad/s: the rotation of the frame the scene is in (a = -2 Omega x v; the Earth's
+    # 7.2921e-5 about its axis, of which Omega sin(latitude) is the local vertical)
+    coriolis: Vec3 | None = None
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,7 @@ class ForceModel:
     flow: FlowSampler | None = None  # u(p) for points (N, 3); None without drag
     reynolds_per_speed: np.ndarray | None = None  # (N, 1) d/nu, 0 for Stokes; None: all Stokes
     turbulence: np.ndarray | None = None  # (N, 3) u_t, held over the step; None: none
+    frame_rotation: np.ndarray | None = None  # (3,) Omega of a = -2 Omega x v; None: none
 
     def of_rows(self, rows: np.ndarray) -> ForceModel:
         """The model of the particles in `rows`: its per-particle columns taken there."""
@@ -51,7 +52,13 @@ class ForceModel:
             a += self.gravity
         if self.damping is not None:
             a -= self.damping * v
-        return a
+        return self._with_coriolis(a, v)
+
+    def _with_coriolis(self, a: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """a - 2 Omega x v (a as it is in a frame that does not turn)."""
+        if self.frame_rotation is None:
+            return a
+        return a - 2.0 * np.cross(self.frame_rotation, v)
 
     def _forcing(self, u: np.ndarray | None, drag: np.ndarray) -> np.ndarray:
         if u is None:
@@ -69,13 +76,13 @@ class ForceModel:
         that is (u(p) + u_t) lambda_d + g - (lambda_d - held) v; for Stokes drag
         lambda_d = held."""
         if self.flow is None:
-            return self._forcing(None, held)
+            return self._with_coriolis(self._forcing(None, held), v)
         u = self.flow(p, END)
         drag = self.drag_rate(u - v)
         remainder = self._forcing(u, drag)
-        if self.reynolds_per_speed is None:
-            return remainder
-        return remainder - (drag - held) * v
+        if self.reynolds_per_speed is not None:
+            remainder = remainder - (drag - held) * v
+        return self._with_coriolis(remainder, v)
 
     def linear_parts(self, p: np.ndarray, v: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -88,4 +95,4 @@ class ForceModel:
             u = self.flow(p, START)
             drag = self.drag_rate(u - v)
         lam = drag if self.damping is None else drag + self.damping
-        return self._forcing(u, drag), lam, drag
+        return self._with_coriolis(self._forcing(u, drag), v), lam, drag

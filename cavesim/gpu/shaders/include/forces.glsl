@@ -1,7 +1,7 @@
 // The forces on a particle: a = (u(p) + u_t - v) lambda + g - k v, each term compiled in
 // only where the scene has its feature (HAS_DRAG with HAS_SCHILLER_NAUMANN and
-// HAS_DISPERSION, HAS_GRAVITY, HAS_DAMPING); and the linear parts the exponential
-// integrators hold over a step. Twins: cavesim/core/twin/forces.py (float64) and
+// HAS_DISPERSION, HAS_GRAVITY, HAS_DAMPING), and -2 Omega x v (HAS_CORIOLIS); and the
+// linear parts the exponential integrators hold over a step. Twins: cavesim/core/twin/forces.py (float64) and
 // cavesim/core/portable/forces.py (portable arithmetic).
 #pragma once
 #include "arithmetic.glsl"
@@ -11,6 +11,15 @@ uniform vec3 gravity;
 #endif
 #if HAS_DAMPING
 uniform float damping;  // k of a = -k v, 1/s
+#endif
+#if HAS_CORIOLIS
+uniform vec3 frame_rotation;  // Omega, rad/s: the rotation of the frame the scene is in
+
+// -2 Omega x v: the Coriolis acceleration of a particle moving at v in that frame
+vec3 coriolis(vec3 v) {
+    vec3 turn = f_sub(f_mul(frame_rotation.yzx, v.zxy), f_mul(frame_rotation.zxy, v.yzx));
+    return f_mul(-2.0, turn);
+}
 #endif
 #if HAS_DRAG
 #if FIELD_IS_ROTOR
@@ -87,6 +96,9 @@ vec3 acceleration(vec3 p, vec3 v, float inv_tau_p, int stage) {
 #if HAS_DAMPING
     a = f_sub(a, f_mul(damping, v));
 #endif
+#if HAS_CORIOLIS
+    a = f_add(a, coriolis(v));
+#endif
     return a;
 }
 
@@ -115,10 +127,13 @@ vec3 remainder_at(vec3 p, vec3 v, float held, float inv_tau_p) {
 #if HAS_SCHILLER_NAUMANN
     remainder = f_sub(remainder, f_mul(f_sub(drag, held), v));
 #endif
-    return remainder;
 #else
-    return forcing(vec3(0.0), held);
+    vec3 remainder = forcing(vec3(0.0), held);
 #endif
+#if HAS_CORIOLIS  // not in the linear part: held explicitly, as the flow is
+    remainder = f_add(remainder, coriolis(v));
+#endif
+    return remainder;
 }
 
 // a = f - lambda v with the flow and the drag rate held at their values at (p, v) at the
@@ -132,6 +147,9 @@ float linear_parts(vec3 p, vec3 v, float inv_tau_p, out vec3 f, out float lambda
     drag = drag_rate(f_sub(u, v), inv_tau_p);
 #endif
     f = forcing(u, drag);
+#if HAS_CORIOLIS
+    f = f_add(f, coriolis(v));
+#endif
     lambda = drag;
 #if HAS_DAMPING
     lambda = f_add(lambda, damping);
