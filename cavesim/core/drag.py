@@ -5,7 +5,7 @@ Once the particle Reynolds number Re = |u - v| d / nu nears one, the wake adds d
 Schiller & Naumann (1933) fit it as C_D = 24/Re (1 + 0.15 Re^0.687), within about 5% of the
 standard drag curve for Re < 800 (Clift, Grace & Weber 1978, "Bubbles, Drops, and
 Particles", table 5.2). The drag is the Stokes drag times f(Re) = 1 + 0.15 Re^0.687, so the
-slip relaxes at the rate f(Re)/tau. Twin of `drag_rate` in shaders/include/physics.glsl;
+slip relaxes at the rate f(Re)/tau. Twin of `drag_rate` in shaders/include/forces.glsl;
 the loader gives each class its law (`cavesim.core.features.schiller_naumann`) unless the scene
 names one.
 """

@@ -10,7 +10,7 @@ ends exactly at h: no substep is cut short to land there, and every node and twi
 same choices from the same bits. Each substep advances by the fifth-order solution (local
 extrapolation); its last stage is the next substep's first (first same as last).
 
-The GPU's code is `trace` in shaders/include/physics.glsl (TRACER_RK45); the twins' are
+The GPU's code is `trace` in shaders/include/tracers.glsl (TRACER_RK45); the twins' are
 `rk45` in cavesim/core/twin/tracers.py and cavesim/core/portable/tracers.py.
 """
 
@@ -24,7 +24,7 @@ import numpy as np
 from cavesim.core.operations import Operations
 
 # (forces, rows, p, dp) -> p + dp for the points of `rows` (the portable twin carries their
-# low parts in forces.position_low, as physics.glsl's move does)
+# low parts in forces.position_low, as position.glsl's move does)
 RowsMove = Callable[[object, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
 # Dormand & Prince (1980), J. Comput. Appl. Math. 6, table 2: the RK5(4)7M pair, first same as
@@ -52,11 +52,11 @@ STAGES = len(DP54_C)  # 7, the last the next substep's first
 NEW_STAGES = STAGES - 1  # flow samples per attempt
 ERROR_WEIGHTS = tuple(b5 - b4 for b5, b4 in zip(DP54_B5, DP54_B4, strict=True))
 SUBSTEP_COUNTS = 4  # SubstepCounts' fields, as the GPU's TracerSubsteps holds them
-TABLEAU_UNIFORM_VEC4S = 7  # physics.glsl's rk45_tableau: A's rows 2..7, then ERROR_WEIGHTS
+TABLEAU_UNIFORM_VEC4S = 7  # tracers.glsl's rk45_tableau: A's rows 2..7, then ERROR_WEIGHTS
 
 
 def tableau(dtype=np.float32) -> np.ndarray:
-    """The coefficients in `dtype` (the GPU's: float32), in the order physics.glsl's
+    """The coefficients in `dtype` (the GPU's: float32), in the order tracers.glsl's
     rk45_tableau holds them: A's rows for stages 2 to 7 (21 coefficients), then
     ERROR_WEIGHTS (7)."""
     flat = [a for row in DP54_A[1:] for a in row] + list(ERROR_WEIGHTS)
@@ -91,7 +91,7 @@ def adaptive_trace(p: np.ndarray, h, forces, tolerance, ops: Operations, move: R
                    coefficients: np.ndarray, nodes: np.ndarray,
                    record: Callable[[SubstepCounts], None] | None = None
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """One frame's step h of tracers at p (N, 3): `trace` of physics.glsl (TRACER_RK45) in
+    """One frame's step h of tracers at p (N, 3): `trace` of tracers.glsl (TRACER_RK45) in
     the arithmetic of `ops` and `move`, with `coefficients` in `tableau`'s order and the
     stage `nodes`, both in p's dtype. The tracers still stepping step together; each
     keeps its own level and progress. Returns (p, v): v the flow at the end, where the last

@@ -129,7 +129,7 @@ def test_every_pair_of_values_a_valid_combination_holds_is_in_a_variant(cover):
     held = {pair for row in sample(500) for pair in pairs(row, tuple(FEATURES))}
     assert held <= set(cover.pairs.required)
     assert not held & set(cover.pairs.excluded)
-    # the loader's rules and physics.glsl's #errors, found by the search
+    # the features' rules and their #errors, found by the search
     assert (("ARITHMETIC", PORTABLE), ("FIELD_SAMPLING", 1)) in cover.pairs.excluded
     assert (("HAS_TRACERS", 1), ("HAS_DISPERSION", 1)) in cover.pairs.excluded
     assert (("FIELD_INTERPOLATION", 2), ("FIELD_TIME_SERIES", 1)) in cover.pairs.required

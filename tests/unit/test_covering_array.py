@@ -21,7 +21,7 @@ MIXED = {"INTEGRATOR": tuple(range(8)), "COLLISION": (0, 1, 2), "DRAG": (0, 1),
 
 
 def rules(row) -> bool:
-    """physics.glsl's kind of rules: dispersion needs drag and a ground, tracers need drag
+    """the features' kind of rules: dispersion needs drag and a ground, tracers need drag
     and no dispersion, the adaptive method (4) only with tracers, else the integrator's."""
     return ((row["DRAG"] or not (row["DISPERSION"] or row["TRACERS"]))
             and (row["COLLISION"] or not row["DISPERSION"])

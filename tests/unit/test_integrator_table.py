@@ -28,7 +28,7 @@ def preamble_ids(prefix: str) -> dict[str, int]:
 
 
 def integrate_branches() -> list[str]:
-    """The integrators `integrate` in physics.glsl has a branch for, in order."""
+    """The integrators `integrate` in integrators.glsl has a branch for, in order."""
     body = PHYSICS[PHYSICS.index("void integrate("):]
     body = body[:body.index("\n}\n")]
     return re.findall(r"^#(?:el)?if INTEGRATOR == INTEGRATOR_(\w+)$", body, re.MULTILINE)
@@ -80,7 +80,7 @@ def test_no_other_module_lists_the_integrators():
 
 
 def trace_branches() -> list[str]:
-    """The tracer methods `trace` in physics.glsl has a branch for, in order."""
+    """The tracer methods `trace` in tracers.glsl has a branch for, in order."""
     body = PHYSICS[PHYSICS.index("void trace("):]
     body = body[:body.index("\n}\n")]
     return re.findall(r"^#(?:el)?if TRACER_METHOD == TRACER_(\w+)$", body, re.MULTILINE)

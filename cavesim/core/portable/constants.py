@@ -14,7 +14,7 @@ def _bits(word: int) -> np.float32:
     return np.array(word, dtype=np.uint32).view(np.float32)[()]
 
 
-# physics.glsl: 1/k! of the exponential integrators' series
+# integrators.glsl: 1/k! of the exponential integrators' series
 INV_FACTORIAL_3 = _bits(0x3E2AAAAB)
 INV_FACTORIAL_4 = _bits(0x3D2AAAAB)
 INV_FACTORIAL_5 = _bits(0x3C088889)
@@ -43,7 +43,7 @@ HALF_WIDTH_POWER = _bits(0x3EE66666)  # 0.45
 # spawn.glsl
 TWO_PI = _bits(0x40C90FDB)
 
-# physics.glsl: Schiller-Naumann's drag (cavesim/core/drag.py)
+# forces.glsl: Schiller-Naumann's drag (cavesim/core/drag.py)
 SCHILLER_NAUMANN_COEFFICIENT = _bits(0x3E19999A)  # 0.15
 SCHILLER_NAUMANN_EXPONENT = _bits(0x3F2FDF3B)  # 0.687
 

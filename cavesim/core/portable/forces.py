@@ -1,5 +1,5 @@
 """Accelerations in portable arithmetic: `acceleration`, `linear_parts` and `drag_rate` of
-shaders/include/physics.glsl, operation by operation in float32.
+shaders/include/forces.glsl, operation by operation in float32.
 
 Per-particle scalars (1/tau, lambda) are (N, 1) columns, so they scale (N, 3) vectors as a
 float scales a vec3 in GLSL.
@@ -30,7 +30,7 @@ PER_PARTICLE = ("inv_tau", "reynolds_per_speed", "turbulence", "position_low")
 class PortableForces:
     """a(p, v) = (u(p) + u_t - v) lambda + g - k v, each term present only if the scene has
     it (cavesim.core.twin.forces.ForceModel says what each is); and the low part of the
-    positions being stepped, which `move` carries (physics.glsl's step_position_low)."""
+    positions being stepped, which `move` carries (position.glsl's step_position_low)."""
 
     gravity: np.ndarray | None = None  # (3,) float32
     damping: np.float32 | None = None  # k, 1/s
@@ -94,7 +94,7 @@ class PortableForces:
         return f
 
     def remainder(self, p: np.ndarray, v: np.ndarray, held: np.ndarray) -> np.ndarray:
-        """`remainder_at` of physics.glsl: what the linear part with the drag rate `held`
+        """`remainder_at` of forces.glsl: what the linear part with the drag rate `held`
         (N, 1) leaves of the acceleration at (p, v) (the float64 twin's `remainder`)."""
         if self.flow is None:
             return self._with_coriolis(self._forcing(None, held), v)

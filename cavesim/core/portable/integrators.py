@@ -1,9 +1,9 @@
 """One step of each integrator in portable arithmetic: `integrate`, `exponential_weights` and
-`phi3_weight` of shaders/include/physics.glsl, operation by operation in float32.
+`phi3_weight` of shaders/include/integrators.glsl, operation by operation in float32.
 
 Same signature as the float64 reference (cavesim/core/twin/integrators.py): (p, v, h,
 forces) -> (p, v), with `forces` a `PortableForces`, whose `move` adds the position's one
-increment a step to hi + low as physics.glsl's move does (cavesim/core/position.py). Where
+increment a step to hi + low as position.glsl's move does (cavesim/core/position.py). Where
 the shader branches per particle, both sides are computed here and the branch's own is
 selected.
 """
@@ -74,7 +74,7 @@ def rk2(p, v, h, forces):
 
 
 def rk4_sum(k1, k2, k3, k4):
-    """k1 + 2 k2 + 2 k3 + k4, physics.glsl's rk4_sum."""
+    """k1 + 2 k2 + 2 k3 + k4, integrators.glsl's rk4_sum."""
     return f_add(f_add(f_add(k1, f_mul(TWO, k2)), f_mul(TWO, k3)), k4)
 
 

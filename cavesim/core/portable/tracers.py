@@ -1,4 +1,4 @@
-"""One step of a passive tracer in portable arithmetic: `trace` of shaders/include/physics.glsl,
+"""One step of a passive tracer in portable arithmetic: `trace` of shaders/include/tracers.glsl,
 operation by operation in float32.
 
 Same signature as the float64 twin's (cavesim/core/twin/tracers.py): (p, h, forces) ->

@@ -36,10 +36,10 @@ Vec3 = tuple[float, float, float]
 
 class TracerMethod(StrEnum):
     """How a passive tracer, dx/dt = u(x, t), is stepped: an explicit Runge-Kutta method, one
-    row each. Its code is `trace`'s branch in shaders/include/physics.glsl and a step of the
+    row each. Its code is `trace`'s branch in shaders/include/tracers.glsl and a step of the
     row's name in cavesim/core/twin/tracers.py and cavesim/core/portable/tracers.py."""
 
-    gpu_id: int  # physics.glsl's #define TRACER_<NAME>: the TRACER_METHOD define's value
+    gpu_id: int  # the particle pass's id TRACER_<NAME>: the TRACER_METHOD define's value
     order: int  # theoretical order of accuracy (an adaptive method's at a fixed substep)
     # flow samples per particle and step (an adaptive method's per substep tried), besides
     # the one at the new position that gives the record its velocity
@@ -65,11 +65,11 @@ class TracerMethod(StrEnum):
 class Integrator(StrEnum):
     """The integrators, one row each: everything a new one adds besides its code.
 
-    Its code is `integrate`'s branch in shaders/include/physics.glsl and a step function of
+    Its code is `integrate`'s branch in shaders/include/integrators.glsl and a step function of
     the row's name in cavesim/core/twin/integrators.py and cavesim/core/portable/integrators.py.
     """
 
-    gpu_id: int  # physics.glsl's #define INTEGRATOR_<NAME>: the INTEGRATOR define's value
+    gpu_id: int  # the particle pass's id INTEGRATOR_<NAME>: the INTEGRATOR define's value
     order: int  # theoretical order of accuracy
     field_evaluations: int  # flow samples per particle and step (a test counts the twin's)
     stability_limit: float  # the largest dt/tau at which linear drag stays bounded

@@ -1,4 +1,4 @@
-"""Accelerations on particles (twin of `acceleration` in shaders/include/physics.glsl)."""
+"""Accelerations on particles (twin of `acceleration` in shaders/include/forces.glsl)."""
 
 from __future__ import annotations
 

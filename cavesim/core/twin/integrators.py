@@ -1,6 +1,6 @@
 """One step of each integrator: (p, v, h, forces) -> (p, v).
 
-Twin of `integrate` in shaders/include/physics.glsl; `INTEGRATORS` maps the scene's
+Twin of `integrate` in shaders/include/integrators.glsl; `INTEGRATORS` maps the scene's
 choice to the function of its name (the `Integrator` table holds the rest of each method).
 """
 

@@ -1,6 +1,6 @@
 """One step of a passive tracer, dx/dt = u(x, t): (p, h, forces) -> (p, v).
 
-Twin of `trace` in shaders/include/physics.glsl; `TRACERS` maps each `TracerMethod` to the
+Twin of `trace` in shaders/include/tracers.glsl; `TRACERS` maps each `TracerMethod` to the
 step of its name. The step moves the position by an explicit Runge-Kutta tableau on the
 flow alone (no inertia, gravity or damping) and gives the record the flow at the new
 position as its velocity, for drawing.
