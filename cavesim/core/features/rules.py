@@ -13,16 +13,18 @@ Each feature declares its rules (`Feature.rules`); the registry gathers them.
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from types import CodeType
 from typing import Any
 
 from cavesim.core.errors import SceneError
 
 _TOKEN = re.compile(r"\s*(?:(?P<name>[A-Z_][A-Z0-9_]*)|(?P<number>\d+)"
                     r"|(?P<operator>==|!=|<=|>=|&&|\|\||[<>!()]))")
-_PYTHON = {"&&": " and ", "||": " or ", "!": " not "}
+_PYTHON = {"&&": "and", "||": "or", "!": "not"}
 
 
 @dataclass(frozen=True)
@@ -42,23 +44,30 @@ class Rule:
 def evaluate(condition: str, values: Mapping[str, int]) -> bool:
     """The truth of a preprocessor condition where each name has its value in `values`
     (KeyError names one it does not have)."""
+    try:  # every token was read by _translated: names, numbers and operators only
+        return bool(eval(_python(condition), {"__builtins__": {}}, values))  # noqa: S307
+    except NameError as e:
+        raise KeyError(e.name) from e
+
+
+@functools.cache
+def _python(condition: str) -> CodeType:
+    """A condition as compiled Python."""
+    return compile(_translated(condition), condition, "eval")
+
+
+def _translated(condition: str) -> str:
+    """A condition in Python's syntax, every token read: names, numbers and operators."""
     python = []
     position = 0
-    while position < len(condition):
+    while condition[position:].strip():
         match = _TOKEN.match(condition, position)
         if match is None or match.end() == position:
-            if condition[position:].strip():
-                raise ValueError(f"condition {condition!r}: cannot read from {position}")
-            break
+            raise ValueError(f"condition {condition!r}: cannot read from {position}")
         position = match.end()
-        if match["name"]:
-            python.append(repr(int(values[match["name"]])))
-        elif match["number"]:
-            python.append(match["number"])
-        else:
-            python.append(_PYTHON.get(match["operator"], match["operator"]))
-    return bool(eval("".join(python), {"__builtins__": {}}))  # noqa: S307 - only numbers
-    # and operators reach it: every token was read above
+        token = match["name"] or match["number"] or match["operator"]
+        python.append(_PYTHON.get(token, token))
+    return " ".join(python)
 
 
 def check_scene(scene: Any, features: Iterable[Any], values: Mapping[str, int],
@@ -75,7 +84,16 @@ def check_scene(scene: Any, features: Iterable[Any], values: Mapping[str, int],
 
 def holds(rules: Iterable[Rule], values: Mapping[str, int]) -> bool:
     """Whether a combination of defines keeps every rule (one a scene can make)."""
-    return not any(rule.broken(values) for rule in rules)
+    return bool(eval(_table(tuple(rules)), {"__builtins__": {}}, values))  # noqa: S307
+
+
+@functools.cache
+def _table(rules: tuple[Rule, ...]) -> CodeType:
+    """Every rule as one compiled Python condition (the shader gate asks it a million
+    times)."""
+    kept = [f"not (({_translated(r.subject)}) and not ({_translated(r.needs)}))"
+            for r in rules]
+    return compile(" and ".join(kept) or "True", "the rule table", "eval")
 
 
 def glsl_checks(rules: Iterable[Rule]) -> str:
