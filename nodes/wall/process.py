@@ -406,14 +406,15 @@ class WallNode:
         self.timer.lap("history")
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
-        exits = self.system.domain_exits() or ()  # read after the checksum's wait, as is
-        substeps = self.system.tracer_substeps()  # and this
-        substep_counts = dataclasses.astuple(substeps) if substeps else ()
+        counted = self.system.counters()  # read after the checksum's wait
+        substeps = ("tracers_stepped", "substeps_taken", "substeps_retaken", "most_substeps")
         self._publish(ReportMessage(k, self.config.name, state.digest, state.particles,
                                     state.emitters, self.timer.cost_us(), self.rejects.total,
-                                    sample=self._sample(), domain_exits=exits,
+                                    sample=self._sample(),
+                                    domain_exits=counted.get("domain_exits", ()),
                                     dropped=self.system.dropped(),
-                                    tracer_substeps=substep_counts))
+                                    tracer_substeps=tuple(counted[name][0] for name in substeps)
+                                    if substeps[0] in counted else ()))
         self.timer.reported()
         if self.trajectories is not None:  # after the report: the barrier does not wait on it
             self._follow_trajectories(k, used.dt)

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from driver_doubles import RecordedDriver, load_profile, profile_names
-from scenes import scene_dict
+from scenes import FOUNTAIN, scene_dict
 
 from cavesim.core.errors import ContextError, FieldError
 from cavesim.core.features.feature import Texture
@@ -21,7 +21,7 @@ from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.scene.model import ENGINE_PATHS, Engine
 from cavesim.core.wire.network import NetworkSettings
 from cavesim.gpu.engine.capacity import capacity_limits, check_texture
-from cavesim.gpu.engine.frame_counts import counts_exits
+from cavesim.gpu.engine.counter_buffer import counted_here
 from cavesim.gpu.gl.context import REQUIRED_GL_VERSION, create_context
 from cavesim.gpu.gl.devices import list_devices
 from cavesim.gpu.gl.fence import FIRST_WAIT_NS, WAIT_LIMIT_SECONDS, first_wait_ns
@@ -231,23 +231,31 @@ def test_query_buffers_come_from_the_version_or_the_extension(version_code, exte
     assert query_buffers_offered(version_code, extensions) is offered
 
 
+def exits_counted(scene, engine, info) -> bool:
+    return "domain_exits" in counted_here(scene, engine, info)
+
+
 def test_each_recorded_context_says_whether_gs_tf_counts_domain_exits(profile):
     """GS/TF steps in its vertex stage, which counts exits only where the context lets it
     write storage: the recordings predate that limit, so none of them counts on GS/TF (the
-    compute path always does); this context, read live, does."""
-    scene = parse_scene(scene_dict(), name="grid")
+    compute path always does); this context, read live, does. The drops, copied from the
+    passes' own counts, are counted on both paths everywhere."""
+    scene = parse_scene(scene_dict(emitters=[{**FOUNTAIN}]), name="grid")
     for context in profile["contexts"]:
         asked = context["asked"][str(REQUIRED_GL_VERSION)]
-        assert counts_exits(scene, Engine.GS_TF, asked) is profile["expect"]["gs_tf_counts_exits"]
-        assert counts_exits(scene, Engine.COMPUTE, asked)
+        assert exits_counted(scene, Engine.GS_TF, asked) is \
+            profile["expect"]["gs_tf_counts_exits"]
+        assert exits_counted(scene, Engine.COMPUTE, asked)
+        assert all("capacity_drops" in counted_here(scene, engine, asked)
+                   for engine in ENGINE_PATHS)
 
 
 def test_this_context_counts_domain_exits_on_both_paths_where_the_flow_has_a_grid(ctx):
     assert ctx.info["GL_MAX_VERTEX_SHADER_STORAGE_BLOCKS"] >= 1
     grid = parse_scene(scene_dict(), name="grid")
     rotor = load_scene(ROOT / "config" / "scenes" / "brownout.toml")
-    assert all(counts_exits(grid, engine, ctx.info) for engine in ENGINE_PATHS)
-    assert not any(counts_exits(rotor, engine, ctx.info) for engine in ENGINE_PATHS)
+    assert all(exits_counted(grid, engine, ctx.info) for engine in ENGINE_PATHS)
+    assert not any(exits_counted(rotor, engine, ctx.info) for engine in ENGINE_PATHS)
 
 
 def test_a_time_series_fits_the_3d_texture_size_each_context_reports(profile):

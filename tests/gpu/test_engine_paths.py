@@ -51,7 +51,7 @@ class Pair:
         self.dropped: list[int] = []  # new particles dropped at the capacity, each frame
 
     def step(self, dt: float = DT) -> None:
-        """One master frame on both paths; their checksums and dropped counts must agree."""
+        """One master frame on both paths; their checksums and counters must agree."""
         self.frames += 1
         step = self.driver.advance(self.frames * dt, dt, None)
         scene_frame = self.driver.decode(self.driver.encode(step.frame))  # as a node gets it
@@ -60,10 +60,10 @@ class Pair:
             system.step(inputs, scene_frame)
         reference, checked = self.gs_tf.checksum(), self.compute.checksum()
         assert checked == reference, f"frame {self.frames}: {checked} != {reference}"
-        dropped = self.gs_tf.dropped()
-        assert self.compute.dropped() == dropped, f"frame {self.frames}: dropped differ"
+        counters = self.gs_tf.counters()
+        assert self.compute.counters() == counters, f"frame {self.frames}: counters differ"
         self.counts.append(reference.particles)
-        self.dropped.append(dropped)
+        self.dropped.append(self.gs_tf.dropped())
 
     def assert_same_bytes(self) -> None:
         assert self.compute.read_particles().tobytes() == self.gs_tf.read_particles().tobytes()
@@ -213,8 +213,9 @@ def test_tracers_mixed_with_inertial_classes_hold_the_same_bytes(pair, integrato
     classes = both.gs_tf.read_particles()["class_id"]
     assert (classes == 0).sum() > 100 and (classes == 1).sum() > 100
     if tracer_method is not None:
-        substeps = both.gs_tf.tracer_substeps()
-        assert substeps == both.compute.tracer_substeps() and substeps.retaken > 0, substeps
+        counted = both.gs_tf.counters()
+        assert counted == both.compute.counters() and counted["substeps_retaken"][0] > 0, \
+            counted
 
 
 def test_a_frame_with_more_emission_segments_than_one_dispatch_allows(pair):

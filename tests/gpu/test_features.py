@@ -154,15 +154,17 @@ def test_a_cubic_field_texture_holds_the_padded_texels(ctx):
 def test_minimal_scene_allocates_no_field_ground_or_extra_uniforms(ctx):
     system = ParticleSystem(ctx, load_scene(SCENES / "minimal.toml"))
     assert set(system.resources) == {"particles_0", "particles_1", "emitters_0", "emitters_1",
-                                     "random_texture", "emitter_table", "gs_tf_counts"}
+                                     "random_texture", "emitter_table", "gs_tf_counts",
+                                     "counters"}  # the capacity's drops: it emits
     assert uniforms(system.particle_program) == {"dt", "gravity"}
 
 
 def test_scene_without_emitters_has_no_emitter_stream_or_random_texture(ctx):
     system = ParticleSystem(ctx, make_scene(drag=False))
     system.step(FrameInput(np.float32(1 / 60), np.eye(3, dtype=np.float32)))
-    # the live count's 12 bytes; no scratch for an emission
+    # the live count's 12 bytes; no scratch for an emission, nothing to count
     assert set(system.resources) == {"particles_0", "particles_1", "gs_tf_counts"}
+    assert system.counters() == {} and system.dropped() == 0
 
 
 def test_drag_and_ground_allocate_their_textures(ctx, tmp_path):

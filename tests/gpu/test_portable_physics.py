@@ -47,6 +47,7 @@ DT = 1 / 60
 DEMO_FRAMES = 500
 DEMO_CAPACITY = 6_000  # either demo fills it in its first 20 frames, and overflows it after
 SMALL_FRAMES = 100
+SUBSTEP_ROWS = ("tracers_stepped", "substeps_taken", "substeps_retaken", "most_substeps")
 PORTABLE_ID = ARITHMETIC_IDS[Arithmetic.PORTABLE]
 
 
@@ -101,23 +102,17 @@ class Lockstep:
             if gpu.checksum() != expected:
                 pytest.fail(f"frame {self.frames}, {engine.value} path: "
                             f"{first_difference(gpu, self.twin)}")
-            exits = gpu.domain_exits()
-            if exits is not None and exits != tuple(self.twin.domain_exits):
-                pytest.fail(f"frame {self.frames}, {engine.value} path: {exits} particles per "
-                            f"class left the field's box, the twin {self.twin.domain_exits}")
-            substeps = gpu.tracer_substeps()
-            if substeps is not None and substeps != self.twin.tracer_substeps:
-                pytest.fail(f"frame {self.frames}, {engine.value} path: tracer substeps "
-                            f"{substeps}, the twin's {self.twin.tracer_substeps}")
-            self.substeps_counted[engine] += substeps is not None
-            if gpu.dropped() != self.twin.dropped():
-                pytest.fail(f"frame {self.frames}, {engine.value} path: {gpu.dropped()} "
-                            f"particles dropped at the capacity, the twin {self.twin.dropped()}")
+            counted, twin = gpu.counters(), self.twin.counters()
+            if counted != {name: twin[name] for name in counted}:
+                pytest.fail(f"frame {self.frames}, {engine.value} path: counters {counted}, "
+                            f"the twin's {twin}")
+            self.substeps_counted[engine] += "tracers_stepped" in counted
+        twin = self.twin.counters()
         self.counts.append(expected.particles)
         self.dropped.append(self.twin.dropped())
-        if self.twin.tracer_substeps is not None:
-            self.substeps.append(self.twin.tracer_substeps)
-        self.exits += self.twin.domain_exits
+        if "tracers_stepped" in twin:
+            self.substeps.append(SubstepCounts(*(twin[name][0] for name in SUBSTEP_ROWS)))
+        self.exits += twin.get("domain_exits", 0)
 
     def release(self) -> None:
         for gpu in self.gpus.values():

@@ -150,9 +150,9 @@ def test_every_branch_a_valid_combination_takes_is_taken_native_and_portable(cov
                 for path in sorted((SHADER_ROOT / "include").glob("*.glsl"))
                 if unknown in (lines := path.read_text().splitlines())]
     assert all(has(found, where, "#else") for found in unreachable.values())
-    exits = "#if COUNT_DOMAIN_EXITS && !defined GEOMETRY_SHADER"
-    assert has(unreachable["geometry", "native"], "include/physics.glsl", exits)
-    assert not has(unreachable["vertex", "native"], "include/physics.glsl", exits)
+    counting = "#if COUNTING && !defined GEOMETRY_SHADER"
+    assert has(unreachable["geometry", "native"], "include/counters.glsl", counting)
+    assert not has(unreachable["vertex", "native"], "include/counters.glsl", counting)
     hardware = "#if FIELD_SAMPLING == SAMPLING_HARDWARE"
     assert has(unreachable["compute", "portable"], "include/field.glsl", hardware)
     assert not has(unreachable["compute", "native"], "include/field.glsl", hardware)

@@ -13,6 +13,7 @@ from functools import partial
 
 import numpy as np
 
+from cavesim.core.counters import Counts, TwinStep, twin_counts
 from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
 from cavesim.core.features import grid_flow
@@ -104,21 +105,28 @@ class TwinSystem:
         self.tracer_classes = np.array(scene.tracer_classes or (False,))
         self.integrate = self.kernels.integrators[scene.integrator]
         self.trace = self.kernels.tracers[scene.method_for_tracers]
-        # what the adaptive tracers did in the last step (None: the scene has none)
-        self.tracer_substeps: SubstepCounts | None = None
+        self._substeps = NO_SUBSTEPS  # what the adaptive tracers did in the step
         if scene.tracers_take_substeps:
             self.trace = partial(self.trace, tolerance=np.float32(scene.tracer_tolerance),
                                  record=self._record_substeps)
-            self.tracer_substeps = NO_SUBSTEPS
         self.following = any(e.follow_helicopter for e in scene.emitters)
         self.particles = TwinParticles.from_records(np.zeros(0, PARTICLE_DTYPE), self.dtype)
         self.emitters = np.zeros(len(self.table), dtype=EMITTER_DTYPE)
-        # per class, the particles that left the field's box in the last step (a grid's)
-        self.domain_exits = np.zeros(len(scene.particle_classes), dtype=np.int64)
-        self._dropped = 0  # new particles the last step dropped because the capacity was full
+        self._counts = self._zero_counts()  # the last step's counters
 
     def _record_substeps(self, counts: SubstepCounts) -> None:
-        self.tracer_substeps = counts
+        self._substeps = counts
+
+    def counters(self) -> Counts:
+        """The last step's counters by name, every row the scene counts, as the GPU counts
+        them (`ParticleSystem.counters`; each row's `twin` in cavesim/core/counters.py)."""
+        return dict(self._counts)
+
+    def _zero_counts(self) -> Counts:
+        """Every counter 0: a state written, not stepped into."""
+        classes = max(1, len(self.scene.particle_classes))
+        return twin_counts(self.scene, TwinStep(classes, np.zeros(0, np.uint8), NO_SUBSTEPS,
+                                                0, 0, 0))
 
     @property
     def live_count(self) -> int:
@@ -126,13 +134,13 @@ class TwinSystem:
 
     def write_particles(self, records: np.ndarray) -> None:
         self.particles = TwinParticles.from_records(records, self.dtype)
-        self._dropped = 0
+        self._counts = self._zero_counts()
 
     # the engine's reads, for code that reads either (the trajectory recorder)
     def dropped(self) -> int:
         """New particles the last step dropped because the capacity was full (0 after a
         load)."""
-        return self._dropped
+        return self._counts.get("capacity_drops", (0,))[0]
 
     def read_emitters(self) -> np.ndarray:
         """A copy of the emitter stream (EMITTER_DTYPE)."""
@@ -177,23 +185,24 @@ class TwinSystem:
         sane = below(q.vel, SPEED_LIMIT)
         pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
         sane &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)
-        self._count_exits(q, pos, sane)
+        left = self._left_the_box(q, pos, sane)
         alive &= sane
         moved = TwinParticles(pos, low, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
-        # cavesim/gpu/engine/drops.py's count: survivors + emitted - live
-        self._dropped = len(moved.age) + int(self.emitters["count"].sum()) - self.live_count
+        self._counts = twin_counts(self.scene, TwinStep(
+            max(1, len(self.scene.particle_classes)), left, self._substeps, len(moved.age),
+            int(self.emitters["count"].sum()), self.live_count))
 
-    def _count_exits(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray) -> None:
-        """step_particle's count: a sane step from inside the field's box to outside it."""
+    def _left_the_box(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray
+                      ) -> np.ndarray:
+        """Class ids of the particles whose sane step took them from inside the field's box
+        to outside it (step_particle's domain exits)."""
         if not self.scene.gridded_flow:
-            return
+            return np.zeros(0, np.uint8)
         outside = partial(grid_flow.outside, self.data[grid_flow.GRID_FLOW.name],
                           kernels=self.kernels)
-        left = sane & ~outside(q.pos) & outside(moved)
-        classes = np.minimum(q.class_id[left], len(self.domain_exits) - 1)
-        self.domain_exits = np.bincount(classes, minlength=len(self.domain_exits))
+        return q.class_id[sane & ~outside(q.pos) & outside(moved)]
 
     def _move(self, q: TwinParticles, h, forces: ForceModel | PortableForces
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -224,8 +233,7 @@ class TwinSystem:
         its tracer method (physics.glsl's branch in advance). The two groups step apart,
         each with the forces of its rows; a portable model gets its rows' low parts back."""
         tracer = self.tracer_classes[np.minimum(q.class_id, len(self.tracer_classes) - 1)]
-        if self.tracer_substeps is not None:  # a step without tracers takes no substeps
-            self.tracer_substeps = NO_SUBSTEPS
+        self._substeps = NO_SUBSTEPS  # a step without tracers takes no substeps
         if not tracer.any():
             return self.integrate(start, q.vel, h, forces)
         inertial, tracers = forces.of_rows(~tracer), forces.of_rows(tracer)

@@ -29,10 +29,9 @@ from collections.abc import Callable, Sequence
 import moderngl
 import numpy as np
 
-from cavesim.core.scene.model import Engine, Scene
+from cavesim.core.scene.model import Scene
 from cavesim.gpu.engine.drops import DROPPED
 from cavesim.gpu.engine.emission import Emission
-from cavesim.gpu.engine.frame_counts import counts_exits, counts_tracer_substeps
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import (
     BLOCK_WORKGROUP_SIZE,
@@ -75,8 +74,6 @@ class ComputePasses:
         self._capacity = scene.capacity
         self._emitter_count = len(scene.emitters)
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
-        self.counts_exits = counts_exits(scene, Engine.COMPUTE, ctx.info)  # a grid's always
-        self.counts_substeps = counts_tracer_substeps(scene, Engine.COMPUTE, ctx.info)
         self.program = block_update_program(ctx, scene)
         self._scan = scan_program(ctx)
         self._compact = compact_program(ctx)

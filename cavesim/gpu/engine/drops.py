@@ -1,20 +1,11 @@
-"""How many new particles a frame dropped because the capacity was full, counted on the GPU.
+"""The counts both engine paths leave on the GPU in a small storage buffer each frame: the
+live count at LIVE, and the new particles that did not fit the capacity at DROPPED
+(survivors + emitted - live).
 
-Both engine paths leave the frame's counts in a small storage buffer: the live count at
-LIVE, what did not fit at DROPPED (survivors + emitted - live). GS/TF's splice
-(shaders/particles/splice.glsl) takes them from its primitives queries; the compute path's
-scan (scan.glsl) sums the same entries once saturated at the capacity and once not. The
-host reads the count after the frame's wait, so the read costs a copy, not a stall.
+GS/TF's splice (shaders/particles/splice.glsl) takes them from its primitives queries; the
+compute path's scan (scan.glsl) sums the same entries once saturated at the capacity and once
+not. The checksum copies the live count from here on the GPU; the counter buffer copies the
+drops (its `capacity_drops` row, `counter_buffer.py`).
 """
 
-from __future__ import annotations
-
-import moderngl
-import numpy as np
-
 LIVE, DROPPED = 0, 4  # byte offsets of the counts in a path's frame counts buffer
-
-
-def read_dropped(counts: moderngl.Buffer) -> int:
-    """The particles the last frame dropped at the capacity, from a frame counts buffer."""
-    return int(np.frombuffer(counts.read(4, offset=DROPPED), "<u4")[0])

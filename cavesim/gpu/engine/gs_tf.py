@@ -25,9 +25,9 @@ import numpy as np
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.records import EMITTER_VERTEX_FORMAT, PARTICLE_BYTES, PARTICLE_VERTEX_FORMAT
 from cavesim.core.scene.model import Engine, Scene
+from cavesim.gpu.engine.counter_buffer import stage_counts
 from cavesim.gpu.engine.drops import DROPPED, LIVE
 from cavesim.gpu.engine.emission import Emission
-from cavesim.gpu.engine.frame_counts import counts_exits, counts_tracer_substeps, stage_counts
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.programs import (
     BLOCK_WORKGROUP_SIZE,
@@ -62,9 +62,7 @@ class GsTfPasses:
         self._capacity = scene.capacity
         self._counts = buffer("gs_tf_counts", GENERATED + 4)
         self._counted = PrimitiveCounts(ctx, self._counts, fence)
-        # what the particle pass counts here (its vertex stage's storage)
-        self.counts_exits = counts_exits(scene, Engine.GS_TF, ctx.info)
-        self.counts_substeps = counts_tracer_substeps(scene, Engine.GS_TF, ctx.info)
+        # the particle pass counts where its vertex stage may write storage
         self.program = particle_update_program(ctx, scene, stage_counts(Engine.GS_TF, ctx.info))
         self._update_vaos = [ctx.vertex_array(self.program, [(
             buffer, PARTICLE_VERTEX_FORMAT, "in_a", "in_b", "in_c")]) for buffer in particles]

@@ -8,7 +8,8 @@ into the back buffers by the scene's engine path, then swaps:
     append, giving the same bytes.
 Both leave the new live count on the GPU: the frame waits once, when the checksum reads it
 back with the digest (GS/TF also once per count where the context has no query buffers).
-Beside it each leaves how many new particles the full capacity dropped (`drops.py`).
+The frame's counters (cavesim/core/counters.py) go into one buffer (`counter_buffer.py`):
+cleared before the passes, the drops copied in after them, read after the checksum's wait.
 Only the scene's features are compiled in and allocated (see `programs.py`). The capacity
 is checked against the context's limits (`capacity.py`) before anything is allocated.
 
@@ -30,6 +31,7 @@ import dataclasses
 import moderngl
 import numpy as np
 
+from cavesim.core.counters import Counts
 from cavesim.core.digest.history import HistoryEntry, HistoryRing
 from cavesim.core.digest.shape import EMITTERS, PARTICLES, StateChecksum, index_runs
 from cavesim.core.emitters import FIXED_ROWS, TABLE_ROWS, EmitterTable
@@ -48,19 +50,12 @@ from cavesim.core.records import (
 )
 from cavesim.core.scene.model import ENGINE_PATHS, Engine, Scene
 from cavesim.core.scene_frame import NOTHING_MOVES, SceneFrame
-from cavesim.core.substeps import SUBSTEP_COUNTS, SubstepCounts
 from cavesim.gpu.engine.capacity import PARTICLE_BUFFERS, capacity_limits
 from cavesim.gpu.engine.checksum import GpuChecksum
 from cavesim.gpu.engine.compute import ComputePasses
-from cavesim.gpu.engine.drops import read_dropped
+from cavesim.gpu.engine.counter_buffer import CounterBuffer, counted_here
 from cavesim.gpu.engine.emission import EmitterUpdate
 from cavesim.gpu.engine.feature_resources import FeatureResources
-from cavesim.gpu.engine.frame_counts import (
-    DOMAIN_EXITS,
-    TRACER_SUBSTEPS,
-    FrameCounts,
-    substep_counts,
-)
 from cavesim.gpu.engine.gs_tf import GsTfPasses
 from cavesim.gpu.engine.pass_timers import PassTimers
 from cavesim.gpu.engine.uniforms import write_uniforms
@@ -83,7 +78,7 @@ class ParticleSystem:
         self.emitters = EmitterTable.from_scene(scene)
         self.resources: dict[str, moderngl.Buffer | moderngl.Texture | moderngl.Texture3D] = {}
         self._live: int | None = 0  # None: the last frame's count is still on the GPU
-        self._dropped: int | None = 0  # likewise: the particles it dropped at the capacity
+        self._counts: Counts | None = {}  # likewise: the last frame's counters
         self._current = 0  # index of the front buffers
         self.generation = 0  # states made current so far: a drawing of one holds until the next
         self._loading: int | None = None  # particles of the load staged in the back buffer
@@ -99,10 +94,7 @@ class ParticleSystem:
             raise limits.allocation_error(scene.capacity, error)
         # the random texture's words, where emission or a feature draws from it
         self.random_words: np.ndarray | None = None
-        self._exits = FrameCounts(self._buffer("domain_exits", 4 * len(scene.particle_classes)),
-                                  DOMAIN_EXITS) if scene.gridded_flow else None
-        self._substeps = FrameCounts(self._buffer("tracer_substeps", 4 * SUBSTEP_COUNTS),
-                                     TRACER_SUBSTEPS) if scene.tracers_take_substeps else None
+        self._counters = CounterBuffer(ctx, scene, self._buffer)
         self.rotor_inputs = RotorInputs(scene) if scene.helicopter is not None else None
         if len(self.emitters) or any(f.draws_random for f in features_of(scene)):
             self._random_texture()
@@ -118,6 +110,7 @@ class ParticleSystem:
 
     def _passes_for(self, engine: Engine) -> ComputePasses | GsTfPasses:
         """The particle passes of an engine path, over this system's buffers."""
+        self._counted = counted_here(self.scene, engine, self.ctx.info)
         if engine is Engine.COMPUTE:
             passes = ComputePasses(self.ctx, self.scene, self._particle_buffers,
                                    self._emitter_buffers, self._bind_samplers, self._buffer,
@@ -134,10 +127,10 @@ class ParticleSystem:
         same buffers, and give the same bytes). Its programs are compiled now."""
         if engine is self.engine:
             return
-        live, dropped = self.live_count, self.dropped()  # the old path's, on the GPU
+        live, counts = self.live_count, self.counters()  # the old path's, on the GPU
         self.scene = dataclasses.replace(self.scene, engine=engine)
         self._passes = self._passes_for(engine)
-        self._live, self._dropped = live, dropped
+        self._live, self._counts = live, counts
 
     def _buffer(self, name: str, size: int) -> moderngl.Buffer:
         buffer = self.ctx.buffer(reserve=max(size, 4))  # GL has no empty buffers
@@ -233,38 +226,28 @@ class ParticleSystem:
         state = FrameState(frame, rotor, scene.field_time or FIRST_SNAPSHOT)
         write_uniforms(self._passes.program, {
             "dt": frame.dt, **self.features.frame_uniforms(self.scene, state)})
-        if self._exits is not None and self._passes.counts_exits:
-            self._exits.start_frame()
-        if self._substeps is not None and self._passes.counts_substeps:
-            self._substeps.start_frame()
+        self._counters.start_frame()
         self._passes.advance(front, back, live, emission)
-        self._live = self._dropped = None  # the frame's counts are on the GPU
+        self._counters.copy_passes_counts(self._passes.counts_buffer)
+        self._live = self._counts = None  # the frame's counts are on the GPU
         self._current = back
         self.generation += 1
 
-    def domain_exits(self) -> tuple[int, ...] | None:
-        """Per particle class, how many left the field's box in the last frame; None where
-        this scene or engine path counts none here (`frame_counts.counts_exits`). Read it
-        after `checksum()`, whose wait it shares; before, it waits for the GPU itself."""
-        if self._exits is None or not self._passes.counts_exits:
-            return None
-        return self._exits.read()
-
-    def tracer_substeps(self) -> SubstepCounts | None:
-        """What the adaptive tracers did in the last frame; None where this scene or engine
-        path counts no substeps here (`frame_counts.counts_tracer_substeps`). Read it after
-        `checksum()`, whose wait it shares; before, it waits for the GPU itself."""
-        if self._substeps is None or not self._passes.counts_substeps:
-            return None
-        return substep_counts(self._substeps)
+    def counters(self) -> Counts:
+        """The last frame's counters by name (cavesim/core/counters.py): the rows this scene
+        counts on this engine path and context (`counter_buffer.counted_here`); a row missing
+        is not counted here. Each 0 after a load. Read them after `checksum()`, whose wait
+        they share; before, they wait for the GPU themselves."""
+        if self._counts is None:
+            if self._live is None:
+                self.fence.wait()
+            self._counts = self._counters.read(self._counted)
+        return dict(self._counts)
 
     def dropped(self) -> int:
-        """New particles the last frame dropped because the capacity was full (0 after a
-        load). Read it after `checksum()`, whose wait it shares; before, it waits for the GPU
-        itself."""
-        if self._dropped is None:
-            self._dropped = read_dropped(self._passes.counts_buffer)
-        return self._dropped
+        """New particles the last frame dropped because the capacity was full: its
+        `capacity_drops` counter (0 after a load, and in a scene without emitters)."""
+        return self.counters().get("capacity_drops", (0,))[0]
 
     def bench_particle_pass(self, dt: np.float32) -> None:
         """The engine path's particle pass alone on the live stream, waited for (what
@@ -463,7 +446,7 @@ class ParticleSystem:
             self.reseed(seed)
         self._current, self._live, self._loading = back, count, None
         self.generation += 1
-        self._dropped = 0  # a loaded state was not stepped into: nothing dropped
+        self._counts = self._counters.zeros(self._counted)  # a loaded state was not stepped
 
     def _stage_emitters(self, back: int, emitters: np.ndarray | None) -> None:
         count = len(self.emitters)

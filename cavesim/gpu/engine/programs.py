@@ -16,31 +16,28 @@ import moderngl
 from cavesim.core.digest.shape import FOLD, WORDS_PER_THREAD, WORKGROUP_SIZE
 from cavesim.core.emitters import EMIT_BATCH
 from cavesim.core.features import registry
-from cavesim.core.features.grid_flow import GRID
 from cavesim.core.features.rules import Rule, glsl_checks, holds
 from cavesim.core.limits import RANDOM_TEXTURE_SIZE_RANGE
 from cavesim.core.records import EMITTER_WORDS, PARTICLE_VARYINGS, PARTICLE_WORDS
 from cavesim.core.scene.model import Arithmetic, Scene
+from cavesim.gpu.engine import counter_buffer
+from cavesim.gpu.engine.counter_buffer import scene_counter_defines
 from cavesim.gpu.shader_source import ProgramSpec
 
 ARITHMETIC_IDS = {mode: number for number, mode in enumerate(Arithmetic)}  # arithmetic.glsl's
-# What the particle pass counts, and where it may: each a switch, on where the scene has what
-# is counted (and, on the GS/TF path, where its vertex stage may write storage)
-COUNTER_DEFINES: dict[str, tuple[int, ...]] = {"COUNT_DOMAIN_EXITS": (0, 1),
-                                               "COUNT_TRACER_SUBSTEPS": (0, 1)}
-COUNTER_RULES = (
-    Rule("COUNT_DOMAIN_EXITS", GRID, "field", "only a grid has a box to leave"),
-    Rule("COUNT_TRACER_SUBSTEPS", "HAS_TRACERS && TRACER_METHOD == TRACER_RK45",
-         "simulation.tracer_method", "only tracers stepped by rk45 take substeps"),
-)
+# What the particle pass counts, and where it may (cavesim/core/counters.py): a switch per
+# row it combines into, on where the scene counts the row (and, on the GS/TF path, where its
+# vertex stage may write storage), allowed where the row's `needs` hold
+COUNTER_DEFINES: dict[str, tuple[int, ...]] = counter_buffer.DEFINES
+COUNTER_RULES: tuple[Rule, ...] = counter_buffer.RULES
 # Every define of the particle pass, with the values it may take (numbers: the extremes a
 # scene may ask for): the base's and every feature's (`cavesim.core.features.registry`)
 PASS_DEFINES: dict[str, tuple[int, ...]] = {**registry.PASS_DEFINES, **COUNTER_DEFINES}
 PASS_RULES: tuple[Rule, ...] = (*registry.RULES, *COUNTER_RULES)
 # pasted into the particle pass after its defines: the ids its conditions compare with,
-# then an #error for every combination no scene can make
+# an #error for every combination no scene can make, and the counters' places in their buffer
 PASS_PREAMBLE = "".join(f"#define {name} {number}\n" for name, number in registry.GLSL_IDS.items()
-                        ) + glsl_checks(PASS_RULES)
+                        ) + glsl_checks(PASS_RULES) + counter_buffer.PREAMBLE
 EMISSION_FEATURES: dict[str, tuple[int, ...]] = {
     "ARITHMETIC": tuple(ARITHMETIC_IDS.values()),
     "RANDOM_SIZE": RANDOM_TEXTURE_SIZE_RANGE,
@@ -88,9 +85,7 @@ SPLICE = ProgramSpec("particles/splice.glsl", ("compute",), tuple(BLOCK_DEFINES)
 
 def physics_defines(scene: Scene) -> dict[str, int]:
     """The particle pass's defines (on either engine path): its features' and its counters'."""
-    return {**registry.pass_defines(scene),
-            "COUNT_DOMAIN_EXITS": int(scene.gridded_flow),
-            "COUNT_TRACER_SUBSTEPS": int(scene.tracers_take_substeps)}
+    return {**registry.pass_defines(scene), **scene_counter_defines(scene)}
 
 
 def emission_defines(scene: Scene) -> dict[str, int]:
@@ -138,10 +133,10 @@ def valid_physics(defines: Mapping[str, int]) -> bool:
 def particle_update_program(ctx: moderngl.Context, scene: Scene,
                             vertex_storage: bool = True) -> moderngl.Program:
     """The GS/TF particle pass; `vertex_storage` False where its vertex stage cannot write
-    storage, and so counts nothing (`cavesim.gpu.engine.frame_counts`)."""
+    storage, and so counts nothing (`cavesim.gpu.engine.counter_buffer`)."""
     defines = physics_defines(scene)
-    defines["COUNT_DOMAIN_EXITS"] &= int(vertex_storage)
-    defines["COUNT_TRACER_SUBSTEPS"] &= int(vertex_storage)
+    if not vertex_storage:
+        defines |= dict.fromkeys(counter_buffer.SWITCHES, 0)
     return PARTICLE_UPDATE.build(ctx, defines)
 
 

@@ -9,6 +9,7 @@
 #pragma once
 #include "arithmetic.glsl"
 #include "position.glsl"
+#include "counters.glsl"
 
 // where in its step an integrator takes the flow (a time-series field moves between them);
 // the feature ids (INTEGRATOR_RK4, COLLISION_PLANE, ...) and an #error for every
@@ -80,22 +81,6 @@ bool advance(inout Particle q, float h, uint index) {
     return steppable && finite(q.pos) && below(q.vel, SPEED_LIMIT);
 }
 
-// The stage that steps the particles counts (a GS/TF program's geometry stage only passes
-// them on, and asks for no storage)
-#if COUNT_DOMAIN_EXITS && !defined GEOMETRY_SHADER
-#define COUNTS_EXITS_HERE 1
-#else
-#define COUNTS_EXITS_HERE 0
-#endif
-
-#if COUNTS_EXITS_HERE
-// Per class, the particles that left the field's box this frame (cavesim/gpu/engine/
-// domain_exits.py clears it before the frame and reads it after)
-layout(std430, binding = 6) buffer DomainExits {
-    uint domain_exits[];
-};
-#endif
-
 // One frame of the particle at `index` in the stream, the arithmetic both engine paths'
 // particle passes share (GS/TF update.glsl, compute update_blocks.glsl): it ages by h
 // and moves; with COUNT_DOMAIN_EXITS, a sane step from inside the field's box to outside
@@ -104,13 +89,13 @@ layout(std430, binding = 6) buffer DomainExits {
 // outside arithmetic.glsl: portable only where the GPU rounds doubles as IEEE does.
 bool step_particle(inout Particle q, float h, uint index) {
     q.age += double(h);
-#if COUNTS_EXITS_HERE
+#if COUNT_DOMAIN_EXITS
     bool was_inside = !outside_field(field_coordinates(q.pos));
 #endif
     bool sane = advance(q, h, index);
-#if COUNTS_EXITS_HERE
+#if COUNT_DOMAIN_EXITS
     if (sane && was_inside && outside_field(field_coordinates(q.pos))) {
-        atomicAdd(domain_exits[min(q.class_id, uint(CLASS_COUNT - 1))], 1u);
+        count_add(DOMAIN_EXITS_AT + int(min(q.class_id, uint(CLASS_COUNT - 1))), 1u);
     }
 #endif
     return q.age < double(q.lifetime) && sane;

@@ -3,6 +3,7 @@
 // cavesim/core/twin/tracers.py and cavesim/core/portable/tracers.py.
 #pragma once
 #include "arithmetic.glsl"
+#include "counters.glsl"
 #include "integrators.glsl"
 #include "position.glsl"
 
@@ -37,17 +38,6 @@ float rk45_coefficient(int i) {
 float rk45_node(int stage) {
     return stage == 0 ? 0.0 : stage < 5 ? rk45_nodes[stage - 1] : 1.0;
 }
-
-#if COUNT_TRACER_SUBSTEPS && !defined GEOMETRY_SHADER
-// the frame's tracers, their substeps taken and retaken, and the most one tracer took
-// (cavesim/gpu/engine/frame_counts.py clears it before the frame and reads it after)
-layout(std430, binding = 7) buffer TracerSubsteps {
-    uint tracer_substeps[4];
-};
-#define COUNTS_SUBSTEPS_HERE 1
-#else
-#define COUNTS_SUBSTEPS_HERE 0
-#endif
 
 // One step h of an adaptive tracer from p, where the flow is k1: moves p and returns the
 // flow at the step's end, which its last substep took
@@ -94,11 +84,18 @@ vec3 trace_in_substeps(inout vec3 p, vec3 k1, float h) {
             retaken += 1u;
         }
     }
-#if COUNTS_SUBSTEPS_HERE
-    atomicAdd(tracer_substeps[0], 1u);
-    atomicAdd(tracer_substeps[1], taken);
-    atomicAdd(tracer_substeps[2], retaken);
-    atomicMax(tracer_substeps[3], taken);
+    // the frame's tracers, their substeps taken and retaken, and the most one tracer took
+#if COUNT_TRACERS_STEPPED
+    count_add(TRACERS_STEPPED_AT, 1u);
+#endif
+#if COUNT_SUBSTEPS_TAKEN
+    count_add(SUBSTEPS_TAKEN_AT, taken);
+#endif
+#if COUNT_SUBSTEPS_RETAKEN
+    count_add(SUBSTEPS_RETAKEN_AT, retaken);
+#endif
+#if COUNT_MOST_SUBSTEPS
+    count_max(MOST_SUBSTEPS_AT, taken);
 #endif
     return k[0];
 }
