@@ -8,9 +8,10 @@ from dataclasses import dataclass
 
 from cavesim.core.records import PARTICLE_WORDS
 
-NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove")
+NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "inflate")
 # the node does them to itself; jitter and shove make it drift, as another GPU's rounding
-# would and far beyond any tolerance (nodes/wall/drift_sample.py)
+# would and far beyond any tolerance (nodes/wall/drift_sample.py); inflate reports counters
+# far above what it counted, with its state's true checksum (an insider that lies)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood", "report-forgery", "query-replay", "tracking-replay",
                   "second-master", "snapshot-collision", "oversize")
@@ -96,3 +97,13 @@ def bitflip_target(live: int) -> BitFlip:
         raise ValueError(f"a bitflip needs a live particle, got {live=}")
     word = live * PARTICLE_WORDS // 2
     return BitFlip(word // PARTICLE_WORDS, word % PARTICLE_WORDS, FLIPPED_BIT)
+
+
+INFLATION = 1_000_000  # what an `inflate` fault adds to each value a node counted
+
+
+def inflated(counters: tuple[tuple[int, tuple[int, ...]], ...]
+             ) -> tuple[tuple[int, tuple[int, ...]], ...]:
+    """A report's counter tail with every value INFLATION higher (within a uint)."""
+    return tuple((id_, tuple(min(v + INFLATION, 2**32 - 1) for v in values))
+                 for id_, values in counters)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 from cavesim.core.wire import ReportMessage
 from cavesim.core.wire.payloads.from_nodes import Status
@@ -110,14 +110,36 @@ def stall_resyncs(membership: Membership,
 
 
 @dataclass(frozen=True)
+class CountDispute:
+    """A member whose values of one counter are not the agreed ones (or, where no majority
+    agreed, not those of the first member that counted it)."""
+
+    node: str
+    counter: int  # its id (cavesim/core/counters.py)
+    values: tuple[int, ...]
+    agreed: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class CountAgreement:
+    """What the members holding one state agree their frame counted."""
+
+    agreed: dict[int, tuple[int, ...]] = field(default_factory=dict)  # per counter id
+    unagreed: tuple[int, ...] = ()  # counted, but not by a majority of two or more alike
+    disputes: tuple[CountDispute, ...] = ()  # counts to resync for
+    named: tuple[str, ...] = ()  # the disputed, and every counter of a split without majority
+
+
+@dataclass(frozen=True)
 class Vote:
-    """The outcome of comparing one frame's checksums."""
+    """The outcome of comparing one frame's checksums, and the counters of the agreed state."""
 
     agreed: str  # the digest the cluster keeps
     particles: int  # live particles of the agreed state
-    source: str  # a member holding the agreed state
+    source: str  # a member holding the agreed state (and counts)
     odd: tuple[str, ...] = ()  # members to resync to it
     named: tuple[str, ...] = ()  # members named in the divergence record
+    counts: CountAgreement = CountAgreement()
 
     @property
     def diverged(self) -> bool:
@@ -125,21 +147,81 @@ class Vote:
 
 
 def vote(members: tuple[str, ...], reports: Mapping[str, ReportMessage],
-         compare: bool = True) -> Vote:
+         compare: bool = True, widths: Mapping[int, int] | None = None) -> Vote:
     """The checksum the members agree on: a strict majority's, else (two nodes, an even
     split) the first member's with every member named. `compare` False (a frame between
-    two checks) takes the first member's without comparing."""
+    two checks) takes the first member's without comparing.
+
+    Every member holding the agreed state counted the same frame from the same state, so
+    their counters of the run (`widths`: id -> number of values) must agree too
+    (`agree_counts`): a member whose counts differ is odd, named and resynced like one whose
+    checksum differs, and the source holds the agreed counts. Between two checks the counts
+    are agreed all the same, but nobody is named."""
+    widths = widths or {}
     first = reports[members[0]]
+    alone = len(members) == 1
     if not compare:
-        return Vote(first.digest, first.particles, members[0])
+        counts = agree_counts(members, reports, widths, alone)
+        return Vote(first.digest, first.particles, members[0],
+                    counts=replace(counts, disputes=(), named=()))
     digest, count = Counter(reports[m].digest for m in members).most_common(1)[0]
     majority = count * 2 > len(members)
     if not majority:
         digest = first.digest
-    odd = tuple(m for m in members if reports[m].digest != digest)
-    source = next(m for m in members if reports[m].digest == digest)
-    named = (odd if majority else members) if odd else ()
-    return Vote(digest, reports[source].particles, source, odd, named)
+    holders = tuple(m for m in members if reports[m].digest == digest)
+    counts = agree_counts(holders, reports, widths, alone)
+    disputed = {d.node for d in counts.disputes}
+    source = next((m for m in holders if m not in disputed), holders[0])
+    differ = tuple(m for m in members if reports[m].digest != digest)
+    odd = tuple(m for m in members if (m in differ or m in disputed) and m != source)
+    named_by_digest = (differ if majority else members) if differ else ()
+    named = tuple(m for m in members if m in named_by_digest or m in counts.named)
+    return Vote(digest, reports[source].particles, source, odd, named, counts)
+
+
+def agree_counts(holders: tuple[str, ...], reports: Mapping[str, ReportMessage],
+                 widths: Mapping[int, int], alone: bool = False) -> CountAgreement:
+    """The counters `holders` (members holding one state, in member order) agree on. Per
+    counter of the run (`widths`): the values a strict majority of the holders that counted
+    it reported, where two or more did (`alone`: the lock-step has one member, whose word is
+    all there is, as for its checksum); the holders that reported other values, or another
+    number of values, are disputes. A holder that did not count a counter (its engine path
+    cannot there) is not counted, not odd; ids outside `widths` are skipped (`skipped`)."""
+    agreed: dict[int, tuple[int, ...]] = {}
+    unagreed, disputes, named = [], [], []
+    for id_, width in widths.items():
+        held = [(m, values) for m in holders
+                for counter, values in reports[m].counters if counter == id_]
+        if not held:
+            continue
+        formed = [values for _, values in held if len(values) == width]
+        values, alike = Counter(formed).most_common(1)[0] if formed else ((), 0)
+        if alike * 2 > len(held) and (alike >= 2 or alone):
+            agreed[id_] = values
+        else:
+            unagreed.append(id_)
+            values = held[0][1]
+            split = [m for m, v in held if v != values]
+            named += [m for m, _ in held] if split else []
+        disputes += [CountDispute(m, id_, v, values) for m, v in held if v != values]
+    named += [d.node for d in disputes]
+    return CountAgreement(agreed, tuple(unagreed), tuple(disputes),
+                          tuple(m for m in holders if m in named))
+
+
+def skipped_counters(members: tuple[str, ...], reports: Mapping[str, ReportMessage],
+                     widths: Mapping[int, int]) -> dict[str, int]:
+    """Per member, the counters its report carries that the run does not count (an id of a
+    newer build, or of a feature the scene lacks): skipped, not an error, not a divergence."""
+    return {m: skipped for m in members
+            if (skipped := sum(id_ not in widths for id_, _ in reports[m].counters))}
+
+
+def reported_counts(report: ReportMessage, widths: Mapping[int, int]) -> CountAgreement:
+    """One member's counters as it reported them, those of the run and well formed (the
+    mixed-hardware mode keeps the authority's: its walls' bits, and counts, may differ)."""
+    return CountAgreement({id_: values for id_, values in report.counters
+                           if widths.get(id_) == len(values)})
 
 
 def agreeing_source(members: tuple[str, ...], reports: Mapping[str, ReportMessage],

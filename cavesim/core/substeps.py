@@ -51,7 +51,6 @@ GROWTH_MARGIN = 32.0  # 2^5: how much the error estimate grows when the substep 
 STAGES = len(DP54_C)  # 7, the last the next substep's first
 NEW_STAGES = STAGES - 1  # flow samples per attempt
 ERROR_WEIGHTS = tuple(b5 - b4 for b5, b4 in zip(DP54_B5, DP54_B4, strict=True))
-SUBSTEP_COUNTS = 4  # SubstepCounts' fields, as the GPU's TracerSubsteps holds them
 TABLEAU_UNIFORM_VEC4S = 7  # tracers.glsl's rk45_tableau: A's rows 2..7, then ERROR_WEIGHTS
 
 

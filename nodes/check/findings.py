@@ -325,7 +325,7 @@ def _master_kill(fault: Fault, record: RunRecord, harness, killed: RunRecord,
 
 EVIDENCE = {  # fault kind -> where the run's record shows it
     "bitflip": _divergence, "seed": _divergence, "stale": _divergence,
-    "jitter": _divergence, "shove": _divergence,
+    "jitter": _divergence, "shove": _divergence, "inflate": _divergence,
     "drop": _stall, "slow": _stall,
     "kill": _loss,
     "rogue": _attack, "replay-attack": _attack,

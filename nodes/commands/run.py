@@ -142,11 +142,11 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
             nodes = len(plan.members)
             task = progress.add_task(f"{walls} walls on {nodes} node{'s' * (nodes != 1)}",
                                      total=plan.frames, live="0 live", unit="frames")
-            tell_drops = drop_notice(progress.console)
+            tell_notices = counter_notices(progress.console)
 
             def checkpoint(record: RunRecord) -> None:
                 report_file.checkpoint(record)
-                tell_drops(record)
+                tell_notices(record)
 
             record = run_cluster(plan.cluster(), lambda k, live: progress.update(
                 task, completed=k, live=f"{live:,} live"), checkpoint=checkpoint)
@@ -187,18 +187,18 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     return report
 
 
-def drop_notice(console: Console) -> Callable[[RunRecord], None]:
-    """A checkpoint that prints, once, the line saying the capacity dropped particles
-    (`CapacityDropBook.notice`) as soon as the record has it."""
-    told = False
+def counter_notices(console: Console) -> Callable[[RunRecord], None]:
+    """A checkpoint that prints each counter's notice once (e.g. that the capacity dropped
+    particles: `CounterBook.notices`) as soon as the record has it."""
+    told = 0
 
     def tell(record: RunRecord) -> None:
         nonlocal told
-        book = record.capacity_drops
-        if not told and book is not None and book.notice is not None:
-            told = True
-            console.print(book.notice, style="yellow", markup=False, highlight=False,
+        notices = [] if record.counters is None else record.counters.notices
+        for notice in notices[told:]:
+            console.print(notice, style="yellow", markup=False, highlight=False,
                           soft_wrap=True)
+        told = len(notices)
 
     return tell
 

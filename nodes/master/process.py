@@ -38,6 +38,7 @@ from typing import Protocol
 import numpy as np
 
 from cavesim.core.clock import Clock
+from cavesim.core.counters import BY_ID, widths
 from cavesim.core.drivers import DriverStep, driver_for
 from cavesim.core.errors import ClusterError, ProtocolError
 from cavesim.core.frame import FrameInput
@@ -65,7 +66,7 @@ from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import transfer_seconds
 from nodes import lockstep
 from nodes.lockstep import LOSS_POLICIES, Membership, Vote
-from nodes.master.drop_book import CapacityDropBook
+from nodes.master.counter_book import AGREED, AUTHORITY, CounterBook
 from nodes.master.engine_choice import EngineChoice
 from nodes.master.events import (
     Described,
@@ -77,7 +78,6 @@ from nodes.master.events import (
     WallDown,
     WallUp,
 )
-from nodes.master.exit_book import DomainExitBook
 from nodes.master.forensics import (
     ForensicsError,
     Side,
@@ -95,7 +95,6 @@ from nodes.master.run_record import (
     Stall,
     UserAction,
 )
-from nodes.master.substep_book import SubstepBook
 from nodes.master.tolerance import Tolerance, ToleranceMode
 from nodes.master.user_requests import Asked, UserRequests
 
@@ -184,11 +183,11 @@ class Master:
         self.stopping = False
         self.refused = False  # another master was there first: the nodes are its own
         self.engines = EngineChoice(config.walls)  # the path of the nodes that probed theirs
+        self.counter_widths = widths(scene)  # the counters this run's walls report
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
-                                node_walls=dict(config.node_walls),
-                                domain_exits=DomainExitBook(scene),
-                                tracer_substeps=SubstepBook(scene),
-                                capacity_drops=CapacityDropBook(scene.capacity, config.dt))
+                                node_walls=dict(config.node_walls), capacity=scene.capacity,
+                                counters=CounterBook(scene, config.dt, AGREED if
+                                                     config.tolerance is None else AUTHORITY))
         self.record.run_id = link.run_id
         self.swap_locked: dict[str, bool] = {}  # per wall, from its info answer
         self.swaps = self.record.swaps
@@ -338,10 +337,7 @@ class Master:
                 message = self._make_frame(k, asked)
                 barrier = self._barrier(k, message)
                 vote = self._agree(k)
-                agreed = self.reports[vote.source]
-                self.record.domain_exits.add(k, agreed.domain_exits)
-                self.record.tracer_substeps.add(k, agreed.tracer_substeps)
-                self.record.capacity_drops.add(k, agreed.dropped)
+                self.record.counters.add(k, vote.counts.agreed, vote.counts.unagreed)
                 self._admit_joiners(k, vote)
                 self._release_swap(k)
                 if log_writer is not None:
@@ -489,33 +485,53 @@ class Master:
                         silent)
 
     def _agree(self, k: int) -> Vote:
-        """Vote on the members' checksums of frame k (in the mixed-hardware mode: their
-        drift from the authority) and resync the odd ones."""
-        members, reports = self.membership.members, self.reports
+        """Vote on the members' checksums of frame k and on their counters (in the
+        mixed-hardware mode: their drift from the authority, whose counters are kept) and
+        resync the odd ones."""
+        members, reports, counted = self.membership.members, self.reports, self.counter_widths
         compare = k % self.config.check_every == 0
-        vote = lockstep.vote(members, reports, compare) if self.tolerance is None \
-            else self.tolerance.vote(k, members, reports, compare)
+        self.record.counters.skip(lockstep.skipped_counters(members, reports, counted))
+        if self.tolerance is None:
+            vote = lockstep.vote(members, reports, compare, counted)
+        else:
+            vote = self.tolerance.vote(k, members, reports, compare)
+            vote = replace(vote, counts=lockstep.reported_counts(reports[vote.source], counted))
         if vote.named:
             log.warning("frame %d: divergence, odd node(s): %s", k, ", ".join(vote.named))
+            disputes = self._disputed_counts(k, vote)
             forensics = self._investigate(k, vote) if self.tolerance is None else None
             self.record.divergences.append(Divergence(
                 k, vote.named, vote.agreed, {n: reports[n].digest for n in members},
-                {n: reports[n].particles for n in members}, forensics))
+                {n: reports[n].particles for n in members}, forensics, disputes))
         for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
             self._resync(k, node, vote.source, vote.agreed)
         for node in () if self.tolerance is None else self.tolerance.over_budget:
             self._give_up(k, node, "breach-budget")
         return vote
 
+    def _disputed_counts(self, k: int, vote: Vote) -> dict[str, dict[str, dict]] | None:
+        """Each node whose counters differ from the agreed ones: a line in the log, and per
+        counter both values for the divergence record (None: no counter was disputed)."""
+        disputed: dict[str, dict[str, dict]] = {}
+        for dispute in vote.counts.disputes:
+            name = BY_ID[dispute.counter].name
+            log.warning("frame %d: %s counted %s %s, the agreed count is %s", k, dispute.node,
+                        name, list(dispute.values), list(dispute.agreed))
+            disputed.setdefault(dispute.node, {})[name] = {"values": list(dispute.values),
+                                                           "agreed": list(dispute.agreed)}
+        return disputed or None
+
     def _investigate(self, k: int, vote: Vote) -> dict | None:
         """What differs between each odd node's state and the agreed one (before the resync
         replaces it): divergences/frame_<k>.json, a line in the log; the file and the
-        first odd node's line for the record. None without a folder for the reports."""
-        if self.config.forensics is None:
+        first odd node's line for the record. None without a folder for the reports, or
+        when every odd node holds the agreed state (its counts differed)."""
+        odd = [node for node in vote.odd if self.reports[node].digest != vote.agreed]
+        if self.config.forensics is None or not odd:
             return None
         reference = Side(vote.source, vote.agreed)
         found, started = [], time.monotonic()
-        for node in vote.odd:
+        for node in odd:
             odd = Side(node, self.reports[node].digest)
             try:
                 report = investigate(k, odd, reference, self.link.ask_blocks)

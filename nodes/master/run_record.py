@@ -15,10 +15,7 @@ from dataclasses import asdict, dataclass, field
 from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
 from cavesim.core.frame_cost import NOT_TIMED_US, PHASES
-from nodes.master.drop_book import REPORT_KEY, CapacityDropBook
-from nodes.master.exit_book import DomainExitBook
-from nodes.master.substep_book import REPORT_KEY as SUBSTEPS_KEY
-from nodes.master.substep_book import SubstepBook
+from nodes.master.counter_book import CounterBook
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
@@ -35,11 +32,14 @@ class Divergence:
     checksums: dict[str, str]  # every member's
     particles: dict[str, int]
     forensics: dict | None = None  # its report's file (in the run's folder) and summary line
+    # per node whose counts differed: per counter, its values and the agreed ones
+    counters: dict[str, dict[str, dict]] | None = None
 
     def to_json(self) -> dict:
         return {"frame": self.frame, "nodes": list(self.nodes), "agreed_checksum": self.agreed,
                 "checksums": self.checksums, "particles": self.particles,
-                **({"forensics": self.forensics} if self.forensics else {})}
+                **({"forensics": self.forensics} if self.forensics else {}),
+                **({"counters": self.counters} if self.counters else {})}
 
 
 @dataclass(frozen=True)
@@ -194,9 +194,8 @@ class RunRecord:
     arithmetic: str = "native"  # the scene's [simulation] arithmetic: "portable" is the same
     # bits on every GPU, "native" only on identical ones
     node_walls: dict[str, tuple[str, ...]] = field(default_factory=dict)  # as MasterConfig's
-    domain_exits: DomainExitBook | None = None  # a gridded flow's: who left its box
-    capacity_drops: CapacityDropBook | None = None  # what the full capacity dropped
-    tracer_substeps: SubstepBook | None = None  # adaptive tracers': their substeps
+    capacity: int = 0  # the scene's particles at most
+    counters: CounterBook | None = None  # the run's counters, as the walls agreed on them
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -221,6 +220,7 @@ class RunRecord:
             "run_id": f"{self.run_id:016x}",
             "mode": BIT_EXACT if self.tolerance is None else MIXED_HARDWARE,
             "arithmetic": self.arithmetic,
+            "capacity": self.capacity,
             "frames": self.frames,
             "interrupted": self.interrupted,
             "user_stopped": self.user_stopped,
@@ -252,10 +252,7 @@ class RunRecord:
             "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},
             "swap": self.swaps.summary(),
             **({} if self.tolerance is None else {"tolerance": self.tolerance.summary()}),
-            "domain_exits": {} if self.domain_exits is None else self.domain_exits.summary(),
-            REPORT_KEY: {} if self.capacity_drops is None else self.capacity_drops.summary(),
-            SUBSTEPS_KEY: ({} if self.tracer_substeps is None
-                           else self.tracer_substeps.summary()),
+            "counters": {} if self.counters is None else self.counters.summary(),
         }
 
 

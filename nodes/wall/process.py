@@ -41,6 +41,7 @@ import zenoh
 
 from cavesim.core.cave.desktop import tiled_window
 from cavesim.core.cave.geometry import Cave, Display, load_cave
+from cavesim.core.counters import entries
 from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.drift import DriftSample
 from cavesim.core.drivers import driver_for
@@ -83,7 +84,7 @@ from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
 from cavesim.tools.bench.engine_probe import probe_engines
 from nodes.blocks import BlockAsker, serve_blocks
-from nodes.faults import Fault, bitflip_target
+from nodes.faults import Fault, bitflip_target, inflated
 from nodes.lockstep import MASTER_GONE, MASTER_LOSS_POLICIES, RESYNC_MODES
 from nodes.wall.delta import DeltaRefused, fetch_delta
 from nodes.wall.drift_sample import DRIFT_FAULTS, read_drift_sample
@@ -406,15 +407,13 @@ class WallNode:
         self.timer.lap("history")
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
-        counted = self.system.counters()  # read after the checksum's wait
-        substeps = ("tracers_stepped", "substeps_taken", "substeps_retaken", "most_substeps")
+        counted = entries(self.system.counters())  # read after the checksum's wait
+        if self._fault("inflate", k):
+            counted = inflated(counted)
+            log.warning("%s: fault: reported inflated counters at frame %d", self.config.name, k)
         self._publish(ReportMessage(k, self.config.name, state.digest, state.particles,
                                     state.emitters, self.timer.cost_us(), self.rejects.total,
-                                    sample=self._sample(),
-                                    domain_exits=counted.get("domain_exits", ()),
-                                    dropped=self.system.dropped(),
-                                    tracer_substeps=tuple(counted[name][0] for name in substeps)
-                                    if substeps[0] in counted else ()))
+                                    sample=self._sample(), counters=counted))
         self.timer.reported()
         if self.trajectories is not None:  # after the report: the barrier does not wait on it
             self._follow_trajectories(k, used.dt)

@@ -14,7 +14,7 @@ from master_process import spawn_master
 from cavesim.tools.log_replay import replay
 from nodes.check.harness import CheckPlan, run_check
 from nodes.cluster_bench.resync import SCENE as RESYNC_SCENE
-from nodes.faults import parse_fault
+from nodes.faults import INFLATION, parse_fault
 from nodes.launch.launcher import LocalCluster
 
 ROOT = Path(__file__).parents[2]
@@ -52,10 +52,20 @@ def assert_each_fault_caught(report, faults):
 
 
 def test_state_faults_are_named_by_majority_and_resynced(tmp_path):
-    faults = ["bitflip@20:left", "stale@40:right", "drop@60:front", "seed@1:right"]
+    """... and so is a node that reports inflated counters with its state's true checksum
+    (an insider): report.json keeps the counters the others agreed on."""
+    faults = ["bitflip@20:left", "stale@40:right", "drop@60:front", "seed@1:right",
+              "inflate@80:left"]
     report = check(tmp_path, faults)
     assert_each_fault_caught(report, faults)
-    assert report["divergences"] == 3  # bitflip, stale, seed; a drop only stalls
+    assert report["divergences"] == 4  # bitflip, stale, seed, inflate; a drop only stalls
+    (inflated,) = [d for d in report["run"]["divergences"] if d["frame"] == 80]
+    assert inflated["checksums"]["left"] == inflated["agreed_checksum"]
+    assert {name for name, counted in inflated["counters"]["left"].items()
+            if counted["values"] != counted["agreed"]} == {"domain_exits", "capacity_drops"}
+    counters = report["run"]["counters"]
+    assert counters["capacity_drops"]["total"] < INFLATION
+    assert max(counters["domain_exits"]["total"].values()) < INFLATION
 
 
 def test_process_faults_are_detected_and_healed(tmp_path):

@@ -53,13 +53,13 @@ def test_an_overflowing_scene_says_so_once_and_counts_every_drop(tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["divergences"] == [] and report["frames"] == FRAMES
     assert report["live_per_frame"][:7] == [50, 100, 150, 200, 250, 300, 300]
-    drops = report["capacity_drops"]
-    assert drops["capacity"] == 300 and drops["first_frame"] == 7
-    assert drops["dropped_at_first_frame"] == 50 and drops["total"] == 50 * (FRAMES - 6)
-    assert drops["dropped_per_second"] == [0.0] * 6 + [3000.0] * (FRAMES - 6)
-    assert drops["bin_frames"] == 1
+    assert report["capacity"] == 300
+    drops = report["counters"]["capacity_drops"]
+    assert drops["first_frame"] == 7 and drops["total"] == 50 * (FRAMES - 6)
+    assert drops["per_frame"] == [0] * 6 + [50] * (FRAMES - 6)
+    assert drops["per_frame_stride"] == 1 and drops["frames_not_counted"] == 0
     line = ("capacity full: 50 new particles dropped at frame 7 (the scene holds 300); "
-            "report.json counts every frame's (capacity_drops.dropped_per_second)")
+            "report.json counts every frame's (counters.capacity_drops)")
     assert result.stdout.count("capacity full:") == 1 and line in result.stdout
-    assert "1,700 from frame 7 (capacity 300)" in result.stdout
+    assert "1,700 particles from frame 7" in result.stdout
     assert (out / "logs" / "master.log").read_text().count(line) == 1

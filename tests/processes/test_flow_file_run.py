@@ -80,18 +80,20 @@ def test_a_time_series_scene_runs_identical_walls_and_counts_the_sand_leaving(tm
     assert result.returncode == 0, result.stdout + result.stderr
     report = json.loads((tmp_path / "out" / "report.json").read_text())
     assert report["divergences"] == [] and report["frames"] == FRAMES
-    exits = report["domain_exits"]
+    counters = report["counters"]
+    assert counters["values_from"] == "agreed" and counters["unknown_ids_skipped"] == {}
+    exits = counters["domain_exits"]
     assert exits["classes"] == ["sand", "dust", "smoke"]
-    assert exits["box_max"] == [6.0, 6.0, 10.0]
     assert exits["total"]["sand"] > 100 and exits["total"]["dust"] == 0
-    assert len(exits["per_frame"]) == FRAMES and exits["frames_uncounted"] == 0
-    assert sum(counts[0] for counts in exits["per_frame"]) == exits["total"]["sand"]
+    assert len(exits["per_frame"]) == FRAMES and exits["frames_not_counted"] == 0
+    assert exits["frames_unagreed"] == 0
+    assert sum(counts["sand"] for counts in exits["per_frame"]) == exits["total"]["sand"]
     first = exits["first_frame"]["sand"]
     assert f"{exits['total']['sand']:,} sand from frame {first}" in result.stdout
-    substeps = report["tracer_substeps"]
-    assert substeps["frames_uncounted"] == 0 and len(substeps["per_frame"]) == FRAMES
-    assert substeps["taken"] > substeps["tracer_frames"] > 100 and substeps["retaken"] > 0
-    assert f"{substeps['per_tracer_frame']} a tracer a frame" in result.stdout
+    taken, tracers = counters["substeps_taken"], counters["tracers_stepped"]
+    assert taken["frames_not_counted"] == 0 and len(taken["per_frame"]) == FRAMES
+    assert taken["total"] > tracers["total"] > 100 and counters["substeps_retaken"]["total"] > 0
+    assert f"{taken['total']:,} substeps" in result.stdout
     master_log = (tmp_path / "out" / "logs" / "master.log").read_text()
     assert master_log.count("particles left the field's box") == 1
     assert f"frame {first}: particles left the field's box [-6.0, -6.0, 0.0]" in master_log

@@ -13,9 +13,10 @@ from dataclasses import dataclass
 import numpy as np
 from hypothesis import strategies as st
 
+from cavesim.core.counters import BY_ID, MAX_ID, MAX_VALUES
 from cavesim.core.drift import SAMPLE_DTYPE, DriftSample
 from cavesim.core.frame_cost import PHASES
-from cavesim.core.limits import MAX_PARTICLES
+from cavesim.core.limits import MAX_PARTICLE_CLASSES, MAX_PARTICLES
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import ED25519_BYTES, SECRET_BYTES, of_master
 from cavesim.core.wire.payloads.from_master import MAX_PARAMS, Command, ControlMessage, FrameMessage
@@ -70,7 +71,7 @@ digests = st.binary(min_size=16, max_size=16).map(bytes.hex)
 @st.composite
 def report_messages(draw) -> ReportMessage:
     """A report, with a drift sample (arbitrary bytes: NaN and all) of at most its live
-    count or without one, and particles dropped at the capacity where some live."""
+    count or without one, and a counter tail of known and unknown ids."""
     particles = draw(st.integers(0, U32))
     size = draw(st.none() | st.integers(0, min(particles, 8)))
     sample = None if size is None else DriftSample(draw(st.binary(
@@ -80,7 +81,23 @@ def report_messages(draw) -> ReportMessage:
                          tuple(draw(st.lists(st.integers(0, U32), min_size=len(PHASES),
                                              max_size=len(PHASES)))),
                          draw(st.integers(0, U32)), draw(st.sampled_from(Status)), sample,
-                         dropped=draw(st.integers(0, U32)) if particles else 0)
+                         draw(counter_tails()))
+
+
+@st.composite
+def counter_tails(draw) -> tuple[tuple[int, tuple[int, ...]], ...]:
+    """A report's counters: known rows with their number of values (a per-class one with
+    1 to MAX_PARTICLE_CLASSES) and ids no row has, with any number up to MAX_VALUES."""
+    ids = draw(st.lists(st.sampled_from(tuple(BY_ID)) | st.integers(1, MAX_ID), unique=True,
+                        max_size=6))
+    tail = []
+    for id_ in ids:
+        row = BY_ID.get(id_)
+        width = (draw(st.integers(1, MAX_PARTICLE_CLASSES)) if row.per_class else row.values) \
+            if row is not None else draw(st.integers(0, MAX_VALUES))
+        tail.append((id_, tuple(draw(st.lists(st.integers(0, U32), min_size=width,
+                                              max_size=width)))))
+    return tuple(tail)
 
 
 optional_names = st.just("") | names

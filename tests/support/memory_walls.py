@@ -8,6 +8,9 @@ small float32 rule, whose digest is the GPU checksum's numpy twin: such walls an
 master's block questions as a node does (desync forensics), and a bit flip is a real one.
 With `sample`, each report carries a drift sample (the mixed-hardware mode): every sampled
 particle sits at x = the wall's `offset`, which a nudge moves (and changes its bits).
+With `counting`, each report of a frame k it stepped carries the minimal scene's one counter,
+capacity_drops = k % 3, as an honest wall counts it; a wall may inflate it (an insider that
+lies with its state's true digest), count nothing, or add counters the run does not know.
 Walls answer at once, by putting events in the master's queue.
 """
 
@@ -22,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cavesim.core.counters import BY_NAME
 from cavesim.core.digest.history import HistoryRing
 from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.digest.twin import reference_checksum, reference_levels
@@ -45,7 +49,7 @@ from cavesim.core.wire.envelope import decode, encode
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import answer, check_reply
-from nodes.faults import BitFlip
+from nodes.faults import BitFlip, inflated
 from nodes.master.events import Described, Displayed, Reported, WallDown, WallUp
 
 START = "0" * 32
@@ -131,12 +135,15 @@ class MemoryWall:
     scene: str | None = None  # the digest its info names (None: the link's scene's)
     records: RecordState | None = None  # real records (the link's `particles`)
     flip_bits: dict[int, BitFlip] = field(default_factory=dict)  # frame -> a bit it flips
+    inflate_at: set[int] = field(default_factory=set)  # frames whose counters it inflates
+    counts_nothing: bool = False  # its engine path cannot count here: it reports none
+    unknown_counters: tuple = ()  # (id, values) entries of counters the run does not know
 
 
 class MemoryLink:
     def __init__(self, walls: tuple[str, ...], late: tuple[str, ...] = (),
                  displaying: tuple[str, ...] = (), particles: int = 0, sample: int = 0,
-                 scene: Path = MINIMAL) -> None:
+                 scene: Path = MINIMAL, counting: bool = False) -> None:
         self.events: queue.Queue = queue.Queue()
         self.scene = scene_digest(load_scene(scene))  # the one the walls hold
         self.walls = {name: MemoryWall(name, up=name not in late, displays=name in displaying,
@@ -154,6 +161,7 @@ class MemoryLink:
         self.controller = None  # the latest session controls (a preview's)
         self.resync_fails: set[str] = set()  # walls whose every resync fails
         self.sample = sample  # records of each report's drift sample (0: none)
+        self.counting = counting  # reports carry the frame's counters
         self.block_questions: list[BlockRequest] = []  # answered, in order
         for wall in self.walls.values():
             if wall.up:
@@ -240,7 +248,7 @@ class MemoryLink:
         if k in wall.flip_at or k in wall.nudge_at:
             wall.digest = f"{int(wall.digest, 16) ^ 1:032x}"
             wall.offset += wall.nudge_at.get(k, 0.0)
-        self._report(wall, Status.STEPPED)
+        self._report(wall, Status.STEPPED, self._counters(wall))
         if wall.displays and k not in wall.draws_late:
             self._display(wall, Phase.DRAWN, time.monotonic_ns())
 
@@ -251,11 +259,20 @@ class MemoryLink:
     def _display(self, wall: MemoryWall, phase: Phase, time_ns: int) -> None:
         self.events.put(Displayed(DisplayMessage(wall.done, wall.name, phase, time_ns)))
 
-    def _report(self, wall: MemoryWall, status: Status) -> None:
+    def _report(self, wall: MemoryWall, status: Status, counters: tuple = ()) -> None:
         particles = wall.done if wall.records is None else len(wall.records.particles)
         self.events.put(Reported(ReportMessage(wall.done, wall.name, wall.digest, particles,
                                                0, MEMORY_COST, status=status,
-                                               sample=self._sample(wall))))
+                                               sample=self._sample(wall), counters=counters)))
+
+    def _counters(self, wall: MemoryWall) -> tuple:
+        """The counters of the frame `wall` just stepped, as its report carries them."""
+        if not self.counting or wall.counts_nothing:
+            return ()
+        counted = ((BY_NAME["capacity_drops"].id, (wall.done % 3,)),)
+        if wall.done in wall.inflate_at:
+            counted = inflated(counted)
+        return counted + tuple(wall.unknown_counters)
 
     def _sample(self, wall: MemoryWall) -> DriftSample | None:
         if not self.sample or wall.done in wall.unsampled_at:

@@ -1,12 +1,13 @@
 """The fixed-size records of a long run: percentiles within their stated bound of numpy's,
-decimated series on the frames they name, first entries and their total."""
+decimated series on the frames they name, binned sums that lose no count, first entries and
+their total."""
 
 import math
 
 import numpy as np
 import pytest
 
-from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
+from cavesim.core.bounded import BinnedSums, DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.bounded.histogram import HIGH, LOW, RELATIVE_ERROR
 
 QUANTILES = (0, 0.1, 1, 25, 50, 75, 90, 99, 99.9, 100)
@@ -81,3 +82,21 @@ def test_first_entries_keep_the_first_and_count_all():
         entries.append(n)
     assert list(entries) == [0, 1, 2] and entries[-1] == 2 and len(entries) == 3
     assert entries.total == 10
+
+
+def test_binned_sums_keep_every_count_as_bins_merge():
+    sums = BinnedSums(2, capacity=4)
+    for k in range(1, 12):
+        sums.add((k, 1))
+    assert sums.stride == 4 and sums.bins() == [[10, 4], [26, 4], [30, 3]]
+    assert sums.totals == [66, 11] and sums.count == 11
+    with pytest.raises(ValueError, match="expected 2 counts, got 3"):
+        sums.add((1, 2, 3))
+
+
+def test_binned_sums_give_rates_per_second_of_the_frames_each_bin_holds():
+    sums = BinnedSums(1, capacity=2)
+    for n in (6, 0, 3, 3, 12):  # bins of 4 frames after the merges, the last of 1
+        sums.add((n,))
+    assert sums.stride == 4 and sums.bins() == [[12], [12]]
+    assert sums.rates(0.5) == [[6.0], [24.0]]

@@ -5,7 +5,7 @@ import pytest
 from PIL import Image
 from rich.console import Console
 
-from cavesim.tools.reports.demo import demo_summary, flight_story, write_demo_plots
+from cavesim.tools.reports.demo import _drops, demo_summary, flight_story, write_demo_plots
 from cavesim.tools.reports.run_tables import demo_table
 from nodes.commands.run import write_plots
 
@@ -128,12 +128,20 @@ def test_the_time_plot_carries_the_particles_dropped_at_capacity(tmp_path):
     axis, drawn where the report counts drops; a report from before they were counted
     plots without it."""
     report = flight_report()
-    rates = [0.0] * 15 + [2500.0] * 8 + [0.0] * 7  # 30 bins of 4 frames: 120 frames
-    report["capacity_drops"] = {"capacity": 150_000, "total": 8000, "first_frame": 61,
-                                "dropped_at_first_frame": 250, "dropped_per_second": rates,
-                                "bin_frames": 4, "bin_seconds": 0.4}
+    sums = [0] * 15 + [1000] * 8 + [0] * 6 + [250]  # 30 bins of 4 frames: 117 frames
+    report["frames"], report["capacity"] = 117, 150_000
+    report["counters"] = {"values_from": "agreed", "frame_seconds": 0.1, "capacity_drops": {
+        "id": 2, "label": "dropped at capacity", "unit": "particles", "events": True,
+        "total": 8250, "first_frame": 61, "per_frame": sums, "per_frame_stride": 4,
+        "frames_not_counted": 0, "frames_unagreed": 0}}
+    drops = _drops(report)
+    assert drops["capacity"] == 150_000
+    np.testing.assert_allclose(drops["dropped_t"][-2:], [11.6, 11.7])
+    # particles per second of the frames each bin holds: the last holds one
+    np.testing.assert_allclose(drops["dropped"], [0.0] * 15 + [2500.0] * 8 + [0.0] * 6
+                               + [2500.0])
     path, _ = write_demo_plots(report, tmp_path / "drops")
     assert purple_pixels(path) > 200
-    del report["capacity_drops"]
+    del report["counters"]
     path, _ = write_demo_plots(report, tmp_path / "older")
     assert purple_pixels(path) == 0

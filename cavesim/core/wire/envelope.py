@@ -48,7 +48,7 @@ from cavesim.core.wire.payloads.state_transfer import (
 )
 
 MAGIC = b"CVSM"
-VERSION = 12  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 13  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
 # take part in the swap barrier; 4: a run id in the header, the master's signature, requests
 # (block requests and replies came later as new kinds, which an older build refuses as such);
@@ -62,7 +62,10 @@ VERSION = 12  # 2: frames carry the head pose; 3: snapshots stream as a header a
 # left the field's box, and a frame of a time-series field ends in the field's time; 11: it
 # counts the new particles the full capacity dropped, a frame ends in a byte of events (a
 # reset), and a tracking message may carry the preview's session controls (pause, reset, quit);
-# 12: it counts its adaptive tracers' substeps (frames as in 11)
+# 12: it counts its adaptive tracers' substeps (frames as in 11); 13: a report is a fixed
+# core and a tagged tail of counters (cavesim/core/counters.py: id, value count, values), an
+# id its receiver does not know skipped, so a new counter moves this version no more (frames
+# as in 11)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 # Only VERSION is spoken or read. A frame log keeps its frames in layouts of its own and
 # reads its older records itself (cavesim.core.framelog), so VERSION moves without it.

@@ -4,7 +4,8 @@
 been assembled): the report's "flight" list (one entry per frame of a helicopter scene:
 t, altitude, rotor_speed, induced_velocity, emission_rate) and "live_per_frame" (the
 live count after each frame) become two PNGs under out/plots and a few summary rows; the
-new particles the full capacity dropped ("capacity_drops") share the emission's axis.
+new particles the full capacity dropped (the counter "capacity_drops" of "counters") share
+the emission's axis.
 A run longer than 4,096 frames keeps every n-th frame of each ("flight_frames_stride",
 "live_frames_stride"). A scene without a helicopter has an empty flight list and gets
 neither.
@@ -49,15 +50,18 @@ def _series(report: dict) -> dict[str, np.ndarray]:
 
 def _drops(report: dict) -> dict[str, np.ndarray]:
     """Dropped particles per second and the end time of each bin they were summed over
-    (none in a report from before they were counted), and the capacity."""
-    drops = report.get("capacity_drops") or {}
-    rates = np.asarray(drops.get("dropped_per_second", ()), dtype=float)
-    if not len(rates):
-        return {"dropped_t": rates, "dropped": rates, "capacity": None}
-    frame_seconds = drops["bin_seconds"] / drops["bin_frames"]
-    ends = np.arange(1, len(rates) + 1) * drops["bin_frames"]  # the last may be cut short
-    return {"dropped_t": np.minimum(ends, report["frames"]) * frame_seconds,
-            "dropped": rates, "capacity": drops["capacity"]}
+    (none in a run that dropped none, or a report from before they were counted so), and
+    the capacity."""
+    counters = report.get("counters") or {}
+    drops = counters.get("capacity_drops") or {}
+    sums = np.asarray(drops.get("per_frame", ()), dtype=float)
+    if not len(sums):
+        return {"dropped_t": sums, "dropped": sums, "capacity": None}
+    stride, frame_seconds = drops["per_frame_stride"], counters["frame_seconds"]
+    ends = np.minimum(np.arange(1, len(sums) + 1) * stride, report["frames"])
+    held = ends - np.arange(len(sums)) * stride  # frames in each bin: the last may hold fewer
+    return {"dropped_t": ends * frame_seconds, "dropped": sums / (held * frame_seconds),
+            "capacity": report.get("capacity")}
 
 
 def write_demo_plots(report: dict, out_dir: Path) -> list[Path]:

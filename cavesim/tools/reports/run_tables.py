@@ -17,9 +17,7 @@ def summary_table(report: dict) -> Table:
         ("barrier p50 / p99 ms", f"{report['barrier_ms']['p50']} / {report['barrier_ms']['p99']}"),
         ("live particles (last / max)",
          f"{report['live_particles']['last']:,} / {report['live_particles']['max']:,}"),
-        *drop_rows(report.get("capacity_drops", {})),
-        *exit_rows(report.get("domain_exits", {})),
-        *substep_rows(report.get("tracer_substeps", {})),
+        *counter_rows(report.get("counters", {})),
         ("lost for good", ", ".join(report["final"].get("lost", ())) or "none"),
         ("divergences", report["event_totals"]["divergences"]),
         ("resyncs", report["event_totals"]["resyncs"]),
@@ -30,39 +28,45 @@ def summary_table(report: dict) -> Table:
     return _table("cavesim run", rows)
 
 
-def drop_rows(drops: dict) -> list[tuple[str, str]]:
-    """The new particles the full capacity dropped, from the first frame it did."""
-    if not drops:
-        return []
-    held = f"capacity {drops['capacity']:,}"
-    if not drops["total"]:
-        return [("dropped at capacity", f"none ({held})")]
-    return [("dropped at capacity",
-             f"{drops['total']:,} from frame {drops['first_frame']} ({held})")]
+def counter_rows(counters: dict) -> list[tuple[str, str]]:
+    """One row per counter of report.json's `counters` (cavesim/core/counters.py's rows, as
+    the master kept them): its total from its first frame, or its largest and when; and
+    whose values they are where not the walls' agreed ones."""
+    rows = [(entry["label"], counter_text(entry)) for entry in counters.values()
+            if isinstance(entry, dict) and "label" in entry]
+    if rows and counters.get("values_from", "agreed") != "agreed":
+        rows.append(("counters from", f"the {counters['values_from']} (mixed hardware)"))
+    return rows
 
 
-def exit_rows(exits: dict) -> list[tuple[str, str]]:
-    """Who left the field's box, per class, from the first frame one did (a grid's flow)."""
-    if not exits:
-        return []
-    left = ", ".join(f"{exits['total'][name]:,} {name} from frame {exits['first_frame'][name]}"
-                     for name in exits["classes"] if exits["total"][name]) or "none"
-    if exits["frames_uncounted"]:
-        left += f" ({exits['frames_uncounted']:,} frames not counted)"
-    return [("left the field's box", left)]
+def counter_text(entry: dict) -> str:
+    """A counter's row: per class or per value what it came to, and the frames not counted."""
+    names = entry.get("classes")
+    if "total" in entry:
+        parts = [f"{total:,} {name}" + (f" from frame {first}" if first is not None else "")
+                 for name, total, first in _values(entry, "total", "first_frame", names)
+                 if total]
+    else:
+        parts = [f"at most {largest:,} {name} (frame {frame})"
+                 for name, largest, frame in _values(entry, "largest", "largest_frame", names)
+                 if largest]
+    text = ", ".join(parts) or "none"
+    missed = [f"{entry[key]:,} frames {what}" for key, what in (
+        ("frames_not_counted", "not counted"), ("frames_unagreed", "without agreement"))
+        if entry.get(key)]
+    return text + (f" ({', '.join(missed)})" if missed else "")
 
 
-def substep_rows(substeps: dict) -> list[tuple[str, str]]:
-    """What the adaptive tracers' substeps came to (a scene whose tracers take them)."""
-    if not substeps:
-        return []
-    if not substeps["tracer_frames"]:
-        return [("tracer substeps", "no tracer stepped")]
-    taken = (f"{substeps['per_tracer_frame']} a tracer a frame, {substeps['retaken']:,} "
-             f"retaken, at most {substeps['most']} (frame {substeps['most_frame']})")
-    if substeps["frames_uncounted"]:
-        taken += f" ({substeps['frames_uncounted']:,} frames not counted)"
-    return [("tracer substeps", taken)]
+def _values(entry: dict, value_key: str, frame_key: str, names: list[str] | None):
+    """(name, value, frame) of each value: a class's by its name, a single value's by the
+    counter's unit."""
+    values, frames = entry[value_key], entry.get(frame_key)
+    if names is not None:
+        return [(name, values[name], frames[name] if frames else None) for name in names]
+    if not isinstance(values, list):
+        return [(entry["unit"], values, frames)]
+    return [(f"{entry['unit']} [{i}]", value, frames[i] if frames else None)
+            for i, value in enumerate(values)]
 
 
 def nodes_and_walls(report: dict) -> str:

@@ -1,5 +1,11 @@
-"""What a wall node sends the master: its report of a frame (with a drift sample in the
-mixed-hardware mode), its GPU when asked, and its steps of the swap barrier."""
+"""What a wall node sends the master: its report of a frame (a fixed core, a tagged tail of
+the frame's counters, and a drift sample in the mixed-hardware mode), its GPU when asked, and
+its steps of the swap barrier.
+
+A counter entry is its id (a row of cavesim/core/counters.py), its number of values and the
+values: a counter a newer build adds is read here whatever its id (the master counts and
+skips one it does not know), so a new counter moves no wire version. The reader is strict
+about the tail's structure all the same: bounds, lengths, each id once."""
 
 from __future__ import annotations
 
@@ -8,20 +14,22 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import IntEnum
 
+from cavesim.core.counters import BY_ID, MAX_ENTRIES, MAX_ID, MAX_VALUES
 from cavesim.core.drift import MAX_SAMPLE, SAMPLE_DTYPE, DriftSample
 from cavesim.core.errors import ProtocolError
 from cavesim.core.frame_cost import PHASES
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene.model import Engine
-from cavesim.core.substeps import SUBSTEP_COUNTS
 from cavesim.core.wire.payloads._fields import digest_bytes, name_bytes, read_name
 
 MAX_TEXT = 255  # characters of one string of an info message (a one-byte length)
-# digest, counts (live particles, emitters, new particles dropped at the capacity), each
-# phase's microseconds (FRAME_PHASES), rejected, status
-_REPORT = struct.Struct(f"<16sIII{len(PHASES)}IIB")
-_EXITS = struct.Struct("<B")  # classes whose domain exits follow, a uint each (0: not counted)
-_SUBSTEPS = struct.Struct("<B")  # uints of adaptive tracers' substeps that follow: 0 or 3
+# The report's fixed core: digest, counts (live particles, emitters), each phase's
+# microseconds (FRAME_PHASES), rejected, status
+_REPORT = struct.Struct(f"<16sII{len(PHASES)}IIB")
+# Then its counter tail: the entries that follow, and per entry the counter's id (its row in
+# cavesim/core/counters.py) and how many uint values follow it
+_COUNTERS = struct.Struct("<B")
+_ENTRY = struct.Struct("<HB")
 _SAMPLE = struct.Struct("<H")  # records of a report's drift sample, then the records
 _INFO = struct.Struct("<HBQ16s")  # EGL device, flags, join nonce, scene; then three strings
 INFO_SOFTWARE, INFO_SWAP_LOCKED, INFO_COMPUTE = 0x01, 0x02, 0x04  # COMPUTE: else GS/TF
@@ -48,12 +56,9 @@ class ReportMessage:
     rejected: int = 0  # messages this node has rejected so far
     status: Status = Status.STEPPED
     sample: DriftSample | None = None  # mixed-hardware mode: its records sample_indices names
-    # per particle class, those that left the field's box this frame; () where not counted
-    domain_exits: tuple[int, ...] = ()
-    dropped: int = 0  # new particles this frame that the full capacity dropped
-    # adaptive tracers' substeps this frame: taken, retaken, the most of one tracer
-    # (cavesim.core.substeps.SubstepCounts); () where not counted
-    tracer_substeps: tuple[int, ...] = ()
+    # the frame's counters the node counted, as (id, values) (`cavesim.core.counters.entries`);
+    # a receiver skips an id it does not know
+    counters: tuple[tuple[int, tuple[int, ...]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -112,21 +117,9 @@ def write_report(m: ReportMessage) -> bytes:
     if len(m.cost_us) != len(PHASES):
         raise ValueError(f"a report times the {len(PHASES)} phases {', '.join(PHASES)}, got "
                          f"{len(m.cost_us)} times")
-    if len(m.domain_exits) > MAX_PARTICLE_CLASSES:
-        raise ValueError(f"a report counts exits of at most {MAX_PARTICLE_CLASSES} classes, "
-                         f"got {len(m.domain_exits)}")
-    if not 0 <= m.dropped < 2**32:
-        raise ValueError(f"a report's dropped count must be in [0, 2**32), got {m.dropped}")
     body = name_bytes(m.node) + _REPORT.pack(
-        digest_bytes(m.digest), m.particles, m.emitters, m.dropped, *m.cost_us, m.rejected,
-        m.status)
-    body += _EXITS.pack(len(m.domain_exits)) + struct.pack(f"<{len(m.domain_exits)}I",
-                                                            *m.domain_exits)
-    if len(m.tracer_substeps) not in (0, SUBSTEP_COUNTS):
-        raise ValueError(f"a report's tracer substeps are {SUBSTEP_COUNTS} counts or none, got "
-                         f"{len(m.tracer_substeps)}")
-    body += _SUBSTEPS.pack(len(m.tracer_substeps)) + struct.pack(
-        f"<{len(m.tracer_substeps)}I", *m.tracer_substeps)
+        digest_bytes(m.digest), m.particles, m.emitters, *m.cost_us, m.rejected, m.status)
+    body += _counter_bytes(m.counters)
     if m.sample is None:  # the bit-exact mode's report: no tail
         return body
     if len(m.sample) > m.particles:
@@ -140,45 +133,77 @@ def read_report(frame: int, payload: bytes) -> ReportMessage:
     if len(rest) < _REPORT.size:
         raise ProtocolError("bad-payload", f"report body of {len(rest)} bytes, "
                                            f"expected {_REPORT.size}")
-    digest, particles, emitters, dropped, *cost_us, rejected, status = \
-        _REPORT.unpack_from(rest)
+    digest, particles, emitters, *cost_us, rejected, status = _REPORT.unpack_from(rest)
     if status not in Status.__members__.values():
         raise ProtocolError("bad-value", f"report status {status} is unknown")
-    if dropped and not particles:  # a frame drops only what a full pool cannot take
-        raise ProtocolError("bad-value", f"a report drops {dropped} particles at the "
-                                         f"capacity with none live: a drop needs a full pool")
-    exits, tail = _read_exits(rest[_REPORT.size:])
-    substeps, tail = _read_substeps(tail)
+    counters, tail = _read_counters(rest[_REPORT.size:])
     sample = _read_sample(tail, particles) if tail else None
     return ReportMessage(frame, node, digest.hex(), particles, emitters, tuple(cost_us),
-                         rejected, Status(status), sample, exits, dropped, substeps)
+                         rejected, Status(status), sample, counters)
 
 
-def _read_exits(tail: bytes) -> tuple[tuple[int, ...], bytes]:
-    """A report's domain exits (a class count within MAX_PARTICLE_CLASSES, a uint each) and
-    what follows them."""
-    if len(tail) < _EXITS.size:
-        raise ProtocolError("bad-payload", "a report ends before its count of domain exits")
-    (classes,) = _EXITS.unpack_from(tail)
-    end = _EXITS.size + 4 * classes
-    if classes > MAX_PARTICLE_CLASSES or len(tail) < end:
-        raise ProtocolError("bad-payload", f"domain exits of {classes} classes in "
-                                           f"{len(tail) - _EXITS.size} bytes: expected at most "
-                                           f"{MAX_PARTICLE_CLASSES} classes of 4 bytes each")
-    return struct.unpack_from(f"<{classes}I", tail, _EXITS.size), tail[end:]
+def _counter_bytes(counters: tuple[tuple[int, tuple[int, ...]], ...]) -> bytes:
+    """The counter tail: its entries, each (id, value count, values)."""
+    if len(counters) > MAX_ENTRIES:
+        raise ValueError(f"a report carries at most {MAX_ENTRIES} counters, got {len(counters)}")
+    out = [_COUNTERS.pack(len(counters))]
+    for id_, values in counters:
+        if problem := _entry_problem(id_, len(values)):
+            raise ValueError(problem)
+        if any(not 0 <= v < 2**32 for v in values):
+            raise ValueError(f"counter {id_}'s values must be in [0, 2**32), got {values}")
+        out.append(_ENTRY.pack(id_, len(values)) + struct.pack(f"<{len(values)}I", *values))
+    if len({id_ for id_, _ in counters}) != len(counters):
+        raise ValueError(f"a report names each counter once, got ids "
+                         f"{[id_ for id_, _ in counters]}")
+    return b"".join(out)
 
 
-def _read_substeps(tail: bytes) -> tuple[tuple[int, ...], bytes]:
-    """A report's tracer substeps (none, or taken, retaken and most) and what follows."""
-    if len(tail) < _SUBSTEPS.size:
-        raise ProtocolError("bad-payload", "a report ends before its count of tracer substeps")
-    (counts,) = _SUBSTEPS.unpack_from(tail)
-    end = _SUBSTEPS.size + 4 * counts
-    if counts not in (0, SUBSTEP_COUNTS) or len(tail) < end:
-        raise ProtocolError("bad-payload", f"tracer substeps of {counts} counts in "
-                                           f"{len(tail) - _SUBSTEPS.size} bytes: expected 0 or "
-                                           f"{SUBSTEP_COUNTS} counts of 4 bytes each")
-    return struct.unpack_from(f"<{counts}I", tail, _SUBSTEPS.size), tail[end:]
+def _entry_problem(id_: int, count: int) -> str | None:
+    """Why an entry of counter `id_` with `count` values is malformed (None: it is not). A
+    known counter has its row's number of values (a per-class one, one per class); any
+    counter at most MAX_VALUES."""
+    if not 1 <= id_ <= MAX_ID:
+        return f"a counter's id must be in [1, {MAX_ID}], got {id_}"
+    if count > MAX_VALUES:
+        return f"counter {id_} has {count} values, at most {MAX_VALUES} are allowed"
+    row = BY_ID.get(id_)
+    if row is None:
+        return None  # a counter of a newer build: its receiver skips it
+    if row.per_class and not 1 <= count <= MAX_PARTICLE_CLASSES:
+        return (f"counter {id_} ({row.name}) has a value per particle class, 1 to "
+                f"{MAX_PARTICLE_CLASSES}, got {count}")
+    if not row.per_class and count != row.values:
+        return f"counter {id_} ({row.name}) has {row.values} value(s), got {count}"
+    return None
+
+
+def _read_counters(tail: bytes) -> tuple[tuple[tuple[int, tuple[int, ...]], ...], bytes]:
+    """A report's counter tail (within MAX_ENTRIES entries, each well formed, each id once)
+    and what follows it."""
+    if len(tail) < _COUNTERS.size:
+        raise ProtocolError("bad-payload", "a report ends before its count of counters")
+    (count,) = _COUNTERS.unpack_from(tail)
+    if count > MAX_ENTRIES:
+        raise ProtocolError("bad-payload", f"a report of {count} counters: at most "
+                                           f"{MAX_ENTRIES} are allowed")
+    at, entries = _COUNTERS.size, []
+    for _ in range(count):
+        if len(tail) < at + _ENTRY.size:
+            raise ProtocolError("bad-payload", f"counter {len(entries) + 1} of {count} runs "
+                                               f"past the end of the report")
+        id_, values = _ENTRY.unpack_from(tail, at)
+        if problem := _entry_problem(id_, values):
+            raise ProtocolError("bad-payload", problem)
+        end = at + _ENTRY.size + 4 * values
+        if len(tail) < end:
+            raise ProtocolError("bad-payload", f"counter {id_}'s {values} values run past the "
+                                               f"end of the report")
+        if any(id_ == seen for seen, _ in entries):
+            raise ProtocolError("bad-payload", f"counter {id_} comes twice in one report")
+        entries.append((id_, struct.unpack_from(f"<{values}I", tail, at + _ENTRY.size)))
+        at = end
+    return tuple(entries), tail[at:]
 
 
 def _read_sample(tail: bytes, particles: int) -> DriftSample:
