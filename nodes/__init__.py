@@ -5,7 +5,8 @@ One folder per process: `master/`, `wall/`, `check/` (the consistency harness an
 peer), `tracker/` (the DTrack bridge), `launch/` (wall processes on this machine), plus
 `cluster_bench/` (benchmarks that run clusters) and `gpu_check/` (a new GPU node's check).
 `master/process.py`, `wall/process.py` are the same role in parallel folders: the process's
-main loop. Beside them: `cli.py`, `arguments.py` and `commands/` (the command line), and what
+main loop; so are `master/settings.py`, `wall/settings.py`: what the process is told to
+run. Beside them: `cli.py`, `arguments.py` and `commands/` (the command line), and what
 more than one process obeys: `lockstep.py` (the lock-step's rules), `blocks.py` (block
 requests: walls answer, the master and resyncing walls ask), `faults.py` (what the harness
 injects), `mixed_hardware.py` (the tolerance mode's flags).

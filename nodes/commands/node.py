@@ -91,8 +91,8 @@ def add(commands) -> None:
 
 
 def run(args: argparse.Namespace, console) -> int:
-    from nodes.wall.process import NodeConfig
     from nodes.wall.process import main as run_node
+    from nodes.wall.settings import NodeConfig
 
     configure_logging(args.verbose)
     network, credentials = network_and_key(args, "node", WALL, args.node)

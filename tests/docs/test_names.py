@@ -22,6 +22,7 @@ PARALLEL_ROLES = {  # file name: (the package whose docstring says so, the folde
                                     "cavesim/tools/numerics", "cavesim/tools/stability"}),
     "display.py": ("cavesim/tools", {"cavesim/tools/bench", "cavesim/tools/numerics"}),
     "process.py": ("nodes", {"nodes/master", "nodes/wall"}),
+    "settings.py": ("nodes", {"nodes/master", "nodes/wall"}),
 }
 
 

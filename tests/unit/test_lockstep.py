@@ -28,7 +28,8 @@ from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
 from nodes import lockstep
 from nodes.lockstep import Membership
 from nodes.master.events import ProcessEnded
-from nodes.master.process import MAX_RESYNC_FAILURES, Master, MasterConfig, run_master
+from nodes.master.process import Master, MasterConfig, run_master
+from nodes.master.resyncs import MAX_RESYNC_FAILURES
 from nodes.master.swaps import WINDOW, SwapBook
 from nodes.master.user_requests import Asked, UserRequests
 from nodes.wall.frame_timer import FrameTimer
@@ -327,15 +328,15 @@ def test_tracking_that_went_quiet_holds_the_head_and_releases_the_wand(caplog):
     pressed = WandState((0.25, 0.5, 1.0), buttons=1, axes=(1.0, 0.0, 0.0, 0.0))
     head = HeadState((0.5, -0.5, 1.625))
     link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
-    fresh = master._make_frame(1, Asked())
+    fresh = master.inputs.make(1, Asked())
     assert fresh.head == head and fresh.wand.buttons == 1
     link.tracking = TrackingMessage(0, head, pressed,
                                     time.time_ns() - int((MAX_TRACKING_AGE + 1) * 1e9))
-    quiet = master._make_frame(2, Asked())
+    quiet = master.inputs.make(2, Asked())
     assert quiet.head == head and quiet.wand == WandState()
     assert "tracking went quiet" in caplog.text
     link.tracking = TrackingMessage(0, head, pressed, time.time_ns())
-    assert master._make_frame(3, Asked()).wand.buttons == 1 and "tracking is back" in caplog.text
+    assert master.inputs.make(3, Asked()).wand.buttons == 1 and "tracking is back" in caplog.text
 
 
 def test_a_pause_holds_simulation_time_and_a_reset_starts_the_scene_over_frame_by_frame():
@@ -345,14 +346,14 @@ def test_a_pause_holds_simulation_time_and_a_reset_starts_the_scene_over_frame_b
     link, head = MemoryLink(WALLS), HeadState((0.5, -0.5, 1.625))
     master = Master(MasterConfig(WALLS, BROWNOUT, 9), link)
     fresh = Master(MasterConfig(WALLS, BROWNOUT, 9), MemoryLink(WALLS))
-    first, second = (fresh._make_frame(k, Asked()) for k in (1, 2))
-    frames = [master._make_frame(1, Asked(paused=True)),  # nothing to hold yet: it steps
-              master._make_frame(2, Asked())]
+    first, second = (fresh.inputs.make(k, Asked()) for k in (1, 2))
+    frames = [master.inputs.make(1, Asked(paused=True)),  # nothing to hold yet: it steps
+              master.inputs.make(2, Asked())]
     link.tracking = TrackingMessage(0, head, WandState((1.0, 1.0, 1.0)), time.time_ns())
-    frames.append(master._make_frame(3, Asked(paused=True)))
+    frames.append(master.inputs.make(3, Asked(paused=True)))
     link.tracking = None
-    frames += [master._make_frame(4, Asked(paused=True, reset=True)),
-              master._make_frame(5, Asked(paused=True)), master._make_frame(6, Asked())]
+    frames += [master.inputs.make(4, Asked(paused=True, reset=True)),
+              master.inputs.make(5, Asked(paused=True)), master.inputs.make(6, Asked())]
     assert [f.inputs.dt for f in frames] == [np.float32(1 / 60)] * 2 + [0.0] \
         + [np.float32(1 / 60), 0.0, np.float32(1 / 60)]
     assert [f.reset for f in frames] == [False, False, False, True, False, False]

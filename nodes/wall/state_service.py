@@ -1,0 +1,162 @@
+"""A wall node's state as a resync moves it (a part of `WallNode`, nodes/wall/process.py):
+in, a RESYNC loads the named node's state of the named frame, first by delta
+(`nodes/wall/delta.py`: only the records whose blocks differ), else by the full streamed
+snapshot (`nodes/wall/snapshots.py`), and only whole and with the named checksum; out, the
+node answers a resyncing node's state query and block questions (the master's forensics,
+a delta) about the state it holds, and refuses one about another state.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import zenoh
+
+from cavesim.core.errors import ProtocolError
+from cavesim.core.frame_cost import NO_COST
+from cavesim.core.trajectories import TrajectoryRecording
+from cavesim.core.wire import (
+    BlockRequest,
+    ControlMessage,
+    ReportMessage,
+    SessionKeys,
+    StateRequest,
+    decode_envelope,
+)
+from cavesim.core.wire.envelope import Envelope
+from cavesim.core.wire.payloads.from_nodes import Status
+from cavesim.core.wire.rejects import RejectCounter
+from cavesim.core.wire.replies import anyone_alive
+from cavesim.core.wire.snapshot import transfer_seconds
+from cavesim.gpu.engine import ParticleSystem
+from nodes.blocks import BlockAsker, serve_blocks
+from nodes.wall.delta import DeltaRefused, fetch_delta
+from nodes.wall.inbox import NodeView
+from nodes.wall.settings import NodeConfig
+from nodes.wall.snapshots import fetch_snapshot, send_snapshot
+
+log = logging.getLogger("cavesim.node")
+RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
+SOURCE_WAIT = 1.0  # s a resync waits for the source's liveliness before asking again
+DELTA_SECONDS = 5.0  # s for all of a delta's questions; then the full snapshot
+
+
+class StateService:
+    """Resyncs in, state and blocks out (see the module docstring). Of the node it uses the
+    attributes below, `done`, `_seal`, `_publish` and `_sample` (`FrameStep`'s)."""
+
+    config: NodeConfig
+    system: ParticleSystem
+    view: NodeView
+    rejects: RejectCounter
+    session: zenoh.Session
+    keys: SessionKeys
+    last_report: ReportMessage | None
+    trajectories: TrajectoryRecording | None
+
+    def _resync(self, command: ControlMessage) -> None:
+        """Stream in `command.source`'s snapshot of `command.frame`, whose checksum the master
+        named, and report RESYNCED; nothing is loaded unless the whole state arrives and has
+        that checksum.
+
+        A node that has just come back may not yet have its direct link to the source: a
+        query then finds nobody at once; a forged reply may come first. It asks again until
+        the deadline (which scales with the largest state the scene holds), each time after
+        a pause and after waiting (on liveliness, up to a second) for the source to be
+        reachable.
+        """
+        source, wall = command.source, self.config.name
+        started = time.monotonic()
+        failed_repliers: set[str] = set()
+        if self.config.resync == "delta" and self._delta(command, failed_repliers, started):
+            return
+        deadline = started + transfer_seconds(self.system.capacity)
+        while deadline > time.monotonic():
+            request = StateRequest(command.frame, source, command.digest)  # a fresh nonce
+            sealed = self._seal(request)
+            received = [len(sealed)]
+            header = fetch_snapshot(self.session, self.keys.state(source), self.system,
+                                    sealed, self._open_reply, request, deadline,
+                                    self.rejects, failed_repliers, received.append)
+            if header is not None:
+                self._loaded(header.frame, source, f"{header.particles} particles in "
+                             f"{header.chunks} chunks, {sum(received)} bytes",
+                             time.monotonic() - started)
+                return
+            time.sleep(min(RESYNC_PAUSE, max(deadline - time.monotonic(), 0.0)))
+            anyone_alive(self.session, self.keys.alive(source),
+                         min(time.monotonic() + SOURCE_WAIT, deadline))
+        log.error("%s: no verified snapshot of frame %d from %s within %.0f s; keeping our "
+                  "state", wall, command.frame, source, deadline - started)
+        state = self.system.checksum()  # the master sees at once that the resync failed
+        self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
+                                    state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
+                                    self._sample()), keep=False)
+
+    def _delta(self, command: ControlMessage, failed: set[str], started: float) -> bool:
+        """Load the named state by fetching only the records whose blocks differ from the
+        source's; False (said in the log) when the full snapshot must do it."""
+        source = command.source
+        ask = BlockAsker(self.session, self.keys.blocks(source), self._seal, self._open_reply,
+                         self.rejects, failed, deadline=started + DELTA_SECONDS)
+        try:
+            delta = fetch_delta(self.system, ask, command.frame, source, command.digest)
+        except DeltaRefused as e:
+            if e.bad_data and ask.replier is not None:
+                failed.add(ask.replier)
+            log.warning("%s: no delta resync from %s (%s); streaming the full snapshot",
+                        self.config.name, source, e)
+            return False
+        self._loaded(command.frame, source, f"by delta, {delta.records} records under "
+                     f"{delta.blocks} differing block(s), {ask.bytes} bytes",
+                     time.monotonic() - started)
+        return True
+
+    def _open_reply(self, data: bytes) -> Envelope:
+        """A reply to our snapshot or block query, checked: of our run (whose key signed it,
+        the asker checks)."""
+        envelope = decode_envelope(data, self.config.session, self.config.credentials)
+        if envelope.run_id != self.view.run_id:
+            raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
+        return envelope
+
+    def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
+        self.view.done = frame
+        if self.trajectories is not None and not self.trajectories.holds(
+                self.system.read_particles()):
+            log.error("%s: resynced to a state the trajectories did not follow: "
+                      "trajectories.parquet is not written", self.config.name)
+            self.trajectories.abort()
+            self.trajectories = None
+        state = self.system.checksum()
+        self.system.keep_history(frame)
+        log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.name, frame,
+                 source, how, seconds)
+        self._publish(ReportMessage(frame, self.config.name, state.digest, state.particles,
+                                    state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
+                                    self._sample()))
+
+    def _serve_blocks(self, query: zenoh.Query, request: BlockRequest) -> int:
+        """Answer a question about the state we hold, if it is the one it names; the bytes
+        sent."""
+        held = self.last_report
+        return serve_blocks(query, self.keys.blocks(self.config.name), self.system,
+                            self.config.name,
+                            None if held is None else (held.frame, held.digest), request,
+                            self._seal)
+
+    def _serve_state(self, query: zenoh.Query, request: StateRequest) -> int:
+        """Stream our state to a resyncing node, if it is the one it asks for; the bytes
+        sent."""
+        held = self.last_report
+        if held is None or held.frame != request.frame or held.digest != request.digest:
+            self.rejects.reject(ProtocolError("not-held", f"asked for the state of frame "
+                                                          f"{request.frame} "
+                                                          f"({request.digest[:8]}); holding "
+                                                          f"frame {self.done}"),
+                                self.keys.state(self.config.name))
+            query.drop()
+            return 0
+        return send_snapshot(query, self.keys.state(self.config.name), self.system, self.done,
+                             self._seal, self.config.chunk_particles)
