@@ -26,9 +26,11 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any
 
 import numpy as np
 
+from cavesim.core.features import grid_flow
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene.model import Scene
 from cavesim.core.substeps import SubstepCounts
@@ -57,14 +59,28 @@ class Keep(Enum):
 
 @dataclass(frozen=True)
 class TwinStep:
-    """What a twin's step knows of the frame it stepped: the counters' twins read it."""
+    """What a twin's step knows of the frame it stepped: the counters' twins read it. The
+    arrays are of the particles the step began with, in stream order."""
 
-    classes: int  # values of a per-class counter (the GPU's CLASS_COUNT)
-    left: np.ndarray  # class ids of the particles whose sane step left the field's box
+    twin: Any  # the TwinSystem (cavesim.core.twin.system): its scene, features' data, kernels
+    class_id: np.ndarray  # (N,)
+    start: np.ndarray  # (N, 3) where each began the step (the record's float32 position)
+    pos: np.ndarray  # (N, 3) where each ended it, the bounce included
+    sane: np.ndarray  # (N,) whether its step was sane (not run away)
+    alive: np.ndarray  # (N,) whether it lives on
     substeps: SubstepCounts  # what the adaptive tracers did (NO_SUBSTEPS: none stepped)
-    survivors: int  # particles that lived on
     emitted: int  # new particles the emitters made this frame, kept or not
     live: int  # particles after the frame
+
+    @property
+    def classes(self) -> int:
+        """Values of a per-class counter (the GPU's CLASS_COUNT)."""
+        return max(1, len(self.twin.scene.particle_classes))
+
+    def per_class(self, rows: np.ndarray) -> tuple[int, ...]:
+        """How many of the particles `rows` (a mask) are of each class."""
+        classes = np.minimum(self.class_id[rows].astype(np.int64), self.classes - 1)
+        return tuple(np.bincount(classes, minlength=self.classes).tolist())
 
 
 @dataclass(frozen=True)
@@ -126,12 +142,16 @@ def adaptive_tracers(scene: Scene) -> bool:
 
 
 def _exits(step: TwinStep) -> tuple[int, ...]:
-    classes = np.minimum(step.left.astype(np.int64), step.classes - 1)
-    return tuple(np.bincount(classes, minlength=step.classes).tolist())
+    """step_particle's count: a sane step from inside the field's box to outside it."""
+    twin = step.twin
+    grid = twin.data[grid_flow.GRID_FLOW.name]
+    left = (step.sane & ~grid_flow.outside(grid, step.start, twin.kernels)
+            & grid_flow.outside(grid, step.pos, twin.kernels))
+    return step.per_class(left)
 
 
 def _drops(step: TwinStep) -> tuple[int, ...]:
-    return (step.survivors + step.emitted - step.live,)
+    return (int(step.alive.sum()) + step.emitted - step.live,)
 
 
 _BEYOND = {"clamp": "the nearest boundary node's", "zero": "still air"}
@@ -154,15 +174,12 @@ def _drops_notice(scene: Scene, k: int, values: tuple[int, ...]) -> str:
 
 
 EVENTS = frozenset({Keep.TOTAL, Keep.FIRST, Keep.BINNED})
-# the particle pass's conditions for a grid (grid_flow.GRID, which imports the scene this
-# module's users load first: tests/unit/test_counter_table.py holds the two equal) and for
-# tracers that step in substeps
-GRID = "HAS_DRAG && !FIELD_IS_ROTOR"
+# the particle pass's condition for tracers that step in substeps
 RK45_TRACERS = "HAS_TRACERS && TRACER_METHOD == TRACER_RK45"
 
 COUNTERS: tuple[Counter, ...] = (
     Counter(1, "domain_exits", "left the field's box", "particles", True, 0, Combine.ADD, True,
-            EVENTS, gridded, GRID, _exits, _exits_notice),
+            EVENTS, gridded, grid_flow.GRID, _exits, _exits_notice),
     Counter(2, "capacity_drops", "dropped at capacity", "particles", False, 1, Combine.COPIED,
             True, EVENTS, emitting, "", _drops, _drops_notice),
     Counter(3, "tracers_stepped", "tracers stepped", "tracers", False, 1, Combine.ADD, True,

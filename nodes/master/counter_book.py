@@ -5,7 +5,7 @@ mixed-hardware mode, whose walls' bits differ, from the authority's (said in rep
 
 Per row it keeps a total (events), the first frame each value was nonzero, the values of
 every frame summed into bins of a doubling stride (`BinnedSums`: no count is lost, only the
-frames it is told apart by), and the largest value with its frame; and how many frames no
+frames it is told apart by; a level's bins say the mean of their frames), and the largest value with its frame; and how many frames no
 member counted it (`frames_not_counted`: an engine path that cannot count there) or its
 counters did not agree (`frames_unagreed`). A row's notice is logged once, at the first
 frame it is nonzero, and kept for `cavesim run`'s terminal (`notices`). report.json's
@@ -78,8 +78,11 @@ class RowBook:
         if Keep.BINNED in keeps:
             # per bin of `per_frame_stride` frames (1 up to 4,096 frames); none while every
             # value was 0, so that a quiet row does not grow the report
-            seen = any(f is not None for f in self.first)
-            out["per_frame"] = [shaped(b) for b in self.bins.bins()] if seen else []
+            # (a level's: the mean of its frames in each bin)
+            seen = any(largest for largest, _ in self.largest)
+            bins = self.bins.bins() if row.events else [
+                [round(v, 2) for v in b] for b in self.bins.means()]
+            out["per_frame"] = [shaped(b) for b in bins] if seen else []
             out["per_frame_stride"] = self.bins.stride
         out["frames_not_counted"] = self.not_counted
         out["frames_unagreed"] = self.unagreed

@@ -2,6 +2,8 @@
 the rows its features have, the twins compute each row from what a step knows, and a row's
 notice says what it counted."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scenes import FOUNTAIN, SMOKE, scene_dict
@@ -24,6 +26,7 @@ from cavesim.core.features.registry import IDS
 from cavesim.core.features.rules import evaluate
 from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.substeps import SubstepCounts
+from cavesim.core.twin.system import TwinSystem
 from cavesim.gpu.engine.programs import physics_defines
 
 BROWNOUT = "config/scenes/brownout.toml"
@@ -68,13 +71,22 @@ def test_a_scene_counts_the_rows_its_features_have():
 
 
 def test_the_twins_compute_each_row_from_what_their_step_knows():
-    step = TwinStep(3, np.array([2, 0, 2, 7], np.uint8), SubstepCounts(10, 17, 4, 3),
-                    survivors=280, emitted=50, live=300)
-    counts = twin_counts(smoky(tracer_method="rk45"), step)
-    assert counts == {"domain_exits": (1, 0, 3),  # class 7 counts as the last, as on the GPU
-                      "capacity_drops": (30,), "tracers_stepped": (10,),
+    twin = TwinSystem(smoky(tracer_method="rk45"))
+    inside, outside = (0.0, 0.0, 1.0), (9.0, 0.0, 1.0)  # the vortex's box: +-4 m, 0..4 m
+    start = np.array([inside, inside, outside, inside, inside])
+    end = np.array([outside, outside, outside, outside, inside])
+    step = TwinStep(twin, np.array([2, 0, 2, 7, 1], np.uint8), start, end,
+                    np.array([True, True, True, True, True]),
+                    np.array([True, False, True, True, True]), SubstepCounts(10, 17, 4, 3),
+                    emitted=50, live=34)
+    counts = twin_counts(twin.scene, step)
+    # class 7 counts as the last, as on the GPU; a step that started outside is no exit
+    assert counts == {"domain_exits": (1, 0, 2),
+                      "capacity_drops": (20,), "tracers_stepped": (10,),
                       "substeps_taken": (17,), "substeps_retaken": (4,), "most_substeps": (3,)}
-    assert entries(counts) == ((1, (1, 0, 3)), (2, (30,)), (3, (10,)), (4, (17,)), (5, (4,)),
+    insane = dataclasses.replace(step, sane=np.array([True, True, True, False, True]))
+    assert twin_counts(twin.scene, insane)["domain_exits"] == (1, 0, 1)  # a runaway is no exit
+    assert entries(counts) == ((1, (1, 0, 2)), (2, (20,)), (3, (10,)), (4, (17,)), (5, (4,)),
                                (6, (3,)))
     assert entries({"most_substeps": (2,), "domain_exits": (0, 1)}) == ((1, (0, 1)),
                                                                          (6, (2,)))

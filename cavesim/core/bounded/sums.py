@@ -45,8 +45,16 @@ class BinnedSums:
 
     def rates(self, frame_seconds: float) -> list[list[float]]:
         """Each bin's sums per second of the frames it holds, `frame_seconds` each."""
+        return [[n / (held * frame_seconds) for n in b]
+                for b, held in zip(self._bins, self._held(), strict=True)]
+
+    def means(self) -> list[list[float]]:
+        """Each bin's sums over the frames it holds: a level's mean per frame."""
+        return [[n / held for n in b] for b, held in zip(self._bins, self._held(), strict=True)]
+
+    def _held(self) -> list[int]:
+        """The frames each bin holds: `stride`, the last perhaps fewer."""
         frames = [self.stride] * len(self._bins)
         if frames:
             frames[-1] = self.count - self.stride * (len(self._bins) - 1)
-        return [[n / (held * frame_seconds) for n in b]
-                for b, held in zip(self._bins, frames, strict=True)]
+        return frames

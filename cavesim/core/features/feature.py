@@ -5,7 +5,8 @@ lists. Everything it adds to a frame is a hook here, with a default that adds no
 new feature writes only what it has:
 
   - scene: `keys` (the dotted keys it owns; a table of its own is defined in its module),
-    `present(scene)`, `check(scene)` for rules about its own keys, `where(scene, key)` to
+    `present(scene)`, `complete(scene)` for what it decides of the scene (a default from
+    the others' keys), `check(scene)` for rules about its own keys, `where(scene, key)` to
     name the offending key of a broken rule;
   - shader: `defines` (each with the values it may take, the first meaning off),
     `define_values(scene)`, `rules` (what it requires and excludes, `rules.Rule`),
@@ -94,6 +95,10 @@ class Feature:
     def present(self, scene: Scene) -> bool:
         """Whether the scene has this feature (else its code is compiled out)."""
         return False
+
+    def complete(self, scene: Scene) -> Scene:
+        """The scene with what the feature decides of it filled in (by default, as it is)."""
+        return scene
 
     def check(self, scene: Scene) -> None:
         """Refuse what is wrong with its own keys in one line (SceneError), whether or not

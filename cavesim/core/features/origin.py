@@ -41,6 +41,9 @@ class Origin(Feature):
     def present(self, scene):
         return scene.origin is not None
 
+    def complete(self, scene):
+        return relative_to_origin(scene)
+
 
 ORIGIN = Origin()
 

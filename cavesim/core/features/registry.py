@@ -77,13 +77,16 @@ def pass_defines(scene: Scene) -> dict[str, int]:
     return values
 
 
-def check_features(scene: Scene) -> None:
-    """SceneError for what a scene's features refuse: each one's own keys, then the rules
-    between them."""
+def completed(scene: Scene) -> Scene:
+    """A scene as the loader built it, completed by its features in FEATURES' order (a
+    class's drag law; the origin last, taken from every coordinate); SceneError for what
+    they refuse: each one's own keys, then the rules between them."""
     for feature in FEATURES:
+        scene = feature.complete(scene)
         feature.check(scene)
     check_scene(scene, FEATURES, {**IDS, **pass_defines(scene)},
                 str(scene.source) if scene.source is not None else "<dict>")
+    return scene
 
 
 def possible(values: Mapping[str, int]) -> bool:

@@ -9,6 +9,7 @@ HAS_SCHILLER_NAUMANN).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -17,7 +18,7 @@ from cavesim.core.drag import STOKES_REYNOLDS_LIMIT, terminal_speed
 from cavesim.core.features.feature import Feature
 from cavesim.core.features.rules import Rule
 from cavesim.core.limits import ROTOR_SPEED_RANGE
-from cavesim.core.scene.model import DragLaw, Field, FieldKind, Helicopter, ParticleClass
+from cavesim.core.scene.model import DragLaw, Field, FieldKind, Helicopter, Motion, ParticleClass
 
 
 class SchillerNaumann(Feature):
@@ -29,6 +30,21 @@ class SchillerNaumann(Feature):
 
     def present(self, scene):
         return any(c.drag is DragLaw.SCHILLER_NAUMANN for c in scene.particle_classes)
+
+    def complete(self, scene):
+        """Each inertial class with its drag law: its own, else the one its Reynolds number
+        asks for (`chosen_law`); a tracer has none, nor a class without drag."""
+        drag = scene.forces.drag
+        if drag is None:
+            return scene
+        gravity = math.hypot(*scene.forces.gravity) if scene.forces.gravity is not None else 0.0
+        flow = flow_scales(scene.field, scene.helicopter)
+        classes = tuple(
+            c if c.drag is not None or c.motion is Motion.TRACER else dataclasses.replace(
+                c, drag=chosen_law(c, drag.kinematic_viscosity, drag.air_viscosity, gravity,
+                                   flow))
+            for c in scene.particle_classes)
+        return dataclasses.replace(scene, particle_classes=classes)
 
     def where(self, scene, key):
         index = next(i for i, c in enumerate(scene.particle_classes)

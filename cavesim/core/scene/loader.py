@@ -25,9 +25,6 @@ from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
 from cavesim.core.features.collision import Collision, CollisionKind
-from cavesim.core.features.origin import relative_to_origin
-from cavesim.core.features.registry import check_features
-from cavesim.core.features.schiller_naumann import chosen_law, flow_scales
 from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
 from cavesim.core.fields.regular_grid import check_box, npz_corners, npz_times
 from cavesim.core.limits import (
@@ -43,7 +40,6 @@ from cavesim.core.scene.model import (
     Emitter,
     Field,
     FieldKind,
-    Forces,
     Helicopter,
     Motion,
     ParticleClass,
@@ -129,12 +125,15 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
         needs_rotor.append("field.kind = 'rotor'")
     if needs_rotor and helicopter is None:
         raise top.source.fail(f"helicopter is missing: required by {', '.join(needs_rotor)}")
-    classes = tuple(_with_drag_law(c, forces, field, helicopter) for c in classes)
     scene = Scene(name=scene_name, source=source, **asdict(sim), particle_classes=classes,
                   emitters=emitters, forces=forces, field=field, collision=collision,
                   helicopter=helicopter)
-    check_features(scene)
-    return relative_to_origin(scene)
+    # the features complete the scene (a class's drag law, the origin) and check their rules;
+    # they import this package's model: imported when a scene is parsed, so that a feature
+    # imported first finds the model whole
+    from cavesim.core.features.registry import completed
+
+    return completed(scene)
 
 
 def _particle_class(t: Table) -> ParticleClass:
@@ -149,19 +148,6 @@ def _particle_class(t: Table) -> ParticleClass:
         raise t.source.fail(f"{t.sub('density')} is missing: required for an inertial class "
                             '(a number > 0, kg/m³), or motion = "tracer"')
     return particle
-
-
-def _with_drag_law(particle: ParticleClass, forces: Forces, field: Field | None,
-                   helicopter: Helicopter | None) -> ParticleClass:
-    """The class with its drag law: the file's, else the one its Reynolds number asks for
-    (a tracer has none)."""
-    if particle.drag is not None or forces.drag is None or particle.motion is Motion.TRACER:
-        return particle
-    gravity = math.hypot(*forces.gravity) if forces.gravity is not None else 0.0
-    drag = forces.drag
-    law = chosen_law(particle, drag.kinematic_viscosity, drag.air_viscosity, gravity,
-                     flow_scales(field, helicopter))
-    return dataclasses.replace(particle, drag=law)
 
 
 def _scaled(top: Table, emitters: tuple[Emitter, ...]) -> tuple[Emitter, ...]:

@@ -16,7 +16,6 @@ import numpy as np
 from cavesim.core.counters import Counts, TwinStep, twin_counts
 from cavesim.core.digest.shape import EMITTERS
 from cavesim.core.emitters import EMIT_BATCH, EmitterTable
-from cavesim.core.features import grid_flow
 from cavesim.core.features.feature import NO_FRAME, FrameState
 from cavesim.core.features.registry import FeatureData, features_of
 from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
@@ -124,9 +123,9 @@ class TwinSystem:
 
     def _zero_counts(self) -> Counts:
         """Every counter 0: a state written, not stepped into."""
-        classes = max(1, len(self.scene.particle_classes))
-        return twin_counts(self.scene, TwinStep(classes, np.zeros(0, np.uint8), NO_SUBSTEPS,
-                                                0, 0, 0))
+        none, nowhere = np.zeros(0, dtype=bool), self.particles.pos[:0]
+        return twin_counts(self.scene, TwinStep(self, none.astype(np.uint8), nowhere, nowhere,
+                                                none, none, NO_SUBSTEPS, 0, 0))
 
     @property
     def live_count(self) -> int:
@@ -185,24 +184,13 @@ class TwinSystem:
         sane = below(q.vel, SPEED_LIMIT)
         pos, low, vel = self._move(q, self.dtype(frame.dt), forces)
         sane &= below(pos, RUNAWAY) & below(vel, SPEED_LIMIT)
-        left = self._left_the_box(q, pos, sane)
         alive &= sane
         moved = TwinParticles(pos, low, vel, age, q.lifetime, q.class_id).select(alive)
         new = self._emit(frame, len(moved.age), rotor)
         self.particles = TwinParticles.concatenate([moved, *new])
         self._counts = twin_counts(self.scene, TwinStep(
-            max(1, len(self.scene.particle_classes)), left, self._substeps, len(moved.age),
+            self, q.class_id, q.pos, pos, sane, alive, self._substeps,
             int(self.emitters["count"].sum()), self.live_count))
-
-    def _left_the_box(self, q: TwinParticles, moved: np.ndarray, sane: np.ndarray
-                      ) -> np.ndarray:
-        """Class ids of the particles whose sane step took them from inside the field's box
-        to outside it (step_particle's domain exits)."""
-        if not self.scene.gridded_flow:
-            return np.zeros(0, np.uint8)
-        outside = partial(grid_flow.outside, self.data[grid_flow.GRID_FLOW.name],
-                          kernels=self.kernels)
-        return q.class_id[sane & ~outside(q.pos) & outside(moved)]
 
     def _move(self, q: TwinParticles, h, forces: ForceModel | PortableForces
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
