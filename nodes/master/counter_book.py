@@ -6,8 +6,8 @@ mixed-hardware mode, whose walls' bits differ, from the authority's (said in rep
 Per row it keeps a total (events), the first frame each value was nonzero, the values of
 every frame summed into bins of a doubling stride (`BinnedSums`: no count is lost, only the
 frames it is told apart by; a level's bins say the mean of their frames), and the largest
-value with its frame; and how many frames no member counted it (`frames_not_counted`: an engine path that cannot count there) or its
-counters did not agree (`frames_unagreed`). A row's notice is logged once, at the first
+value with its frame; and how many frames no member counted it (`frames_not_counted`: an
+engine path that cannot count there) or its counters did not agree (`frames_unagreed`). A row's notice is logged once, at the first
 frame it is nonzero, and kept for `cavesim run`'s terminal (`notices`). report.json's
 `counters` section is `summary()`: per row, keyed by its name, and beside them how the
 values were chosen, the frame's seconds (for rates) and, per wall, the counter entries its
