@@ -7,11 +7,12 @@ Per row it keeps a total (events), the first frame each value was nonzero, the v
 every frame summed into bins of a doubling stride (`BinnedSums`: no count is lost, only the
 frames it is told apart by; a level's bins say the mean of their frames), and the largest
 value with its frame; and how many frames no member counted it (`frames_not_counted`: an
-engine path that cannot count there) or its counters did not agree (`frames_unagreed`). A row's notice is logged once, at the first
-frame it is nonzero, and kept for `cavesim run`'s terminal (`notices`). report.json's
-`counters` section is `summary()`: per row, keyed by its name, and beside them how the
-values were chosen, the frame's seconds (for rates) and, per wall, the counter entries its
-reports carried that the run does not count (`unknown_ids_skipped`).
+engine path that cannot count there) or its counters did not agree (`frames_unagreed`). A
+row's notice is logged once, at the first frame it is nonzero, and kept for `cavesim run`'s
+terminal (`notices`). report.json's `counters` section is `summary()`: per row, keyed by
+its name, and beside them how the values were chosen, the frame's seconds (for rates) and,
+per wall, the counter entries its reports carried that the run does not count
+(`unknown_ids_skipped`).
 """
 
 from __future__ import annotations
