@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from cavesim.core.features import grid_flow
+from cavesim.core.features import collision, grid_flow
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene.model import Scene
 from cavesim.core.substeps import SubstepCounts
@@ -150,6 +150,15 @@ def _exits(step: TwinStep) -> tuple[int, ...]:
     return step.per_class(left)
 
 
+def _deposits(step: TwinStep) -> tuple[int, ...]:
+    """step_particle's census: a particle that lives on, on the ground where its step ended
+    (the bounce left it there), not above it."""
+    twin = step.twin
+    ground = collision.COLLISION.ground_at(twin.scene, twin.data[collision.COLLISION.name],
+                                           twin.kernels, step.pos[:, :2])
+    return step.per_class(step.alive & (step.pos[:, 2] <= ground))
+
+
 def _drops(step: TwinStep) -> tuple[int, ...]:
     return (int(step.alive.sum()) + step.emitted - step.live,)
 
@@ -194,6 +203,10 @@ COUNTERS: tuple[Counter, ...] = (
     Counter(6, "most_substeps", "most substeps of one tracer", "substeps", False, 1,
             Combine.MAX, False, frozenset({Keep.LARGEST}), adaptive_tracers, RK45_TRACERS,
             lambda step: (step.substeps.most,)),
+    # a level: how much has settled, per class (the brownout's sand on the ground)
+    Counter(7, "ground_deposits", "on the ground", "particles", True, 0, Combine.ADD, False,
+            frozenset({Keep.LARGEST, Keep.BINNED}), lambda scene: scene.collision is not None,
+            "COLLISION != COLLISION_NONE", _deposits),
 )
 BY_ID: dict[int, Counter] = {row.id: row for row in COUNTERS}
 BY_NAME: dict[str, Counter] = {row.name: row for row in COUNTERS}

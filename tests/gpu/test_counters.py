@@ -78,7 +78,7 @@ def test_native_counters_are_the_float64_twins_on_both_paths(ctx):
     finally:
         for gpu in gpus.values():
             gpu.release()
-    assert set(expected) == {row.name for row in COUNTERS}
+    assert set(expected) == {row.name for row in COUNTERS} - {"ground_deposits"}  # no ground
     assert totals["domain_exits"].tolist() == [0, TRACERS], "every tracer, once; no sand"
     assert totals["capacity_drops"][0] > 0 and totals["tracers_stepped"][0] == FRAMES * TRACERS
     assert totals["substeps_retaken"][0] == 0 and expected["most_substeps"] == (1,)
@@ -109,7 +109,7 @@ def test_each_row_the_pass_counts_has_a_switch_and_its_constant_offset():
     defines = physics_defines(scene)
     assert {name: defines[name] for name in counter_buffer.SWITCHES} == {
         "COUNT_DOMAIN_EXITS": 1, "COUNT_TRACERS_STEPPED": 1, "COUNT_SUBSTEPS_TAKEN": 1,
-        "COUNT_SUBSTEPS_RETAKEN": 1, "COUNT_MOST_SUBSTEPS": 1}
+        "COUNT_SUBSTEPS_RETAKEN": 1, "COUNT_MOST_SUBSTEPS": 1, "COUNT_GROUND_DEPOSITS": 0}
     assert valid_physics(defines), "the switches keep the rows' rules"
     assert not valid_physics({**defines, "HAS_TRACERS": 0}), "substeps need tracers"
     source = PARTICLE_UPDATE.sources(defines)["vertex"].text
@@ -132,3 +132,60 @@ def test_a_scene_counts_only_the_rows_its_features_have(simulation):
                                                          set())
     defines = physics_defines(scene)
     assert all(defines[f"COUNT_{name.upper()}"] == (name in rows) for name in substeps)
+
+
+def settling_scene(engine: str = "gs_tf", resilience: float = 0.0,
+                   arithmetic: str = "native"):
+    """Sand dropped from rest onto a plane, no air: it lands at the time a fall takes."""
+    data = {"simulation": {"capacity": 400, "seed": 3, "integrator": "semi_implicit_euler",
+                           "random_texture_size": 64, "engine": engine,
+                           "arithmetic": arithmetic},
+            "particle_class": [SAND], "forces": {"gravity": [0.0, 0.0, -9.81]},
+            "collision": {"kind": "plane", "friction": 0.5, "resilience": resilience,
+                          "height": 0.0}}
+    return parse_scene(data, name="settling")
+
+
+def sand_at_rest(heights: np.ndarray) -> np.ndarray:
+    records = particle_cloud(len(heights), seed=9)
+    records["pos"][:, 2] = heights
+    records["vel"] = 0.0
+    records["class_id"] = 0
+    return records
+
+
+@pytest.mark.parametrize(("resilience", "arithmetic"), [(0.0, "native"), (0.4, "portable")])
+def test_the_sand_on_the_ground_is_counted_as_it_settles_on_both_paths(ctx, resilience,
+                                                                        arithmetic):
+    """ground_deposits, a level: each frame, the particles that live on and lie on the
+    ground. Sand from rest at heights h lands after sqrt(2 h / g); once landed without a
+    bounce it stays counted every frame. Both paths count what the twin does: the float64
+    one's where the sand settles at once, the portable one's (the GPU's bits) where it
+    bounces, and a bounce's height hangs on the last bit."""
+    heights = np.linspace(0.05, 2.0, 300)
+    twin = TwinSystem(settling_scene(resilience=resilience, arithmetic=arithmetic))
+    gpus = [ParticleSystem(ctx, settling_scene(engine.value, resilience, arithmetic))
+            for engine in ENGINE_PATHS]
+    counted = []
+    try:
+        for system in (twin, *gpus):
+            system.write_particles(sand_at_rest(heights))
+        for k in range(1, 46):
+            frame = FrameInput(DT, IDENTITY)
+            twin.step(frame)
+            for gpu in gpus:
+                gpu.step(frame)
+                gpu.checksum()
+                assert gpu.counters()["ground_deposits"] == \
+                    twin.counters()["ground_deposits"], f"frame {k}"
+            counted.append(twin.counters()["ground_deposits"][0])
+    finally:
+        for gpu in gpus:
+            gpu.release()
+    landed = [int((np.sqrt(2 * heights / 9.81) < k * DT).sum()) for k in range(1, 46)]
+    if resilience == 0.0:  # settled for good: within a frame's fall of the closed form
+        assert all(a <= b for a, b in zip(counted, counted[1:], strict=False))
+        assert all(abs(c - n) <= 12 for c, n in zip(counted, landed, strict=True))
+        assert counted[-1] == 300
+    else:  # bouncing: fewer lie on the ground than have reached it
+        assert 0 < counted[-1] < landed[-1]

@@ -190,11 +190,13 @@ def test_a_validity_that_refuses_a_scene_is_caught(scenes):
 def test_a_validity_that_lets_through_what_the_shaders_refuse_is_caught(scenes):
     rows = {name: physics_defines(scene) for name, scene in scenes.items()}
 
-    def forgets_the_ground(defines):  # dispersion without a ground: a rule's #error
+    def forgets_the_ground(defines):  # dispersion, a census without a ground: rules' #errors
         return valid_physics({**defines, "COLLISION": 1})
 
     cover = particle_cover(rows, forgets_the_ground)
-    assert cover.errors and all("#error HAS_DISPERSION" in e for e in cover.errors)
+    assert cover.errors and all("needs COLLISION is not COLLISION_NONE" in e
+                                for e in cover.errors)
+    assert any("#error HAS_DISPERSION" in e for e in cover.errors)
 
 
 @pytest.mark.slow

@@ -58,11 +58,13 @@ def test_a_per_class_row_keeps_totals_first_frames_and_every_frame_and_warns_onc
 
 def test_a_single_row_says_its_notice_once_and_keeps_no_zeros_until_it_counts(caplog):
     book = CounterBook(load_scene(BROWNOUT), DT)
-    assert set(book.rows) == {DROPS}, "a rotor's flow has no box, its scene no tracers"
-    book.add(1, {DROPS: (0,)})
+    assert set(book.rows) == {DROPS, BY_NAME["ground_deposits"].id}, (
+        "a rotor's flow has no box, its scene no tracers")
+    book.add(1, {DROPS: (0,), BY_NAME["ground_deposits"].id: (0, 0)})
     quiet = book.summary()["capacity_drops"]
     assert quiet["total"] == 0 and quiet["first_frame"] is None and quiet["per_frame"] == []
-    assert counter_rows(book.summary()) == [("dropped at capacity", "none")]
+    assert counter_rows(book.summary()) == [("dropped at capacity", "none"),
+                                            ("on the ground", "none")]
     scene = parse_scene(scene_dict(emitters=[FOUNTAIN], capacity=300, drag=False), name="full")
     book = CounterBook(scene, DT)
     with caplog.at_level(logging.WARNING, logger="cavesim.master"):

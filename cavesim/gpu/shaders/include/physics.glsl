@@ -84,7 +84,8 @@ bool advance(inout Particle q, float h, uint index) {
 // One frame of the particle at `index` in the stream, the arithmetic both engine paths'
 // particle passes share (GS/TF update.glsl, compute update_blocks.glsl): it ages by h
 // and moves; with COUNT_DOMAIN_EXITS, a sane step from inside the field's box to outside
-// it counts for the particle's class.
+// it counts for the particle's class, with COUNT_GROUND_DEPOSITS one that lives on, on the
+// ground.
 // Returns whether it lives on: not expired and not run away. The age's float64 add stays
 // outside arithmetic.glsl: portable only where the GPU rounds doubles as IEEE does.
 bool step_particle(inout Particle q, float h, uint index) {
@@ -98,5 +99,14 @@ bool step_particle(inout Particle q, float h, uint index) {
         count_add(DOMAIN_EXITS_AT + int(min(q.class_id, uint(CLASS_COUNT - 1))), 1u);
     }
 #endif
-    return q.age < double(q.lifetime) && sane;
+    bool lives = q.age < double(q.lifetime) && sane;
+#if COUNT_GROUND_DEPOSITS  // a census: each that lives on, on the ground after its step
+    float ground;
+    vec3 normal;
+    ground_at(q.pos.xy, ground, normal);
+    if (lives && q.pos.z <= ground) {
+        count_add(GROUND_DEPOSITS_AT + int(min(q.class_id, uint(CLASS_COUNT - 1))), 1u);
+    }
+#endif
+    return lives;
 }
