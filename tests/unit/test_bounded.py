@@ -100,3 +100,10 @@ def test_binned_sums_give_rates_per_second_of_the_frames_each_bin_holds():
         sums.add((n,))
     assert sums.stride == 4 and sums.bins() == [[12], [12]]
     assert sums.rates(0.5) == [[6.0], [24.0]]
+
+
+def test_binned_sums_give_a_levels_mean_over_the_frames_each_bin_holds():
+    sums = BinnedSums(1, capacity=2)
+    for level in (2, 4, 6, 8, 10):  # bins of 2 frames once merged: (2, 4), (6, 8), (10)
+        sums.add((level,))
+    assert sums.stride == 4 and sums.means() == [[5.0], [10.0]]  # (2+4+6+8)/4, 10/1
