@@ -3,8 +3,11 @@ its own module, and what the loader, the shaders and the gate do with them follo
 declarations (cavesim/core/features/)."""
 
 import dataclasses
+import io
 import itertools
+import tokenize
 import typing
+from pathlib import Path
 from typing import Annotated
 
 import pytest
@@ -165,3 +168,41 @@ def test_a_tracer_scene_compiles_its_method_and_a_smoke_class_is_one():
     data["particle_class"] = [data["particle_class"][0], SMOKE]
     values = pass_defines(parse_scene(data, name="smoke"))
     assert values["HAS_TRACERS"] == 1 and values["TRACER_METHOD"] == IDS["TRACER_RK4"]
+
+
+HUBS = ("cavesim/gpu/engine/particle_system.py", "cavesim/gpu/engine/feature_resources.py",
+        "cavesim/gpu/engine/programs.py", "cavesim/core/twin/system.py")
+# what a hub names for another reason: the twin steps a tracer class by its method (the
+# motion itself, as the GPU's `advance` does) and spawns a helicopter's emission at its
+# `origin`, the point below the hub
+OTHER_SENSES = {("cavesim/core/twin/system.py", "tracers"),
+                ("cavesim/core/twin/system.py", "origin")}
+
+
+def code_names(path: str) -> set[str]:
+    """The names a module's code uses (not its comments, docstrings or strings)."""
+    source = (Path(__file__).parents[2] / path).read_text()
+    return {token.string for token in tokenize.generate_tokens(io.StringIO(source).readline)
+            if token.type == tokenize.NAME}
+
+
+@pytest.mark.parametrize("hub", HUBS)
+def test_the_hubs_iterate_over_the_features_and_name_none(hub):
+    """The programs, the engine, the twin and the loader take what a feature adds from its
+    room: none names a feature, one of its defines or one of its keys."""
+    names = code_names(hub)
+    for feature in FEATURES:
+        if (hub, feature.name) in OTHER_SENSES:
+            continue
+        own = {feature.name, feature.name.upper(), *feature.defines,
+               *(key.split(".")[-1] for key in feature.keys if "." in key)}
+        assert not names & own, f"{hub} names {sorted(names & own)} of {feature.name}"
+
+
+def test_the_loader_reads_the_tables_and_leaves_the_rules_to_the_features():
+    """The loader reads each table of the file by its kind (which keys a [collision] plane
+    or a tracer's [[particle_class]] takes); what the features require of each other is
+    the rule table's: it names no define, and calls no rule of its own."""
+    names = code_names("cavesim/core/scene/loader.py")
+    assert not names & set(PASS_DEFINES)
+    assert not {"_check_dispersion", "_check_tracers", "reachable"} & names

@@ -19,7 +19,7 @@ from cavesim.core.scene.model import FieldKind
 
 class RotorWash(Feature):
     name = "rotor_wash"
-    keys = ("field.kind",)
+    keys = ()  # a value of a key, not a key: [field] kind = "rotor"
     defines = {"FIELD_IS_ROTOR": (0, 1)}
     rules = (Rule("FIELD_IS_ROTOR", "HAS_DRAG", "field.kind",
                   "the rotor's flow acts through forces.drag"),)

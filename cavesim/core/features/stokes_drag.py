@@ -14,6 +14,7 @@ import numpy as np
 
 from cavesim.core._schema import Range
 from cavesim.core.air import AIR_DENSITY, AIR_VISCOSITY
+from cavesim.core.errors import SceneError
 from cavesim.core.features.feature import Feature
 
 
@@ -37,6 +38,17 @@ class StokesDrag(Feature):
 
     def present(self, scene):
         return scene.forces.drag is not None
+
+    def check(self, scene):
+        """Drag brings the flow in, and only drag samples it: a [field] exactly with it."""
+        source = scene.source or "<dict>"
+        if self.present(scene) and scene.field is None:
+            raise SceneError(f"{source}: field is missing: required because forces.drag is "
+                             "present (drag pulls particles toward the [field] flow)")
+        if not self.present(scene) and scene.field is not None:
+            raise SceneError(f"{source}: field (kind = {scene.field.kind.value!r}) is not "
+                             "allowed: only together with forces.drag, which is missing "
+                             "(without drag nothing samples the field)")
 
     def load(self, scene, random):
         """1/tau of each class, float32 (0 for a tracer, which drag never steps)."""

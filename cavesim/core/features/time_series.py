@@ -18,7 +18,7 @@ from cavesim.core.fields.snapshot_time import FIRST_SNAPSHOT
 
 class TimeSeries(Feature):
     name = "time_series"
-    keys = ("field.file", "field.time_units", "field.params")
+    keys = ("field.time_units",)  # and the time axis of a file, or of `rotating`'s params
     defines = {"FIELD_TIME_SERIES": (0, 1)}
     rules = (Rule("FIELD_TIME_SERIES", GRID, "field", "only a grid is a time series"),)
 

@@ -108,14 +108,6 @@ def parse_scene(data: Mapping[str, Any], source: Path | None = None,
                                   f"allowed (the engine's limit for any GL 4.3 driver)")
 
     forces = top.get("forces")
-    if forces.drag is not None and not top.has("field"):
-        raise top.source.fail("field is missing: required because forces.drag is present "
-                              "(drag pulls particles toward the [field] flow)")
-    if forces.drag is None and top.has("field"):
-        kind = top.data["field"].get("kind") if isinstance(top.data["field"], Mapping) else None
-        raise top.source.fail(f"field (kind = {kind!r}) is not allowed: only together with "
-                              "forces.drag, which is missing (without drag nothing samples "
-                              "the field)")
     field = _field(top.table("field")) if top.has("field") else None
     collision = _collision(top.table("collision")) if top.has("collision") else None
 
