@@ -140,13 +140,16 @@ class _Search:
         return tuple(p for p in _all_pairs(self.domains) if p in self.witness)
 
     def find(self, fixed: dict[str, int]) -> dict[str, int] | None:
-        """A valid row with the values `fixed`: a pool row with them put in, and with up to
-        two other values changed, starting from the rows that hold most of `fixed`."""
+        """A valid row with the values `fixed`: the row of every first value (where each
+        define leaves its feature out, most combinations are allowed), or a pool row, with
+        them put in and up to two other values changed, starting from the rows that hold most
+        of `fixed`."""
         agree = sorted(range(len(self.pool)), key=lambda k: -sum(
             self.pool[k].get(name) == value for name, value in fixed.items()))
         free = [name for name in self.names if name not in fixed]
-        for k in agree[:SEEDS]:
-            start = {**self.pool[k], **fixed}
+        first = {name: values[0] for name, values in self.domains.items()}
+        for start in (first, *(self.pool[k] for k in agree[:SEEDS])):
+            start = {**start, **fixed}
             for changes in range(3):
                 for row in self._changed(start, free, changes):
                     if self.valid(row):

@@ -62,9 +62,11 @@ def test_state_faults_are_named_by_majority_and_resynced(tmp_path):
     (inflated,) = [d for d in report["run"]["divergences"] if d["frame"] == 80]
     assert inflated["checksums"]["left"] == inflated["agreed_checksum"]
     assert {name for name, counted in inflated["counters"]["left"].items()
-            if counted["values"] != counted["agreed"]} == {"domain_exits", "capacity_drops"}
+            if counted["values"] != counted["agreed"]} == {"domain_exits", "capacity_drops",
+                                                           "ground_deposits"}
     counters = report["run"]["counters"]
     assert counters["capacity_drops"]["total"] < INFLATION
+    assert max(counters["ground_deposits"]["largest"].values()) < INFLATION
     assert max(counters["domain_exits"]["total"].values()) < INFLATION
 
 

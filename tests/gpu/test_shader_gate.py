@@ -5,14 +5,15 @@ and every #if branch, native and portable, and every scene shipped or under test
 
 import dataclasses
 import importlib.util
-import itertools
 import random
+import re
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
 
 from cavesim.core.errors import ShaderError
+from cavesim.core.features.registry import IDS
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene import Arithmetic
 from cavesim.gpu import shader_gate
@@ -23,6 +24,7 @@ from cavesim.gpu.engine.programs import (
     BLOCK_UPDATE,
     PARTICLE_UPDATE,
     PASS_DEFINES,
+    PASS_RULES,
     physics_defines,
     valid_physics,
 )
@@ -201,27 +203,12 @@ def test_a_validity_that_lets_through_what_the_shaders_refuse_is_caught(scenes):
 
 @pytest.mark.slow
 def test_the_searches_find_what_every_valid_combination_holds_and_takes(cover):
-    """Slow (each of the 13,936 valid combinations of the defines the validity reads, and
-    3,000 valid rows through the preprocessor): the only test that holds the pair search to
-    the whole product, and the branches called unreachable to a large sample."""
-    free = {"HAS_GRAVITY", "HAS_DAMPING", "CLASS_COUNT"}
+    """Slow (a search over every combination the rule table allows, for every pair of
+    values, and 3,000 valid rows through the preprocessor): the only test that holds the
+    pair search to the whole product, and the branches called unreachable to a large
+    sample."""
+    assert set(exact_pairs()) == set(cover.pairs.required)
     rows = sample(3000, seed=13)
-    assert all(valid_physics({**row, name: value}) for row in rows[:300] for name in free
-               for value in FEATURES[name]), "the validity reads one of the free names"
-    bound = [name for name in FEATURES if name not in free]
-    base = {name: FEATURES[name][0] for name in free}
-    held = set()
-    for values in itertools.product(*(FEATURES[name] for name in bound)):
-        row = {**dict(zip(bound, values, strict=True)), **base}
-        if valid_physics(row):
-            held |= set(pairs({name: row[name] for name in FEATURES}, tuple(FEATURES)))
-    # a free name takes each of its values beside every value a valid row holds
-    values = {value for pair in held for value in pair if value[0] not in free}
-    values |= {(name, value) for name in free for value in FEATURES[name]}
-    order = list(FEATURES)
-    held |= {(x, y) for x, y in itertools.product(values, repeat=2)
-             if order.index(x[0]) < order.index(y[0]) and free & {x[0], y[0]}}
-    assert held == set(cover.pairs.required)
     stages = [(spec, stage, Conditionals(source.text, source.files)) for spec, fixed in
               PASSES.items() for stage, source in spec.sources({**rows[0], **fixed}).items()]
     reachable = {(s.program, s.stage, s.arithmetic): s.reachable for s in cover.stages}
@@ -230,6 +217,37 @@ def test_the_searches_find_what_every_valid_combination_holds_and_takes(cover):
         for spec, stage, conditionals in stages:
             outcome = conditionals.taken({**row, **PASSES[spec]})
             assert outcome.taken <= reachable[spec.name, stage, mode[row["ARITHMETIC"]]], row
+
+
+def exact_pairs() -> list[tuple]:
+    """Every pair of values some combination of the defines keeping every rule holds, by a
+    search that checks each rule as soon as the names it reads have values: the truth the
+    cover's search from a sample is held to."""
+    names = list(FEATURES)
+    reads = {rule: {n for n in names if re.search(rf"\b{n}\b", rule.subject + " " + rule.needs)}
+             for rule in PASS_RULES}
+    position = {name: k for k, name in enumerate(names)}
+    due = {k: [r for r in PASS_RULES if max(position[n] for n in reads[r]) == k]
+           for k in range(len(names))}
+
+    def exists(fixed: dict[str, int], row: dict[str, int], k: int) -> bool:
+        if k == len(names):
+            return True
+        name = names[k]
+        for value in (fixed[name],) if name in fixed else FEATURES[name]:
+            row[name] = value
+            if not any(r.broken({**IDS, **row}) for r in due[k]) and exists(fixed, row, k + 1):
+                return True
+        del row[name]
+        return False
+
+    return [pair for pair in pairs_of_all_values() if exists(dict(pair), {}, 0)]
+
+
+def pairs_of_all_values() -> list[tuple]:
+    names = list(FEATURES)
+    return [((a, x), (b, y)) for i, a in enumerate(names) for b in names[i + 1:]
+            for x in FEATURES[a] for y in FEATURES[b]]
 
 
 def test_the_summary_says_what_is_covered_without_compiling(scenes, cover, builds, capsys):
