@@ -50,24 +50,28 @@ def test_a_particle_in_a_turning_frame_runs_the_inertial_circle():
     assert np.linalg.norm(twin.particles.position()[0] - (SPEED * t, 0.0, 1.0)) > 0.5
 
 
-@pytest.mark.parametrize("engine", ["gs_tf", "compute"])
-@pytest.mark.parametrize("integrator", ["rk4", "etd2rk", "semi_implicit_euler"])
-def test_the_gpu_turns_as_its_twin(ctx, engine, integrator):
-    scene = turning_scene(integrator, engine, drag=True)
+def stepped(ctx, scene, frames: int):
+    """The GPU's particles and the twin's after `frames` frames from one cloud."""
     gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
     cloud = particle_cloud(300)
     gpu.write_particles(cloud)
     twin.write_particles(cloud)
-    for _ in range(60):
+    for _ in range(frames):
         frame = FrameInput(1 / 60, IDENTITY)
         gpu.step(frame)
         twin.step(frame)
-    got = gpu.read_particles()
-    np.testing.assert_allclose(got["pos"], twin.particles.pos, rtol=1e-5, atol=1e-4)
-    np.testing.assert_allclose(got["vel"], twin.particles.vel, rtol=1e-5, atol=1e-4)
+    return gpu.read_particles(), twin.particles
+
+
+@pytest.mark.parametrize("engine", ["gs_tf", "compute"])
+@pytest.mark.parametrize("integrator", ["rk4", "etd2rk", "semi_implicit_euler"])
+def test_the_gpu_turns_as_its_twin(ctx, engine, integrator):
+    got, twin = stepped(ctx, turning_scene(integrator, engine, drag=True), 60)
+    np.testing.assert_allclose(got["pos"], twin.pos, rtol=1e-5, atol=1e-4)
+    np.testing.assert_allclose(got["vel"], twin.vel, rtol=1e-5, atol=1e-4)
     still = TwinSystem(parse_scene(scene_dict(integrator=integrator, gravity=False),
                                    name="still"))
-    still.write_particles(cloud)
+    still.write_particles(particle_cloud(300))
     for _ in range(60):
         still.step(FrameInput(1 / 60, IDENTITY))
     assert not np.allclose(got["vel"], still.particles.vel, rtol=1e-5, atol=1e-4)
@@ -75,16 +79,8 @@ def test_the_gpu_turns_as_its_twin(ctx, engine, integrator):
 
 @pytest.mark.parametrize("engine", ["gs_tf", "compute"])
 def test_in_portable_arithmetic_the_gpu_holds_the_portable_twins_bits(ctx, engine):
-    scene = turning_scene("etd2rk", engine, "portable", drag=True)
-    gpu, twin = ParticleSystem(ctx, scene), TwinSystem(scene)
-    cloud = particle_cloud(300)
-    gpu.write_particles(cloud)
-    twin.write_particles(cloud)
-    for _ in range(30):
-        frame = FrameInput(1 / 60, IDENTITY)
-        gpu.step(frame)
-        twin.step(frame)
-    assert gpu.read_particles().tobytes() == twin.particles.records().tobytes()
+    got, twin = stepped(ctx, turning_scene("etd2rk", engine, "portable", drag=True), 30)
+    assert got.tobytes() == twin.records().tobytes()
 
 
 def test_the_rotation_must_be_three_finite_numbers():
