@@ -17,6 +17,7 @@ allows what the shaders refuse.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -89,7 +90,15 @@ class ParticleCover:
 def particle_cover(scenes: Mapping[str, Row],
                    valid: Callable[[Row], bool] = valid_physics) -> ParticleCover:
     """The particle passes' rows: `scenes` (name: its particle-pass defines), a cover of
-    every pair of values `valid` allows together, and rows for branches left out."""
+    every pair of values `valid` allows together, and rows for branches left out. Made once
+    a process for the same scenes and validity (its search takes seconds)."""
+    return _cover(tuple((name, tuple(row.items())) for name, row in scenes.items()), valid)
+
+
+@functools.cache
+def _cover(scenes: tuple[tuple[str, tuple[tuple[str, int], ...]], ...],
+           valid: Callable[[Row], bool]) -> ParticleCover:
+    scenes = {name: dict(row) for name, row in scenes}
     by_row = {_key(row): name for name, row in reversed(scenes.items())}
     pairs = _pairs_in_each_arithmetic(list(scenes.values()), valid)
     rows = list(pairs.rows)

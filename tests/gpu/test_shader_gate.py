@@ -14,6 +14,7 @@ import pytest
 
 from cavesim.core.errors import ShaderError
 from cavesim.core.features.registry import IDS
+from cavesim.core.features.rules import holds
 from cavesim.core.limits import MAX_PARTICLE_CLASSES
 from cavesim.core.scene import Arithmetic
 from cavesim.gpu import shader_gate
@@ -227,7 +228,7 @@ def exact_pairs() -> list[tuple]:
     reads = {rule: {n for n in names if re.search(rf"\b{n}\b", rule.subject + " " + rule.needs)}
              for rule in PASS_RULES}
     position = {name: k for k, name in enumerate(names)}
-    due = {k: [r for r in PASS_RULES if max(position[n] for n in reads[r]) == k]
+    due = {k: tuple(r for r in PASS_RULES if max(position[n] for n in reads[r]) == k)
            for k in range(len(names))}
 
     def exists(fixed: dict[str, int], row: dict[str, int], k: int) -> bool:
@@ -236,12 +237,12 @@ def exact_pairs() -> list[tuple]:
         name = names[k]
         for value in (fixed[name],) if name in fixed else FEATURES[name]:
             row[name] = value
-            if not any(r.broken({**IDS, **row}) for r in due[k]) and exists(fixed, row, k + 1):
+            if holds(due[k], row) and exists(fixed, row, k + 1):
                 return True
         del row[name]
         return False
 
-    return [pair for pair in pairs_of_all_values() if exists(dict(pair), {}, 0)]
+    return [pair for pair in pairs_of_all_values() if exists(dict(pair), dict(IDS), 0)]
 
 
 def pairs_of_all_values() -> list[tuple]:
