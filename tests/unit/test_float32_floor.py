@@ -8,7 +8,7 @@ at 1/480 and 1/960 s (up to 9.6e-5 m for the exponential step). With the right f
 float32 position alone, every integrator still ended at 7e-6 to 1.1e-5 m at 1/960 s; the
 record's low part of the position (cavesim/core/position.py) is what brings it below.
 
-Slow (about four minutes on 2 cores: every integrator at 1/480 and 1/960 s, GPU and twin),
+Slow (about a minute on 2 cores: every integrator at 1/480 and 1/960 s, GPU and twin),
 and on one worker, which builds the cases once.
 """
 
@@ -24,7 +24,7 @@ from cavesim.tools.numerics.results import rms_and_max
 from cavesim.tools.numerics.runs import MANUAL, gpu_runs, twin_runs
 from cavesim.tools.numerics.storage import storage_floors
 
-PARTICLES = 500
+PARTICLES = 200  # the floors are the rounding of each step: a few hundred particles show them
 FINEST = DTS[-2:]  # 1/480 and 1/960 s: where the floor is highest
 FLOOR_LIMIT = 5e-6  # m: the floor required of every integrator
 # A float32 floor this close to the storage floor is at it. Native arithmetic may contract
