@@ -5,10 +5,13 @@ out."""
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from cavesim.core.limits import GPU_RANGE
 from cavesim.core.scene.model import Engine
-from cavesim.core.wire.credentials import WALL
+from cavesim.core.wire import Credentials
+from cavesim.core.wire.credentials import OPERATOR, WALL
+from cavesim.core.wire.key_files import read_key_file
 from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
 from cavesim.tools.signals import sigterm_as_interrupt
@@ -73,6 +76,11 @@ def add(commands) -> None:
                              "keys, mouse and gamepad move the head and fly the wand")
     parser.add_argument("--preview-scale", type=number_in(float, 0.05, 2.0, "a scale"),
                         default=0.5, help="walls' size in the preview (default 0.5)")
+    parser.add_argument("--operator-key-file", type=Path, metavar="FILE",
+                        help="with --preview and --key-file: an operator's key "
+                             "(operator-NAME.key from `cavesim keys --operators NAME`), which "
+                             "signs the preview's head, wand and session controls: the master "
+                             "takes pause, reset and stop from an operator alone")
     parser.add_argument("--on-master-loss", choices=MASTER_LOSS_POLICIES, default="wait",
                         help="when the master's liveliness goes away: wait --master-wait "
                              "seconds for a new master (default), or exit 1")
@@ -96,6 +104,7 @@ def run(args: argparse.Namespace, console) -> int:
 
     configure_logging(args.verbose)
     network, credentials = network_and_key(args, "node", WALL, args.node)
+    operator = _operator_key(args, credentials)
     if args.render_every and (args.cave is None or args.images is None):
         raise UsageError("cavesim node: error: argument --render-every: drawing needs --cave "
                          "and --images too")
@@ -110,7 +119,8 @@ def run(args: argparse.Namespace, console) -> int:
                          "display's GPU; choose the display ([wall.display] x_display)")
     trajectories, trajectory_folder = trajectory_node_request(args) or (None, None)
     config = NodeConfig(name=args.node, scene=args.scene, session=args.session,
-                        network=network, credentials=credentials, faults=tuple(args.inject),
+                        network=network, credentials=credentials, operator=operator,
+                        faults=tuple(args.inject),
                         slow_delay=args.slow_delay, cave=args.cave,
                         render_every=args.render_every, images=args.images,
                         walls=_walls_of(args), stereo=args.stereo,
@@ -123,6 +133,31 @@ def run(args: argparse.Namespace, console) -> int:
                         trajectories=trajectories, trajectory_folder=trajectory_folder)
     with sigterm_as_interrupt():
         return run_node(config)
+
+
+def _operator_key(args: argparse.Namespace, wall: Credentials | None) -> Credentials | None:
+    """The preview's operator key (None without keys): given exactly when a keyed node has
+    --preview, and of the same session as the wall's key (UsageError)."""
+    path, flag = args.operator_key_file, "--operator-key-file"
+    if path is not None and not (args.preview and wall is not None):
+        raise UsageError(f"cavesim node: error: argument {flag}: only with --preview and "
+                         f"--key-file (it signs the preview's controls in a session with keys)")
+    if args.preview and wall is not None and path is None:
+        raise UsageError(f"cavesim node: error: argument --preview: with --key-file it needs "
+                         f"{flag} FILE too (an operator-NAME.key from `cavesim keys "
+                         f"--operators NAME`): the master takes pause, reset and stop from an "
+                         f"operator alone")
+    if path is None:
+        return None
+    try:
+        operator = read_key_file(path, OPERATOR, flag=flag)
+    except ValueError as e:
+        raise UsageError(f"cavesim node: error: {e}") from e
+    if not operator.same_session(wall):
+        raise UsageError(f"cavesim node: error: argument {flag}: {path} is of another "
+                         f"session than --key-file {args.key_file} (another `cavesim keys` "
+                         f"made it); give the operator key made with this session's keys")
+    return operator
 
 
 def _walls_of(args: argparse.Namespace) -> tuple[str, ...]:

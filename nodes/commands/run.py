@@ -129,7 +129,7 @@ class RunPlan:
         return ClusterPlan(master, self.out,
                            {node: (*self.node_args(node), *mixed, *self.trajectory_args(node))
                             for node in self.members},
-                           drawing)
+                           drawing, operators=frozenset({PREVIEW} & set(self.members)))
 
 
 def run_walls(plan: RunPlan, console: Console) -> dict:
@@ -256,8 +256,9 @@ def add(commands) -> None:
                              "for good; give --on-loss continue to accept that")
     parser.add_argument("--key-file", type=Path,
                         help="the session's master.key (`cavesim keys`): every message signed; "
-                             "each node gets its own wall's key, issued for the run (never "
-                             "written into --out)")
+                             "each node gets its own wall's key, and the --preview window an "
+                             "operator's key too (its pause, reset and Esc), issued for the "
+                             "run (never written into --out)")
     add_mixed_hardware_arguments(parser, master=True)
     add_trajectory_arguments(parser)
     parser.set_defaults(handler=run)

@@ -1,8 +1,8 @@
 """A whole cluster on this machine: one node process per wall and the master in this
 process, for `cavesim run`, `cavesim check` and `cavesim bench --cluster` alike. With
-credentials, each node gets its own wall's key, issued by the master's key for this run into
-a private temporary folder (mode 0700, removed when the cluster stops): never the master's
-signing key, and no secret in OUT.
+credentials, each node gets its own wall's key (and a preview an operator's key of its name
+too), issued by the master's key for this run into a private temporary folder (mode 0700,
+removed when the cluster stops): never the master's signing key, and no secret in OUT.
 
 The master runs here so that a caller can act between frames (the consistency harness
 kills, restarts and forges) and gets the run's `RunRecord` itself; a node process that
@@ -34,6 +34,7 @@ class ClusterPlan:
     out: Path  # logs/<wall>.log of the node processes
     node_args: Mapping[str, tuple[str, ...]] = field(default_factory=dict)  # per wall
     drawing: frozenset[str] = frozenset()  # walls whose nodes draw pictures
+    operators: frozenset[str] = frozenset()  # nodes that get an operator's key too (a preview)
 
 
 def run_cluster(plan: ClusterPlan,
@@ -53,9 +54,10 @@ def started_cluster(plan: ClusterPlan) -> Iterator[tuple[LocalCluster, MasterCon
     """The plan's node processes, started (and stopped at the end), and the master's config
     with the endpoint they connect to; the master's log goes to OUT/logs/master.log."""
     config = plan.master
-    with _wall_keys(config) as keys, \
+    with _member_keys(config, plan.operators) as keys, \
             LocalCluster(config.scene, plan.out, config.session, keys=keys,
-                         expected_nodes=len(config.walls), drawing=plan.drawing) as cluster:
+                         operators=plan.operators, expected_nodes=len(config.walls),
+                         drawing=plan.drawing) as cluster:
         for wall in config.walls:
             cluster.start_node(wall, extra=plan.node_args.get(wall, ()))
         config = dataclasses.replace(config, network=NetworkSettings(
@@ -65,15 +67,16 @@ def started_cluster(plan: ClusterPlan) -> Iterator[tuple[LocalCluster, MasterCon
 
 
 @contextmanager
-def _wall_keys(config: MasterConfig) -> Iterator[Path | None]:
-    """A private folder with a key of each wall, issued by the master's credentials (None
-    without credentials); removed at the end."""
+def _member_keys(config: MasterConfig, operators: frozenset[str] = frozenset()
+                 ) -> Iterator[Path | None]:
+    """A private folder with a key of each wall and of each of `operators`, issued by the
+    master's credentials (None without credentials); removed at the end."""
     if config.credentials is None:
         yield None
         return
     with tempfile.TemporaryDirectory(prefix="cavesim-keys-") as folder:  # mode 0700
         keys = Path(folder)
-        write_member_keys(keys, config.credentials, config.walls)
+        write_member_keys(keys, config.credentials, config.walls, operators=tuple(operators))
         yield keys
 
 

@@ -21,7 +21,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from cavesim.core.wire.credentials import WALL, member_file
+from cavesim.core.wire.credentials import OPERATOR, WALL, member_file
 from nodes.faults import Fault
 from nodes.master.events import Event, ProcessEnded
 
@@ -47,7 +47,8 @@ class LocalCluster:
     out: Path
     session: str
     port: int = field(default_factory=free_port)
-    keys: Path | None = None  # a folder of the walls' key files (wall-WALL.key)
+    keys: Path | None = None  # a folder of the walls' key files (wall-WALL.key) ...
+    operators: frozenset[str] = frozenset()  # ... and of these nodes' operator-NODE.key
     expected_nodes: int = 1  # how many nodes share this machine's cores
     drawing: frozenset[str] = frozenset()  # walls whose nodes draw pictures
     nodes: dict[str, subprocess.Popen] = field(default_factory=dict)
@@ -61,10 +62,13 @@ class LocalCluster:
         return ["--scene", str(self.scene), "--session", self.session, "--verbose"]
 
     def key_arguments(self, wall: str) -> list[str]:
-        """--key-file of `wall`'s own key, when the cluster has keys."""
+        """--key-file of `wall`'s own key, when the cluster has keys, and the
+        --operator-key-file of a node that is an operator too (a preview)."""
         if self.keys is None:
             return []
-        return ["--key-file", str(self.keys / member_file(WALL, wall))]
+        operator = ["--operator-key-file", str(self.keys / member_file(OPERATOR, wall))] \
+            if wall in self.operators else []
+        return ["--key-file", str(self.keys / member_file(WALL, wall)), *operator]
 
     def _spawn(self, name: str, args: list[str],
                environment: dict[str, str] | None = None) -> subprocess.Popen:

@@ -56,12 +56,13 @@ class FrameInputs:
         the frame log keeps one record per frame."""
         if asked.reset:
             self.driver, self.steps = driver_for(self.scene), 0
-            self.record.user_actions.append(UserAction(k, "reset"))
-            log.info("frame %d: the user reset the scene", k)
+            self.record.user_actions.append(UserAction(k, "reset", asked.by))
+            log.info("frame %d: %s reset the scene", k, asked.by or "the user")
         paused = asked.paused and self.last_step is not None  # a pause holds a state made
         if paused != self.paused:
             self.paused = paused
-            self.record.user_actions.append(UserAction(k, "pause" if paused else "resume"))
+            self.record.user_actions.append(UserAction(k, "pause" if paused else "resume",
+                                                       asked.by))
         tracked = self.tracked()
         if paused and not asked.reset:
             self.record.paused_frames += 1

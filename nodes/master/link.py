@@ -8,8 +8,10 @@ logged at a bounded rate), never queued; a wall whose every message fails its si
 that refuses the master's signed queries, is named with a hint about --key-file. The event
 queue is bounded: when the master falls that far behind, further events are dropped and
 counted (the barrier asks again). Only the latest tracking message is kept (the latest
-pose, and the latest session controls of a preview window), and only one of this run,
-signed by a tracker or a wall, fresh and newer than its sender's last. The master's
+pose, and the latest session controls of a preview window, with their sender), and only one
+of this run, signed by a tracker or an operator, fresh and newer than its sender's last;
+session controls only an operator's (`not-an-operator`: a wall's or a tracker's message
+that carries them is refused whole, its pose too). The master's
 liveliness token, keyed by its run id, tells the nodes it is there; another master's token
 becomes OtherMaster (one master per session), and liveliness of the session's walls
 WallUp/WallDown. Nothing a callback raises reaches Zenoh's thread
@@ -44,7 +46,7 @@ from cavesim.core.wire import (
     decode_envelope,
     encode,
 )
-from cavesim.core.wire.credentials import TRACKER, WALL, Identity
+from cavesim.core.wire.credentials import OPERATOR, TRACKER, WALL, Identity
 from cavesim.core.wire.envelope import Envelope, new_run_id
 from cavesim.core.wire.guards import KeyMismatch
 from cavesim.core.wire.network import lockstep_publisher, open_session
@@ -61,8 +63,11 @@ from nodes.master.events import (
     WallDown,
     WallUp,
 )
+from nodes.master.user_requests import Controller
 
 log = logging.getLogger("cavesim.master")
+TRACKING_ROLES = (TRACKER, OPERATOR)  # whose keys may send the head and the wand
+CONTROLLING_ROLES = (OPERATOR,)  # whose keys may send session controls
 INFO_TIMEOUT = 10.0  # s a wall has to say which GPU it computes on
 EVENT_QUEUE = 4096  # events the master's loop may fall behind by
 
@@ -78,7 +83,7 @@ class ZenohMasterLink:
         self.mismatch = KeyMismatch("master")
         self.dropped = 0  # events the full queue could not take
         self.tracking: TrackingMessage | None = None  # the latest pose; the master samples it
-        self.controller: TrackingMessage | None = None  # the latest with session controls
+        self.controller: Controller | None = None  # the latest session controls, and whose
         self._tracking_sent: dict[Identity | None, int] = {}  # per signer: the last taken
         self.last_sent = 0  # the newest frame sent: a report of a later one is refused
         self._lock = threading.Lock()
@@ -213,26 +218,28 @@ class ZenohMasterLink:
             if message.posed:
                 self.tracking = message
             if message.controls is not None:
-                self.controller = message
+                self.controller = Controller(message, envelope.signer)
         else:
             self._reject(ProtocolError("unexpected", f"a {type(message).__name__} on the "
                                                      f"tracking key"), sample)
 
     def _check_tracking(self, envelope: Envelope, message: TrackingMessage) -> None:
-        """ProtocolError unless `message` is of this run, signed by a tracker (or a wall's
-        preview window, the only one that may carry session controls) with keys, sent within
+        """ProtocolError unless `message` is of this run, signed with keys by a tracker or an
+        operator (and its session controls, if any, by an operator), sent within
         MAX_TRACKING_AGE of now and after the last one its sender had taken."""
         if envelope.run_id != self.run_id:
             raise ProtocolError("wrong-run", f"tracking of run {envelope.run_id:#018x}, this "
                                              f"run is {self.run_id:#018x}")
-        if envelope.keyed and (envelope.signer is None
-                               or envelope.signer.role not in (TRACKER, WALL)):
+        role = envelope.signer.role if envelope.signer is not None else None
+        if envelope.keyed and message.controls is not None and role not in CONTROLLING_ROLES:
+            raise ProtocolError("not-an-operator", f"session controls signed by "
+                                                   f"{envelope.signer or 'no member'}: only an "
+                                                   f"operator's key may pause, reset or stop "
+                                                   f"the run")
+        if envelope.keyed and role not in TRACKING_ROLES:
             raise ProtocolError("wrong-signer", f"tracking signed by "
-                                                f"{envelope.signer or 'no member'}")
-        if envelope.keyed and message.controls is not None and envelope.signer.role != WALL:
-            raise ProtocolError("wrong-signer", f"session controls from "
-                                                f"{envelope.signer}: only a wall's preview "
-                                                f"window sends them")
+                                                f"{envelope.signer or 'no member'}: only a "
+                                                f"tracker's or an operator's key sends it")
         age = time.time() - message.sent_ns / 1e9
         if abs(age) > MAX_TRACKING_AGE:
             raise ProtocolError("stale-tracking", f"sent {age:.1f} s ago; at most "

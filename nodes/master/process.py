@@ -62,7 +62,7 @@ from nodes.master.events import (
 )
 from nodes.master.frame_inputs import FrameInputs
 from nodes.master.resyncs import Resyncs
-from nodes.master.run_record import FinalAgreement, Join, Loss, RunRecord, Stall
+from nodes.master.run_record import FinalAgreement, Join, Loss, RunRecord, Stall, UserAction
 from nodes.master.settings import Link, MasterConfig
 from nodes.master.tolerance import ToleranceMode
 from nodes.master.user_requests import UserRequests
@@ -88,7 +88,7 @@ class Master:
         self.membership = Membership(config.walls)
         self.clock = Clock(config.dt, config.realtime, config.max_frame_time,
                            config.max_substeps)
-        self.requests = UserRequests()  # the preview's pause, reset and quit
+        self.requests = UserRequests()  # an operator's pause, reset and stop
         self.stopping = False
         self.refused = False  # another master was there first: the nodes are its own
         self.record = RunRecord(config.walls, arithmetic=scene.arithmetic.value,
@@ -203,7 +203,9 @@ class Master:
                 asked = self.requests.take(self.link.controller)
                 if asked.quit:
                     self.record.user_stopped = True
-                    log.info("the user asked the run to end, after frame %d", k - 1)
+                    self.record.user_actions.append(UserAction(k, "stop", asked.by))
+                    log.info("%s asked the run to end, after frame %d", asked.by or "the user",
+                             k - 1)
                     break
                 message = self.inputs.make(k, asked)
                 barrier = self._barrier(k, message)

@@ -86,10 +86,11 @@ class Join:
 
 @dataclass(frozen=True)
 class UserAction:
-    """A request of the preview's user that took effect at `frame`."""
+    """A session control that took effect at `frame`, and who sent it."""
 
     frame: int
-    action: str  # "pause", "resume" or "reset"
+    action: str  # "pause", "resume", "reset" or "stop"
+    by: str | None = None  # the sender's identity ("operator preview"); None: no keys
 
     def to_json(self) -> dict:
         return asdict(self)
@@ -168,7 +169,7 @@ class RunRecord:
     run_id: int = 0  # the master's, in every message of the run
     frames: int = 0
     interrupted: bool = False
-    user_stopped: bool = False  # the preview's user ended the run (Esc)
+    user_stopped: bool = False  # an operator's stop ended the run (the preview's Esc)
     paused_frames: int = 0  # frames the user held (dt 0)
     clamped_inputs: int = 0  # tracked wand positions pulled back into reach
     clock_dropped_seconds: float = 0.0  # real-time mode: wall time given up to hitches

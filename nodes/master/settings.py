@@ -21,6 +21,7 @@ from cavesim.core.wire.network import NetworkSettings
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.master.events import Event
 from nodes.master.tolerance import Tolerance
+from nodes.master.user_requests import Controller
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ class Link(Protocol):
     rejects: RejectCounter  # the messages it refused, by reason
     dropped: int  # events its full queue could not take
     tracking: TrackingMessage | None  # the latest tracker message with a pose
-    controller: TrackingMessage | None  # the latest with session controls (a preview's)
+    controller: Controller | None  # the latest session controls taken, and their sender
 
     def send(self, message: FrameMessage | ControlMessage) -> None: ...
 

@@ -48,6 +48,7 @@ from cavesim.core.wire import (
     ReportMessage,
     SessionKeys,
     StateRequest,
+    TrackingMessage,
     encode,
 )
 from cavesim.core.wire.envelope import Message
@@ -94,6 +95,9 @@ class WallNode(MasterWatch, FrameStep, StateService):
             raise ValueError(f"on_master_loss must be one of {MASTER_LOSS_POLICIES}")
         if config.resync not in RESYNC_MODES:
             raise ValueError(f"resync must be one of {RESYNC_MODES}, got {config.resync!r}")
+        if config.preview and config.credentials is not None and config.operator is None:
+            raise ValueError("a preview in a session with keys needs an operator's key: the "
+                             "master takes pause, reset and stop from an operator alone")
         self.config = config
         self.keys = SessionKeys(config.session)
         self.fired: set[Fault] = set()  # injected faults done
@@ -198,14 +202,16 @@ class WallNode(MasterWatch, FrameStep, StateService):
     def _seal(self, message: Message, run_id: int | None = None) -> bytes:
         if isinstance(message, StateRequest | BlockRequest):  # whose budget it spends there
             message = dataclasses.replace(message, asker=self.config.name)
-        return encode(message, self.config.session, self.config.credentials,
+        credentials = self.config.operator if isinstance(message, TrackingMessage) \
+            else self.config.credentials  # the preview speaks as an operator, not as a wall
+        return encode(message, self.config.session, credentials,
                       self.view.run_id or 0 if run_id is None else run_id)
 
     # -- the window ----------------------------------------------------------------------
 
     def _tend_window(self) -> None:
         """Between events: the window system's events; a closed window ends the node; the
-        preview's input goes out as a tracker's would."""
+        preview's input goes out as a tracker's would, signed as an operator."""
         if self.live is None:
             return
         if self.live.closed():

@@ -23,6 +23,7 @@ class NodeConfig:
     session: str = "default"
     network: NetworkSettings = NetworkSettings()
     credentials: Credentials | None = None  # wall-NAME.key: signs as this node, checks the master's
+    operator: Credentials | None = None  # operator-NAME.key: signs what the preview sends
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
     cave: Path | None = None  # draw this node's walls of this CAVE ...

@@ -34,11 +34,12 @@ from cavesim.core.wire import (
     WandState,
     encode,
 )
-from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.credentials import Identity, generate
 from cavesim.core.wire.network import NetworkSettings, open_session
 from cavesim.core.wire.rejects import RejectCounter
 from nodes.blocks import BlockAsker
 from nodes.master.link import ZenohMasterLink
+from nodes.master.user_requests import Controller
 from nodes.wall.snapshots import fetch_snapshot
 
 SESSION = f"id{os.getpid()}"
@@ -47,6 +48,7 @@ RUN = 0x1234
 MASTER = generate()
 KEYS = {wall: MASTER.issue("wall", wall) for wall in WALLS}
 TRACKER = MASTER.issue("tracker", "dtrack")
+OPERATOR = MASTER.issue("operator", "desk")
 DIGEST = "ab" * 16
 
 
@@ -110,20 +112,39 @@ def test_tracking_is_taken_only_fresh_of_this_run_from_a_tracker(link):
     assert link.tracking is None and link.rejects.counts["replayed-tracking"] == 1
 
 
-def test_session_controls_come_only_from_a_wall_and_a_message_without_a_pose_keeps_the_last(
+def test_session_controls_count_only_from_an_operator_and_a_message_without_a_pose_keeps_the_last(
         link):
-    """A preview window (a wall's key) may pause, reset and quit; a tracker may not. The
-    preview's controls before anyone flew carry no pose: the tracker's pose stays."""
+    """Only an operator's key (a preview window's) may pause, reset and stop: a wall's or a
+    tracker's message with controls is refused whole (`not-an-operator`, counted), its pose
+    too. The preview's controls before anyone flew carry no pose: the tracker's pose stays,
+    and the controls taken name their sender."""
     key, now = f"cavesim/{SESSION}/tracking", time.time_ns()
     posed = tracking(now)
     link._on_tracking(sample(key, encode(posed, SESSION, TRACKER, RUN)))
-    asks = TrackingMessage(0, posed.head, WandState(), now + 1, False,
+    before = link.rejects.counts.get("not-an-operator", 0)
+    for sender, sent_ns in ((TRACKER, now + 1), (KEYS["front"], now + 2)):
+        stop = TrackingMessage(0, HeadState((7.0, 7.0, 7.0)), WandState(), sent_ns, True,
+                               SessionControls(paused=True, resets=1, quit=True))
+        link._on_tracking(sample(key, encode(stop, SESSION, sender, RUN)))
+    assert link.rejects.counts["not-an-operator"] == before + 2
+    assert link.controller is None and link.tracking == posed
+    asks = TrackingMessage(0, posed.head, WandState(), now + 3, False,
                            SessionControls(paused=True))
+    link._on_tracking(sample(key, encode(asks, SESSION, OPERATOR, RUN)))
+    assert link.controller == Controller(asks, Identity("operator", "desk"))
+    assert link.tracking == posed
+
+
+def test_tracking_from_a_walls_key_is_refused_and_an_operators_pose_is_taken(link):
+    """A wall's key sends no tracking at all (the preview signs as an operator); an
+    operator's pose moves the head as a tracker's does."""
+    key, now = f"cavesim/{SESSION}/tracking", time.time_ns()
+    link.tracking = None
     before = link.rejects.counts.get("wrong-signer", 0)
-    link._on_tracking(sample(key, encode(asks, SESSION, TRACKER, RUN)))
-    assert link.controller is None and link.rejects.counts["wrong-signer"] == before + 1
-    link._on_tracking(sample(key, encode(asks, SESSION, KEYS["front"], RUN)))
-    assert link.controller == asks and link.tracking == posed
+    link._on_tracking(sample(key, encode(tracking(now), SESSION, KEYS["left"], RUN)))
+    assert link.tracking is None and link.rejects.counts["wrong-signer"] == before + 1
+    link._on_tracking(sample(key, encode(tracking(now), SESSION, OPERATOR, RUN)))
+    assert link.tracking == tracking(now)
 
 
 # -- a state whose checksum collides with the named one --------------------------------------

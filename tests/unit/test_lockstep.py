@@ -23,6 +23,7 @@ from cavesim.core.wire import (
     TrackingMessage,
     WandState,
 )
+from cavesim.core.wire.credentials import OPERATOR, Identity
 from cavesim.core.wire.payloads.from_nodes import Phase, Status
 from cavesim.core.wire.payloads.poses import MAX_TRACKING_AGE
 from nodes import lockstep
@@ -31,7 +32,7 @@ from nodes.master.events import ProcessEnded
 from nodes.master.process import Master, MasterConfig, run_master
 from nodes.master.resyncs import MAX_RESYNC_FAILURES
 from nodes.master.swaps import WINDOW, SwapBook
-from nodes.master.user_requests import Asked, UserRequests
+from nodes.master.user_requests import Asked, Controller, UserRequests
 from nodes.wall.frame_timer import FrameTimer
 
 MINIMAL = Path(__file__).parents[2] / "config" / "scenes" / "minimal.toml"
@@ -370,19 +371,22 @@ def test_a_pause_holds_simulation_time_and_a_reset_starts_the_scene_over_frame_b
 
 def test_the_previews_quit_ends_the_run_cleanly_between_two_frames():
     """The user's quit is taken before the next frame: every wall has agreed on the last
-    one, all are told to stop, and the record says the user ended the run."""
+    one, all are told to stop, and the record says the user ended the run, and who asked."""
     link = MemoryLink(WALLS)
 
     def quit_at_5(k):
         if k == 5:
-            link.controller = TrackingMessage(0, HeadState(), WandState(), time.time_ns(),
-                                              False, SessionControls(quit=True))
+            link.controller = Controller(TrackingMessage(
+                0, HeadState(), WandState(), time.time_ns(), False, SessionControls(quit=True)),
+                Identity(OPERATOR, "preview"))
 
     record = run_master(MasterConfig(WALLS, MINIMAL, 20, "memory"), link, before_frame=quit_at_5)
     assert record.user_stopped and not record.interrupted and record.frames == 4
     assert record.final.agree and record.final.all_walls_in and not record.losses
     assert any(isinstance(m, ControlMessage) and m.command is Command.STOP for m in link.sent)
     assert record.summary()["user_stopped"]
+    assert record.summary()["user_actions"] == [
+        {"frame": 5, "action": "stop", "by": "operator preview"}]
 
 
 def test_user_requests_read_levels_and_count_resets():
@@ -391,7 +395,8 @@ def test_user_requests_read_levels_and_count_resets():
     requests, now = UserRequests(), time.time_ns()
 
     def sent(controls, age=0.0):
-        return TrackingMessage(0, HeadState(), WandState(), now - int(age * 1e9), False, controls)
+        return Controller(TrackingMessage(0, HeadState(), WandState(), now - int(age * 1e9),
+                                          False, controls))
 
     assert requests.take(None) == Asked()
     assert requests.take(sent(SessionControls(paused=True)), now) == Asked(paused=True)
@@ -403,6 +408,8 @@ def test_user_requests_read_levels_and_count_resets():
     assert requests.take(sent(SessionControls(True, 2, True), MAX_TRACKING_AGE + 1),
                          now) == Asked()
     assert requests.take(sent(SessionControls(quit=True)), now) == Asked(quit=True)
+    signed = Controller(sent(SessionControls(paused=True)).message, Identity(OPERATOR, "desk"))
+    assert requests.take(signed, now) == Asked(paused=True, by="operator desk")
 
 
 # -- where a frame goes -------------------------------------------------------------------------

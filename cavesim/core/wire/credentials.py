@@ -1,16 +1,21 @@
 """A session's credentials: the shared secret every message carries an HMAC-SHA256 under
 (a cheap first filter against outsiders), the master's Ed25519 key pair, and one Ed25519 key
-pair per wall and per tracker, each with a certificate: the master's signature over its
-role, name and public key. Only the master holds its private half, so only the master can
-sign a frame or a command, or make a member; a wall or a tracker signs its own messages with
-its own key and sends its certificate along, so a receiver knows which member spoke and
-that the master made it.
+pair per member, each with a certificate: the master's signature over its role, name and
+public key. Only the master holds its private half, so only the master can sign a frame or
+a command, or make a member; a member signs its own messages with its own key and sends its
+certificate along, so a receiver knows which member spoke, in which role, and that the
+master made it.
 
-`cavesim keys --out DIR --walls front,left --trackers dtrack` writes `master.key` (the
-secret and the master's signing key: the master's only), `wall-front.key`,
-`wall-left.key` and `tracker-dtrack.key` (the secret, the master's public key, the
-member's own key and certificate). All are small TOML files, readable by their owner only;
-a key file that others may read is refused.
+The roles (ROLE_CODES): a wall's node computes and reports its wall; a tracker sends the
+head and the wand; an operator (a preview window, `cavesim run --preview`) sends the head
+and the wand and the session controls (pause, reset, stop), which count from an operator
+alone.
+
+`cavesim keys --out DIR --walls front,left --trackers dtrack --operators desk` writes
+`master.key` (the secret and the master's signing key: the master's only),
+`wall-front.key`, `wall-left.key`, `tracker-dtrack.key` and `operator-desk.key` (the
+secret, the master's public key, the member's own key and certificate). All are small TOML
+files, readable by their owner only; a key file that others may read is refused.
 """
 
 from __future__ import annotations
@@ -29,19 +34,20 @@ SECRET_BYTES = 32
 ED25519_BYTES = 32  # either half of a key pair
 MASTER_SIGNATURE_BYTES = 64  # any Ed25519 signature
 MASTER_FILE = "master.key"
-MASTER, WALL, TRACKER = "master", "wall", "tracker"
-ROLE_CODES = {WALL: 1, TRACKER: 2}  # the byte a member's card names its role by
+MASTER, WALL, TRACKER, OPERATOR = "master", "wall", "tracker", "operator"
+ROLE_CODES = {WALL: 1, TRACKER: 2, OPERATOR: 3}  # the byte a member's card names its role by
 _CERTIFIED = b"cavesim member certificate\0"  # what a certificate signs begins with this
 
 
 def member_file(role: str, name: str) -> str:
-    """The key file's name of a member: wall-front.key, tracker-dtrack.key."""
+    """The key file's name of a member: wall-front.key, tracker-dtrack.key,
+    operator-desk.key."""
     return f"{role}-{name}.key"
 
 
 @dataclass(frozen=True)
 class Identity:
-    """Who signed a message: the master, or a wall or tracker by its name."""
+    """Who signed a message: the master, or a member by its role and name."""
 
     role: str
     name: str
@@ -83,7 +89,7 @@ class Credentials:
     secret: bytes  # the shared HMAC key
     master_public: bytes  # Ed25519 public key that verifies the master's signatures
     master_private: bytes | None = None  # Ed25519 private key: the master's file only
-    member: Identity | None = None  # a wall's or tracker's file: whose it is
+    member: Identity | None = None  # a member's file: whose it is
     member_private: bytes | None = None  # ... its own Ed25519 private key
     certificate: bytes | None = None  # ... and the master's signature over its card body
 
@@ -166,6 +172,11 @@ class Credentials:
         certificate = self.sign_as_master(_CERTIFIED + card_body(identity, public))
         return Credentials(self.secret, self.master_public, None, identity, private,
                            certificate)
+
+    def same_session(self, other: Credentials) -> bool:
+        """Whether `other` holds this session's secret and master key (made by one
+        `cavesim keys`)."""
+        return self.secret == other.secret and self.master_public == other.master_public
 
     def for_members(self) -> Credentials:
         """The secret and the master's public key alone: no member's key, so what it signs

@@ -1,4 +1,4 @@
-"""Key files on disk: `master.key` and one file per wall and tracker (credentials.py), TOML,
+"""Key files on disk: `master.key` and one file per member (credentials.py), TOML,
 mode 0600. Reading one checks that only its owner may read it, that it is whole, and whose
 it is: `read_key_file` names the file and what is wrong in one line."""
 
@@ -13,6 +13,7 @@ from cavesim.core.wire.credentials import (
     FORMAT,
     MASTER,
     MASTER_FILE,
+    OPERATOR,
     ROLE_CODES,
     TRACKER,
     WALL,
@@ -23,29 +24,32 @@ from cavesim.core.wire.credentials import (
 
 
 def write_key_files(folder: Path, credentials: Credentials, walls: tuple[str, ...],
-                    trackers: tuple[str, ...] = ()) -> list[Path]:
-    """Write master.key and a key of each wall and tracker into `folder` (mode 0600); their
-    paths, master.key first."""
+                    trackers: tuple[str, ...] = (), operators: tuple[str, ...] = ()
+                    ) -> list[Path]:
+    """Write master.key and a key of each wall, tracker and operator into `folder` (mode
+    0600); their paths, master.key first."""
     folder.mkdir(parents=True, exist_ok=True)
     master = folder / MASTER_FILE
     _write(master, "the master's only: the session's secret and the master's signing key",
            role=MASTER, secret=credentials.secret, master_private=credentials.master_private,
            master_public=credentials.master_public)
-    return [master] + write_member_keys(folder, credentials, walls, trackers)
+    return [master] + write_member_keys(folder, credentials, walls, trackers, operators)
 
 
 def write_member_keys(folder: Path, credentials: Credentials, walls: tuple[str, ...],
-                      trackers: tuple[str, ...] = ()) -> list[Path]:
-    """Issue a key to each wall and tracker with the master's `credentials` and write each
-    into `folder` (mode 0600); their paths."""
-    members = [(role, name) for role, names in ((WALL, walls), (TRACKER, trackers))
+                      trackers: tuple[str, ...] = (), operators: tuple[str, ...] = ()
+                      ) -> list[Path]:
+    """Issue a key to each wall, tracker and operator with the master's `credentials` and
+    write each into `folder` (mode 0600); their paths."""
+    members = [(role, name) for role, names in ((WALL, walls), (TRACKER, trackers),
+                                                (OPERATOR, operators))
                for name in names]
     return [write_member_key(folder / member_file(role, name), credentials.issue(role, name))
             for role, name in members]
 
 
 def write_member_key(path: Path, member: Credentials) -> Path:
-    """Write a wall's or tracker's credentials (no master signing key) to `path`, 0600."""
+    """Write a member's credentials (no master signing key) to `path`, 0600."""
     _write(path, f"{member.member}'s only: its own key, certified by the master",
            role=member.member.role, name=member.member.name, secret=member.secret,
            master_public=member.master_public, member_private=member.member_private,
@@ -63,10 +67,11 @@ def _write(path: Path, what: str, **keys: bytes | str | None) -> None:
         file.write("\n".join(lines) + "\n")
 
 
-def read_key_file(path: Path, role: str, name: str | None = None) -> Credentials:
-    """The credentials in the key file of `role` (and of member `name`, where given);
-    ValueError names the file and what is wrong, in one line."""
-    where = f"--key-file {path}"
+def read_key_file(path: Path, role: str, name: str | None = None,
+                  flag: str = "--key-file") -> Credentials:
+    """The credentials in the key file of `role` (and of member `name`, where given), given
+    as `flag`; ValueError names the flag, the file and what is wrong, in one line."""
+    where = f"{flag} {path}"
     try:
         mode = stat.S_IMODE(path.stat().st_mode)
         text = path.read_text()
