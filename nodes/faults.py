@@ -14,18 +14,18 @@ NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "i
 # far above what it counted, with its state's true checksum (an insider that lies)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood", "report-forgery", "query-replay", "tracking-replay",
-                  "second-master", "snapshot-collision", "oversize")
+                  "second-master", "snapshot-collision", "oversize", "control-forgery")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
 # snapshots to a node it makes diverge, flood the nodes with junk and state queries, report
 # in every other wall's name with one wall's key, replay the walls' own queries during a
 # resync, replay an earlier run's tracking, start a second master beside the first, serve
-# a state whose checksum collides with the named one, and send messages larger than the
-# transport takes
+# a state whose checksum collides with the named one, send messages larger than the
+# transport takes, and pause, reset and stop the run with one wall's key
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
-                 "tracking-replay", "second-master", "oversize")  # no node's: the others
-# are done to one node (the last wall unless one is named)
+                 "tracking-replay", "second-master", "oversize", "control-forgery")
+# no node's: the others are done to one node (the last wall unless one is named)
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
 SETTLE = 30  # frames after an attack on the whole cluster before its effects are measured
 # the harness makes these kinds' node diverge this many times, DIVERGENCE_GAP frames apart:

@@ -16,7 +16,7 @@ from pathlib import Path
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire.credentials import WALL
-from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
+from nodes.check.rogue import FORGED_CONTROLS, FORGED_HEAD, TAKEN_HEAD
 from nodes.check.state_forgers import FORGERIES
 from nodes.faults import (
     FLOOD_MESSAGES,
@@ -306,6 +306,29 @@ def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Ev
                 f"any was buffered; each node counted only the {under} under it")
 
 
+def _control_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A wall's key asking the master to pause, reset and stop the run, one a frame:
+    detected when the master counted each refused as no operator's (`not-an-operator`)
+    before the frame it asked for was made, healed when none took effect (no pause, reset
+    or stop recorded, no frame held, and the run went on past the last of them)."""
+    forged = harness.forged_controls.get(str(fault), [])
+    caught = len(forged) == len(FORGED_CONTROLS) and all(f["refused"] for f in forged)
+    obeyed = [action.to_json() for action in record.user_actions]
+    went_on = not (obeyed or record.paused_frames or record.user_stopped) \
+        and record.frames >= fault.frame + len(FORGED_CONTROLS)
+    return Evidence(
+        fault.frame if caught else None,
+        healed_at=fault.frame if went_on else None,
+        detection={"sent": forged, "refused_by_master_as_not_an_operator":
+                   record.master_rejected.get("not-an-operator", 0),
+                   "controls_taken": obeyed, "paused_frames": record.paused_frames,
+                   "user_stopped": record.user_stopped},
+        outcome=f"no control of a wall's key took effect: {record.frames} frames ran, none "
+                f"paused or reset, and the run was not stopped" if went_on else
+                f"the run obeyed a wall's key: {obeyed}, {record.paused_frames} frame(s) "
+                f"paused, stopped: {record.user_stopped}")
+
+
 def _master_kill(fault: Fault, record: RunRecord, harness, killed: RunRecord,
                  out: Path) -> Evidence:
     """A killed master: detected when every node noticed, healed when a new master ran
@@ -337,6 +360,7 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "second-master": _second_master,
     "snapshot-collision": _collision,
     "oversize": _oversize,
+    "control-forgery": _control_forgery,
     "master-kill": _master_kill,
 }
 

@@ -3,10 +3,10 @@
 Nodes run as child processes (node faults are passed to them as --inject); the master
 runs in this process so the harness can act between frames: kill and restart a node,
 attack the session as a rogue peer (`nodes/check/rogue.py`: junk, replayed signed
-traffic, an earlier run's messages, forged snapshots), or kill the master and have a new
-one take the nodes over. Afterwards every fault is matched with what the master recorded:
-when it was detected, which node was named, when it healed; an attack also says what was
-refused and what became of the run.
+traffic, an earlier run's messages, forged snapshots, session controls under a wall's key),
+or kill the master and have a new one take the nodes over. Afterwards every fault is
+matched with what the master recorded: when it was detected, which node was named, when it
+healed; an attack also says what was refused and what became of the run.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import TRACKER, WALL, generate
 from cavesim.core.wire.network import NetworkSettings
 from nodes.check.findings import check_report
-from nodes.check.rogue import RoguePeer
+from nodes.check.rogue import FORGED_CONTROLS, RoguePeer
 from nodes.check.state_forgers import StateForgers
 from nodes.faults import (
     DIVERGENCE_GAP,
@@ -45,13 +45,13 @@ from nodes.faults import (
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
 from nodes.lockstep import MASTER_GONE
-from nodes.master.link import open_master_link
+from nodes.master.link import ZenohMasterLink, open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
 ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-forgery",
                 "query-replay", "tracking-replay", "second-master", "snapshot-collision",
-                "oversize")  # a RoguePeer's
+                "oversize", "control-forgery")  # a RoguePeer's
 STATE_FORGERIES = ("snapshot-forgery", "snapshot-collision")  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
@@ -65,6 +65,7 @@ TRACKING_REPLAYS = 100  # tracking messages of each kind the master must refuse
 SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one signs
 OVERSIZE_MESSAGES, OVERSIZE_BYTES, OVERSIZE_QUERIES = 45, 64 * 2**20, 5
 UNDER_LIMIT_JUNK = 1  # junk frames just under the transport's limit, sent with them
+REFUSAL_WAIT = 5.0  # s at most a frame waits for the master to count a forged control
 
 
 @dataclass(frozen=True)
@@ -107,7 +108,7 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     try:
         if kill is None:
             record, killed = run_cluster(cluster, progress, harness.before_frame,
-                                         harness.checkpoint), None
+                                         harness.checkpoint, harness.attach), None
         else:
             record, killed = _past_a_master_kill(cluster, kill, progress, harness)
     finally:
@@ -170,11 +171,13 @@ def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harne
         first = dataclasses.replace(config, frames=frame - 1,
                                     frame_log=plan.out / "frames.killed-master.log")
         with open_master_link(first) as link, cluster.watch(link.events):
+            harness.attach(link)
             killed = run_master(first, link, progress, lambda k: harness.before_frame(
                 cluster, k), harness.checkpoint, abandon=True)
         harness.master_killed(cluster)
         second = dataclasses.replace(config, frames=config.frames - frame + 1)
         with open_master_link(second) as link, cluster.watch(link.events):
+            harness.attach(link)
             record = run_master(second, link, lambda k, live: progress(k + frame - 1, live),
                                 lambda k: harness.before_frame(cluster, k + frame - 1),
                                 harness.checkpoint)
@@ -198,11 +201,18 @@ class _Harness:
         self.measured: dict[str, dict] = {}
         self.second_master: dict = {}  # what became of a second master's start
         self.record: RunRecord | None = None  # the running master's record, as it goes
+        self.link: ZenohMasterLink | None = None  # the running master's link
+        # per control-forgery: each request it sent, and whether the master counted it refused
+        self.forged_controls: dict[str, list[dict]] = {}
         self._replaying: list[threading.Thread] = []
         self._paced: dict[str, float] = {}  # fault -> when its last divergence was sent
 
     def checkpoint(self, record: RunRecord) -> None:
         self.record = record
+
+    def attach(self, link: ZenohMasterLink) -> None:
+        """The running master's link (a new master's after a master-kill)."""
+        self.link = link
 
     def before_frame(self, cluster: LocalCluster, k: int) -> None:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
@@ -215,6 +225,8 @@ class _Harness:
             if fault.kind == "query-replay" and k == min(divergence_frames(fault)[1]
                                                          + DIVERGENCE_GAP, self.master.frames):
                 self._end_replays()  # so that the nodes' later reports count them all
+            if fault.kind == "control-forgery" and 0 <= k - fault.frame < len(FORGED_CONTROLS):
+                self._forge_control(fault, k)
             if fault.frame == k:
                 self._do(fault, cluster, k)
         for measured in self.measured.values():
@@ -269,6 +281,23 @@ class _Harness:
                 rogue.oversize(OVERSIZE_MESSAGES, OVERSIZE_BYTES, UNDER_LIMIT_JUNK,
                                OVERSIZE_QUERIES)
                 measured["seconds"] = round(time.monotonic() - started, 3)
+
+    def _forge_control(self, fault: Fault, k: int) -> None:
+        """Frame k's request of a control-forgery (pause, reset, then stop: one a frame),
+        with the first wall's key; frame k is made only once the master's link has counted
+        it refused or taken it (REFUSAL_WAIT at most), so that a request it took would act
+        on frame k."""
+        link, request = self.link, tuple(FORGED_CONTROLS)[k - fault.frame]
+        before = link.rejects.counts.get("not-an-operator", 0)
+        sent_ns = self.rogue.controls_as_a_wall(self.credentials.issue(WALL, self.rogue.walls[0]),
+                                                link.run_id, request)
+        deadline = time.monotonic() + REFUSAL_WAIT
+        while not (refused := link.rejects.counts.get("not-an-operator", 0) > before) \
+                and (link.controller is None or link.controller.message.sent_ns != sent_ns) \
+                and time.monotonic() < deadline:
+            time.sleep(0.005)
+        self.forged_controls.setdefault(str(fault), []).append(
+            {"frame": k, "request": request, "refused": refused})
 
     def _pace(self, fault: Fault) -> None:
         """Wait until COLLISION_PACE has passed since `fault`'s last divergence."""

@@ -8,7 +8,8 @@ session's shared secret can (HMAC-signed frames and commands without the master'
 signature, reports of frames never sent, reports in other walls' names); it replays the
 walls' own state and block queries and an earlier run's tracking messages, starts beside the
 master as a second master with the same keys, sends messages larger than the transport
-takes, and floods the nodes with junk and with state queries. (Insiders that serve forged
+takes, floods the nodes with junk and with state queries, and sends the preview's session
+controls with a wall's key. (Insiders that serve forged
 states are in nodes/check/state_forgers.py.)
 """
 
@@ -35,6 +36,7 @@ from cavesim.core.wire import (
     FrameMessage,
     HeadState,
     ReportMessage,
+    SessionControls,
     SessionKeys,
     StateRequest,
     TrackingMessage,
@@ -49,6 +51,12 @@ log = logging.getLogger("cavesim.rogue")
 FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
 FORGED_HEAD = HeadState((7.0, 7.0, 7.0))  # the pose of the tracking messages it replays
 TAKEN_HEAD = HeadState((0.5, -0.5, 1.625))  # of the one fresh message it sends (float32 exact)
+FORGED_CONTROLS = {  # a control-forgery's requests, in the order sent: the levels a preview's
+    # session controls have after P, then R, then Esc
+    "pause": SessionControls(paused=True),
+    "reset": SessionControls(paused=True, resets=1),
+    "stop": SessionControls(paused=True, resets=1, quit=True),
+}
 
 
 def member_signed(message: Message, session: str, secret: bytes, run_id: int) -> bytes:
@@ -232,6 +240,16 @@ class RoguePeer:
         stale = tracked(FORGED_HEAD, time.time_ns() - 10 * 10**9)
         self.put("stale-tracking", self.keys.tracking,
                  encode(stale, self.name, tracker, run_id))
+
+    def controls_as_a_wall(self, member: Credentials, run_id: int, request: str) -> int:
+        """The session controls of `request` (one of FORGED_CONTROLS), fresh, of this run and
+        signed with a wall's own key (`member`), as the preview's window would send them: the
+        master must refuse them, as no operator's. Their send time (ns)."""
+        asks = TrackingMessage(0, HeadState(), WandState(), time.time_ns(), False,
+                               FORGED_CONTROLS[request])
+        self.put(f"forged-{request}", self.keys.tracking,
+                 encode(asks, self.name, member, run_id))
+        return asks.sent_ns
 
     def frames_with_head(self, head: HeadState, member: Credentials, run_id: int) -> int:
         """How many captured frames of run `run_id` carry `head` (checked as a wall would

@@ -23,7 +23,7 @@ from pathlib import Path
 from cavesim.core.wire.key_files import write_member_keys
 from cavesim.core.wire.network import NetworkSettings
 from nodes.launch.launcher import LocalCluster
-from nodes.master.link import open_master_link
+from nodes.master.link import ZenohMasterLink, open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
@@ -40,11 +40,14 @@ class ClusterPlan:
 def run_cluster(plan: ClusterPlan,
                 progress: Callable[[int, int], None] = lambda k, live: None,
                 before_frame: Callable[[LocalCluster, int], None] | None = None,
-                checkpoint: Callable[[RunRecord], None] | None = None) -> RunRecord:
+                checkpoint: Callable[[RunRecord], None] | None = None,
+                on_link: Callable[[ZenohMasterLink], None] = lambda link: None) -> RunRecord:
     """Start a node per wall, run the master to the end (or Ctrl-C), stop every node;
-    `checkpoint` gets the record after every frame."""
+    `checkpoint` gets the record after every frame, `on_link` the master's link once it is
+    open (what it refused so far, while the run goes: the harness waits on it)."""
     with started_cluster(plan) as (cluster, config), open_master_link(config) as link, \
             cluster.watch(link.events):
+        on_link(link)
         hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
         return run_master(config, link, progress, hook, checkpoint)
 

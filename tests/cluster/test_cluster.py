@@ -135,6 +135,22 @@ def test_replayed_tracking_never_reaches_a_frame(tmp_path):
     assert detection["refused_by_master"]["wrong-run"] >= 100
 
 
+def test_a_walls_key_can_neither_pause_reset_nor_stop_the_run(tmp_path):
+    """An insider with a wall's key sends the preview's pause, reset and stop, one a frame:
+    the master refuses and counts each before the frame it asks for is made, and the run
+    goes to its planned end, never held or started over."""
+    report = check(tmp_path, ["control-forgery@20"], frames=30, scene=MINIMAL)
+    assert_each_fault_caught(report, ["control-forgery@20"])
+    (forgery,) = report["faults"]
+    detection = forgery["detection"]
+    assert detection["sent"] == [{"frame": 20 + i, "request": request, "refused": True}
+                                 for i, request in enumerate(("pause", "reset", "stop"))]
+    assert detection["refused_by_master_as_not_an_operator"] == 3
+    assert detection["controls_taken"] == [] and report["run"]["user_actions"] == []
+    assert report["frames"] == 30 and report["run"]["paused_frames"] == 0
+    assert not report["run"]["user_stopped"] and report["divergences"] == 0
+
+
 def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
     report = check(tmp_path, ["second-master@20"], frames=60, scene=MINIMAL)
     assert_each_fault_caught(report, ["second-master@20"])

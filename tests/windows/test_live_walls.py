@@ -21,9 +21,11 @@ from cavesim.core.cave.projection import eye_positions
 from cavesim.core.drivers import driver_for
 from cavesim.core.framelog import read_frame_log
 from cavesim.core.scene import load_scene
+from cavesim.core.wire.credentials import generate
 from cavesim.gpu.engine import ParticleSystem
 from cavesim.gpu.render.wall_renderer import WallRenderer
 from cavesim.tools.log_replay import replay
+from nodes.commands.run import RunPlan
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.master.process import MasterConfig
 
@@ -41,12 +43,11 @@ def live_cave(folder: Path, walls: tuple[str, ...], size: int = 64) -> Path:
 
 
 def live_run(folder: Path, scene: Path, walls: tuple[str, ...], frames: int, args,
-             before_frame=None, preview: bool = False):
+             before_frame=None):
     """Run a cluster whose walls show live with `args`; the master's RunRecord."""
-    members = (*walls, "preview") if preview else walls
-    config = MasterConfig(members, scene, frames, f"live{os.getpid()}{folder.name[-6:]}",
+    config = MasterConfig(walls, scene, frames, f"live{os.getpid()}{folder.name[-6:]}",
                           barrier_timeout=5.0, frame_log=folder / "frames.log")
-    node_args = {wall: args(wall) for wall in members}
+    node_args = {wall: args(wall) for wall in walls}
     return run_cluster(ClusterPlan(config, folder, node_args=node_args),
                        before_frame=before_frame)
 
@@ -141,7 +142,9 @@ def test_the_preview_window_flies_pauses_resets_and_ends_the_run(xserver, ctx,  
     """Its keys move the head as a tracker would; P pauses every node on one frame (dt 0) and
     resumes them, the title says the frame, the rate and the pause; R takes every node back
     to the start on one frame, and the run replays bit for bit from its frame log; Esc ends
-    the run cleanly between two frames."""
+    the run cleanly between two frames. With keys, as `cavesim run --preview --key-file`
+    plans it: the preview signs with the operator's key the run issued it, and the record
+    names that operator for each control."""
     cave = live_cave(tmp_path, ("front", "left", "right", "floor"))
     titles = []
 
@@ -155,13 +158,14 @@ def test_the_preview_window_flies_pauses_resets_and_ends_the_run(xserver, ctx,  
             hold_key(preview, {10: "p", 20: "p", 25: "r", 30: "Escape"}[k], 0.1)
             time.sleep(0.5)
 
-    record = live_run(tmp_path, MINIMAL, ("front",), 60, lambda wall: (
-        ("--preview", "--cave", str(cave)) if wall == "preview" else ()),
-        before_frame=keys, preview=True)
+    plan = RunPlan({"front": ("front",)}, MINIMAL, 60, tmp_path, f"preview{os.getpid()}",
+                   generate(), cave=cave, render_every=0, preview=True)
+    record = run_cluster(plan.cluster(), before_frame=keys)
     assert record.user_stopped and record.frames == 29
     assert record.final.agree and record.final.all_walls_in and not record.losses
-    assert [(a.frame, a.action) for a in record.user_actions] == [
-        (10, "pause"), (20, "resume"), (25, "reset")]
+    assert [(a.frame, a.action, a.by) for a in record.user_actions] == [
+        (10, "pause", "operator preview"), (20, "resume", "operator preview"),
+        (25, "reset", "operator preview"), (30, "stop", "operator preview")]
     frames = [logged.message for logged in read_frame_log(tmp_path / "frames.log")[1]]
     heads = [frame.head.position for frame in frames]
     assert abs(heads[3][1]) < 1e-6  # the script's sway moves the head sideways only
