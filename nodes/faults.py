@@ -26,6 +26,7 @@ KINDS = NODE_FAULTS + HARNESS_FAULTS
 WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
                  "tracking-replay", "second-master", "oversize", "control-forgery")
 # no node's: the others are done to one node (the last wall unless one is named)
+CONTROL_REQUESTS = ("pause", "reset", "stop")  # what a control-forgery asks, one a frame
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
 SETTLE = 30  # frames after an attack on the whole cluster before its effects are measured
 # the harness makes these kinds' node diverge this many times, DIVERGENCE_GAP frames apart:

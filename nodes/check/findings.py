@@ -16,9 +16,10 @@ from pathlib import Path
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire.credentials import WALL
-from nodes.check.rogue import FORGED_CONTROLS, FORGED_HEAD, TAKEN_HEAD
+from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
 from nodes.check.state_forgers import FORGERIES
 from nodes.faults import (
+    CONTROL_REQUESTS,
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
     SETTLE,
@@ -311,11 +312,14 @@ def _control_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path
     detected when the master counted each refused as no operator's (`not-an-operator`)
     before the frame it asked for was made, healed when none took effect (no pause, reset
     or stop recorded, no frame held, and the run went on past the last of them)."""
-    forged = harness.forged_controls.get(str(fault), [])
-    caught = len(forged) == len(FORGED_CONTROLS) and all(f["refused"] for f in forged)
+    after_a_kill = killed is not None and record is not killed  # its frames are the new run's
+    planned = dataclasses.replace(fault, frame=fault.frame + killed.frames) if after_a_kill \
+        else fault
+    forged = harness.forged_controls.get(str(planned), [])
+    caught = len(forged) == len(CONTROL_REQUESTS) and all(f["refused"] for f in forged)
     obeyed = [action.to_json() for action in record.user_actions]
     went_on = not (obeyed or record.paused_frames or record.user_stopped) \
-        and record.frames >= fault.frame + len(FORGED_CONTROLS)
+        and record.frames >= fault.frame + len(CONTROL_REQUESTS) - 1
     return Evidence(
         fault.frame if caught else None,
         healed_at=fault.frame if went_on else None,

@@ -29,9 +29,10 @@ from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import TRACKER, WALL, generate
 from cavesim.core.wire.network import NetworkSettings
 from nodes.check.findings import check_report
-from nodes.check.rogue import FORGED_CONTROLS, RoguePeer
+from nodes.check.rogue import RoguePeer
 from nodes.check.state_forgers import StateForgers
 from nodes.faults import (
+    CONTROL_REQUESTS,
     DIVERGENCE_GAP,
     DIVERGENCES,
     FLOOD_MESSAGES,
@@ -225,7 +226,7 @@ class _Harness:
             if fault.kind == "query-replay" and k == min(divergence_frames(fault)[1]
                                                          + DIVERGENCE_GAP, self.master.frames):
                 self._end_replays()  # so that the nodes' later reports count them all
-            if fault.kind == "control-forgery" and 0 <= k - fault.frame < len(FORGED_CONTROLS):
+            if fault.kind == "control-forgery" and 0 <= k - fault.frame < len(CONTROL_REQUESTS):
                 self._forge_control(fault, k)
             if fault.frame == k:
                 self._do(fault, cluster, k)
@@ -287,7 +288,7 @@ class _Harness:
         with the first wall's key; frame k is made only once the master's link has counted
         it refused or taken it (REFUSAL_WAIT at most), so that a request it took would act
         on frame k."""
-        link, request = self.link, tuple(FORGED_CONTROLS)[k - fault.frame]
+        link, request = self.link, CONTROL_REQUESTS[k - fault.frame]
         before = link.rejects.counts.get("not-an-operator", 0)
         sent_ns = self.rogue.controls_as_a_wall(self.credentials.issue(WALL, self.rogue.walls[0]),
                                                 link.run_id, request)

@@ -51,8 +51,8 @@ log = logging.getLogger("cavesim.rogue")
 FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
 FORGED_HEAD = HeadState((7.0, 7.0, 7.0))  # the pose of the tracking messages it replays
 TAKEN_HEAD = HeadState((0.5, -0.5, 1.625))  # of the one fresh message it sends (float32 exact)
-FORGED_CONTROLS = {  # a control-forgery's requests, in the order sent: the levels a preview's
-    # session controls have after P, then R, then Esc
+FORGED_CONTROLS = {  # a control-forgery's requests (CONTROL_REQUESTS): the levels a
+    # preview's session controls have after P, then R, then Esc
     "pause": SessionControls(paused=True),
     "reset": SessionControls(paused=True, resets=1),
     "stop": SessionControls(paused=True, resets=1, quit=True),
@@ -242,7 +242,7 @@ class RoguePeer:
                  encode(stale, self.name, tracker, run_id))
 
     def controls_as_a_wall(self, member: Credentials, run_id: int, request: str) -> int:
-        """The session controls of `request` (one of FORGED_CONTROLS), fresh, of this run and
+        """The session controls of `request` (one of CONTROL_REQUESTS), fresh, of this run and
         signed with a wall's own key (`member`), as the preview's window would send them: the
         master must refuse them, as no operator's. Their send time (ns)."""
         asks = TrackingMessage(0, HeadState(), WandState(), time.time_ns(), False,

@@ -23,7 +23,7 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
-from nodes.faults import KINDS, divergence_frames, every_kind
+from nodes.faults import CONTROL_REQUESTS, KINDS, divergence_frames, every_kind
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 from nodes.run_folder import add_arguments as add_out_arguments
 from nodes.run_folder import own_folder
@@ -79,6 +79,11 @@ def check(args: argparse.Namespace, console) -> int:
         if f.frame > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
                              f"last frame {args.frames}")
+        if f.kind == "control-forgery" and f.frame + len(CONTROL_REQUESTS) - 1 > args.frames:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} asks "
+                             f"{', '.join(CONTROL_REQUESTS)} on frames {f.frame} to "
+                             f"{f.frame + len(CONTROL_REQUESTS) - 1}, after the last frame "
+                             f"{args.frames}")
         if (last := divergence_frames(f)[-1]) > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} makes its node "
                              f"diverge again at frame {last}, after the last frame "

@@ -197,6 +197,8 @@ def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monke
     (["check", "--session", "a/b"], "cavesim check: error: argument --session: session must"),
     (["check", "--frames", "30", "--inject", "query-replay@25:front"],
      "query-replay@25:front makes its node diverge again at frame 35, after the last frame 30"),
+    (["check", "--frames", "30", "--inject", "control-forgery@29"],
+     "control-forgery@29 asks pause, reset, stop on frames 29 to 31, after the last frame 30"),
     (["doctor", "--session", "x.y"], "cavesim doctor: error: argument --session: session"),
     (["run", "--cave", "no/such/cave.toml"], "argument --cave: no CAVE file"),
     (["node", "--node", "ws9", "--cave", "config/cave/flex4.toml"],
