@@ -54,7 +54,7 @@ class TrackingMessage:
     sent_ns: int = 0  # the sender's wall clock (time.time_ns): its age, and its sequence
     # (the master takes from each sender only a message sent after the last it took)
     posed: bool = True  # head and wand are a pose (False: the preview before anyone flew)
-    controls: SessionControls | None = None  # the preview's; a tracker has none
+    controls: SessionControls | None = None  # an operator's (the preview's); a tracker sends none
 
 
 def write_tracking(m: TrackingMessage) -> bytes:
