@@ -56,7 +56,7 @@ class LogReplay:
                  trajectories: TrajectoryRecording | None = None) -> None:
         self.header, self.frames = read_frame_log(log_path)
         given = scene_path is not None
-        scene_path = Path(scene_path or self.header["scene"])
+        scene_path = Path(scene_path) if given else logged_scene(self.header, log_path)
         scene = load_scene(scene_path)
         warnings = scene_warnings(self.header.get("scene_digest"), scene_digest(scene),
                                   scene_path, given)
@@ -121,6 +121,15 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
         if run.trajectories is not None:
             run.result.trajectories = str(run.trajectories.finish())
     return run.result
+
+
+def logged_scene(header: dict, log_path: Path) -> Path:
+    """The scene file the log's header names; ValueError if it names none."""
+    scene = header.get("scene")
+    if not isinstance(scene, str) or not scene:
+        raise ValueError(f"{log_path}: its header names no scene file (scene = {scene!r}, "
+                         f"expected a path): give the run's scene with --scene")
+    return Path(scene)
 
 
 def planned_run(header: dict, frames: LoggedFrames) -> tuple[int, float]:
