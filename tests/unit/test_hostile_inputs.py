@@ -39,6 +39,7 @@ from cavesim.core.scene import load_scene, parse_scene
 from cavesim.core.wire import FrameMessage
 from cavesim.gpu.render import gltf_file
 from cavesim.gpu.render.gltf_model import read_model
+from cavesim.tools.log_replay import planned_run
 from nodes import cli
 from nodes.arguments import USAGE_ERROR
 
@@ -245,6 +246,15 @@ def test_a_header_naming_no_scene_file_is_one_line(tmp_path, capsys, scene):
         {"format": "cavesim-frame-log", "version": 4, "session": "t", "scene": scene}).encode())
     assert cli.main(["replay", str(log)]) == USAGE_ERROR
     assert f"its header names no scene file (scene = {scene!r}" in one_line(capsys)
+
+
+@pytest.mark.parametrize("planned", [{"frames": "600", "dt": 1 / 60},
+                                     {"frames": 600, "dt": float("nan")},
+                                     {"frames": 0, "dt": 1 / 60}], ids=["text", "nan", "none"])
+def test_a_header_planning_no_run_is_refused_by_a_replay_of_trajectories(planned):
+    with pytest.raises(ValueError, match="its header plans frames = .*; expected an integer "
+                                         ">= 1 and a number of seconds > 0"):
+        planned_run({"format": "cavesim-frame-log", "version": 4, **planned}, [])
 
 
 # -- finding: the four internal errors ------------------------------------------------------
