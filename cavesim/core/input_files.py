@@ -26,12 +26,14 @@ def open_input(path: Path, error: type[Exception], what: str, limit: int) -> Bin
     allowed when it is no regular file of at most `limit` bytes, or cannot be opened."""
     path = Path(path)
     try:
-        _check(path, os.stat(path), error, what, limit)  # a symlink's target is what is read
-        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
-    except error:
-        raise
+        status = os.stat(path)  # a symlink's target is what is read
     except (OSError, ValueError) as e:  # a ValueError: a NUL in the path
-        raise error(f"{path}: cannot read {what}: {getattr(e, 'strerror', None) or e}") from e
+        raise _unreadable(path, what, error, e) from e
+    _check(path, status, error, what, limit)  # a device is refused before it is opened
+    try:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError as e:
+        raise _unreadable(path, what, error, e) from e
     try:
         _check(path, os.fstat(descriptor), error, what, limit)  # replaced since its stat?
         os.set_blocking(descriptor, True)
@@ -49,7 +51,7 @@ def read_input(path: Path, error: type[Exception], what: str, limit: int) -> byt
         try:
             return file.read(size)
         except OSError as e:
-            raise error(f"{Path(path)}: cannot read {what}: {e.strerror or e}") from e
+            raise _unreadable(Path(path), what, error, e) from e
         except MemoryError as e:
             raise error(f"{Path(path)}: {what} is {_bytes(size)}, more than this machine can "
                         f"hold in memory now") from e
@@ -81,11 +83,12 @@ def _check(path: Path, status: os.stat_result, error: type[Exception], what: str
         raise error(f"{path}: {what} is {_kind(path, status)}; only a regular file of at "
                     f"most {_bytes(limit)} is read")
     if status.st_size > limit:
-        raise error(_too_large(path, what, status.st_size, limit))
+        raise error(f"{path}: {what} is {_bytes(status.st_size)}; at most {_bytes(limit)} is "
+                    f"read")
 
 
-def _too_large(path: Path, what: str, size: int, limit: int) -> str:
-    return f"{path}: {what} is {_bytes(size)}; at most {_bytes(limit)} is read"
+def _unreadable(path: Path, what: str, error: type[Exception], cause: Exception) -> Exception:
+    return error(f"{path}: cannot read {what}: {getattr(cause, 'strerror', None) or cause}")
 
 
 def _bytes(count: int) -> str:
