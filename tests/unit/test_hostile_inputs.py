@@ -215,6 +215,15 @@ def test_a_field_file_over_its_limit_is_refused_before_it_is_read(tmp_path):
         load_scene(scene_file(tmp_path, "field.file", flow.name))
 
 
+def test_a_fifo_swapped_in_after_the_check_neither_blocks_nor_is_read(tmp_path, monkeypatch):
+    regular, swapped = scene_file(tmp_path), fifo(tmp_path / "swapped.toml")
+    stat = os.stat
+    monkeypatch.setattr(os, "stat", lambda path, *args, **kwargs: stat(
+        regular if Path(path) == swapped else path, *args, **kwargs))  # checked: regular
+    with pytest.raises(SceneError, match=re.escape(f"{swapped}: scene file is a FIFO")):
+        within_bound(lambda: load_scene(swapped), swapped)
+
+
 def test_a_log_that_is_no_regular_file_is_one_line(tmp_path, capsys):
     log = fifo(tmp_path / "frames.log")
     assert within_bound(lambda: cli.main(["replay", str(log)]), log) == USAGE_ERROR
