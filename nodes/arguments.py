@@ -131,7 +131,7 @@ def frame_log_path(path: Path, command: str) -> Path:
             raise UsageError(f"cavesim {command}: error: argument log: folder {str(path)!r} "
                              f"holds no {FRAME_LOG}; give a run's folder or its frame log")
         path = path / FRAME_LOG
-    if not path.is_file():
+    if not path.exists():  # what is there is read as `read_frame_log` allows, or named
         raise UsageError(f"cavesim {command}: error: argument log: no file {str(path)!r}")
     return path
 

@@ -27,6 +27,8 @@ from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
 
+from cavesim.core.input_files import not_regular
+
 
 @dataclass(frozen=True)
 class Range:
@@ -304,7 +306,9 @@ class Table:
         if converted is None or not _holds(spec, converted):
             raise self._bad(key, value, _allowed(spec, key))
         if spec.type is Path and not converted.is_file():
-            raise self._bad(key, value, f"{_allowed(spec, key)} (looked for {converted})")
+            kind = not_regular(converted)  # a folder, a FIFO, a device: said, never opened
+            raise self._bad(key, value, f"{_allowed(spec, key)} (looked for {converted}"
+                                        + (f", which is {kind})" if kind else ")"))
         return converted
 
 

@@ -1,5 +1,6 @@
 """Reading a TOML input file, with every failure turned into the caller's error class.
 
+The file must be a regular file of at most MAX_TOML_BYTES (`cavesim.core.input_files`).
 Nesting is bounded: `tomllib` recurses once per level of an array or inline table and
 fails with a RecursionError past Python's limit, and a table nested by dotted keys is
 as deep as it has parts. No cavesim file needs more than a few levels (the shipped ones
@@ -13,16 +14,15 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-MAX_NESTING = 32  # levels of tables and arrays in one TOML input
+from cavesim.core.input_files import read_input
+from cavesim.core.limits import MAX_NESTING, MAX_TOML_BYTES
 
 
 def read_toml(path: Path, error: type[Exception], what: str) -> dict[str, Any]:
     """The parsed file; `error` names the file and what is wrong with it."""
+    text = read_input(path, error, what, MAX_TOML_BYTES)
     try:
-        with path.open("rb") as f:
-            data = tomllib.load(f)
-    except OSError as e:
-        raise error(f"{path}: cannot read {what}: {e.strerror or e}") from e
+        data = tomllib.loads(text.decode())
     except UnicodeDecodeError as e:
         raise error(f"{path}: not valid TOML: the file must be UTF-8 ({e})") from e
     except tomllib.TOMLDecodeError as e:

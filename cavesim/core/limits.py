@@ -22,6 +22,10 @@ RANDOM_TEXTURE_SIZE_RANGE = (16, 4096)  # a power of two; 4096 is below every GL
 FIELD_RESOLUTION_RANGE = (2, 256)  # nodes per axis: 256³ × 3 × float32 is already 200 MB
 MAX_FIELD_NODES = 2**22  # nodes of a field in all: a 64 MiB RGBA32F texture at most
 MAX_FIELD_SERIES_NODES = 2**25  # nodes of a time series' snapshots in all: 384 MiB of float32
+# A series' snapshots are stacked along z in one 3D texture, 2 nodes deep each at least:
+# 8192 of them fill the largest GL_MAX_3D_TEXTURE_SIZE we know of (16384, NVIDIA's; each
+# context's own is checked when the texture is made). It bounds the grids a load makes.
+MAX_FIELD_SNAPSHOTS = 8192
 
 # --- what a scene may ask for ------------------------------------------------------------
 MAX_RATE = 1e9  # particles/s of one emitter
@@ -48,3 +52,17 @@ SPEED_LIMIT = 1e7  # m/s
 MAX_LAUNCH_SPEED = SPEED_LIMIT / 4  # m/s, an emitter's speed: speed ± spread stays inside
 
 MAX_TRAJECTORIES = 1_000_000  # particles a run may track (`cavesim run --trajectories`)
+
+# --- input files: checked before what they hold is read ----------------------------------
+# A file an input names (a scene, the files a scene names, a frame log, a key file) is read
+# only if it is a regular file (not a FIFO, a device or a folder) of at most these bytes.
+MAX_NESTING = 32  # levels of tables, objects and arrays in a TOML or JSON input (the
+# shipped files reach 6)
+MAX_TOML_BYTES = 2**24  # a scene, a CAVE, a tracker mapping or a key file: 16 MiB
+MAX_FIELD_FILE_BYTES = 2**31  # a flow or height field (.npz, .nc, .vti): the largest series
+# in float64 (805 MB) with room for other variables; the most of any file a scene names
+MAX_FRAME_LOG_BYTES = 2**32  # read whole: some 25 million frames, four days at 60 Hz
+MAX_FRAME_LOG_HEADER_BYTES = 2**20  # its JSON header line
+MAX_MODEL_BYTES = 2**28  # a helicopter model (glTF): the file and its buffers together
+MAX_MODEL_NODES = 2**14  # nodes of a model's glTF, and primitives drawn: half a second to walk
+MAX_MODEL_TRIANGLES = 500_000  # of a model in all: 54 MB of rows

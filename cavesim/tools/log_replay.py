@@ -11,6 +11,7 @@ checked.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,7 +57,7 @@ class LogReplay:
                  trajectories: TrajectoryRecording | None = None) -> None:
         self.header, self.frames = read_frame_log(log_path)
         given = scene_path is not None
-        scene_path = Path(scene_path or self.header["scene"])
+        scene_path = Path(scene_path) if given else logged_scene(self.header, log_path)
         scene = load_scene(scene_path)
         warnings = scene_warnings(self.header.get("scene_digest"), scene_digest(scene),
                                   scene_path, given)
@@ -90,9 +91,14 @@ class LogReplay:
 
     def record_trajectories(self, folder: Path, count: int, every: int) -> None:
         """Write trajectories.parquet into `folder` as the run did (`cavesim run
-        --trajectories`): its selection comes from the log header's planned frames and dt."""
+        --trajectories`): its selection comes from the log header's planned frames and dt
+        (ValueError if the header's are no such)."""
+        try:
+            planned = planned_run(self.header, self.frames)
+        except ValueError as e:
+            raise ValueError(f"{self.result.log}: {e}") from e
         self.trajectories = TrajectoryRecording(folder, self.scene, TrajectoryRequest(
-            count, every, *planned_run(self.header, self.frames)))
+            count, every, *planned))
 
     def release(self) -> None:
         if self.trajectories is not None:
@@ -123,11 +129,25 @@ def replay(log_path: Path, scene_path: Path | None = None, ctx=None,
     return run.result
 
 
+def logged_scene(header: dict, log_path: Path) -> Path:
+    """The scene file the log's header names; ValueError if it names none."""
+    scene = header.get("scene")
+    if not isinstance(scene, str) or not scene:
+        raise ValueError(f"{log_path}: its header names no scene file (scene = {scene!r}, "
+                         f"expected a path): give the run's scene with --scene")
+    return Path(scene)
+
+
 def planned_run(header: dict, frames: LoggedFrames) -> tuple[int, float]:
     """The run's planned frames and nominal dt, as its header says (a log older than that:
-    its whole records and the first one's dt)."""
+    its whole records and the first one's dt); ValueError if the header's are no such."""
     if "frames" in header and "dt" in header:
-        return header["frames"], header["dt"]
+        planned, dt = header["frames"], header["dt"]
+        if type(planned) is not int or planned < 1 or type(dt) not in (int, float) \
+                or not 0 < dt < math.inf:
+            raise ValueError(f"its header plans frames = {planned!r} of dt = {dt!r}; expected "
+                             f"an integer >= 1 and a number of seconds > 0")
+        return planned, float(dt)
     first = next(iter(frames), None)
     return len(frames), float(first.message.inputs.dt) if first is not None else 1 / 60
 

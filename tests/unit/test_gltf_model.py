@@ -14,6 +14,7 @@ import pytest
 from gltf_files import RED, cube, write_gltf
 
 from cavesim.core.errors import ModelError, SceneError
+from cavesim.core.limits import MAX_MODEL_TRIANGLES
 from cavesim.core.scene import parse_scene
 from cavesim.gpu.render import gltf_model
 from cavesim.gpu.render.gltf_model import read_model
@@ -111,7 +112,7 @@ def broken_files(tmp_path: Path) -> dict[str, tuple[Path, str]]:
     empty = write_gltf(tmp_path / "empty.glb", [], [pygltflib.Node(name="nothing")])
     lines = write_gltf(tmp_path / "lines.glb", [{**cube((0, 0, 0)), "mode": pygltflib.LINES}],
                        [pygltflib.Node(mesh=0)])
-    over = gltf_model.MAX_TRIANGLES + 1  # of one triangle, again and again
+    over = MAX_MODEL_TRIANGLES + 1  # of one triangle, again and again
     big = write_gltf(tmp_path / "big.glb", [{"positions": np.eye(3), "indices": np.tile(
         np.arange(3, dtype=np.uint16), over)}], [pygltflib.Node(mesh=0)])
     looped = write_gltf(tmp_path / "looped.glb", [cube((0, 0, 0))],
@@ -119,13 +120,13 @@ def broken_files(tmp_path: Path) -> dict[str, tuple[Path, str]]:
     tails = write_gltf(tmp_path / "tails.glb", [cube((0, 0, 0))],
                        [pygltflib.Node(mesh=0), *[pygltflib.Node(name="tail_rotor")] * 2])
     return {
-        "missing": (tmp_path / "gone.glb", "not a readable glTF 2.0 file (FileNotFoundError"),
-        "not glTF": (garbage, "not a readable glTF 2.0 file (OSError"),
-        "not JSON": (prose, "not a readable glTF 2.0 file (JSONDecodeError"),
+        "missing": (tmp_path / "gone.glb", "cannot read the model file: No such file"),
+        "not glTF": (garbage, "not a .glb file: it begins b'PK\\x03\\x04'"),
+        "not JSON": (prose, "its glTF JSON is not valid JSON: Expecting value"),
         "no triangles": (empty, "it holds no triangles"),
         "lines": (lines, "mesh 0 primitive 0 has mode 1 (lines); only mode 4 (triangles) is "
                          "drawn"),
-        "too large": (big, f"more than {gltf_model.MAX_TRIANGLES} triangles (at mesh 0 "
+        "too large": (big, f"more than {MAX_MODEL_TRIANGLES} triangles (at mesh 0 "
                            "primitive 0)"),
         "a loop": (looped, "node 0 is reached twice: the nodes must form trees"),
         "two tail rotors": (tails, "2 nodes are named 'tail_rotor'; one at most"),
@@ -142,7 +143,7 @@ def test_a_file_that_cannot_be_a_model_gets_one_line(tmp_path, case):
     assert "\n" not in message
     assert message.startswith(f"{path}: {words}"), message
     assert message.endswith("; a helicopter model must be a glTF 2.0 file (.glb or .gltf) of "
-                            f"triangle meshes, at most {gltf_model.MAX_TRIANGLES} "
+                            f"triangle meshes, at most {MAX_MODEL_TRIANGLES} "
                             "triangles"), message
 
 

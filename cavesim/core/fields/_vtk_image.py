@@ -16,6 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from cavesim.core.errors import FieldError
+from cavesim.core.input_files import open_input
+from cavesim.core.limits import MAX_FIELD_FILE_BYTES
 
 VTK_TYPES = {"Float32": "f4", "Float64": "f8"}
 VTK_HEADER_TYPES = {"UInt32": "u4", "UInt64": "u8"}
@@ -50,10 +52,11 @@ class ImageData:
 
 def read_image_data(path: Path) -> ImageData:
     """The file's ImageData geometry: axis-aligned (Direction the identity), Spacing > 0."""
-    try:
-        root = ET.parse(path).getroot()
-    except (OSError, ET.ParseError) as e:
-        raise FieldError(f"{path}: cannot read as VTK XML: {e}") from e
+    with open_input(path, FieldError, "the VTK file", MAX_FIELD_FILE_BYTES) as file:
+        try:
+            root = ET.parse(file).getroot()
+        except (OSError, ET.ParseError) as e:
+            raise FieldError(f"{path}: cannot read as VTK XML: {e}") from e
     image = root.find("ImageData")
     if root.tag != "VTKFile" or root.get("type") != "ImageData" or image is None:
         raise FieldError(f"{path}: root <{root.tag} type={root.get('type')!r}>; expected "

@@ -4,7 +4,9 @@
 a regular grid, x varying fastest, the box of its first and last nodes in metres, and for a
 NetCDF time series its snapshot times. The caller reads cavesim's own .npz archives itself
 (`cavesim.core.fields.grid`). Every bad input becomes one FieldError naming the file, the
-variable or attribute and what was expected.
+variable or attribute and what was expected. A file is read only if it is a regular file
+within MAX_FIELD_FILE_BYTES, and its sizes (nodes, snapshots) are checked against the limits
+before its values are read.
 """
 
 from __future__ import annotations
@@ -17,7 +19,14 @@ import numpy as np
 
 from cavesim.core.errors import FieldError
 from cavesim.core.fields._vtk_image import point_vectors, read_image_data
-from cavesim.core.limits import FIELD_RESOLUTION_RANGE, MAX_FIELD_NODES, MAX_FIELD_SERIES_NODES
+from cavesim.core.input_files import descriptor_path, open_input
+from cavesim.core.limits import (
+    FIELD_RESOLUTION_RANGE,
+    MAX_FIELD_FILE_BYTES,
+    MAX_FIELD_NODES,
+    MAX_FIELD_SERIES_NODES,
+    MAX_FIELD_SNAPSHOTS,
+)
 
 # The velocity components: axis, the variable name used when no standard_name matches, and
 # the CF standard names (wind and sea water) that identify the component.
@@ -90,39 +99,52 @@ def read_flow_file(path: Path, variables: tuple[str, ...] | None = None,
 def _read_netcdf(path, variables, velocity_units, length_units, time_units) -> GriddedFlow:
     import xarray as xr  # here: it brings pandas, which only NetCDF files need
 
-    try:
-        dataset = xr.open_dataset(path, engine="netcdf4", decode_times=False)
-    except (OSError, ValueError, RuntimeError) as e:
-        raise FieldError(f"{path}: cannot read as NetCDF: {e}") from e
-    with dataset:
-        names = _velocity_names(path, dataset, variables)
-        layouts = [_layout(path, dataset, name) for name in names]
-        dims = layouts[0][0]
-        if any(other != dims for other, _ in layouts):
-            raise FieldError(f"{path}: variables {names} lie on different dimensions "
-                             f"{[d for d, _ in layouts]}; expected the same x, y and z")
-        _check_nodes(path, f"variable {names[0]!r}", [dataset.sizes[d] for d in dims])
-        nodes = [_axis_nodes(path, dataset, dim, length_units) for dim in reversed(dims)]
-        units = {name: dataset[name].attrs.get("units") for name in names}
-        if velocity_units is None and len(set(units.values())) > 1:
-            raise FieldError(f"{path}: the velocity variables have units {units}; expected the "
-                             "same units on all three")
-        scale = _unit_scale(path, f"variable {names[0]!r}", velocity_units or units[names[0]],
-                            velocity_units is not None, VELOCITY_UNITS, "velocity_units")
-        times = {time for _, time in layouts}
-        if len(times) > 1:
-            raise FieldError(f"{path}: variables {names} have different time dimensions "
-                             f"{sorted(map(str, times))}; expected the same time, or none")
-        time = times.pop()
-        snapshots = dataset.sizes[time] if time else 1
-        grid_nodes = math.prod(dataset.sizes[d] for d in dims)
-        if grid_nodes * snapshots > MAX_FIELD_SERIES_NODES:
-            raise FieldError(f"{path}: {snapshots} snapshots of {grid_nodes} nodes; expected at "
-                             f"most {MAX_FIELD_SERIES_NODES} nodes in all snapshots together")
-        components = [_finite_float32(path, f"variable {name!r}",
-                                      _values(path, dataset, name, dims, time) * scale)
-                      for name in names]
-        seconds = (0.0,) if snapshots == 1 else _snapshot_times(path, dataset, time, time_units)
+    with open_input(path, FieldError, "the NetCDF file", MAX_FIELD_FILE_BYTES) as file:
+        try:  # netCDF4 takes a path: the one of the file held open, whatever is at `path`
+            dataset = xr.open_dataset(descriptor_path(file), engine="netcdf4",
+                                      decode_times=False)
+        except (OSError, ValueError, RuntimeError) as e:
+            raise FieldError(f"{path}: cannot read as NetCDF: {e}") from e
+        with dataset:
+            return _netcdf_flow(path, dataset, variables, velocity_units, length_units,
+                                time_units)
+
+
+def _netcdf_flow(path, dataset, variables, velocity_units, length_units,
+                 time_units) -> GriddedFlow:
+    """The flow of an open NetCDF dataset."""
+    names = _velocity_names(path, dataset, variables)
+    layouts = [_layout(path, dataset, name) for name in names]
+    dims = layouts[0][0]
+    if any(other != dims for other, _ in layouts):
+        raise FieldError(f"{path}: variables {names} lie on different dimensions "
+                         f"{[d for d, _ in layouts]}; expected the same x, y and z")
+    _check_nodes(path, f"variable {names[0]!r}", [dataset.sizes[d] for d in dims])
+    nodes = [_axis_nodes(path, dataset, dim, length_units) for dim in reversed(dims)]
+    units = {name: dataset[name].attrs.get("units") for name in names}
+    if velocity_units is None and len(set(units.values())) > 1:
+        raise FieldError(f"{path}: the velocity variables have units {units}; expected the "
+                         "same units on all three")
+    scale = _unit_scale(path, f"variable {names[0]!r}", velocity_units or units[names[0]],
+                        velocity_units is not None, VELOCITY_UNITS, "velocity_units")
+    times = {time for _, time in layouts}
+    if len(times) > 1:
+        raise FieldError(f"{path}: variables {names} have different time dimensions "
+                         f"{sorted(map(str, times))}; expected the same time, or none")
+    time = times.pop()
+    snapshots = dataset.sizes[time] if time else 1
+    if snapshots > MAX_FIELD_SNAPSHOTS:
+        raise FieldError(f"{path}: time dimension {time!r} holds {snapshots:,} snapshots; "
+                         f"at most MAX_FIELD_SNAPSHOTS = {MAX_FIELD_SNAPSHOTS} are allowed "
+                         "(a series' snapshots are stacked in one 3D texture)")
+    grid_nodes = math.prod(dataset.sizes[d] for d in dims)
+    if grid_nodes * snapshots > MAX_FIELD_SERIES_NODES:
+        raise FieldError(f"{path}: {snapshots} snapshots of {grid_nodes} nodes; expected at "
+                         f"most {MAX_FIELD_SERIES_NODES} nodes in all snapshots together")
+    components = [_finite_float32(path, f"variable {name!r}",
+                                  _values(path, dataset, name, dims, time) * scale)
+                  for name in names]
+    seconds = (0.0,) if snapshots == 1 else _snapshot_times(path, dataset, time, time_units)
     box_min, box_max = zip(*nodes, strict=True)
     return GriddedFlow(np.stack(components, axis=-1), box_min, box_max, seconds)
 

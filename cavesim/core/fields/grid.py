@@ -22,15 +22,8 @@ from cavesim.core.errors import FieldError
 from cavesim.core.fields.analytic import MODELS, rotating_velocity
 from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
 from cavesim.core.fields.interpolation import is_cubic, texels, weights
-from cavesim.core.fields.regular_grid import (
-    cells,
-    check_box,
-    float_grid,
-    index_scale,
-    mix,
-    npz_times,
-    read_npz,
-)
+from cavesim.core.fields.npz_field import read_npz_field
+from cavesim.core.fields.regular_grid import cells, check_box, float_grid, index_scale, mix
 from cavesim.core.limits import FIELD_RESOLUTION_RANGE
 from cavesim.core.scene.model import Field, FieldInterpolation, FieldKind, OutOfDomain
 
@@ -269,16 +262,10 @@ def _read_flow(field: Field) -> tuple[np.ndarray, tuple[float, ...]]:
 
 
 def _load_field_file(path: Path) -> tuple[np.ndarray, tuple[float, ...]]:
-    """An .npz field's velocity (nt, nz, ny, nx, 3) and times: "velocity" (nz, ny, nx, 3),
-    or with "times" (nt,) in seconds a series (nt, nz, ny, nx, 3)."""
-    arrays = read_npz(path, required=("velocity",), optional=("times",))
-    if "times" in arrays:
-        times = npz_times(path, arrays["times"], arrays["velocity"].shape)
-        velocity = np.stack([float_grid(path, f"velocity[{n}]", snapshot, "(nz, ny, nx, 3)",
-                                        FIELD_RESOLUTION_RANGE[1], components=3)
-                             for n, snapshot in enumerate(arrays["velocity"])])
-    else:
-        times = (0.0,)
-        velocity = float_grid(path, "velocity", arrays["velocity"], "(nz, ny, nx, 3)",
-                              FIELD_RESOLUTION_RANGE[1], components=3)[np.newaxis]
-    return velocity, times
+    """An .npz field's velocity (nt, nz, ny, nx, 3) and times (`npz_field`), each snapshot
+    checked (dtype, finiteness) as float32."""
+    velocity, times = read_npz_field(path)
+    series = len(times) > 1
+    return np.stack([float_grid(path, f"velocity[{n}]" if series else "velocity", snapshot,
+                                "(nz, ny, nx, 3)", FIELD_RESOLUTION_RANGE[1], components=3)
+                     for n, snapshot in enumerate(velocity)]), times

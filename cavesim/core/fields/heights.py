@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from cavesim.core.errors import FieldError
+from cavesim.core.fields.npz_archive import read_npz
 from cavesim.core.fields.regular_grid import (
     cells,
     check_box,
@@ -21,7 +22,6 @@ from cavesim.core.fields.regular_grid import (
     float_grid,
     index_scale,
     mix,
-    read_npz,
 )
 
 MAX_HEIGHT_NODES = 4096  # per axis, a common GL_MAX_TEXTURE_SIZE floor
@@ -68,7 +68,7 @@ def load_heightfield(path, origin=None) -> HeightGrid:
     in world coordinates, relative to the scene's `origin` (None: the world's; see
     cavesim.core.scene.origin)."""
     path = Path(path)
-    arrays = read_npz(path, required=("height", "box_min", "box_max"))
+    arrays = read_npz(path, {"height": MAX_HEIGHT_NODES**2, "box_min": 2, "box_max": 2})
     height = float_grid(path, "height", arrays["height"], "(ny, nx)", MAX_HEIGHT_NODES)
     origin = origin or (0.0, 0.0, 0.0)
     if origin[2]:

@@ -1,39 +1,18 @@
 """Reading and checking grids at the file edge, and the cell lookup of trilinear sampling.
 
-Shared by the flow field (grid.py), the height field (heights.py) and the scene loader,
-which reads an .npz field's times and box.
+Shared by the flow field (grid.py, npz_field.py), the height field (heights.py) and the
+scene loader, which reads an .npz field's box.
 """
 
 from __future__ import annotations
 
 import math
-import zipfile
 from pathlib import Path
 
 import numpy as np
 
 from cavesim.core.errors import FieldError
-
-
-def read_npz(path: Path, required: tuple[str, ...], optional: tuple[str, ...] = ()) -> dict:
-    """The named arrays of an .npz archive; any read or format failure becomes a FieldError."""
-    errors = (OSError, ValueError, EOFError, zipfile.BadZipFile)
-    try:
-        archive = np.load(path, allow_pickle=False)
-    except errors as e:
-        raise FieldError(f"{path}: cannot read as an .npz archive: {e}") from e
-    if not isinstance(archive, np.lib.npyio.NpzFile):
-        raise FieldError(f"{path}: is a single .npy array, expected an .npz archive with "
-                         f"arrays {required + optional}")
-    with archive:
-        for name in required:
-            if name not in archive.files:
-                raise FieldError(f"{path}: missing array {name!r}; the archive holds "
-                                 f"{archive.files}, expected {required} (optional {optional})")
-        try:
-            return {name: archive[name] for name in required + optional if name in archive.files}
-        except errors as e:
-            raise FieldError(f"{path}: cannot read the arrays {required + optional}: {e}") from e
+from cavesim.core.fields.npz_archive import read_npz
 
 
 def float_grid(path: Path, name: str, array: np.ndarray, layout: str, max_nodes: int,
@@ -68,7 +47,7 @@ def corner_of(path: Path, name: str, array: np.ndarray, n: int) -> tuple[float, 
 def npz_corners(path: Path, n: int) -> dict[str, tuple[float, ...]]:
     """The box corners an .npz grid holds: those of its arrays "box_min" and "box_max" it
     has (n finite numbers each), by name."""
-    arrays = read_npz(path, required=(), optional=("box_min", "box_max"))
+    arrays = read_npz(path, {}, {"box_min": n, "box_max": n})
     return {name: corner_of(path, name, array, n) for name, array in arrays.items()}
 
 
@@ -107,17 +86,3 @@ def index_scale(box_min, box_max, resolution) -> np.ndarray:
     """
     size = np.asarray(box_max, dtype=np.float64) - np.asarray(box_min, dtype=np.float64)
     return ((np.asarray(resolution, dtype=np.float64) - 1.0) / size).astype(np.float32)
-
-
-def npz_times(path: Path, times: np.ndarray, velocity_shape: tuple[int, ...]
-              ) -> tuple[float, ...]:
-    """An .npz series' "times" (nt,) as seconds from the first: finite, strictly increasing,
-    one per snapshot of its "velocity" (nt, nz, ny, nx, 3)."""
-    if (times.ndim != 1 or times.dtype.kind not in "iuf" or not np.isfinite(times).all()
-            or len(times) < 2 or len(velocity_shape) != 5 or velocity_shape[0] != len(times)
-            or not (np.diff(times.astype(np.float64)) > 0).all()):
-        raise FieldError(f"{path}: array 'times' has shape {times.shape} and values "
-                         f"{times.ravel()[:6].tolist()!r} with 'velocity' of shape "
-                         f"{tuple(velocity_shape)}; expected 2 or more finite, strictly increasing "
-                         "seconds, one per snapshot of a 'velocity' (nt, nz, ny, nx, 3)")
-    return tuple((times.astype(np.float64) - float(times[0])).tolist())

@@ -16,7 +16,9 @@ second it is under 0.1%. A reader takes every whole record whose checks pass and
 the first that is not (`Damage`): a torn tail (the writer stopped inside a record: a
 crash, a full disk) or a corrupt record; nothing after it is read, as every frame
 depends on the ones before. A whole record that does not parse (a writer's bug, not
-damage) is a `FrameLogError` naming its byte, raised when it is reached.
+damage) is a `FrameLogError` naming its byte, raised when it is reached. A reader takes
+only a regular file within MAX_FRAME_LOG_BYTES, whose header line ends within
+MAX_FRAME_LOG_HEADER_BYTES and nests at most MAX_NESTING levels (`cavesim.core.limits`).
 """
 
 from __future__ import annotations
@@ -30,9 +32,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from zlib import crc32
 
+from cavesim.core._json import parse_json
 from cavesim.core.errors import CavesimError
 from cavesim.core.framelog import _version3, version4
 from cavesim.core.framelog.version4 import VERSION, LoggedFrame
+from cavesim.core.input_files import read_input
+from cavesim.core.limits import MAX_FRAME_LOG_BYTES, MAX_FRAME_LOG_HEADER_BYTES
 from cavesim.core.output import writing
 from cavesim.core.wire import FrameMessage
 
@@ -143,15 +148,14 @@ class LoggedFrames:
 
 def read_frame_log(path: Path) -> tuple[dict, LoggedFrames]:
     """The header and the whole records; FrameLogError if the file is no frame log of a
-    version this build reads."""
-    data = Path(path).read_bytes()
-    end = data.find(b"\n")
-    try:
-        header = json.loads(data[:end]) if end >= 0 else None
-    except ValueError:
-        header = None
+    version this build reads, or no regular file within MAX_FRAME_LOG_BYTES."""
+    data = read_input(path, FrameLogError, "the frame log", MAX_FRAME_LOG_BYTES)
+    end = data.find(b"\n", 0, MAX_FRAME_LOG_HEADER_BYTES)
+    header = None if end < 0 else parse_json(data[:end], FrameLogError,
+                                             f"{path}: not a cavesim frame log", "its header line")
     if not isinstance(header, dict):
-        raise FrameLogError(f"{path}: not a cavesim frame log (no JSON header line)")
+        raise FrameLogError(f"{path}: not a cavesim frame log (no JSON header line in its "
+                            f"first {MAX_FRAME_LOG_HEADER_BYTES:,} bytes)")
     if header.get("format") != FORMAT:
         raise FrameLogError(f"{path}: format {header.get('format')!r}, expected {FORMAT!r}")
     version = header.get("version")

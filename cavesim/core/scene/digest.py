@@ -21,6 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from cavesim.core.errors import SceneError
+from cavesim.core.input_files import open_input
+from cavesim.core.limits import MAX_FIELD_FILE_BYTES
 from cavesim.core.scene.model import ParticleClass, Scene
 
 NOT_CONTENT = ("name", "source", "engine")  # fields of a Scene that change no bit
@@ -34,7 +36,8 @@ LATER_DEFAULTS = {**_defaults(ParticleClass, "motion"), **_defaults(Scene, "trac
 
 
 def scene_digest(scene: Scene) -> str:
-    """32 hex digits naming the scene's content (SceneError if a file it names is gone)."""
+    """32 hex digits naming the scene's content (SceneError if a file it names is gone, or
+    no regular file within MAX_FIELD_FILE_BYTES, the largest a scene's file may be)."""
     content = {name: value for name, value in _canonical(scene).items()
                if name not in NOT_CONTENT}
     text = json.dumps(content, sort_keys=True, separators=(",", ":"))
@@ -66,7 +69,8 @@ def _left_out(value: Any, name: str) -> bool:
 
 
 def _file_digest(path: Path) -> str:
-    try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()
-    except OSError as e:
-        raise SceneError(f"{path}: cannot read it: {e.strerror or e}") from e
+    with open_input(path, SceneError, "a file the scene names", MAX_FIELD_FILE_BYTES) as file:
+        try:
+            return hashlib.file_digest(file, "sha256").hexdigest()
+        except OSError as e:
+            raise SceneError(f"{path}: cannot read it: {e.strerror or e}") from e

@@ -12,6 +12,7 @@ from typing import Annotated
 
 from cavesim.core._schema import Coordinate, Note, Range
 from cavesim.core.features.collision import Collision
+from cavesim.core.limits import MAX_FIELD_SNAPSHOTS
 from cavesim.core.scene.model import (
     Emitter,
     Field,
@@ -74,7 +75,7 @@ class RotatingParams:
     velocity: Vec3  # m/s at t = 0
     angular_speed: float  # rad/s, counter-clockwise seen from above
     snapshot_interval: Annotated[float, Range(gt=0.0, le=3600.0)]  # s
-    snapshots: Annotated[int, Range(ge=2, le=100_000)]
+    snapshots: Annotated[int, Range(ge=2, le=MAX_FIELD_SNAPSHOTS)]  # stacked in one 3D texture
 
     def times(self) -> tuple[float, ...]:
         """The snapshot times: every snapshot_interval from 0."""

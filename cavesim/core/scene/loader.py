@@ -12,25 +12,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import zipfile
 from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
-
-import numpy as np
-from numpy.lib import format as npy_format
 
 from cavesim.core._schema import Source, Table, unique_names
 from cavesim.core._toml import read_toml
 from cavesim.core.errors import FieldError, SceneError
 from cavesim.core.features.collision import Collision, CollisionKind
 from cavesim.core.fields.flow_files import FLOW_FILE_SUFFIXES, read_flow_file
-from cavesim.core.fields.regular_grid import check_box, npz_corners, npz_times
+from cavesim.core.fields.npz_field import npz_layout
+from cavesim.core.fields.regular_grid import check_box, npz_corners
 from cavesim.core.limits import (
-    FIELD_RESOLUTION_RANGE,
     MAX_EMITTERS,
-    MAX_FIELD_NODES,
     MAX_FIELD_SERIES_NODES,
     MAX_PARTICLE_CLASSES,
     MAX_RATE,
@@ -206,6 +201,12 @@ def _field(t: Table) -> Field:
     params = params_table.build()
     if kind is FieldKind.ROTATING:
         given["times"] = params.times()
+        nodes = math.prod(t.get("resolution")) * params.snapshots
+        if nodes > MAX_FIELD_SERIES_NODES:
+            raise params_table.bad("snapshots", f"{params.snapshots} snapshots of "
+                                                f"{t.sub('resolution')} make {nodes:,} nodes; "
+                                                f"at most MAX_FIELD_SERIES_NODES = "
+                                                f"{MAX_FIELD_SERIES_NODES:,} are allowed")
     if kind is FieldKind.DOWNWASH and params.rotor_center[2] <= params.ground_height:
         raise params_table.bad("rotor_center", f"must have z > {params_table.sub('ground_height')}"
                                                f" = {params.ground_height!r}: the rotor is "
@@ -224,17 +225,6 @@ def _collision(t: Table) -> Collision:
         return t.build()
     t.forbid("height", 'only allowed with kind = "plane"; the file holds heights')
     return t.build(file=t.get("file", required=True))
-
-
-def _npy_shape(path: Path, array: str) -> tuple[int, ...]:
-    """The shape of `array` inside the .npz at `path`, from its .npy header alone."""
-    with zipfile.ZipFile(path) as archive, archive.open(f"{array}.npy") as f:
-        version = npy_format.read_magic(f)
-        if version == (1, 0):
-            return npy_format.read_array_header_1_0(f)[0]
-        if version == (2, 0):
-            return npy_format.read_array_header_2_0(f)[0]
-        raise ValueError(f"unsupported .npy format version {version}")
 
 
 FLOW_FILE_KEYS = ("variables", "vector", "velocity_units", "length_units",  # .nc, .vti
@@ -267,36 +257,14 @@ def _flow_file_grid(t: Table, path: Path) -> dict[str, Any]:
 
 def _file_resolution(t: Table, path: Path
                      ) -> tuple[tuple[int, int, int], tuple[float, ...] | None]:
-    """The (nx, ny, nz) of a kind="file" .npz field, from its "velocity" array (nz, ny, nx, 3),
-    and its times: None, or with an array "times" (nt,) of a series (nt, nz, ny, nx, 3).
-
-    The layout is the one `cavesim.core.fields.grid` reads and writes: x varies fastest, as in
-    the 3D texture. Values (dtype, finiteness) are checked there, when the grid is built.
-    """
-    lo, hi = FIELD_RESOLUTION_RANGE
-    allowed = (f"must be a .nc (NetCDF) or .vti (VTK image) file, or an .npz holding an "
-               f"array 'velocity' of shape (nz, ny, nx, 3), each n in {lo}..{hi}, "
-               f"nx*ny*nz <= {MAX_FIELD_NODES} (a series: (nt, nz, ny, nx, 3) with 'times', "
-               f"nt*nx*ny*nz <= {MAX_FIELD_SERIES_NODES})")
-    errors = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile)
+    """The (nx, ny, nz) of a kind="file" .npz field and its times (None: steady), from its
+    headers and its times alone (`cavesim.core.fields.npz_field`); its values (dtype,
+    finiteness) are checked where the grid is built."""
     try:
-        shape = _npy_shape(path, "velocity")
-        with np.load(path, allow_pickle=False) as archive:
-            times = archive["times"] if "times" in archive.files else None
-    except errors as e:
-        raise t.bad("file", f"{allowed} ({path}: {type(e).__name__}: {e})") from e
-    grid = shape if times is None else shape[1:]
-    snapshots = 1 if times is None else shape[0] if shape else 0
-    if (len(grid) != 4 or grid[3] != 3 or not all(lo <= n <= hi for n in grid[:3])
-            or math.prod(grid[:3]) > MAX_FIELD_NODES
-            or snapshots * math.prod(grid[:3]) > MAX_FIELD_SERIES_NODES):
-        raise t.bad("file", f"{allowed} ({path} holds shape {shape})")
-    try:
-        seconds = None if times is None else npz_times(path, times, shape)
+        layout = npz_layout(path)
     except FieldError as e:
         raise t.bad("file", str(e)) from e
-    nz, ny, nx = grid[:3]
-    return (nx, ny, nz), seconds
+    return layout.resolution, layout.times
 
 
 def _npz_box(t: Table, path: Path) -> dict[str, tuple[float, ...]]:

@@ -9,6 +9,8 @@ import stat
 import tomllib
 from pathlib import Path
 
+from cavesim.core.input_files import read_input
+from cavesim.core.limits import MAX_TOML_BYTES
 from cavesim.core.wire.credentials import (
     FORMAT,
     MASTER,
@@ -74,9 +76,11 @@ def read_key_file(path: Path, role: str, name: str | None = None,
     where = f"{flag} {path}"
     try:
         mode = stat.S_IMODE(path.stat().st_mode)
-        text = path.read_text()
+        text = read_input(path, ValueError, "the key file", MAX_TOML_BYTES).decode()
     except (OSError, UnicodeDecodeError) as e:
         raise ValueError(f"{where}: cannot read it: {e}") from e
+    except ValueError as e:  # no regular file, or too large: the line names it
+        raise ValueError(f"--key-file {e}") from e
     if mode & 0o077:
         raise ValueError(f"{where}: others may read it (mode {mode:04o}); a key file must be "
                          f"its owner's only: run `chmod 600 {path}`")
