@@ -1,6 +1,7 @@
 """Block requests over Zenoh: a node answers questions about the state it holds (items of
-its checksum's tree, the history of its fold-1 items, single records), and the master
-(forensics) or a resyncing node (delta resync) asks them.
+its checksum's tree, the history of its fold-1 items, single records, the cryptographic
+digest of records), and the master (forensics) or a resyncing node (delta resync, and the
+confirmation of the state it received) asks them.
 
 A request names the frame and the checksum of the state it is about; a node that holds
 another state refuses it (a signed refusal reason, so the asker does not wait). Every
@@ -22,7 +23,8 @@ import numpy as np
 import zenoh
 
 from cavesim.core.digest.history import HistoryEntry
-from cavesim.core.digest.shape import ITEM_WORDS, plan
+from cavesim.core.digest.records_digest import DIGEST_BYTES, RecordsDigest
+from cavesim.core.digest.shape import ITEM_WORDS, RECORD_WORDS, plan
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.wire.credentials import WALL
 from cavesim.core.wire.envelope import Envelope, Message
@@ -40,6 +42,7 @@ from cavesim.core.wire.replies import asking
 log = logging.getLogger("cavesim.blocks")
 BLOCK_SECONDS = 5.0  # one question and its reply (4 MiB at most)
 BUFFERED_REPLIES = 4  # whole replies one question buffers: the followed one and others'
+DIGEST_PIECE = 2**20  # records a DIGEST answer reads from the GPU at once (40 MiB)
 
 
 class TreeHolder(Protocol):
@@ -74,6 +77,10 @@ def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
         elif request.query is BlockQuery.RECORDS:
             _within(indices, (particles, emitters)[request.part], "records")
             data = holder.read_records(request.part, indices)
+        elif request.query is BlockQuery.DIGEST:
+            live = (particles, emitters)[request.part]
+            _within(indices, live, "records")
+            data = held_digest(holder, request.part, indices if len(indices) else None, live)
         else:
             kept = holder.history(indices, request.frame)
             _bounded(len(kept) * len(indices) * ITEM_WORDS[1] * 4)
@@ -84,6 +91,27 @@ def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
     _bounded(len(data))
     return BlockReply(request.frame, node, request.query, request.part, seed, particles,
                       emitters, data, history)
+
+
+def held_digest(holder: TreeHolder, stream: int, indices: np.ndarray | None,
+                live: int) -> bytes:
+    """The records digest of `stream`'s records `indices` (None: all `live` of them) as
+    `holder` holds them, read a piece at a time."""
+    count = live if indices is None else len(indices)
+    digest = RecordsDigest(stream, count, indices)
+    wanted = np.arange(live) if indices is None else indices
+    for first in range(0, count, DIGEST_PIECE):
+        digest.update(holder.read_records(stream, wanted[first:first + DIGEST_PIECE]))
+    return digest.digest()
+
+
+def hashed_bytes(request: BlockRequest, holder: TreeHolder) -> int:
+    """The bytes of state a DIGEST request has its node read (what its asker is charged,
+    beside the reply)."""
+    if request.query is not BlockQuery.DIGEST:
+        return 0
+    count = len(request.indices) or holder.tree_state()[1 + request.part]
+    return count * RECORD_WORDS[request.part] * 4
 
 
 def _within(indices: np.ndarray, count: int, what: str) -> None:
@@ -110,7 +138,9 @@ def check_reply(message: Message, request: BlockRequest) -> BlockReply:
                                            f"{request.node} of frame {request.frame}")
     asked = len(request.indices) or plan(message.particles, message.emitters).items[
         message.part]
-    if message.query is BlockQuery.HISTORY:
+    if message.query is BlockQuery.DIGEST:
+        expected = DIGEST_BYTES
+    elif message.query is BlockQuery.HISTORY:
         frames = [h.frame for h in message.history]
         if frames != sorted(set(frames)) or (frames and frames[-1] > request.frame):
             raise ProtocolError("wrong-reply", f"history frames {frames} are not ascending "
@@ -128,8 +158,8 @@ def serve_blocks(query: zenoh.Query, key: str, holder: TreeHolder, node: str,
                  held: tuple[int, str] | None, request: BlockRequest,
                  seal: Callable[[Message], bytes]) -> int:
     """Answer one block request about the state `held` (frame, checksum) names, or refuse
-    it with a reason (another state, beyond the state, too large); the bytes sent (which
-    the asker's serving budget is charged)."""
+    it with a reason (another state, beyond the state, too large); the bytes sent and, for a
+    DIGEST, the bytes hashed (which the asker's serving budget is charged)."""
     try:
         try:
             if held != (request.frame, request.digest):
@@ -138,7 +168,7 @@ def serve_blocks(query: zenoh.Query, key: str, holder: TreeHolder, node: str,
                                                 f"{held[0] if held else 'no'} frame")
             reply = seal(answer(holder, request, node))
             query.reply(key, reply)
-            return len(reply)
+            return len(reply) + hashed_bytes(request, holder)
         except ProtocolError as e:
             query.reply_err(str(e))
     except zenoh.ZError as e:  # the asker went away
