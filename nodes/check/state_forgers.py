@@ -5,10 +5,12 @@ at a time) holding one wall's own key.
 The forgers of `serve_forgeries` send an old snapshot, one that does not fit the scene, and
 one whose chunks are not the named state. The forgers of `serve_collisions` send a state
 whose checksum *is* the named one (nodes/check/checksum_collision.py): each watches the
-walls' reports, fetches the state of the first healthy wall to report, under its own key, and
-makes its colliding twin before the diverged node asks for that state (the master first
-waits for every report and runs its forensics). Only whose key signed it can tell such a
-state from the real one.
+walls' reports, fetches the state of the wall named to confirm the resync (neither the
+victim nor its source) under its own key as soon as that wall reports it, and makes its
+colliding twin; it answers the victim's query with it once it is ready. The source
+withholds its answer to that first query (`withhold`, nodes/faults.py), so the twin is
+judged every time: under another wall's key it is refused by its signer; as the source
+itself (its key) only the confirmation by a second wall refuses it.
 """
 
 from __future__ import annotations
@@ -48,6 +50,8 @@ log = logging.getLogger("cavesim.rogue")
 FORGERIES = ("old", "misfit", "corrupt")  # the snapshots `serve_forgeries` sends
 FORGED_PARTICLES = 64  # particles of a corrupt snapshot: a whole chunk of junk
 FETCH_SECONDS = 5.0  # how long a collision forger waits for the state it fetches
+COLLIDING, COLLIDING_SOURCE = "colliding-snapshot", "colliding-source-snapshot"  # served
+# under another wall's key, and as the source (its own key)
 Snapshot = tuple[SnapshotHeader, list[SnapshotChunk]]
 
 
@@ -60,6 +64,7 @@ class StateForgers:
         self.endpoint, self.name, self.walls = endpoint, session, walls
         self.keys = SessionKeys(session)
         self.sent: Counter[str] = Counter()
+        self.twins_sent: Counter[tuple[str, int]] = Counter()  # (what, frame) -> times
         self._lock = threading.Lock()
         self.collisions: list[dict] = []
         # a peer per forger, opened now: by the time they forge, zenoh's gossip has linked
@@ -73,9 +78,11 @@ class StateForgers:
         self._twins: dict[tuple[str, int, str], list[bytes] | None] = {}
         self._ready = threading.Condition(self._lock)
 
-    def _count(self, what: str) -> None:
+    def _count(self, what: str, frame: int | None) -> None:
         with self._lock:
             self.sent[what] += 1
+            if frame is not None:
+                self.twins_sent[what, frame] += 1
 
     def _peer(self) -> zenoh.Session:
         """A forger's own peer: one opened at the start while there are (else a new one)."""
@@ -123,31 +130,31 @@ class StateForgers:
     # -- states that collide with the named checksum -------------------------------------
 
     def serve_collisions(self, insiders: list[Credentials], victim: str,
-                         frames: tuple[int, ...]) -> None:
+                         frames: tuple[int, ...], fetch_from: str, as_source: bool) -> None:
         """A forger per insider, against the wall `victim`, which diverges at `frames` (the
-        insiders made it): on the first report of such a frame from a wall other than its
-        own and the victim's, it fetches that state and makes its colliding twin, so that
-        the twin is ready before the victim asks for that state; it then answers the
-        victim's query with it, signed by its own key (not when the query asks its own
-        wall: that one would be the wall speaking)."""
+        insiders made it): on `fetch_from`'s report of such a frame, it fetches that state
+        and makes its colliding twin; it then answers the victim's query with it, signed by
+        its own key: a query for another wall's state, or, `as_source`, for its own wall's
+        (the resync's source itself an insider)."""
         for member in insiders:
             peer = self._peer()
             self._declarations += [
                 peer.declare_subscriber(self.keys.report(), lambda sample, member=member,
                                         peer=peer: self._on_report(sample, member, peer,
-                                                                   victim, frames)),
+                                                                   fetch_from, frames)),
                 peer.declare_queryable(self.keys.state(), lambda query, member=member:
-                                       self._answer_with_twin(query, member, victim))]
+                                       self._answer_with_twin(query, member, victim, frames,
+                                                              as_source))]
 
     def _on_report(self, sample: zenoh.Sample, member: Credentials, peer: zenoh.Session,
-                   victim: str, frames: tuple[int, ...]) -> None:
+                   fetch_from: str, frames: tuple[int, ...]) -> None:
         try:
             envelope = decode_envelope(sample.payload.to_bytes(), self.name, member)
         except ProtocolError:
             return
         report = envelope.message
         if not isinstance(report, ReportMessage) or report.frame not in frames \
-                or report.node in (victim, member.member.name):
+                or report.node != fetch_from:
             return
         twin = (member.member.name, report.frame, report.digest)
         with self._lock:
@@ -219,16 +226,17 @@ class StateForgers:
                     return header, sorted(chunks, key=lambda c: c.index)
         return None
 
-    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, victim: str
-                          ) -> None:
+    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, victim: str,
+                          frames: tuple[int, ...], as_source: bool) -> None:
         """Answer the victim's query at once when the twin is ready (else from a thread,
         once it is)."""
         opened = self._request(query, member)
         if opened is None:
             return
         request, _ = opened
-        if request.asker != victim or request.node == member.member.name:
-            query.drop()  # not the victim; or the wall asked, whose state is its own to send
+        if request.asker != victim or request.frame not in frames \
+                or (request.node == member.member.name) != as_source:
+            query.drop()  # not the victim's resync, or not the wall this forger speaks for
             return
         twin = (member.member.name, request.frame, request.digest)
         with self._lock:
@@ -236,20 +244,23 @@ class StateForgers:
         log.info("%s got %s's query for %s's state of frame %d (twin %s)", member.member.name,
                  request.asker, request.node, request.frame,
                  "ready" if replies else "not ready")
+        what = COLLIDING_SOURCE if as_source else COLLIDING
         if replies is not None:
-            self._send(query, replies, "colliding-snapshot")
+            self._send(query, replies, what, request.frame)
         else:
             threading.Thread(target=self._send_when_ready, daemon=True, name="collision forger",
-                             args=(query, twin)).start()
+                             args=(query, twin, what)).start()
 
-    def _send_when_ready(self, query: zenoh.Query, key: tuple[str, int, str]) -> None:
+    def _send_when_ready(self, query: zenoh.Query, key: tuple[str, int, str], what: str
+                         ) -> None:
         with self._ready:
             self._ready.wait_for(lambda: self._twins.get(key) is not None, FETCH_SECONDS)
             replies = self._twins.get(key)
         if replies is None:
+            log.info("no twin of frame %d was made in %.0f s", key[1], FETCH_SECONDS)
             query.drop()
         else:
-            self._send(query, replies, "colliding-snapshot")
+            self._send(query, replies, what, key[1])
 
     # -- both ----------------------------------------------------------------------------
 
@@ -271,11 +282,13 @@ class StateForgers:
         self._send(query, [encode(message, self.name, member, run_id)
                            for message in (header, *chunks)], what)
 
-    def _send(self, query: zenoh.Query, replies: list[bytes], what: str) -> None:
+    def _send(self, query: zenoh.Query, replies: list[bytes], what: str,
+              twin_of: int | None = None) -> None:
+        """Send `replies` (`twin_of`: the frame, when they are a colliding twin)."""
         try:
             for data in replies:
                 query.reply(str(query.key_expr), data)
-            self._count(what)
+            self._count(what, twin_of)
         except zenoh.ZError as e:
             log.info("a forged reply failed: %s", e)
         finally:
