@@ -60,9 +60,11 @@ class TreeHolder(Protocol):
                 ) -> list[tuple[HistoryEntry, np.ndarray]]: ...
 
 
-def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
+def answer(holder: TreeHolder, request: BlockRequest, node: str,
+           streams: StreamDigests | None = None) -> BlockReply:
     """The reply to `request` from the state `holder` holds (the caller has checked that it
-    is the state the request names); ProtocolError when it asks beyond that state."""
+    is the state the request names; `streams`: its whole streams' digests, each computed
+    once); ProtocolError when it asks beyond that state."""
     seed, particles, emitters = holder.tree_state()
     indices = np.asarray(request.indices, dtype=np.int64)
     history: tuple[HistoryFrame, ...] = ()
@@ -80,7 +82,11 @@ def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
         elif request.query is BlockQuery.DIGEST:
             live = (particles, emitters)[request.part]
             _within(indices, live, "records")
-            data = held_digest(holder, request.part, indices if len(indices) else None, live)
+            if len(indices):
+                data = held_digest(holder, request.part, indices, live)
+            else:
+                streams = streams or StreamDigests()
+                data = streams.of(holder, (request.frame, request.digest), request.part, live)
         else:
             kept = holder.history(indices, request.frame)
             _bounded(len(kept) * len(indices) * ITEM_WORDS[1] * 4)
@@ -105,13 +111,36 @@ def held_digest(holder: TreeHolder, stream: int, indices: np.ndarray | None,
     return digest.digest()
 
 
-def hashed_bytes(request: BlockRequest, holder: TreeHolder) -> int:
-    """The bytes of state a DIGEST request has its node read (what its asker is charged,
-    beside the reply)."""
+class StreamDigests:
+    """The digests of the whole streams of the state a node holds, each computed at most
+    once for that state (`forget` when the state changes under the same frame and
+    checksum): however often a whole stream's digest is asked for, the node reads and
+    hashes it once."""
+
+    def __init__(self) -> None:
+        self._state: tuple[int, str] | None = None
+        self._digests: dict[int, bytes] = {}
+
+    def of(self, holder: TreeHolder, state: tuple[int, str], stream: int, live: int) -> bytes:
+        """The digest of `stream` (`live` records) of `holder`'s `state` (frame, checksum)."""
+        if state != self._state:
+            self.forget()
+            self._state = state
+        if stream not in self._digests:
+            self._digests[stream] = held_digest(holder, stream, None, live)
+        return self._digests[stream]
+
+    def forget(self) -> None:
+        self._state, self._digests = None, {}
+
+
+def hashed_bytes(request: BlockRequest) -> int:
+    """The bytes of state a DIGEST request naming records has its node read and hash (what
+    its asker is charged beside the reply, as if they were sent: at most a RECORDS reply's;
+    a whole stream's digest is made once per state, `StreamDigests`)."""
     if request.query is not BlockQuery.DIGEST:
         return 0
-    count = len(request.indices) or holder.tree_state()[1 + request.part]
-    return count * RECORD_WORDS[request.part] * 4
+    return len(request.indices) * RECORD_WORDS[request.part] * 4
 
 
 def _within(indices: np.ndarray, count: int, what: str) -> None:
@@ -156,19 +185,20 @@ def check_reply(message: Message, request: BlockRequest) -> BlockReply:
 
 def serve_blocks(query: zenoh.Query, key: str, holder: TreeHolder, node: str,
                  held: tuple[int, str] | None, request: BlockRequest,
-                 seal: Callable[[Message], bytes]) -> int:
+                 seal: Callable[[Message], bytes], streams: StreamDigests | None = None) -> int:
     """Answer one block request about the state `held` (frame, checksum) names, or refuse
     it with a reason (another state, beyond the state, too large); the bytes sent and, for a
-    DIGEST, the bytes hashed (which the asker's serving budget is charged)."""
+    DIGEST of records named, the bytes hashed (which the asker's serving budget is
+    charged)."""
     try:
         try:
             if held != (request.frame, request.digest):
                 raise ProtocolError("not-held", f"asked about frame {request.frame} "
                                                 f"({request.digest[:8]}); this node holds "
                                                 f"{held[0] if held else 'no'} frame")
-            reply = seal(answer(holder, request, node))
+            reply = seal(answer(holder, request, node, streams))
             query.reply(key, reply)
-            return len(reply) + hashed_bytes(request, holder)
+            return len(reply) + hashed_bytes(request)
         except ProtocolError as e:
             query.reply_err(str(e))
     except zenoh.ZError as e:  # the asker went away

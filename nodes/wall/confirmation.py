@@ -62,7 +62,7 @@ class Confirmation:
                                                f"the state received has {state}")
         if reply.data != received:
             raise ProtocolError("unconfirmed", f"the {what} received are not those "
-                                               f"{self.confirmer} holds (their BLAKE2b "
+                                               f"{self.confirmer} holds (their SHA-256 "
                                                f"digests differ): a state built to match "
                                                f"the checksum {self.digest[:8]}")
 

@@ -62,6 +62,7 @@ from cavesim.gpu.render.painter import WallPainter
 from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
 from cavesim.tools.bench.engine_probe import probe_engines
+from nodes.blocks import StreamDigests
 from nodes.faults import Fault
 from nodes.lockstep import MASTER_LOSS_POLICIES, RESYNC_MODES
 from nodes.wall.frame_step import FrameStep
@@ -125,6 +126,7 @@ class WallNode(MasterWatch, FrameStep, StateService):
         self.inbox = NodeInbox(config.session, config.credentials, self.view)
         self.rejects = self.inbox.rejects
         self.last_report: ReportMessage | None = None
+        self.stream_digests = StreamDigests()
         self.previous_inputs: FrameInput | None = None
         self.timer = FrameTimer(self.system.fence, self.system.timers)  # for our reports
         self.started = self.heard = time.monotonic()  # from the master of our run

@@ -31,7 +31,7 @@ from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import transfer_seconds
 from cavesim.gpu.engine import ParticleSystem
-from nodes.blocks import BlockAsker, serve_blocks
+from nodes.blocks import BlockAsker, StreamDigests, serve_blocks
 from nodes.lockstep import UNCONFIRMED
 from nodes.wall.confirmation import Confirmation, NoConfirmation
 from nodes.wall.delta import DeltaRefused, fetch_delta
@@ -57,6 +57,7 @@ class StateService:
     keys: SessionKeys
     last_report: ReportMessage | None
     trajectories: TrajectoryRecording | None
+    stream_digests: StreamDigests  # of the state it holds, for the resyncs it confirms
 
     def _resync(self, command: ControlMessage) -> None:
         """Load `command.source`'s state of `command.frame`, whose checksum the master named,
@@ -157,6 +158,7 @@ class StateService:
     def _loaded(self, frame: int, source: str, how: str, seconds: float,
                 confirmation: Confirmation | None) -> None:
         self.view.done = frame
+        self.stream_digests.forget()  # what it confirms now is the state just loaded
         if self.trajectories is not None and not self.trajectories.holds(
                 self.system.read_particles()):
             log.error("%s: resynced to a state the trajectories did not follow: "
@@ -179,7 +181,7 @@ class StateService:
         return serve_blocks(query, self.keys.blocks(self.config.name), self.system,
                             self.config.name,
                             None if held is None else (held.frame, held.digest), request,
-                            self._seal)
+                            self._seal, self.stream_digests)
 
     def _serve_state(self, query: zenoh.Query, request: StateRequest) -> int:
         """Stream our state to a resyncing node, if it is the one it asks for; the bytes

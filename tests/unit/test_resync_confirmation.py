@@ -4,7 +4,7 @@ GPU checksum's numpy twin, and asks a stand-in confirmer that answers as a node 
 (`nodes.blocks.answer`, through the wire's encoding).
 
 A source that is an insider serves a state with the named checksum and two particles traded
-(`nodes/check/checksum_collision.py`): the checksum takes it, the confirmer's BLAKE2b digest
+(`nodes/check/checksum_collision.py`): the checksum takes it, the confirmer's SHA-256 digest
 does not. Peers holding a stolen key of the source answer first with forged streams: the
 node loads the honest stream of the same query, so the resync waits no retry for them.
 """
@@ -38,7 +38,7 @@ from cavesim.core.wire import (
 from cavesim.core.wire.credentials import generate
 from cavesim.core.wire.guards import ServingBudget
 from cavesim.core.wire.rejects import RejectCounter
-from nodes.blocks import answer, check_reply, hashed_bytes
+from nodes.blocks import StreamDigests, answer, check_reply, hashed_bytes
 from nodes.check.checksum_collision import changed_particles, colliding_particles
 from nodes.wall.confirmation import Confirmation, NoConfirmation
 from nodes.wall.inbox import STATE_BURST, STATE_BYTES, STATE_RATE, NodeView
@@ -195,6 +195,7 @@ def test_a_confirmer_that_does_not_answer_commits_nothing():
 
 
 def test_a_digest_answer_covers_the_records_asked_and_charges_what_it_read():
+    """... and a whole stream's digest is read and hashed once per state held."""
     held = Records(GENUINE)
     whole = BlockRequest(FRAME, "left", CHECKSUM, BlockQuery.DIGEST, PARTICLES)
     named = BlockRequest(FRAME, "left", CHECKSUM, BlockQuery.DIGEST, PARTICLES, (3, 40))
@@ -204,8 +205,22 @@ def test_a_digest_answer_covers_the_records_asked_and_charges_what_it_read():
     assert answer(held, named, "left").data == records_digest(PARTICLES, 2, records,
                                                               np.array([3, 40]))
     assert answer(held, named, "left").data != answer(held, whole, "left").data
-    assert hashed_bytes(whole, held) == LIVE * PARTICLE_BYTES
-    assert hashed_bytes(named, held) == 2 * PARTICLE_BYTES
+    assert hashed_bytes(whole) == 0  # made once per state (StreamDigests)
+    assert hashed_bytes(named) == 2 * PARTICLE_BYTES
+    streams, reads = StreamDigests(), []
+
+    class Counted(Records):
+        def read_records(self, stream, indices):
+            reads.append(len(indices))
+            return super().read_records(stream, indices)
+
+    counted = Counted(GENUINE)
+    for _ in range(3):
+        assert answer(counted, whole, "left", streams).data == answer(held, whole, "left").data
+    assert reads == [LIVE]
+    streams.forget()  # the node loaded another state
+    answer(counted, whole, "left", streams)
+    assert reads == [LIVE, LIVE]
     beyond = BlockRequest(FRAME, "left", CHECKSUM, BlockQuery.DIGEST, PARTICLES, (LIVE,))
     with pytest.raises(ProtocolError, match="records up to 64 asked"):
         answer(held, beyond, "left")
@@ -283,6 +298,7 @@ class ResyncingNode(StateService):
         self.session, self.keys = session, SessionKeys(SESSION)
         self.system, self.view = StagedState(), NodeView("right", 0, run_id=RUN)
         self.rejects, self.trajectories, self.last_report = RejectCounter("right"), None, None
+        self.stream_digests = StreamDigests()
         self.reports: list = []
 
     def _seal(self, message) -> bytes:

@@ -1,4 +1,4 @@
-"""The cryptographic digest a resync's confirmation compares: BLAKE2b-256 of records' bytes.
+"""The cryptographic digest a resync's confirmation compares: SHA-256 of records' bytes.
 
 The per-frame checksum (`twin.py`) is fast and proves that honest walls agree; it proves
 nothing against a sender that builds a state to match it (two particles traded inside one
@@ -6,7 +6,8 @@ invocation keep every sum). Before a node commits a state it received, a second 
 holds the agreed state hashes the same records from its own GPU state and signs the digest;
 the receiver hashes what it received. Both sides feed this one definition: which stream,
 how many records, the indices when a question names them (else the whole live stream), then
-the records' bytes in order.
+the records' bytes in order. SHA-256 rather than BLAKE2b: hosts hash it in hardware (SHA-NI,
+ARMv8), twice BLAKE2b's speed here (docs/2026-12-07-resync-confirmation.md).
 """
 
 from __future__ import annotations
@@ -16,8 +17,8 @@ import struct
 
 import numpy as np
 
-DIGEST_BYTES = 32  # BLAKE2b-256
-_PERSON = b"cavesim records"  # BLAKE2b's personalisation: no other digest of ours matches
+DIGEST_BYTES = 32  # SHA-256
+_DOMAIN = b"cavesim records\0"  # first: no other digest of ours hashes the same bytes
 _PREFIX = struct.Struct("<BBI")  # stream, named (1) or the whole stream (0), record count
 
 
@@ -28,7 +29,7 @@ class RecordsDigest:
     def __init__(self, stream: int, count: int, indices: np.ndarray | None = None) -> None:
         if indices is not None and len(indices) != count:
             raise ValueError(f"{count} records named by {len(indices)} indices")
-        self._hash = hashlib.blake2b(digest_size=DIGEST_BYTES, person=_PERSON)
+        self._hash = hashlib.sha256(_DOMAIN)
         self._hash.update(_PREFIX.pack(stream, indices is not None, count))
         if indices is not None:
             self._hash.update(np.asarray(indices, dtype="<u4").tobytes())
