@@ -9,7 +9,7 @@ bit of one particle, the master names it, its forensics run, and the node resync
 first of the others, confirmed by the second — by full snapshot (`--resync full`) or by
 delta. The node's log line gives the bytes it received and sent, its own resync time and
 the confirmation's; the master's record the time from its RESYNC command to the node's
-verified report. The confirmation's parts (`confirmation.py`) and the history ring's cost
+verified report. The confirmation's parts (`confirmation_cost.py`) and the history ring's cost
 are measured in this process: a checksum of the same N-particle state, then the GPU copy of
 its fold-1 items into the ring, waited for.
 """
@@ -33,7 +33,7 @@ from cavesim.core.digest.history import HISTORY_FRAMES
 from cavesim.core.digest.shape import ITEM_WORDS, plan
 from cavesim.core.errors import CavesimError
 from cavesim.core.output import writing
-from nodes.cluster_bench.confirmation import confirmation_cost
+from nodes.cluster_bench.confirmation_cost import confirmation_cost
 
 RESYNC_PARTICLES = 1_000_000
 FLIP_FRAME = 3  # the bitflip's frame: the pool is full from frame 1
