@@ -155,10 +155,12 @@ def fetch_snapshot(session: zenoh.Session, key: str, system: ParticleSystem, req
     state's header is a stream to load: the first is followed (staged as it comes), the
     others are kept (up to the fetch's buffer) to be followed in turn should it be refused
     (it breaks, it is not what `confirmation`'s second wall holds, or its checksum is not
-    the wanted one, which covers its seed), so that a peer holding a stolen key of the wall
-    asked costs no second query. A replier that sent another state or a broken stream
-    (`failed`, kept across the caller's attempts) is not heard again. The state becomes
-    current only whole, confirmed (when a confirmer is named) and with the wanted checksum.
+    the wanted one, which covers its seed) or should one of them be whole first (the one
+    followed is then dropped for this query), so that a peer holding a stolen key of the
+    wall asked costs no second query, however it sends or holds its stream. A replier that
+    sent another state or a broken stream (`failed`, kept across the caller's attempts) is
+    not heard again. The state becomes current only whole, confirmed (when a confirmer is
+    named) and with the wanted checksum.
     """
     limit = BUFFERED_STATES * system.capacity * PARTICLE_BYTES + BUFFER_SLACK
     streams = _Streams(system, wanted, key, open_reply, rejects, failed, confirmation, limit)
@@ -192,7 +194,8 @@ class _Streams:
                                                                     confirmation, limit)
         self.kept: dict[str, deque[tuple[Message, int]]] = {}  # replier -> messages not fed
         self.kept_bytes = 0
-        self.dropped: set[str] = set()  # streams beyond the buffer: not heard this query
+        self.dropped: set[str] = set()  # beyond the buffer, or left unfinished while another
+        # was whole: not heard again in this query
         self.following: str | None = None
         self.load: SnapshotLoad | None = None
         self.refused = 0  # streams of the wanted state refused
@@ -211,11 +214,12 @@ class _Streams:
             self._refuse(replier, e)
             return self._advance()
         if replier != self.following and self.kept_bytes + len(data) > self.limit:
-            self._forget(replier)
-            self.dropped.add(replier)
+            self._drop(replier)
             return self._advance()
         self.kept.setdefault(replier, deque()).append((message, len(data)))
         self.kept_bytes += len(data)
+        if self.following is not None and self._whole(replier):
+            self._drop(self.following)  # unfinished (held open?): its staged part is gone
         return self._advance()
 
     def end(self, deadline: float) -> SnapshotHeader | None:
@@ -239,7 +243,9 @@ class _Streams:
             if self.following is None:
                 if not self.kept:
                     return None
-                self.following, self.load = next(iter(self.kept)), SnapshotLoad(self.system)
+                self.following = next((r for r in self.kept if self._whole(r)),
+                                      next(iter(self.kept)))
+                self.load = SnapshotLoad(self.system)
             queue = self.kept[self.following]
             if not queue:
                 return None
@@ -268,6 +274,17 @@ class _Streams:
         if replier in self.kept:
             self.refused += 1
         self._forget(replier)
+
+    def _whole(self, replier: str) -> bool:
+        """Whether a stream kept, not followed, holds its header and every chunk."""
+        kept = self.kept.get(replier) if replier != self.following else None
+        return bool(kept) and isinstance(kept[0][0], SnapshotHeader) \
+            and len(kept) > kept[0][0].chunks
+
+    def _drop(self, replier: str) -> None:
+        """Hear `replier` no more in this query (not failed: it may be asked again)."""
+        self._forget(replier)
+        self.dropped.add(replier)
 
     def _forget(self, replier: str) -> None:
         self.kept_bytes -= sum(size for _, size in self.kept.pop(replier, ()))

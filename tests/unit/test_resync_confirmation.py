@@ -241,6 +241,17 @@ def test_thieves_with_the_source_key_answering_first_cost_no_second_query(confir
     assert rejects.counts == {"unconfirmed" if confirmed else "bad-digest": THIEVES}
 
 
+def test_a_stream_left_unfinished_first_does_not_hold_back_a_whole_one():
+    """A thief with the source's key sends the header and a first chunk, and holds the rest
+    back: the source's whole stream that comes meanwhile is loaded."""
+    thief = from_("thief", stream("front", GENUINE ^ np.uint32(1))[:2])
+    state, rejects = StagedState(), RejectCounter("right")
+    header = fetch(thief + from_("front", stream("front", GENUINE)), state, confirmer(),
+                   rejects)
+    assert header is not None and np.array_equal(state.committed, GENUINE)
+    assert rejects.counts == {}
+
+
 # -- the delay a stolen source key costs a whole resync ---------------------------------------
 
 class Clock:
