@@ -247,6 +247,14 @@ class _Harness:
             self.rogue.capture_queries()
         if any(f.kind in STATE_FORGERIES for f in self.faults):
             self.forgers = StateForgers(cluster.master_endpoint, cluster.session, walls)
+        for fault in self.faults:
+            if fault.kind in COLLISIONS:  # from the start: long declared when they forge
+                source, confirmer = resync_roles(fault, self.master.walls)
+                as_source = fault.kind == "colliding-source"
+                insiders = [self.credentials.issue(WALL, source)] if as_source \
+                    else self._insiders(fault.node)
+                self.forgers.serve_collisions(insiders, fault.node, divergence_frames(fault),
+                                              confirmer, as_source)
 
     def _do(self, fault: Fault, cluster: LocalCluster, k: int) -> None:
         rogue = self.rogue
@@ -266,12 +274,6 @@ class _Harness:
                 rogue.flood(0, FORGERY_QUERIES)
             case "snapshot-collision" | "colliding-source":
                 self._measure_from(fault, cluster, divergence_frames(fault)[-1] + RESYNCED)
-                source, confirmer = resync_roles(fault, self.master.walls)
-                as_source = fault.kind == "colliding-source"
-                insiders = [self.credentials.issue(WALL, source)] if as_source \
-                    else self._insiders(fault.node)
-                self.forgers.serve_collisions(insiders, fault.node, divergence_frames(fault),
-                                              confirmer, as_source)
             case "report-forgery":
                 rogue.in_other_walls_names(self.credentials.issue(WALL, rogue.walls[0]),
                                            rogue.current_run(), k)

@@ -4,12 +4,11 @@ at a time) holding one wall's own key.
 
 The forgers of `serve_forgeries` send an old snapshot, one that does not fit the scene, and
 one whose chunks are not the named state. The forgers of `serve_collisions` send a state
-whose checksum *is* the named one (nodes/check/checksum_collision.py): each watches the
-walls' reports, fetches the state of the wall named to confirm the resync (neither the
-victim nor its source) under its own key as soon as that wall reports it, and makes its
-colliding twin; it answers the victim's query with it once it is ready. The source
-withholds its answer to that first query (`withhold`, nodes/faults.py), so the twin is
-judged every time: under another wall's key it is refused by its signer; as the source
+whose checksum *is* the named one (nodes/check/checksum_collision.py): on the diverged
+node's query, each fetches that state under its own key from the wall named to confirm the
+resync (neither the node nor its source), makes its colliding twin and answers with it. The
+source withholds its answer to that first query (`withhold`, nodes/faults.py), so the twin
+is judged every time: under another wall's key it is refused by its signer; as the source
 itself (its key) only the confirmation by a second wall refuses it.
 """
 
@@ -30,7 +29,6 @@ from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire import (
     Credentials,
-    ReportMessage,
     SessionKeys,
     StateRequest,
     decode_envelope,
@@ -74,9 +72,9 @@ class StateForgers:
         self._idle = list(self._peers)
         self._declarations: list = []
         # (forger's wall, frame, digest) -> the colliding twin of that state, signed by that
-        # forger (None while it is made)
+        # forger (None: none could be made)
         self._twins: dict[tuple[str, int, str], list[bytes] | None] = {}
-        self._ready = threading.Condition(self._lock)
+        self._making = threading.Lock()  # one twin at a time
 
     def _count(self, what: str, frame: int | None) -> None:
         with self._lock:
@@ -132,49 +130,59 @@ class StateForgers:
     def serve_collisions(self, insiders: list[Credentials], victim: str,
                          frames: tuple[int, ...], fetch_from: str, as_source: bool) -> None:
         """A forger per insider, against the wall `victim`, which diverges at `frames` (the
-        insiders made it): on `fetch_from`'s report of such a frame, it fetches that state
-        and makes its colliding twin; it then answers the victim's query with it, signed by
-        its own key: a query for another wall's state, or, `as_source`, for its own wall's
-        (the resync's source itself an insider)."""
+        harness makes it): when the victim asks for a state of such a frame (another wall's,
+        or, `as_source`, the forger's own wall's: the resync's source itself an insider), it
+        fetches that state from `fetch_from` under its own key (the wall holds it while the
+        master waits for the resync), makes its colliding twin once, and answers with it,
+        signed by its own key. Declared at the run's start, long before those frames."""
         for member in insiders:
             peer = self._peer()
-            self._declarations += [
-                peer.declare_subscriber(self.keys.report(), lambda sample, member=member,
-                                        peer=peer: self._on_report(sample, member, peer,
-                                                                   fetch_from, frames)),
-                peer.declare_queryable(self.keys.state(), lambda query, member=member:
-                                       self._answer_with_twin(query, member, victim, frames,
-                                                              as_source))]
+            self._declarations.append(peer.declare_queryable(
+                self.keys.state(), lambda query, member=member, peer=peer: self._answer_with_twin(
+                    query, member, peer, victim, frames, fetch_from, as_source)))
 
-    def _on_report(self, sample: zenoh.Sample, member: Credentials, peer: zenoh.Session,
-                   fetch_from: str, frames: tuple[int, ...]) -> None:
-        try:
-            envelope = decode_envelope(sample.payload.to_bytes(), self.name, member)
-        except ProtocolError:
+    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, peer: zenoh.Session,
+                          victim: str, frames: tuple[int, ...], fetch_from: str,
+                          as_source: bool) -> None:
+        """Answer the victim's query with the twin, from a thread (it fetches first)."""
+        opened = self._request(query, member)
+        if opened is None:
             return
-        report = envelope.message
-        if not isinstance(report, ReportMessage) or report.frame not in frames \
-                or report.node != fetch_from:
+        request, run_id = opened
+        if request.asker != victim or request.frame not in frames \
+                or (request.node == member.member.name) != as_source:
+            query.drop()  # not the victim's resync, or not the wall this forger speaks for
             return
-        twin = (member.member.name, report.frame, report.digest)
-        with self._lock:
-            if any(key[:2] == twin[:2] for key in self._twins):
-                return  # one twin of a frame per forger
-            self._twins[twin] = None  # being made
-        threading.Thread(target=self._make_twin, daemon=True, name="collision forger",
-                         args=(peer, member, envelope.run_id,
-                               StateRequest(report.frame, report.node, report.digest,
-                                            asker=member.member.name))).start()
+        log.info("%s got %s's query for %s's state of frame %d", member.member.name,
+                 request.asker, request.node, request.frame)
+        genuine = StateRequest(request.frame, fetch_from, request.digest,
+                               asker=member.member.name)
+        threading.Thread(target=self._send_twin, daemon=True, name="collision forger", args=(
+            query, peer, member, run_id, genuine,
+            COLLIDING_SOURCE if as_source else COLLIDING)).start()
+
+    def _send_twin(self, query: zenoh.Query, peer: zenoh.Session, member: Credentials,
+                   run_id: int, genuine: StateRequest, what: str) -> None:
+        """Answer `query` with the twin of the state `genuine` asks for (made once)."""
+        with self._making:
+            key = (member.member.name, genuine.frame, genuine.digest)
+            if key not in self._twins:
+                self._twins[key] = self._make_twin(peer, member, run_id, genuine)
+            replies = self._twins[key]
+        if replies is None:
+            query.drop()
+        else:
+            self._send(query, replies, what, genuine.frame)
 
     def _make_twin(self, peer: zenoh.Session, member: Credentials, run_id: int,
-                   request: StateRequest) -> None:
-        """Fetch the state `request` names under the forger's own key; keep its twin, signed
-        and ready to send (so that it goes out before the wall asked has read its state)."""
+                   request: StateRequest) -> list[bytes] | None:
+        """Fetch the state `request` names under the forger's own key; its twin, signed and
+        ready to send (None: none could be made, said in the log)."""
         genuine = self._fetch(peer, member, run_id, request)
         if genuine is None:
             log.info("the collision forger got no state of frame %d from %s", request.frame,
                      request.node)
-            return
+            return None
         header, chunks = genuine
         words = np.frombuffer(b"".join(c.data for c in chunks), np.uint32)
         emitter_words = header.emitters.view(np.uint32)
@@ -182,16 +190,12 @@ class StateForgers:
             twin = colliding_particles(words)
         except ValueError as e:
             log.info("no colliding state of frame %d: %s", request.frame, e)
-            return
+            return None
         size = header.chunk_particles * PARTICLE_BYTES
         data = twin.tobytes()
-        replies = [encode(message, self.name, member, run_id) for message in (
-            header, *(SnapshotChunk(header.frame, i, data[i * size:(i + 1) * size])
-                      for i in range(header.chunks)))]
-        with self._ready:
-            self._twins[(member.member.name, request.frame, request.digest)] = replies
-            log.info("%s's twin of %s's state of frame %d is ready", member.member.name,
-                     request.node, request.frame)
+        log.info("%s's twin of %s's state of frame %d is made", member.member.name,
+                 request.node, request.frame)
+        with self._lock:
             self.collisions.append({
                 "frame": request.frame, "fetched_from": request.node,
                 "named_checksum": request.digest,
@@ -199,7 +203,9 @@ class StateForgers:
                 "colliding_checksum": reference_checksum(twin, emitter_words,
                                                          header.seed).digest,
                 "particles_changed": changed_particles(words, twin)})
-            self._ready.notify_all()
+        return [encode(message, self.name, member, run_id) for message in (
+            header, *(SnapshotChunk(header.frame, i, data[i * size:(i + 1) * size])
+                      for i in range(header.chunks)))]
 
     def _fetch(self, peer: zenoh.Session, member: Credentials, run_id: int,
                request: StateRequest) -> Snapshot | None:
@@ -225,42 +231,6 @@ class StateForgers:
                 if header is not None and len(chunks) == header.chunks:
                     return header, sorted(chunks, key=lambda c: c.index)
         return None
-
-    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, victim: str,
-                          frames: tuple[int, ...], as_source: bool) -> None:
-        """Answer the victim's query at once when the twin is ready (else from a thread,
-        once it is)."""
-        opened = self._request(query, member)
-        if opened is None:
-            return
-        request, _ = opened
-        if request.asker != victim or request.frame not in frames \
-                or (request.node == member.member.name) != as_source:
-            query.drop()  # not the victim's resync, or not the wall this forger speaks for
-            return
-        twin = (member.member.name, request.frame, request.digest)
-        with self._lock:
-            replies = self._twins.get(twin)
-        log.info("%s got %s's query for %s's state of frame %d (twin %s)", member.member.name,
-                 request.asker, request.node, request.frame,
-                 "ready" if replies else "not ready")
-        what = COLLIDING_SOURCE if as_source else COLLIDING
-        if replies is not None:
-            self._send(query, replies, what, request.frame)
-        else:
-            threading.Thread(target=self._send_when_ready, daemon=True, name="collision forger",
-                             args=(query, twin, what)).start()
-
-    def _send_when_ready(self, query: zenoh.Query, key: tuple[str, int, str], what: str
-                         ) -> None:
-        with self._ready:
-            self._ready.wait_for(lambda: self._twins.get(key) is not None, FETCH_SECONDS)
-            replies = self._twins.get(key)
-        if replies is None:
-            log.info("no twin of frame %d was made in %.0f s", key[1], FETCH_SECONDS)
-            query.drop()
-        else:
-            self._send(query, replies, what, key[1])
 
     # -- both ----------------------------------------------------------------------------
 
