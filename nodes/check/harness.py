@@ -46,7 +46,7 @@ from nodes.faults import (
 )
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
-from nodes.lockstep import MASTER_GONE
+from nodes.lockstep import MASTER_GONE, NODE_UP
 from nodes.master.link import open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
@@ -67,6 +67,7 @@ TRACKING_REPLAYS = 100  # tracking messages of each kind the master must refuse
 SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one signs
 OVERSIZE_MESSAGES, OVERSIZE_BYTES, OVERSIZE_QUERIES = 45, 64 * 2**20, 5
 UNDER_LIMIT_JUNK = 1  # junk frames just under the transport's limit, sent with them
+NODE_START = 60.0  # s a killed node's restart may take to open its context
 
 
 @dataclass(frozen=True)
@@ -260,9 +261,11 @@ class _Harness:
         rogue = self.rogue
         match fault.kind:
             case "kill":
+                started = self._starts(cluster, fault.node)
                 cluster.kill_node(fault.node)  # restarted, it rejoins
                 cluster.start_node(fault.node, extra=_node_arguments(
                     self.faults, self.node_args, fault.node, self.master.walls, after=k))
+                self._await_start(cluster, fault.node, started)
             case "rogue":
                 self._forge(cluster.session, k)
             case "replay-attack":
@@ -375,6 +378,18 @@ class _Harness:
                                 for w, p in cluster.nodes.items()},
                 "log_bytes": {w: cluster.log_path(w).stat().st_size for w in cluster.nodes},
                 "refused": {w: refused.get(w, 0) for w in cluster.nodes}}
+
+    @staticmethod
+    def _starts(cluster: LocalCluster, wall: str) -> int:
+        """How often `wall`'s node has opened its context (its log says so)."""
+        return cluster.log_path(wall).read_text(errors="replace").count(NODE_UP)
+
+    def _await_start(self, cluster: LocalCluster, wall: str, started: int) -> None:
+        """Hold the run until `wall`'s restarted node has opened its context (at most
+        NODE_START seconds): it then rejoins within a few frames, before the next fault."""
+        deadline = time.monotonic() + NODE_START
+        while self._starts(cluster, wall) <= started and time.monotonic() < deadline:
+            time.sleep(0.05)
 
     def master_killed(self, cluster: LocalCluster, timeout: float = 10.0) -> None:
         """Wait until every node has logged the master's loss (they notice it on liveliness)."""
