@@ -62,9 +62,9 @@ class Confirmation:
                                                f"the state received has {state}")
         if reply.data != received:
             raise ProtocolError("unconfirmed", f"the {what} received are not those "
-                                               f"{self.confirmer} holds (their SHA-256 "
-                                               f"digests differ): a state built to match "
-                                               f"the checksum {self.digest[:8]}")
+                                               f"{self.confirmer} holds of the state "
+                                               f"{self.digest[:8]} (their SHA-256 digests "
+                                               f"differ)")
 
     def said(self) -> str:
         return f"confirmed by {self.confirmer} ({self.questions} digest(s), " \
