@@ -16,7 +16,7 @@ from cavesim.core.wire.credentials import MASTER, Credentials
 from cavesim.core.wire.key_expressions import check_name
 from cavesim.core.wire.key_files import read_key_file
 from cavesim.core.wire.network import NetworkSettings, zenoh_config
-from nodes.faults import Fault, parse_fault
+from nodes.faults import KINDS, NODE_PARTS, Fault, parse_fault
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_SCENE = "config/scenes/brownout.toml"  # the demo
@@ -102,6 +102,14 @@ def fault_spec(text: str) -> Fault:
     """A fault to inject, `KIND@FRAME[:NODE]` (`nodes/faults.py`)."""
     try:
         return parse_fault(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from e
+
+
+def node_fault_spec(text: str) -> Fault:
+    """A fault a node injects into itself: a kind's, or its part of the harness's attacks."""
+    try:
+        return parse_fault(text, KINDS + NODE_PARTS)
     except ValueError as e:
         raise argparse.ArgumentTypeError(str(e)) from e
 

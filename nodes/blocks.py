@@ -1,6 +1,7 @@
 """Block requests over Zenoh: a node answers questions about the state it holds (items of
-its checksum's tree, the history of its fold-1 items, single records), and the master
-(forensics) or a resyncing node (delta resync) asks them.
+its checksum's tree, the history of its fold-1 items, single records, the cryptographic
+digest of records), and the master (forensics) or a resyncing node (delta resync, and the
+confirmation of the state it received) asks them.
 
 A request names the frame and the checksum of the state it is about; a node that holds
 another state refuses it (a signed refusal reason, so the asker does not wait). Every
@@ -22,7 +23,8 @@ import numpy as np
 import zenoh
 
 from cavesim.core.digest.history import HistoryEntry
-from cavesim.core.digest.shape import ITEM_WORDS, plan
+from cavesim.core.digest.records_digest import DIGEST_BYTES, RecordsDigest
+from cavesim.core.digest.shape import ITEM_WORDS, RECORD_WORDS, plan
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.wire.credentials import WALL
 from cavesim.core.wire.envelope import Envelope, Message
@@ -40,6 +42,7 @@ from cavesim.core.wire.replies import asking
 log = logging.getLogger("cavesim.blocks")
 BLOCK_SECONDS = 5.0  # one question and its reply (4 MiB at most)
 BUFFERED_REPLIES = 4  # whole replies one question buffers: the followed one and others'
+DIGEST_PIECE = 2**20  # records a DIGEST answer reads from the GPU at once (40 MiB)
 
 
 class TreeHolder(Protocol):
@@ -57,9 +60,11 @@ class TreeHolder(Protocol):
                 ) -> list[tuple[HistoryEntry, np.ndarray]]: ...
 
 
-def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
+def answer(holder: TreeHolder, request: BlockRequest, node: str,
+           streams: StreamDigests | None = None) -> BlockReply:
     """The reply to `request` from the state `holder` holds (the caller has checked that it
-    is the state the request names); ProtocolError when it asks beyond that state."""
+    is the state the request names; `streams`: its whole streams' digests, each computed
+    once); ProtocolError when it asks beyond that state."""
     seed, particles, emitters = holder.tree_state()
     indices = np.asarray(request.indices, dtype=np.int64)
     history: tuple[HistoryFrame, ...] = ()
@@ -74,6 +79,14 @@ def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
         elif request.query is BlockQuery.RECORDS:
             _within(indices, (particles, emitters)[request.part], "records")
             data = holder.read_records(request.part, indices)
+        elif request.query is BlockQuery.DIGEST:
+            live = (particles, emitters)[request.part]
+            _within(indices, live, "records")
+            if len(indices):
+                data = held_digest(holder, request.part, indices, live)
+            else:
+                streams = streams or StreamDigests()
+                data = streams.of(holder, (request.frame, request.digest), request.part, live)
         else:
             kept = holder.history(indices, request.frame)
             _bounded(len(kept) * len(indices) * ITEM_WORDS[1] * 4)
@@ -84,6 +97,50 @@ def answer(holder: TreeHolder, request: BlockRequest, node: str) -> BlockReply:
     _bounded(len(data))
     return BlockReply(request.frame, node, request.query, request.part, seed, particles,
                       emitters, data, history)
+
+
+def held_digest(holder: TreeHolder, stream: int, indices: np.ndarray | None,
+                live: int) -> bytes:
+    """The records digest of `stream`'s records `indices` (None: all `live` of them) as
+    `holder` holds them, read a piece at a time."""
+    count = live if indices is None else len(indices)
+    digest = RecordsDigest(stream, count, indices)
+    wanted = np.arange(live) if indices is None else indices
+    for first in range(0, count, DIGEST_PIECE):
+        digest.update(holder.read_records(stream, wanted[first:first + DIGEST_PIECE]))
+    return digest.digest()
+
+
+class StreamDigests:
+    """The digests of the whole streams of the state a node holds, each computed at most
+    once for that state (`forget` when the state changes under the same frame and
+    checksum): however often a whole stream's digest is asked for, the node reads and
+    hashes it once."""
+
+    def __init__(self) -> None:
+        self._state: tuple[int, str] | None = None
+        self._digests: dict[int, bytes] = {}
+
+    def of(self, holder: TreeHolder, state: tuple[int, str], stream: int, live: int) -> bytes:
+        """The digest of `stream` (`live` records) of `holder`'s `state` (frame, checksum)."""
+        if state != self._state:
+            self.forget()
+            self._state = state
+        if stream not in self._digests:
+            self._digests[stream] = held_digest(holder, stream, None, live)
+        return self._digests[stream]
+
+    def forget(self) -> None:
+        self._state, self._digests = None, {}
+
+
+def hashed_bytes(request: BlockRequest) -> int:
+    """The bytes of state a DIGEST request naming records has its node read and hash (what
+    its asker is charged beside the reply, as if they were sent: at most a RECORDS reply's;
+    a whole stream's digest is made once per state, `StreamDigests`)."""
+    if request.query is not BlockQuery.DIGEST:
+        return 0
+    return len(request.indices) * RECORD_WORDS[request.part] * 4
 
 
 def _within(indices: np.ndarray, count: int, what: str) -> None:
@@ -110,7 +167,9 @@ def check_reply(message: Message, request: BlockRequest) -> BlockReply:
                                            f"{request.node} of frame {request.frame}")
     asked = len(request.indices) or plan(message.particles, message.emitters).items[
         message.part]
-    if message.query is BlockQuery.HISTORY:
+    if message.query is BlockQuery.DIGEST:
+        expected = DIGEST_BYTES
+    elif message.query is BlockQuery.HISTORY:
         frames = [h.frame for h in message.history]
         if frames != sorted(set(frames)) or (frames and frames[-1] > request.frame):
             raise ProtocolError("wrong-reply", f"history frames {frames} are not ascending "
@@ -126,19 +185,20 @@ def check_reply(message: Message, request: BlockRequest) -> BlockReply:
 
 def serve_blocks(query: zenoh.Query, key: str, holder: TreeHolder, node: str,
                  held: tuple[int, str] | None, request: BlockRequest,
-                 seal: Callable[[Message], bytes]) -> int:
+                 seal: Callable[[Message], bytes], streams: StreamDigests | None = None) -> int:
     """Answer one block request about the state `held` (frame, checksum) names, or refuse
-    it with a reason (another state, beyond the state, too large); the bytes sent (which
-    the asker's serving budget is charged)."""
+    it with a reason (another state, beyond the state, too large); the bytes sent and, for a
+    DIGEST of records named, the bytes hashed (which the asker's serving budget is
+    charged)."""
     try:
         try:
             if held != (request.frame, request.digest):
                 raise ProtocolError("not-held", f"asked about frame {request.frame} "
                                                 f"({request.digest[:8]}); this node holds "
                                                 f"{held[0] if held else 'no'} frame")
-            reply = seal(answer(holder, request, node))
+            reply = seal(answer(holder, request, node, streams))
             query.reply(key, reply)
-            return len(reply)
+            return len(reply) + hashed_bytes(request)
         except ProtocolError as e:
             query.reply_err(str(e))
     except zenoh.ZError as e:  # the asker went away

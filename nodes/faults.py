@@ -14,28 +14,40 @@ NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "i
 # far above what it counted, with its state's true checksum (an insider that lies)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood", "report-forgery", "query-replay", "tracking-replay",
-                  "second-master", "snapshot-collision", "oversize", "control-forgery")
+                  "second-master", "snapshot-collision", "oversize", "colliding-source",
+                  "control-forgery")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
 # snapshots to a node it makes diverge, flood the nodes with junk and state queries, report
 # in every other wall's name with one wall's key, replay the walls' own queries during a
 # resync, replay an earlier run's tracking, start a second master beside the first, serve
-# a state whose checksum collides with the named one, send messages larger than the
-# transport takes, and pause, reset and stop the run with one wall's key
+# a state whose checksum collides with the named one (under another wall's key, or as the
+# resync's source itself), send messages larger than the transport takes, and pause, reset
+# and stop the run with one wall's key
 KINDS = NODE_FAULTS + HARNESS_FAULTS
+NODE_PARTS = ("withhold",)  # what a node does for the harness's attacks, no fault of its
+# own: at `withhold@K` it does not answer the first state query of frame K (the resync's
+# first query then finds only a forger's twin: the attack is shown every time)
 WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
                  "tracking-replay", "second-master", "oversize", "control-forgery")
 # no node's: the others are done to one node (the last wall unless one is named)
 CONTROL_REQUESTS = ("pause", "reset", "stop")  # what a control-forgery asks, one a frame
 FLOOD_MESSAGES, FLOOD_QUERIES = 200_000, 2_000  # a flood's junk messages and state queries
 SETTLE = 30  # frames after an attack on the whole cluster before its effects are measured
-# the harness makes these kinds' node diverge this many times, DIVERGENCE_GAP frames apart:
-# a query replay captures the first resync's queries and replays them against the second's;
-# a collision's forgers race the wall asked for its state, and win only now and then
-DIVERGENCES = {"query-replay": 2, "snapshot-collision": 8}
+RESYNCED = 5  # frames after a forged state's last divergence before the node is measured
+COLLISIONS = ("snapshot-collision", "colliding-source")  # a state with the named checksum
+# served to a node's resync: the wall that holds the state besides the source and the node
+# makes it (and confirms the resync), so these need MIN_COLLISION_WALLS
+MIN_COLLISION_WALLS = 3
+DIVERGING = ("snapshot-forgery", "query-replay", *COLLISIONS)  # the harness makes their
+# node diverge (a bitflip) for them, at `divergence_frames`
+# the harness makes these kinds' node diverge this many times (else once), DIVERGENCE_GAP
+# frames apart: a query replay captures the first resync's queries and replays them against
+# the second's; a colliding source's twin is refused each time
+DIVERGENCES = {"query-replay": 2, "colliding-source": 2}
 DIVERGENCE_GAP = 10
-EVERY_KIND_SPACING = 90  # frames between the faults of `every_kind`: past a collision's
-# eight divergences and the measurements after them
+EVERY_KIND_SPACING = 71  # frames between the faults of `every_kind`: past the slowest
+# kind's effects and the measurements after them (a flood's and an oversize's SETTLE frames)
 FLIPPED_BIT = 20  # of the word a bitflip changes: a mantissa bit of a float32 field
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 
@@ -50,12 +62,13 @@ class Fault:
         return f"{self.kind}@{self.frame}" + (f":{self.node}" if self.node else "")
 
 
-def parse_fault(spec: str) -> Fault:
-    """`bitflip@40:left` -> Fault("bitflip", 40, "left"); ValueError names what is allowed."""
+def parse_fault(spec: str, kinds: tuple[str, ...] = KINDS) -> Fault:
+    """`bitflip@40:left` -> Fault("bitflip", 40, "left"); ValueError names what is allowed
+    (`kinds`: a node also takes NODE_PARTS)."""
     match = _SPEC.fullmatch(spec.strip())
-    if not match or match["kind"] not in KINDS or int(match["frame"]) < 1:
+    if not match or match["kind"] not in kinds or int(match["frame"]) < 1:
         raise ValueError(f"fault {spec!r} must be KIND@FRAME[:NODE] with KIND one of "
-                         f"{', '.join(KINDS)} and FRAME >= 1")
+                         f"{', '.join(kinds)} and FRAME >= 1")
     return Fault(match["kind"], int(match["frame"]), match["node"])
 
 
@@ -72,8 +85,13 @@ def every_kind(frames: int, walls: tuple[str, ...]) -> tuple[Fault, ...]:
     spread = [kind for kind in KINDS if kind not in ("seed", "master-kill")]
     gap = frames // (len(spread) + 2)  # the last gap is the new master's run
     if gap < EVERY_KIND_SPACING:
-        raise ValueError(f"a fault of every kind needs --frames >= "
-                         f"{(len(spread) + 2) * EVERY_KIND_SPACING}")
+        raise ValueError(f"a fault of each of the {len(KINDS)} kinds, {EVERY_KIND_SPACING} "
+                         f"frames apart and the new master's run after the last, needs "
+                         f"--frames >= {(len(spread) + 2) * EVERY_KIND_SPACING}, got {frames}")
+    if len(walls) < MIN_COLLISION_WALLS:
+        raise ValueError(f"a fault of every kind needs at least {MIN_COLLISION_WALLS} walls "
+                         f"({', '.join(COLLISIONS)} need a second healthy wall), got "
+                         f"{len(walls)}")
     faults, nodes = [Fault("seed", 1, walls[0])], itertools.cycle(walls)
     for slot, kind in enumerate(spread, start=1):
         faults.append(Fault(kind, slot * gap, None if kind in WHOLE_CLUSTER else next(nodes)))

@@ -19,6 +19,8 @@ LOSS_POLICIES = ("continue", "pause")  # drop a lost member and go on, or wait f
 MASTER_LOSS_POLICIES = ("wait", "exit")  # a node whose master is gone: wait for a new one, or exit
 RESYNC_MODES = ("delta", "full")  # a node's resync: a delta first (else the full snapshot)
 MASTER_GONE = "the master is gone"  # a node's log line says so (the harness looks for it)
+NODE_UP = "up on EGL device"  # a node's log line once its context is open (the harness's too)
+UNCONFIRMED = "unconfirmed: no second wall"  # a resync's, in a node's log and report.json
 
 
 @dataclass(frozen=True)
@@ -228,6 +230,22 @@ def agreeing_source(members: tuple[str, ...], reports: Mapping[str, ReportMessag
                     digest: str) -> str:
     """A member whose report holds `digest` (to resync a joiner from)."""
     return next(m for m in members if reports[m].digest == digest)
+
+
+def holders(members: tuple[str, ...], reports: Mapping[str, ReportMessage], digest: str,
+            node: str, first: str, odd: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The members a resync of `node` to the state `digest` may load it from or have it
+    confirmed by: `first` (the vote's source), then each other member whose report holds
+    that state, in member order, but `node` and the `odd` (themselves to be resynced)."""
+    return (first, *(m for m in members if m not in (first, node, *odd)
+                     and m in reports and reports[m].digest == digest))
+
+
+def resync_roles(holders: tuple[str, ...]) -> tuple[tuple[str, str | None], ...]:
+    """(source, confirmer) of each try of a resync: every holder the source in turn, its
+    state confirmed by the next holder (None: no second wall holds it)."""
+    return tuple((source, holders[(i + 1) % len(holders)] if len(holders) > 1 else None)
+                 for i, source in enumerate(holders))
 
 
 def resync_outcome(report: ReportMessage | None, digest: str) -> bool | None:

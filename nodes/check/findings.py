@@ -17,11 +17,12 @@ from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire.credentials import WALL
 from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
-from nodes.check.state_forgers import FORGERIES
+from nodes.check.state_forgers import COLLIDING, COLLIDING_SOURCE, FORGERIES
 from nodes.faults import (
     CONTROL_REQUESTS,
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
+    RESYNCED,
     SETTLE,
     Fault,
     bitflip_target,
@@ -269,23 +270,68 @@ def _second_master(fault: Fault, record: RunRecord, harness, killed, out: Path) 
 
 
 def _collision(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """A state whose checksum is the named one, served by insiders to a node that diverges
-    again and again: detected when the node refused it at least once (no one but the wall
-    asked may send that wall's state; the forgers do not always answer first), healed when
-    its last resync loaded the real state."""
-    collisions = harness.forgers.collisions
-    colliding = [c for c in collisions if c["colliding_checksum"] == c["named_checksum"]]
-    served = harness.forgers.sent.get("colliding-snapshot", 0)
-    refused = refused_meanwhile(harness.measured[str(fault)]).get(fault.node, 0)
-    detection = {"collisions": collisions, "colliding_snapshots_served": served,
-                 "refused_by_node": refused}
+    """A state whose checksum is the named one, served under other walls' keys to a node
+    that diverged (the wall asked withholds its first answer, so the twin comes alone):
+    detected when the node refused the twin (at least) once per divergence, healed when its
+    resync loaded the real state."""
+    detection = _collisions_shown(fault, harness, COLLIDING)
     hit = _first_divergence(record, fault)
-    if not (hit and colliding and served and refused):
+    frames = divergence_frames(fault)  # the first query of each came to a twin alone
+    served, refused = detection["colliding_snapshots_served"], detection["refused_by_node"]
+    if not (hit and {c["frame"] for c in detection["collisions"]} == set(frames)
+            and len(frames) <= min(served, refused)):
         return Evidence(detection=detection, outcome=f"{fault.node} was not shown a collision")
     healed_at = _resynced(record, fault.node, divergence_frames(fault)[-1])
     return Evidence(hit.frame, [fault.node], healed_at, detection,
-                    f"{fault.node} refused a state with the named checksum and loaded the "
-                    f"real one" if healed_at is not None else f"{fault.node} was not healed")
+                    f"{fault.node} refused each state with the named checksum by its signer "
+                    f"and loaded the real one" if healed_at is not None
+                    else f"{fault.node} was not healed")
+
+
+def _colliding_source(fault: Fault, record: RunRecord, harness, killed, out: Path
+                      ) -> Evidence:
+    """The resync's source itself an insider (its key) serving a state with the named
+    checksum: detected when the node refused each twin served (the second wall's digest
+    differs), healed when, at each divergence, every try from that source failed and the
+    next holder's state, confirmed by another wall, was loaded; nothing colliding was ever
+    committed (the node diverged at no other frame)."""
+    detection = _collisions_shown(fault, harness, COLLIDING_SOURCE)
+    frames = divergence_frames(fault)
+    tries = {k: [r for r in record.resyncs if r.node == fault.node and r.frame == k]
+             for k in frames}
+    detection["resyncs"] = [r.to_json() for k in frames for r in tries[k]]
+    served, refused = detection["colliding_snapshots_served"], detection["refused_by_node"]
+    hit = _first_divergence(record, fault)
+    source = tries[frames[0]][0].source if tries[frames[0]] else None
+    refused_each_time = [c["frame"] for c in detection["collisions"]] == list(frames) \
+        and len(frames) == served <= refused
+    healed_each_time = all(
+        ks and ks[-1].ok and ks[-1].source != source and ks[-1].confirmer is not None
+        and not any(r.ok for r in ks if r.source == source) for ks in tries.values())
+    planted = [d.frame for d in record.divergences if fault.node in d.nodes
+               and fault.frame <= d.frame <= frames[-1] + RESYNCED and d.frame not in frames]
+    if not (hit and refused_each_time):
+        return Evidence(detection=detection,
+                        outcome=f"{fault.node} was not shown the source's collision each time")
+    healed = healed_each_time and not planted
+    return Evidence(hit.frame, [fault.node], frames[-1] if healed else None, detection,
+                    f"{fault.node} refused {source}'s colliding state at each of its "
+                    f"{len(frames)} divergences (unconfirmed by a second wall) and loaded the "
+                    f"real one from another holder, confirmed" if healed
+                    else f"{fault.node} committed a colliding state, or was not healed "
+                         f"(divergences at {planted})")
+
+
+def _collisions_shown(fault: Fault, harness, served_as: str) -> dict:
+    """The twins made for `fault`'s divergences, how many were served, and what its node
+    refused meanwhile."""
+    frames = divergence_frames(fault)
+    made = [c for c in harness.forgers.collisions if c["frame"] in frames
+            and c["colliding_checksum"] == c["named_checksum"]]
+    served = sum(harness.forgers.twins_sent[served_as, k] for k in frames)
+    return {"collisions": made, "colliding_snapshots_served": served,
+            "refused_by_node": refused_meanwhile(harness.measured[str(fault)]).get(
+                fault.node, 0)}
 
 
 def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
@@ -363,6 +409,7 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "tracking-replay": _tracking_replay,
     "second-master": _second_master,
     "snapshot-collision": _collision,
+    "colliding-source": _colliding_source,
     "oversize": _oversize,
     "control-forgery": _control_forgery,
     "master-kill": _master_kill,

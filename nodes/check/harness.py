@@ -32,12 +32,14 @@ from nodes.check.findings import check_report
 from nodes.check.rogue import RoguePeer
 from nodes.check.state_forgers import StateForgers
 from nodes.faults import (
+    COLLISIONS,
     CONTROL_REQUESTS,
     DIVERGENCE_GAP,
-    DIVERGENCES,
+    DIVERGING,
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
     NODE_FAULTS,
+    RESYNCED,
     SETTLE,
     WHOLE_CLUSTER,
     Fault,
@@ -45,20 +47,20 @@ from nodes.faults import (
 )
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
-from nodes.lockstep import MASTER_GONE
+from nodes.lockstep import MASTER_GONE, NODE_UP
 from nodes.master.link import ZenohMasterLink, open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
 ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-forgery",
                 "query-replay", "tracking-replay", "second-master", "snapshot-collision",
-                "oversize", "control-forgery")  # a RoguePeer's
-STATE_FORGERIES = ("snapshot-forgery", "snapshot-collision")  # served to a node's resync
+                "oversize", "colliding-source", "control-forgery")  # a RoguePeer's
+STATE_FORGERIES = ("snapshot-forgery", *COLLISIONS)  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
-RESYNCED = 5  # frames after a forged state's last divergence before the node is measured
 COLLISION_PACE = 1.2  # s at least between a collision's divergences: a node serves each
-# asker one state a second (burst 2), and the victim and each forger ask once per divergence
+# asker one state a second (burst 2), and the victim and each forger ask once or twice per
+# divergence
 REPLAY_SECONDS, REPLAY_MOST = 3.0, 1_000  # how long and how many queries are replayed
 REPLAY_SETTLE = 1.0  # s the nodes have to count the last replayed queries before going on
 EARLIER_RUN_QUERIES = 20
@@ -67,6 +69,7 @@ SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one si
 OVERSIZE_MESSAGES, OVERSIZE_BYTES, OVERSIZE_QUERIES = 45, 64 * 2**20, 5
 UNDER_LIMIT_JUNK = 1  # junk frames just under the transport's limit, sent with them
 REFUSAL_WAIT = 5.0  # s at most a frame waits for the master to count a forged control
+NODE_START = 60.0  # s a killed node's restart may take to open its context
 
 
 @dataclass(frozen=True)
@@ -103,8 +106,8 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
                           frame_log=plan.out / FRAME_LOG, forensics=plan.out,
                           node_walls=plan.node_walls)
     kill = master_kill_frame(faults)
-    cluster = ClusterPlan(master, plan.out, {wall: _node_arguments(faults, node_args, wall)
-                                             for wall in plan.walls})
+    cluster = ClusterPlan(master, plan.out, {
+        wall: _node_arguments(faults, node_args, wall, plan.walls) for wall in plan.walls})
     harness = _Harness(faults, node_args, master)
     try:
         if kill is None:
@@ -131,12 +134,12 @@ def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
 
 
 def _node_arguments(faults: tuple[Fault, ...], common: tuple[str, ...], wall: str,
-                    after: int = 0) -> tuple[str, ...]:
+                    walls: tuple[str, ...], after: int = 0) -> tuple[str, ...]:
     """`wall`'s node's arguments: the `common` ones, what it must do itself for the faults
-    after frame `after` (a restarted node is not given those it has passed) and how it
-    resyncs."""
-    own = [str(f) for fault in faults if fault.node == wall for f in _injected(fault)
-           if f.frame > after]
+    after frame `after` (a restarted node is not given those it has passed: its own, and its
+    part as another's resync source) and how it resyncs."""
+    own = [str(f) for fault in faults for f in (*_injected(fault), *_withheld(fault, walls))
+           if f.node == wall and f.frame > after]
     return (*common, *(arg for f in own for arg in ("--inject", f)),
             *_full_resync(faults, wall))
 
@@ -150,16 +153,31 @@ def _full_resync(faults: tuple[Fault, ...], wall: str) -> tuple[str, ...]:
 
 
 def _injected(fault: Fault) -> tuple[Fault, ...]:
-    """What the node itself must do for `fault`: its own faults, the divergence whose
-    resync forged snapshots are served to, and the divergences of the kinds that make
-    their node diverge again and again (DIVERGENCES)."""
+    """What the node itself must do for `fault`: its own faults, and the divergences of the
+    kinds that make their node diverge (DIVERGING: forged states are served to its resync,
+    queries replayed against it)."""
     if fault.kind in NODE_FAULTS:
         return (fault,)
-    if fault.kind == "snapshot-forgery":
-        return (Fault("bitflip", fault.frame, fault.node),)
-    if fault.kind in DIVERGENCES:
+    if fault.kind in DIVERGING:
         return tuple(Fault("bitflip", k, fault.node) for k in divergence_frames(fault))
     return ()
+
+
+def resync_roles(fault: Fault, walls: tuple[str, ...]) -> tuple[str, str]:
+    """(source, confirmer) of the first try to resync the node of a collision: the first two
+    other walls, as the master names them (`lockstep.holders`, all walls agreeing)."""
+    source, confirmer, *_ = (w for w in walls if w != fault.node)
+    return source, confirmer
+
+
+def _withheld(fault: Fault, walls: tuple[str, ...]) -> tuple[Fault, ...]:
+    """What a collision's resync source does for it: it withholds its answer to the first
+    state query of each divergence's frame, so that the forged twin comes alone and is
+    judged every time."""
+    if fault.kind not in COLLISIONS:
+        return ()
+    source, _ = resync_roles(fault, walls)
+    return tuple(Fault("withhold", k, source) for k in divergence_frames(fault))
 
 
 def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harness
@@ -219,7 +237,7 @@ class _Harness:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
             self._connect(cluster)
         for fault in self.faults:
-            if fault.kind == "snapshot-collision" and k in divergence_frames(fault):
+            if fault.kind in COLLISIONS and k in divergence_frames(fault):
                 self._pace(fault)
             if fault.kind == "query-replay" and k == divergence_frames(fault)[1]:
                 self._replay_queries()
@@ -243,14 +261,24 @@ class _Harness:
             self.rogue.capture_queries()
         if any(f.kind in STATE_FORGERIES for f in self.faults):
             self.forgers = StateForgers(cluster.master_endpoint, cluster.session, walls)
+        for fault in self.faults:
+            if fault.kind in COLLISIONS:  # from the start: long declared when they forge
+                source, confirmer = resync_roles(fault, self.master.walls)
+                as_source = fault.kind == "colliding-source"
+                insiders = [self.credentials.issue(WALL, source)] if as_source \
+                    else self._insiders(fault.node)
+                self.forgers.serve_collisions(insiders, fault.node, divergence_frames(fault),
+                                              confirmer, as_source)
 
     def _do(self, fault: Fault, cluster: LocalCluster, k: int) -> None:
         rogue = self.rogue
         match fault.kind:
             case "kill":
+                started = self._starts(cluster, fault.node)
                 cluster.kill_node(fault.node)  # restarted, it rejoins
                 cluster.start_node(fault.node, extra=_node_arguments(
-                    self.faults, self.node_args, fault.node, after=k))
+                    self.faults, self.node_args, fault.node, self.master.walls, after=k))
+                self._await_start(cluster, fault.node, started)
             case "rogue":
                 self._forge(cluster.session, k)
             case "replay-attack":
@@ -260,10 +288,8 @@ class _Harness:
                 self.forgers.serve_forgeries(self._insiders(fault.node), self.emitters,
                                              range(k, k + DIVERGENCE_GAP))
                 rogue.flood(0, FORGERY_QUERIES)
-            case "snapshot-collision":
+            case "snapshot-collision" | "colliding-source":
                 self._measure_from(fault, cluster, divergence_frames(fault)[-1] + RESYNCED)
-                self.forgers.serve_collisions(self._insiders(fault.node), fault.node,
-                                              divergence_frames(fault))
             case "report-forgery":
                 rogue.in_other_walls_names(self.credentials.issue(WALL, rogue.walls[0]),
                                            rogue.current_run(), k)
@@ -382,6 +408,18 @@ class _Harness:
                                 for w, p in cluster.nodes.items()},
                 "log_bytes": {w: cluster.log_path(w).stat().st_size for w in cluster.nodes},
                 "refused": {w: refused.get(w, 0) for w in cluster.nodes}}
+
+    @staticmethod
+    def _starts(cluster: LocalCluster, wall: str) -> int:
+        """How often `wall`'s node has opened its context (its log says so)."""
+        return cluster.log_path(wall).read_text(errors="replace").count(NODE_UP)
+
+    def _await_start(self, cluster: LocalCluster, wall: str, started: int) -> None:
+        """Hold the run until `wall`'s restarted node has opened its context (at most
+        NODE_START seconds): it then rejoins within a few frames, before the next fault."""
+        deadline = time.monotonic() + NODE_START
+        while self._starts(cluster, wall) <= started and time.monotonic() < deadline:
+            time.sleep(0.05)
 
     def master_killed(self, cluster: LocalCluster, timeout: float = 10.0) -> None:
         """Wait until every node has logged the master's loss (they notice it on liveliness)."""

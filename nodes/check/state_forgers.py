@@ -4,11 +4,12 @@ at a time) holding one wall's own key.
 
 The forgers of `serve_forgeries` send an old snapshot, one that does not fit the scene, and
 one whose chunks are not the named state. The forgers of `serve_collisions` send a state
-whose checksum *is* the named one (nodes/check/checksum_collision.py): each watches the
-walls' reports, fetches the state of the first healthy wall to report, under its own key, and
-makes its colliding twin before the diverged node asks for that state (the master first
-waits for every report and runs its forensics). Only whose key signed it can tell such a
-state from the real one.
+whose checksum *is* the named one (nodes/check/checksum_collision.py): on the diverged
+node's query, each fetches that state under its own key from the wall named to confirm the
+resync (neither the node nor its source), makes its colliding twin and answers with it. The
+source withholds its answer to that first query (`withhold`, nodes/faults.py), so the twin
+is judged every time: under another wall's key it is refused by its signer; as the source
+itself (its key) only the confirmation by a second wall refuses it.
 """
 
 from __future__ import annotations
@@ -28,7 +29,6 @@ from cavesim.core.limits import MAX_PARTICLES
 from cavesim.core.records import EMITTER_DTYPE, PARTICLE_BYTES
 from cavesim.core.wire import (
     Credentials,
-    ReportMessage,
     SessionKeys,
     StateRequest,
     decode_envelope,
@@ -48,6 +48,8 @@ log = logging.getLogger("cavesim.rogue")
 FORGERIES = ("old", "misfit", "corrupt")  # the snapshots `serve_forgeries` sends
 FORGED_PARTICLES = 64  # particles of a corrupt snapshot: a whole chunk of junk
 FETCH_SECONDS = 5.0  # how long a collision forger waits for the state it fetches
+COLLIDING, COLLIDING_SOURCE = "colliding-snapshot", "colliding-source-snapshot"  # served
+# under another wall's key, and as the source (its own key)
 Snapshot = tuple[SnapshotHeader, list[SnapshotChunk]]
 
 
@@ -60,6 +62,7 @@ class StateForgers:
         self.endpoint, self.name, self.walls = endpoint, session, walls
         self.keys = SessionKeys(session)
         self.sent: Counter[str] = Counter()
+        self.twins_sent: Counter[tuple[str, int]] = Counter()  # (what, frame) -> times
         self._lock = threading.Lock()
         self.collisions: list[dict] = []
         # a peer per forger, opened now: by the time they forge, zenoh's gossip has linked
@@ -69,13 +72,15 @@ class StateForgers:
         self._idle = list(self._peers)
         self._declarations: list = []
         # (forger's wall, frame, digest) -> the colliding twin of that state, signed by that
-        # forger (None while it is made)
+        # forger (None: none could be made)
         self._twins: dict[tuple[str, int, str], list[bytes] | None] = {}
-        self._ready = threading.Condition(self._lock)
+        self._making = threading.Lock()  # one twin at a time
 
-    def _count(self, what: str) -> None:
+    def _count(self, what: str, frame: int | None) -> None:
         with self._lock:
             self.sent[what] += 1
+            if frame is not None:
+                self.twins_sent[what, frame] += 1
 
     def _peer(self) -> zenoh.Session:
         """A forger's own peer: one opened at the start while there are (else a new one)."""
@@ -123,51 +128,61 @@ class StateForgers:
     # -- states that collide with the named checksum -------------------------------------
 
     def serve_collisions(self, insiders: list[Credentials], victim: str,
-                         frames: tuple[int, ...]) -> None:
+                         frames: tuple[int, ...], fetch_from: str, as_source: bool) -> None:
         """A forger per insider, against the wall `victim`, which diverges at `frames` (the
-        insiders made it): on the first report of such a frame from a wall other than its
-        own and the victim's, it fetches that state and makes its colliding twin, so that
-        the twin is ready before the victim asks for that state; it then answers the
-        victim's query with it, signed by its own key (not when the query asks its own
-        wall: that one would be the wall speaking)."""
+        harness makes it): when the victim asks for a state of such a frame (another wall's,
+        or, `as_source`, the forger's own wall's: the resync's source itself an insider), it
+        fetches that state from `fetch_from` under its own key (the wall holds it while the
+        master waits for the resync), makes its colliding twin once, and answers with it,
+        signed by its own key. Declared at the run's start, long before those frames."""
         for member in insiders:
             peer = self._peer()
-            self._declarations += [
-                peer.declare_subscriber(self.keys.report(), lambda sample, member=member,
-                                        peer=peer: self._on_report(sample, member, peer,
-                                                                   victim, frames)),
-                peer.declare_queryable(self.keys.state(), lambda query, member=member:
-                                       self._answer_with_twin(query, member, victim))]
+            self._declarations.append(peer.declare_queryable(
+                self.keys.state(), lambda query, member=member, peer=peer: self._answer_with_twin(
+                    query, member, peer, victim, frames, fetch_from, as_source)))
 
-    def _on_report(self, sample: zenoh.Sample, member: Credentials, peer: zenoh.Session,
-                   victim: str, frames: tuple[int, ...]) -> None:
-        try:
-            envelope = decode_envelope(sample.payload.to_bytes(), self.name, member)
-        except ProtocolError:
+    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, peer: zenoh.Session,
+                          victim: str, frames: tuple[int, ...], fetch_from: str,
+                          as_source: bool) -> None:
+        """Answer the victim's query with the twin, from a thread (it fetches first)."""
+        opened = self._request(query, member)
+        if opened is None:
             return
-        report = envelope.message
-        if not isinstance(report, ReportMessage) or report.frame not in frames \
-                or report.node in (victim, member.member.name):
+        request, run_id = opened
+        if request.asker != victim or request.frame not in frames \
+                or (request.node == member.member.name) != as_source:
+            query.drop()  # not the victim's resync, or not the wall this forger speaks for
             return
-        twin = (member.member.name, report.frame, report.digest)
-        with self._lock:
-            if any(key[:2] == twin[:2] for key in self._twins):
-                return  # one twin of a frame per forger
-            self._twins[twin] = None  # being made
-        threading.Thread(target=self._make_twin, daemon=True, name="collision forger",
-                         args=(peer, member, envelope.run_id,
-                               StateRequest(report.frame, report.node, report.digest,
-                                            asker=member.member.name))).start()
+        log.info("%s got %s's query for %s's state of frame %d", member.member.name,
+                 request.asker, request.node, request.frame)
+        genuine = StateRequest(request.frame, fetch_from, request.digest,
+                               asker=member.member.name)
+        threading.Thread(target=self._send_twin, daemon=True, name="collision forger", args=(
+            query, peer, member, run_id, genuine,
+            COLLIDING_SOURCE if as_source else COLLIDING)).start()
+
+    def _send_twin(self, query: zenoh.Query, peer: zenoh.Session, member: Credentials,
+                   run_id: int, genuine: StateRequest, what: str) -> None:
+        """Answer `query` with the twin of the state `genuine` asks for (made once)."""
+        with self._making:
+            key = (member.member.name, genuine.frame, genuine.digest)
+            if key not in self._twins:
+                self._twins[key] = self._make_twin(peer, member, run_id, genuine)
+            replies = self._twins[key]
+        if replies is None:
+            query.drop()
+        else:
+            self._send(query, replies, what, genuine.frame)
 
     def _make_twin(self, peer: zenoh.Session, member: Credentials, run_id: int,
-                   request: StateRequest) -> None:
-        """Fetch the state `request` names under the forger's own key; keep its twin, signed
-        and ready to send (so that it goes out before the wall asked has read its state)."""
+                   request: StateRequest) -> list[bytes] | None:
+        """Fetch the state `request` names under the forger's own key; its twin, signed and
+        ready to send (None: none could be made, said in the log)."""
         genuine = self._fetch(peer, member, run_id, request)
         if genuine is None:
             log.info("the collision forger got no state of frame %d from %s", request.frame,
                      request.node)
-            return
+            return None
         header, chunks = genuine
         words = np.frombuffer(b"".join(c.data for c in chunks), np.uint32)
         emitter_words = header.emitters.view(np.uint32)
@@ -175,16 +190,12 @@ class StateForgers:
             twin = colliding_particles(words)
         except ValueError as e:
             log.info("no colliding state of frame %d: %s", request.frame, e)
-            return
+            return None
         size = header.chunk_particles * PARTICLE_BYTES
         data = twin.tobytes()
-        replies = [encode(message, self.name, member, run_id) for message in (
-            header, *(SnapshotChunk(header.frame, i, data[i * size:(i + 1) * size])
-                      for i in range(header.chunks)))]
-        with self._ready:
-            self._twins[(member.member.name, request.frame, request.digest)] = replies
-            log.info("%s's twin of %s's state of frame %d is ready", member.member.name,
-                     request.node, request.frame)
+        log.info("%s's twin of %s's state of frame %d is made", member.member.name,
+                 request.node, request.frame)
+        with self._lock:
             self.collisions.append({
                 "frame": request.frame, "fetched_from": request.node,
                 "named_checksum": request.digest,
@@ -192,7 +203,9 @@ class StateForgers:
                 "colliding_checksum": reference_checksum(twin, emitter_words,
                                                          header.seed).digest,
                 "particles_changed": changed_particles(words, twin)})
-            self._ready.notify_all()
+        return [encode(message, self.name, member, run_id) for message in (
+            header, *(SnapshotChunk(header.frame, i, data[i * size:(i + 1) * size])
+                      for i in range(header.chunks)))]
 
     def _fetch(self, peer: zenoh.Session, member: Credentials, run_id: int,
                request: StateRequest) -> Snapshot | None:
@@ -219,38 +232,6 @@ class StateForgers:
                     return header, sorted(chunks, key=lambda c: c.index)
         return None
 
-    def _answer_with_twin(self, query: zenoh.Query, member: Credentials, victim: str
-                          ) -> None:
-        """Answer the victim's query at once when the twin is ready (else from a thread,
-        once it is)."""
-        opened = self._request(query, member)
-        if opened is None:
-            return
-        request, _ = opened
-        if request.asker != victim or request.node == member.member.name:
-            query.drop()  # not the victim; or the wall asked, whose state is its own to send
-            return
-        twin = (member.member.name, request.frame, request.digest)
-        with self._lock:
-            replies = self._twins.get(twin)
-        log.info("%s got %s's query for %s's state of frame %d (twin %s)", member.member.name,
-                 request.asker, request.node, request.frame,
-                 "ready" if replies else "not ready")
-        if replies is not None:
-            self._send(query, replies, "colliding-snapshot")
-        else:
-            threading.Thread(target=self._send_when_ready, daemon=True, name="collision forger",
-                             args=(query, twin)).start()
-
-    def _send_when_ready(self, query: zenoh.Query, key: tuple[str, int, str]) -> None:
-        with self._ready:
-            self._ready.wait_for(lambda: self._twins.get(key) is not None, FETCH_SECONDS)
-            replies = self._twins.get(key)
-        if replies is None:
-            query.drop()
-        else:
-            self._send(query, replies, "colliding-snapshot")
-
     # -- both ----------------------------------------------------------------------------
 
     def _request(self, query: zenoh.Query, member: Credentials
@@ -271,11 +252,13 @@ class StateForgers:
         self._send(query, [encode(message, self.name, member, run_id)
                            for message in (header, *chunks)], what)
 
-    def _send(self, query: zenoh.Query, replies: list[bytes], what: str) -> None:
+    def _send(self, query: zenoh.Query, replies: list[bytes], what: str,
+              twin_of: int | None = None) -> None:
+        """Send `replies` (`twin_of`: the frame, when they are a colliding twin)."""
         try:
             for data in replies:
                 query.reply(str(query.key_expr), data)
-            self._count(what)
+            self._count(what, twin_of)
         except zenoh.ZError as e:
             log.info("a forged reply failed: %s", e)
         finally:

@@ -1,15 +1,17 @@
 """`cavesim bench --resync`: what healing a one-particle bitflip costs, the full snapshot
-against the delta resync, and what the forensics' history ring costs per frame.
+against the delta resync, what confirming the state by a second wall costs, and what the
+forensics' history ring costs per frame.
 
-Each way runs as a real cluster on loopback (`cavesim check`'s harness): two wall nodes,
+Each way runs as a real cluster on loopback (`cavesim check`'s harness): three wall nodes,
 each its own process and GL context, hold the same state of N particles (a scene whose
 burst fills the pool in frame 1 and whose particles live on); at frame 3 one node flips a
 bit of one particle, the master names it, its forensics run, and the node resyncs from the
-other — by full snapshot (`--resync full`) or by delta. The node's log line gives the
-bytes it received and sent and its own resync time; the master's record the time from its
-RESYNC command to the node's verified report. The history ring's cost is measured in this
-process: a checksum of the same N-particle state, then the GPU copy of its fold-1 items into
-the ring, waited for.
+first of the others, confirmed by the second — by full snapshot (`--resync full`) or by
+delta. The node's log line gives the bytes it received and sent, its own resync time and
+the confirmation's; the master's record the time from its RESYNC command to the node's
+verified report. The confirmation's parts (`confirmation_cost.py`) and the history ring's cost
+are measured in this process: a checksum of the same N-particle state, then the GPU copy of
+its fold-1 items into the ring, waited for.
 """
 
 from __future__ import annotations
@@ -31,13 +33,16 @@ from cavesim.core.digest.history import HISTORY_FRAMES
 from cavesim.core.digest.shape import ITEM_WORDS, plan
 from cavesim.core.errors import CavesimError
 from cavesim.core.output import writing
+from nodes.cluster_bench.confirmation_cost import confirmation_cost
 
 RESYNC_PARTICLES = 1_000_000
 FLIP_FRAME = 3  # the bitflip's frame: the pool is full from frame 1
 RING_FRAMES = 20  # timed frames of the history ring's copy
 MODES = ("full", "delta")
+WALLS, FLIPPED = ("front", "left", "right"), "right"  # right heals from front, left confirms
 _RESYNCED = re.compile(r"resynced to frame \d+ from \w+: (?P<how>.*), (?P<bytes>\d+) bytes, "
-                       r"(?P<seconds>[\d.]+) s")
+                       r"(?P<seconds>[\d.]+) s; confirmed by (?P<confirmer>\w+) "
+                       r"\((?P<digests>\d+) digest\(s\), (?P<confirm_seconds>[\d.]+) s\)")
 SCENE = """# bench --resync: {particles} particles from frame 1 on, living for the whole run
 name = "resync"
 [simulation]
@@ -77,17 +82,26 @@ def run_resync_bench(particles: int, out_dir: Path, console: Console) -> dict:
     scene.write_text(SCENE.format(particles=particles, rate=particles * 60.0))
     ways = []
     for mode in MODES:
-        with console.status(f"{mode} resync of {particles:,} particles, two nodes on loopback"):
+        with console.status(f"{mode} resync of {particles:,} particles, three nodes on "
+                            f"loopback"):
             ways.append(_one_way(scene, mode, folder / mode))
+        way = ways[-1]
+        console.print(f"{mode} resync: {way['bytes']:,} bytes, node {way['node_seconds']} s, "
+                      f"confirmed by {way['confirmer']} in {way['confirm_seconds']} s",
+                      markup=False, highlight=False)
+    with console.status("the confirmation's parts, in this process"):
+        confirmation = confirmation_cost(load_scene(scene), console)
     with console.status("history ring per frame"):
         ring = ring_cost(load_scene(scene))
     report = {
         "command": "bench --resync", "particles": particles, "flip_frame": FLIP_FRAME,
-        "how": "a cluster on loopback: the master in this process, two wall nodes as "
-               "processes of their own (cavesim check's harness), HMAC-signed traffic",
+        "how": "a cluster on loopback: the master in this process, three wall nodes as "
+               "processes of their own (cavesim check's harness), HMAC-signed traffic; "
+               "the second healthy wall confirms the resync",
         "ways": ways,
         "bytes_ratio": round(ways[0]["bytes"] / ways[1]["bytes"], 1),
         "node_seconds_ratio": round(ways[0]["node_seconds"] / ways[1]["node_seconds"], 1),
+        "confirmation": confirmation,
         "history_ring": ring,
         "renderer": ways[0]["renderer"], "cpu_count": os.cpu_count(),
         "versions": {"eclipse-zenoh": importlib.metadata.version("eclipse-zenoh")},
@@ -106,13 +120,12 @@ def _one_way(scene: Path, mode: str, out: Path) -> dict:
     from nodes.check.harness import CheckPlan, run_check
     from nodes.faults import Fault
 
-    plan = CheckPlan(("front", "left"), scene, FLIP_FRAME + 1,
-                     (Fault("bitflip", FLIP_FRAME, "left"),), out,
+    plan = CheckPlan(WALLS, scene, FLIP_FRAME + 1, (Fault("bitflip", FLIP_FRAME, FLIPPED),), out,
                      session=f"resync{os.getpid()}{mode}", barrier_timeout=60.0, resync=mode)
     report = run_check(plan)
     resyncs = report["run"]["resyncs"]
-    line = next((m for m in map(_RESYNCED.search, (out / "logs" / "left.log").read_text()
-                                .splitlines()) if m), None)
+    line = next((m for m in map(_RESYNCED.search, (out / "logs" / f"{FLIPPED}.log")
+                                .read_text().splitlines()) if m), None)
     if len(resyncs) != 1 or not resyncs[0]["ok"] or line is None \
             or (mode == "delta") != line["how"].startswith("by delta"):
         raise ResyncBenchError(f"the {mode} run did not heal the bitflip by {mode} resync: "
@@ -121,12 +134,14 @@ def _one_way(scene: Path, mode: str, out: Path) -> dict:
     (divergence,) = report["run"]["divergences"]
     forensics = json.loads((out / divergence["forensics"]["file"]).read_text())
     return {"mode": mode, "how": line["how"], "bytes": int(line["bytes"]),
-            "node_seconds": float(line["seconds"]),
+            "node_seconds": float(line["seconds"]), "confirmer": line["confirmer"],
+            "confirm_digests": int(line["digests"]),
+            "confirm_seconds": float(line["confirm_seconds"]),
             "master_seconds": round(resyncs[0]["seconds"], 3),
             "localised": outcome["localisation"]["exact"],
             "forensics_seconds": divergence["forensics"]["seconds"],
             "forensics_bytes": forensics["bytes_fetched"],
-            "renderer": report["run"]["gpus"].get("left", {}).get("renderer")}
+            "renderer": report["run"]["gpus"].get(FLIPPED, {}).get("renderer")}
 
 
 def ring_cost(scene) -> dict:
@@ -162,13 +177,14 @@ def ring_cost(scene) -> dict:
 
 def show(report: dict, console: Console) -> None:
     table = Table(title=f"bench --resync: one flipped bit of {report['particles']:,} "
-                        f"particles, two nodes on loopback ({report['renderer']})")
-    for column in ("resync", "bytes", "node s", "master s", "what moved", "localised"):
+                        f"particles, three nodes on loopback ({report['renderer']})")
+    for column in ("resync", "bytes", "node s", "confirm s", "master s", "what moved",
+                   "localised"):
         table.add_column(column, justify="right")
     for way in report["ways"]:
         table.add_row(way["mode"], f"{way['bytes']:,}", f"{way['node_seconds']:.2f}",
-                      f"{way['master_seconds']:.3f}", way["how"],
-                      "yes" if way["localised"] else "NO")
+                      f"{way['confirm_seconds']:.3f}", f"{way['master_seconds']:.3f}",
+                      way["how"], "yes" if way["localised"] else "NO")
     console.print(table)
     ring = report["history_ring"]
     console.print(f"delta: {report['bytes_ratio']:g}x fewer bytes, "
@@ -177,6 +193,12 @@ def show(report: dict, console: Console) -> None:
     console.print(f"forensics before the resync: {forensics['forensics_bytes']:,} B fetched "
                   f"from the two nodes in {forensics['forensics_seconds']:.3f} s", markup=False,
                   highlight=False)
+    confirm = report["confirmation"]
+    console.print(f"confirmation of {confirm['particles']:,} particles ({confirm['bytes']:,} B): "
+                  f"GPU read {confirm['gpu_read_ms']} ms, SHA-256 {confirm['sha256_ms']} ms "
+                  f"({confirm['sha256_mb_per_s']:,} MB/s; BLAKE2b {confirm['blake2b_ms']} ms), "
+                  f"a confirmer's whole answer {confirm['confirmer_answer_ms']} ms",
+                  markup=False, highlight=False, soft_wrap=True)
     console.print(f"history ring: {ring['bytes_per_frame']:,} B of fold-1 items per frame "
                   f"({ring['ring_bytes']:,} B for {ring['ring_frames']} frames), GPU copy "
                   f"{ring['ring_copy_ms']} ms per frame against {ring['checksum_ms']} ms for "

@@ -23,7 +23,14 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
-from nodes.faults import CONTROL_REQUESTS, KINDS, divergence_frames, every_kind
+from nodes.faults import (
+    COLLISIONS,
+    CONTROL_REQUESTS,
+    KINDS,
+    MIN_COLLISION_WALLS,
+    divergence_frames,
+    every_kind,
+)
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 from nodes.run_folder import add_arguments as add_out_arguments
 from nodes.run_folder import own_folder
@@ -76,6 +83,10 @@ def check(args: argparse.Namespace, console) -> int:
         if f.node is not None and f.node not in walls:
             raise UsageError(f"cavesim check: error: argument --inject: node {f.node!r} of "
                              f"{f} is not one of the nodes {', '.join(walls)}")
+        if f.kind in COLLISIONS and len(walls) < MIN_COLLISION_WALLS:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} needs at least "
+                             f"{MIN_COLLISION_WALLS} walls (a second healthy wall besides "
+                             f"the source), got {len(walls)}")
         if f.frame > args.frames:
             raise UsageError(f"cavesim check: error: argument --inject: {f} is after the "
                              f"last frame {args.frames}")

@@ -22,8 +22,8 @@ from nodes.arguments import (
     add_node_trajectory_arguments,
     cave_file,
     configure_logging,
-    fault_spec,
     network_and_key,
+    node_fault_spec,
     number_in,
     output_folder,
     scene_file,
@@ -44,7 +44,7 @@ def add(commands) -> None:
                         help="the node's name in the run: a wall's, or a node that the "
                              "--cave file's `node = NAME` gives several walls")
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
-    parser.add_argument("--inject", type=fault_spec, action="append", default=[],
+    parser.add_argument("--inject", type=node_fault_spec, action="append", default=[],
                         help="fault to inject into this node, KIND@FRAME (testing)")
     parser.add_argument("--slow-delay", type=seconds, default=1.5)
     parser.add_argument("--cave", type=cave_file,

@@ -309,7 +309,7 @@ class Master:
         resync the odd ones; give up those over the mixed-hardware mode's breach budget."""
         vote = self.agreement.vote(k, self.membership.members, self.reports)
         for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
-            self._resync(k, node, vote.source, vote.agreed)
+            self._resync(k, node, vote.source, vote.agreed, vote.odd)
         for node in () if self.tolerance is None else self.tolerance.over_budget:
             self._give_up(k, node, "breach-budget")
         return vote
@@ -343,12 +343,16 @@ class Master:
                 break
             self._pump(deadline)
 
-    def _resync(self, k: int, node: str, source: str, digest: str | None = None) -> bool:
+    def _resync(self, k: int, node: str, source: str, digest: str | None = None,
+                odd: tuple[str, ...] = ()) -> bool:
         """Have `node` load `source`'s state of frame k (whose checksum is `digest`, by
-        default the source's report): healed, or failed (`resyncs.py`), and given up after
+        default the source's report), or another holder's, confirmed by a second holder
+        (not one of the `odd`): healed, or failed (`resyncs.py`), and given up after
         MAX_RESYNC_FAILURES failures in a row."""
-        healed = self.resyncs.resync(k, node, source, digest or self.reports[source].digest,
-                                     self.reports)
+        digest = digest or self.reports[source].digest
+        holders = lockstep.holders(self.membership.members, self.reports, digest, node,
+                                   source, odd)
+        healed = self.resyncs.resync(k, node, holders, digest, self.reports)
         if healed:
             self.membership = self.membership.healed(node)
         elif healed is None:

@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
 from cavesim.core.frame_cost import NOT_TIMED_US, PHASES
+from nodes.lockstep import UNCONFIRMED
 from nodes.master.counter_book import CounterBook
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
@@ -49,9 +50,18 @@ class Resync:
     source: str
     ok: bool
     seconds: float
+    confirmer: str | None = None  # the second wall holding the state (None: there was none)
+
+    @property
+    def confirmation(self) -> str | None:
+        """Who confirmed the state the node committed (None: it committed none)."""
+        if not self.ok:
+            return None
+        return UNCONFIRMED if self.confirmer is None else f"confirmed by {self.confirmer}"
 
     def to_json(self) -> dict:
-        return {**asdict(self), "seconds": round(self.seconds, 4)}
+        return {**asdict(self), "seconds": round(self.seconds, 4),
+                "confirmation": self.confirmation}
 
 
 @dataclass(frozen=True)

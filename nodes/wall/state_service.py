@@ -1,9 +1,10 @@
 """A wall node's state as a resync moves it (a part of `WallNode`, nodes/wall/process.py):
 in, a RESYNC loads the named node's state of the named frame, first by delta
 (`nodes/wall/delta.py`: only the records whose blocks differ), else by the full streamed
-snapshot (`nodes/wall/snapshots.py`), and only whole and with the named checksum; out, the
-node answers a resyncing node's state query and block questions (the master's forensics,
-a delta) about the state it holds, and refuses one about another state.
+snapshot (`nodes/wall/snapshots.py`), and only whole, with the named checksum and confirmed
+by the second wall the master named (`nodes/wall/confirmation.py`); out, the node answers a
+resyncing node's state query and block questions (the master's forensics, a delta, a
+confirmation) about the state it holds, and refuses one about another state.
 """
 
 from __future__ import annotations
@@ -30,11 +31,13 @@ from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.replies import anyone_alive
 from cavesim.core.wire.snapshot import transfer_seconds
 from cavesim.gpu.engine import ParticleSystem
-from nodes.blocks import BlockAsker, serve_blocks
+from nodes.blocks import BlockAsker, StreamDigests, serve_blocks
+from nodes.lockstep import UNCONFIRMED
+from nodes.wall.confirmation import Confirmation, NoConfirmation
 from nodes.wall.delta import DeltaRefused, fetch_delta
 from nodes.wall.inbox import NodeView
 from nodes.wall.settings import NodeConfig
-from nodes.wall.snapshots import fetch_snapshot, send_snapshot
+from nodes.wall.snapshots import SourceRefused, fetch_snapshot, send_snapshot
 
 log = logging.getLogger("cavesim.node")
 RESYNC_PAUSE = 0.25  # s between two state queries of one resync (the source rate-limits them)
@@ -44,7 +47,7 @@ DELTA_SECONDS = 5.0  # s for all of a delta's questions; then the full snapshot
 
 class StateService:
     """Resyncs in, state and blocks out (see the module docstring). Of the node it uses the
-    attributes below, `done`, `_seal`, `_publish` and `_sample` (`FrameStep`'s)."""
+    attributes below, `done`, `_fault`, `_seal`, `_publish` and `_sample` (`FrameStep`'s)."""
 
     config: NodeConfig
     system: ParticleSystem
@@ -54,23 +57,44 @@ class StateService:
     keys: SessionKeys
     last_report: ReportMessage | None
     trajectories: TrajectoryRecording | None
+    stream_digests: StreamDigests  # of the state it holds, for the resyncs it confirms
 
     def _resync(self, command: ControlMessage) -> None:
-        """Stream in `command.source`'s snapshot of `command.frame`, whose checksum the master
-        named, and report RESYNCED; nothing is loaded unless the whole state arrives and has
-        that checksum.
+        """Load `command.source`'s state of `command.frame`, whose checksum the master named,
+        confirmed by `command.confirmer` when it names one, and report RESYNCED; nothing is
+        loaded unless the whole state arrives, has that checksum and is confirmed.
 
         A node that has just come back may not yet have its direct link to the source: a
-        query then finds nobody at once; a forged reply may come first. It asks again until
-        the deadline (which scales with the largest state the scene holds), each time after
-        a pause and after waiting (on liveliness, up to a second) for the source to be
-        reachable.
+        query then finds nobody at once. It asks again until the deadline (which scales with
+        the largest state the scene holds), each time after a pause and after waiting (on
+        liveliness, up to a second) for the source to be reachable. A forged stream that
+        comes first costs no second query (`fetch_snapshot` then loads the next); when every
+        stream of the state the source's key sent was refused, or the confirmer does not
+        answer, the resync ends at once, and the master tries another source.
         """
         source, wall = command.source, self.config.name
         started = time.monotonic()
         failed_repliers: set[str] = set()
-        if self.config.resync == "delta" and self._delta(command, failed_repliers, started):
-            return
+        confirmation = self._confirmation(command, started)
+        try:
+            if self.config.resync == "delta" and self._delta(command, failed_repliers, started,
+                                                             confirmation):
+                return
+            if self._stream(command, failed_repliers, started, confirmation):
+                return
+        except (SourceRefused, NoConfirmation) as e:
+            log.error("%s: no state of frame %d from %s: %s; keeping our state", wall,
+                      command.frame, source, e)
+        state = self.system.checksum()  # the master sees at once that the resync failed
+        self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
+                                    state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
+                                    self._sample()), keep=False)
+
+    def _stream(self, command: ControlMessage, failed: set[str], started: float,
+                confirmation: Confirmation | None) -> bool:
+        """Load the named state by streaming the full snapshot, asking again until the
+        deadline; False (said in the log) when none came."""
+        source = command.source
         deadline = started + transfer_seconds(self.system.capacity)
         while deadline > time.monotonic():
             request = StateRequest(command.frame, source, command.digest)  # a fresh nonce
@@ -78,31 +102,41 @@ class StateService:
             received = [len(sealed)]
             header = fetch_snapshot(self.session, self.keys.state(source), self.system,
                                     sealed, self._open_reply, request, deadline,
-                                    self.rejects, failed_repliers, received.append)
+                                    self.rejects, failed, confirmation, received.append)
             if header is not None:
                 self._loaded(header.frame, source, f"{header.particles} particles in "
                              f"{header.chunks} chunks, {sum(received)} bytes",
-                             time.monotonic() - started)
-                return
+                             time.monotonic() - started, confirmation)
+                return True
             time.sleep(min(RESYNC_PAUSE, max(deadline - time.monotonic(), 0.0)))
             anyone_alive(self.session, self.keys.alive(source),
                          min(time.monotonic() + SOURCE_WAIT, deadline))
-        log.error("%s: no verified snapshot of frame %d from %s within %.0f s; keeping our "
-                  "state", wall, command.frame, source, deadline - started)
-        state = self.system.checksum()  # the master sees at once that the resync failed
-        self._publish(ReportMessage(command.frame, wall, state.digest, state.particles,
-                                    state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
-                                    self._sample()), keep=False)
+        log.error("%s: no verified snapshot of frame %d from %s within %.0f s",
+                  self.config.name, command.frame, source, deadline - started)
+        return False
 
-    def _delta(self, command: ControlMessage, failed: set[str], started: float) -> bool:
+    def _confirmation(self, command: ControlMessage, started: float) -> Confirmation | None:
+        """The confirmer's word on the state (None where the master named nobody)."""
+        if not command.confirmer:
+            return None
+        ask = BlockAsker(self.session, self.keys.blocks(command.confirmer), self._seal,
+                         self._open_reply, self.rejects,
+                         deadline=started + transfer_seconds(self.system.capacity))
+        return Confirmation(command.confirmer, ask, command.frame, command.digest)
+
+    def _delta(self, command: ControlMessage, failed: set[str], started: float,
+               confirmation: Confirmation | None) -> bool:
         """Load the named state by fetching only the records whose blocks differ from the
         source's; False (said in the log) when the full snapshot must do it."""
         source = command.source
         ask = BlockAsker(self.session, self.keys.blocks(source), self._seal, self._open_reply,
                          self.rejects, failed, deadline=started + DELTA_SECONDS)
         try:
-            delta = fetch_delta(self.system, ask, command.frame, source, command.digest)
+            delta = fetch_delta(self.system, ask, command.frame, source, command.digest,
+                                confirmation)
         except DeltaRefused as e:
+            if e.refusal is not None:
+                self.rejects.reject(e.refusal, self.keys.blocks(source))
             if e.bad_data and ask.replier is not None:
                 failed.add(ask.replier)
             log.warning("%s: no delta resync from %s (%s); streaming the full snapshot",
@@ -110,7 +144,7 @@ class StateService:
             return False
         self._loaded(command.frame, source, f"by delta, {delta.records} records under "
                      f"{delta.blocks} differing block(s), {ask.bytes} bytes",
-                     time.monotonic() - started)
+                     time.monotonic() - started, confirmation)
         return True
 
     def _open_reply(self, data: bytes) -> Envelope:
@@ -121,8 +155,10 @@ class StateService:
             raise ProtocolError("wrong-run", f"a reply of run {envelope.run_id:#018x}")
         return envelope
 
-    def _loaded(self, frame: int, source: str, how: str, seconds: float) -> None:
+    def _loaded(self, frame: int, source: str, how: str, seconds: float,
+                confirmation: Confirmation | None) -> None:
         self.view.done = frame
+        self.stream_digests.forget()  # what it confirms now is the state just loaded
         if self.trajectories is not None and not self.trajectories.holds(
                 self.system.read_particles()):
             log.error("%s: resynced to a state the trajectories did not follow: "
@@ -131,8 +167,9 @@ class StateService:
             self.trajectories = None
         state = self.system.checksum()
         self.system.keep_history(frame)
-        log.info("%s: resynced to frame %d from %s: %s, %.2f s", self.config.name, frame,
-                 source, how, seconds)
+        log.info("%s: resynced to frame %d from %s: %s, %.2f s; %s", self.config.name, frame,
+                 source, how, seconds, UNCONFIRMED if confirmation is None
+                 else confirmation.said())
         self._publish(ReportMessage(frame, self.config.name, state.digest, state.particles,
                                     state.emitters, NO_COST, self.rejects.total, Status.RESYNCED,
                                     self._sample()))
@@ -144,12 +181,17 @@ class StateService:
         return serve_blocks(query, self.keys.blocks(self.config.name), self.system,
                             self.config.name,
                             None if held is None else (held.frame, held.digest), request,
-                            self._seal)
+                            self._seal, self.stream_digests)
 
     def _serve_state(self, query: zenoh.Query, request: StateRequest) -> int:
         """Stream our state to a resyncing node, if it is the one it asks for; the bytes
         sent."""
         held = self.last_report
+        if self._fault("withhold", request.frame):  # the harness's: a forger's goes first
+            log.info("%s: withholding the state of frame %d from %s (injected)",
+                     self.config.name, request.frame, request.asker)
+            query.drop()
+            return 0
         if held is None or held.frame != request.frame or held.digest != request.digest:
             self.rejects.reject(ProtocolError("not-held", f"asked for the state of frame "
                                                           f"{request.frame} "

@@ -160,14 +160,29 @@ def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
     assert report["run"]["frames"] == 60 and report["divergences"] == 0
 
 
-def test_a_state_with_the_named_checksum_from_another_wall_is_refused(tmp_path):
-    report = check(tmp_path, ["snapshot-collision@20:right"], frames=100, scene=MINIMAL)
-    assert_each_fault_caught(report, ["snapshot-collision@20:right"])
-    (collision,) = report["faults"]
-    made = collision["detection"]["collisions"]
-    assert made and all(c["colliding_checksum"] == c["named_checksum"] ==
-                        c["genuine_checksum"] and len(c["particles_changed"]) == 2 for c in made)
+def test_a_state_with_the_named_checksum_is_refused_from_another_wall_and_from_the_source(
+        tmp_path):
+    """Under another wall's key it is refused by its signer; from the resync's source itself
+    (its key) by the second wall's digest, each time, and the next holder heals the node."""
+    faults = ["snapshot-collision@20:right", "colliding-source@35:left"]
+    report = check(tmp_path, faults, frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, faults)
+    collision, source = report["faults"]
+    for outcome in (collision, source):
+        made = outcome["detection"]["collisions"]
+        assert made and all(c["colliding_checksum"] == c["named_checksum"] ==
+                            c["genuine_checksum"] and len(c["particles_changed"]) == 2
+                            for c in made)
     assert collision["detection"]["colliding_snapshots_served"] >= 1
+    assert source["detection"]["colliding_snapshots_served"] == 2
+    assert source["detection"]["refused_by_node"] >= 2
+    tries = [(r["frame"], r["source"], r["confirmer"], r["ok"], r["confirmation"])
+             for r in source["detection"]["resyncs"]]
+    assert tries == [(k, *try_) for k in (35, 45) for try_ in (
+        ("front", "right", False, None), ("right", "front", True, "confirmed by front"))]
+    assert report["divergences"] == 3 and report["final"]["agree"]
+    log = (tmp_path / "logs" / "left.log").read_text()
+    assert "unconfirmed: the particles received are not those right holds" in log
 
 
 def test_oversized_messages_are_dropped_by_the_transport(tmp_path):

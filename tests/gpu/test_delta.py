@@ -21,6 +21,8 @@ from cavesim.core.wire.envelope import decode, decode_envelope, encode
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from nodes.blocks import BlockAsker, answer, check_reply, serve_blocks
+from nodes.check.checksum_collision import colliding_particles
+from nodes.wall.confirmation import Confirmation
 from nodes.wall.delta import DeltaRefused, fetch_delta
 
 SESSION, KEY = "delta", generate().issue("wall", "front")  # the source's own key
@@ -121,6 +123,42 @@ def test_forged_records_are_refused_and_change_nothing(pair):
     with pytest.raises(DeltaRefused, match="not the named one") as refused:
         fetch_delta(odd, Source(healthy, forge), FRAME, "front", healthy.checksum().digest)
     assert refused.value.bad_data and state(odd) == before
+
+
+def test_a_colliding_delta_from_an_insider_source_is_refused_by_the_confirmer(ctx, pair):
+    """The source holds a state with the named checksum and two particles traded within the
+    invocation the odd node's flipped bit lies in: its tree agrees with the healthy one's,
+    so the delta fetches the traded records, and the checksum takes the patched state. The
+    second wall's digest of the same records refuses it; nothing is loaded."""
+    healthy, odd = pair
+    digest = healthy.checksum().digest
+    insider = system_with(ctx, particle_cloud(PARTICLES - 1000, seed=3))
+    try:
+        genuine = healthy.read_particles().view(np.uint32).reshape(-1)
+        insider.write_particles(colliding_particles(genuine).view(PARTICLE_DTYPE))
+        assert insider.checksum().digest == digest
+        flip(odd, 0, 0, 3)  # in the invocation of the traded words
+        before = state(odd)
+        confirmation = Confirmation("left", lambda request: answer(healthy, request, "left"),
+                                    FRAME, digest)
+        with pytest.raises(DeltaRefused, match="not confirmed") as refused:
+            fetch_delta(odd, Source(insider), FRAME, "front", digest, confirmation)
+        assert refused.value.refusal.reason == "unconfirmed" and refused.value.bad_data
+        assert state(odd) == before
+        fetch_delta(odd, Source(insider), FRAME, "front", digest)  # unconfirmed: taken
+        assert state(odd) == state(insider) != state(healthy)
+    finally:
+        insider.release()
+
+
+def test_a_confirmed_delta_heals(pair):
+    healthy, odd = pair
+    digest = healthy.checksum().digest
+    flip(odd, 20_000, 4, 9)
+    confirmation = Confirmation("left", lambda request: answer(healthy, request, "left"),
+                                FRAME, digest)
+    fetch_delta(odd, Source(healthy), FRAME, "front", digest, confirmation)
+    assert state(odd) == state(healthy) and confirmation.questions == 2  # a page, emitters
 
 
 def test_no_answer_or_too_many_differing_blocks_are_refused(pair):

@@ -11,15 +11,23 @@ import pytest
 from scenes import FOUNTAIN, make_scene
 from zenoh_doubles import RepliesSession, Reply
 
+from cavesim.core.digest.shape import PARTICLES
 from cavesim.core.errors import ProtocolError, StateError
 from cavesim.core.records import PARTICLE_BYTES
 from cavesim.core.wire.credentials import generate
 from cavesim.core.wire.envelope import decode, decode_envelope, encode
-from cavesim.core.wire.payloads.state_transfer import SnapshotChunk, SnapshotHeader, StateRequest
+from cavesim.core.wire.payloads.state_transfer import (
+    BlockQuery,
+    BlockRequest,
+    SnapshotChunk,
+    SnapshotHeader,
+    StateRequest,
+)
 from cavesim.core.wire.rejects import RejectCounter
 from cavesim.core.wire.snapshot import TRANSFER_BASE, TRANSFER_RATE, chunk_spans, transfer_seconds
 from cavesim.gpu.engine import FrameInput, ParticleSystem
-from nodes.wall.snapshots import SnapshotLoad, fetch_snapshot, send_snapshot
+from nodes.blocks import answer
+from nodes.wall.snapshots import SnapshotLoad, SourceRefused, fetch_snapshot, send_snapshot
 
 SESSION, KEY = "snap", generate().issue("wall", "front")  # the source's own key
 FRAME = 12
@@ -105,6 +113,9 @@ def test_chunks_in_any_order_load_the_source_state(source, target):
     for message in (header, *chunks):
         load.feed(message)
     assert load.commit() == header
+    # what a confirmer computes from its GPU state is what the receiver took of the chunks
+    whole = BlockRequest(FRAME, "front", header.digest, BlockQuery.DIGEST, PARTICLES)
+    assert answer(source, whole, "front").data == load.particles_digest()
     assert target.checksum() == source.checksum() and target.scene.seed == source.scene.seed
     np.testing.assert_array_equal(target.read_particles(), source.read_particles())
     frame = FrameInput(1 / 60, np.array([[1, 3, 5], [0, 1, 7], [0, 0, 1]]))
@@ -210,11 +221,15 @@ def replies_of(replier: str, system: ParticleSystem, frame: int = FRAME) -> list
 
 def fetch(target: ParticleSystem, replies: list[Reply], wanted: StateRequest,
           failed: set[str] | None = None) -> tuple:
+    """(the header loaded, None, or "source refused"; the refusals; the repliers failed)."""
     rejects = RejectCounter("test")
     failed = set() if failed is None else failed
-    header = fetch_snapshot(RepliesSession(replies), "cavesim/snap/state/front", target,
-                            b"", lambda data: decode_envelope(data, SESSION, KEY), wanted,
-                            time.monotonic() + 30, rejects, failed)
+    try:
+        header = fetch_snapshot(RepliesSession(replies), "cavesim/snap/state/front", target,
+                                b"", lambda data: decode_envelope(data, SESSION, KEY), wanted,
+                                time.monotonic() + 30, rejects, failed)
+    except SourceRefused:
+        header = "source refused"
     return header, dict(rejects.counts), failed
 
 
@@ -237,7 +252,8 @@ def test_a_snapshot_that_does_not_fit_the_scene_is_refused_and_nothing_is_touche
                             header.emitters)
     before = state_of(target)
     loaded, rejected, failed = fetch(target, [Reply("rogue", seal(misfit))], wanted)
-    assert loaded is None and rejected == {"wrong-counts": 1} and failed == {"rogue"}
+    assert loaded == "source refused" and rejected == {"wrong-counts": 1}
+    assert failed == {"rogue"}
     assert state_of(target) == before
 
 
@@ -250,8 +266,25 @@ def test_a_forged_stream_fails_its_digest_and_its_replier_is_not_followed_again(
     replies[3] = Reply("rogue", seal(SnapshotChunk(FRAME, tampered.index, bytes(data))))
     before = state_of(target)
     loaded, rejected, failed = fetch(target, replies, wanted)
-    assert loaded is None and rejected == {"bad-digest": 1} and failed == {"rogue"}
-    assert state_of(target) == before
+    assert loaded == "source refused" and rejected == {"bad-digest": 1}
+    assert failed == {"rogue"} and state_of(target) == before
     loaded, _, _ = fetch(target, replies_of("rogue", source) + replies_of("front", source),
                          wanted, failed)
     assert loaded is not None and target.checksum() == source.checksum()
+
+
+def test_a_forged_stream_first_leaves_the_others_of_the_query_to_load(source, target):
+    """Every stream of the named state is kept while the first is followed: once the first
+    breaks, the next one of the same query is loaded (no second query)."""
+    wanted = StateRequest(FRAME, "front", source.checksum().digest)
+    forged = replies_of("thief", source)
+    shuffled = list(reversed(forged[1:]))  # the chunks in reverse order: placed all the same
+    tampered = unseal(shuffled[0].ok.payload.to_bytes())
+    shuffled[0] = Reply("thief", seal(SnapshotChunk(FRAME, tampered.index, bytes(
+        len(tampered.data)))))
+    honest = replies_of("front", source)
+    interleaved = [forged[0], honest[0], *(r for pair in zip(shuffled, honest[1:], strict=True)
+                                          for r in pair)]
+    loaded, rejected, failed = fetch(target, interleaved, wanted)
+    assert loaded is not None and target.checksum() == source.checksum()
+    assert rejected == {"bad-digest": 1} and failed == {"thief"}

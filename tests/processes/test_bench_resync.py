@@ -1,5 +1,6 @@
 """`cavesim bench --resync` on a small state: both ways heal the bitflip (the full snapshot,
-the delta), the bitflip is localised, resync.json says what moved; and its flags."""
+the delta), confirmed by the third wall, the bitflip is localised, resync.json says what
+moved and what the confirmation costs; and its flags."""
 
 from __future__ import annotations
 
@@ -32,10 +33,16 @@ def test_a_small_resync_bench_heals_both_ways_and_writes_its_figures(tmp_path):
     assert full["how"] == "20000 particles in 1 chunks" and delta["how"].startswith("by delta")
     assert full["bytes"] > 20000 * 40 > 50 * delta["bytes"]  # 800 KB against 13 KB
     assert full["localised"] and delta["localised"]
+    assert full["confirmer"] == delta["confirmer"] == "left"  # the second healthy wall
+    assert (full["confirm_digests"], delta["confirm_digests"]) == (2, 2)
+    confirmation = report["confirmation"]
+    assert confirmation["particles"] == 20000 and confirmation["bytes"] == 800_000
+    assert confirmation["sha256_ms"] > 0 and confirmation["confirmer_answer_ms"] > 0
     ring = report["history_ring"]
     blocks = 13 + 1  # 200,000 words of particles in blocks of 16,384, one of emitters
     assert ring["bytes_per_frame"] == blocks * 16 and ring["ring_bytes"] == 64 * blocks * 16
     assert "delta:" in done.stdout and "history ring:" in done.stdout
+    assert "confirmation at 20,000 particles: sha256" in done.stdout
 
 
 @pytest.mark.parametrize(("flags", "message"), [

@@ -138,6 +138,7 @@ class MemoryWall:
     inflate_at: set[int] = field(default_factory=set)  # frames whose counters it inflates
     counts_nothing: bool = False  # its engine path cannot count here: it reports none
     unknown_counters: tuple = ()  # (id, values) entries of counters the run does not know
+    planted: bool = False  # it loaded a colliding state: its next frame differs
 
 
 class MemoryLink:
@@ -160,6 +161,10 @@ class MemoryLink:
         self.tracking = None
         self.controller = None  # the latest session controls (a preview's)
         self.resync_fails: set[str] = set()  # walls whose every resync fails
+        # walls that, as a resync's source, serve a state built to collide with the named
+        # checksum (insiders): refused where a confirmer is named, else loaded, and then the
+        # node that loaded it diverges at its next frame
+        self.colliding: set[str] = set()
         self.sample = sample  # records of each report's drift sample (0: none)
         self.counting = counting  # reports carry the frame's counters
         self.block_questions: list[BlockRequest] = []  # answered, in order
@@ -177,8 +182,11 @@ class MemoryLink:
             self._report(self.walls[message.target], Status.JOINED)
         elif message.command is Command.RESYNC:
             target, source = self.walls[message.target], self.walls[message.source]
-            if source.digest == message.digest and target.name not in self.resync_fails:
+            refused = source.name in self.colliding and message.confirmer
+            if source.digest == message.digest and target.name not in self.resync_fails \
+                    and not refused:
                 target.digest, target.done = source.digest, source.done  # verified, loaded
+                target.planted = source.name in self.colliding
                 if target.records is not None:
                     target.records.copy_of(source.records)
                     target.records.keep(target.done)
@@ -245,7 +253,8 @@ class MemoryLink:
             chained.update(message.inputs.random_transform.tobytes())
             chained.update(message.inputs.dt.tobytes())
             wall.digest, wall.done = chained.hexdigest(), k
-        if k in wall.flip_at or k in wall.nudge_at:
+        if k in wall.flip_at or k in wall.nudge_at or wall.planted:
+            wall.planted = False
             wall.digest = f"{int(wall.digest, 16) ^ 1:032x}"
             wall.offset += wall.nudge_at.get(k, 0.0)
         self._report(wall, Status.STEPPED, self._counters(wall))

@@ -203,6 +203,44 @@ def test_a_node_whose_resyncs_keep_failing_is_given_up_after_a_bounded_number():
     assert record.frames == 30 and record.final.lost == ("left",) and record.final.agree
 
 
+def test_a_colliding_state_from_the_source_is_refused_and_the_next_holder_heals_the_node():
+    """The source is an insider serving a state built to match the named checksum: the
+    second holder, named to confirm it, refuses it; the same frame, the next holder is the
+    source, confirmed by the first, and the node heals (nothing colliding is committed)."""
+    link = MemoryLink(WALLS)
+    link.walls["left"].flip_at.add(8)
+    link.colliding.add("front")
+    record = run(link)
+    tries = [(r.frame, r.node, r.source, r.confirmer, r.ok) for r in record.resyncs]
+    assert tries == [(8, "left", "front", "right", False), (8, "left", "right", "front", True)]
+    assert [r.to_json()["confirmation"] for r in record.resyncs] == [None, "confirmed by front"]
+    assert [d.frame for d in record.divergences] == [8] and record.final.agree
+    resyncs = [m for m in link.sent if isinstance(m, ControlMessage)
+               and m.command is Command.RESYNC]
+    assert [(m.source, m.confirmer) for m in resyncs] == [("front", "right"), ("right", "front")]
+
+
+def test_a_resync_with_no_second_wall_says_it_is_unconfirmed():
+    link = MemoryLink(("front", "left"))
+    link.walls["left"].flip_at.add(8)
+    record = run(link)
+    (resync,) = record.resyncs
+    assert (resync.source, resync.confirmer, resync.ok) == ("front", None, True)
+    assert resync.to_json()["confirmation"] == "unconfirmed: no second wall"
+
+
+def test_resync_roles_take_each_holder_in_turn_confirmed_by_the_next():
+    assert lockstep.resync_roles(("front", "right", "floor")) == (
+        ("front", "right"), ("right", "floor"), ("floor", "front"))
+    assert lockstep.resync_roles(("front",)) == (("front", None),)
+    walls = ("front", "left", "right", "floor")
+    reports = {w: report(w, d) for w, d in zip(walls, "aaba", strict=True)}
+    assert lockstep.holders(walls, reports, "a" * 32, "left", "floor", odd=("front",)) \
+        == ("floor",)
+    assert lockstep.holders(walls, reports, "a" * 32, "right", "front") \
+        == ("front", "left", "floor")
+
+
 def test_the_master_keeps_only_the_reports_of_the_frame_in_flight():
     link = MemoryLink(WALLS)
     config = MasterConfig(WALLS, MINIMAL, 50, "memory", barrier_timeout=0.05)

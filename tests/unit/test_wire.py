@@ -31,6 +31,7 @@ from cluster_helpers import (
     mutate,
     mutations,
     names,
+    optional_names,
 )
 from cryptography.hazmat.primitives.asymmetric.ed25519 import Ed25519PrivateKey
 from hypothesis import assume, example, given
@@ -165,11 +166,12 @@ def name(text: bytes) -> bytes:
 
 
 def control_body(command: int = Command.STOP, target: bytes = b"", source: bytes = b"",
-                 digest: bytes = bytes(16), nonce: int = 0, engine: int = 0) -> bytes:
-    """A control payload: command, target, source, the digest (zeros: none), the nonce, the
-    engine (0: none, 1: gs_tf, 2: compute)."""
-    return bytes([command]) + name(target) + name(source) + digest + struct.pack(
-        "<QB", nonce, engine)
+                 digest: bytes = bytes(16), nonce: int = 0, engine: int = 0,
+                 confirmer: bytes = b"") -> bytes:
+    """A control payload: command, target, source, confirmer, the digest (zeros: none), the
+    nonce, the engine (0: none, 1: gs_tf, 2: compute)."""
+    return bytes([command]) + name(target) + name(source) + name(confirmer) + digest + \
+        struct.pack("<QB", nonce, engine)
 
 
 STOP_BODY = control_body()
@@ -297,7 +299,7 @@ nonces = st.integers(0, U64)
 # "", so the drawn digests are never all zeros.
 control_digests = st.just("") | digests.filter(lambda digest: digest != "0" * 32)
 controls_with_digest_and_nonce = st.builds(replace, control_messages, digest=control_digests,
-                                           nonce=nonces)
+                                           nonce=nonces, confirmer=optional_names)
 infos_with_nonce = st.builds(replace, info_messages, nonce=nonces)
 info_requests = st.builds(InfoRequest, frame_numbers, names)
 state_requests = st.builds(StateRequest, frame_numbers, names, digests)
@@ -309,7 +311,9 @@ block_requests = st.one_of(
     st.builds(BlockRequest, frame_numbers, names, digests, st.just(BlockQuery.HISTORY),
               st.just(1), block_indices),
     st.builds(BlockRequest, frame_numbers, names, digests, st.just(BlockQuery.RECORDS),
-              st.integers(0, 1), block_indices))
+              st.integers(0, 1), block_indices),
+    st.builds(BlockRequest, frame_numbers, names, digests, st.just(BlockQuery.DIGEST),
+              st.integers(0, 1), st.just(()) | block_indices))
 history_frames = st.lists(st.builds(HistoryFrame, st.integers(0, U64),
                                     st.integers(0, MAX_PARTICLES), st.integers(0, MAX_EMITTERS)),
                           max_size=3).map(tuple)
@@ -367,6 +371,8 @@ EDGE_MESSAGES = {
     "swap": ControlMessage(0, Command.SWAP),
     "resync": ControlMessage(U64, Command.RESYNC, "left", "front", DIGEST),
     "resync-long-names": ControlMessage(3, Command.RESYNC, "a" * 32, "B-_9" * 8, "f" * 32),
+    "resync-confirmed": ControlMessage(4, Command.RESYNC, "left", "front", DIGEST,
+                                       confirmer="x" * 32),
     "welcome": ControlMessage(0, Command.WELCOME, "front", nonce=U64),
     "welcome-nonce-1": ControlMessage(1, Command.WELCOME, "x" * 32, nonce=1),
     "welcome-engine": ControlMessage(1, Command.WELCOME, "front", nonce=2,
@@ -399,6 +405,11 @@ EDGE_MESSAGES = {
     "block-request-most-indices": BlockRequest(U64, "x" * 32, "f" * 32, BlockQuery.RECORDS, 1,
                                                tuple(range(2**32 - MAX_BLOCK_INDICES, 2**32))),
     "block-request-history": BlockRequest(0, "front", "0" * 32, BlockQuery.HISTORY, 1, (0,)),
+    "block-request-digest-whole": BlockRequest(5, "left", DIGEST, BlockQuery.DIGEST, 0),
+    "block-request-digest-named": BlockRequest(5, "left", DIGEST, BlockQuery.DIGEST, 1,
+                                               (0, 2**32 - 1)),
+    "block-reply-digest": BlockReply(5, "left", BlockQuery.DIGEST, 0, U64, MAX_PARTICLES, 3,
+                                     bytes(range(32))),
     "block-reply-sums": BlockReply(3, "left", BlockQuery.TREE, 0, U64, MAX_PARTICLES,
                                    MAX_EMITTERS, bytes(range(16))),
     "block-reply-history": BlockReply(U64, "x" * 32, BlockQuery.HISTORY, 1, 0, 0, 0,
@@ -469,7 +480,7 @@ def test_a_counter_the_table_does_not_know_crosses_the_wire_beside_the_known_one
     report = ReportMessage(4, "front", DIGEST, 9, 0, COST, counters=(
         (4242, (1, 2, 3)), *known, (MAX_ID, ())))
     data = encode(report, SESSION, MEMBER)
-    assert HEADER.unpack_from(data)[1] == VERSION == 14  # operators came in 14, not counters
+    assert HEADER.unpack_from(data)[1] == VERSION == 15  # operators and confirmers, not counters
     assert decode(data, SESSION, MEMBER) == report
     assert report_body(counters=counter_tail(*report.counters)).endswith(
         counter_tail(*report.counters))
@@ -498,7 +509,8 @@ def test_kind_command_and_status_numbers_are_fixed():
         "FRAME": 1, "REPORT": 2, "CONTROL": 3, "SNAPSHOT": 4, "TRACKING": 5, "CHUNK": 6,
         "INFO": 7, "DISPLAY": 8, "INFO_REQUEST": 9, "STATE_REQUEST": 10, "BLOCK_REQUEST": 11,
         "BLOCK_REPLY": 12}
-    assert {q.name: q.value for q in BlockQuery} == {"TREE": 1, "HISTORY": 2, "RECORDS": 3}
+    assert {q.name: q.value for q in BlockQuery} == {"TREE": 1, "HISTORY": 2, "RECORDS": 3,
+                                                     "DIGEST": 4}
     assert envelope.MASTER_KINDS == MASTER_KINDS
     assert {c.name: c.value for c in Command} == {"RESYNC": 1, "STOP": 2, "SWAP": 3,
                                                   "WELCOME": 4}
@@ -511,9 +523,10 @@ def test_crafted_bytes_match_encode():
     assert HEADER.size == PAYLOAD_AT == 36
     assert encode(ControlMessage(9, Command.STOP), SESSION) == craft(Kind.CONTROL, STOP_BODY,
                                                                      frame=9)
-    resync = ControlMessage(3, Command.RESYNC, "left", "front", DIGEST)
+    resync = ControlMessage(3, Command.RESYNC, "left", "front", DIGEST, confirmer="right")
     assert encode(resync, SESSION, run_id=U64) == craft(Kind.CONTROL, control_body(
-        Command.RESYNC, b"left", b"front", bytes.fromhex(DIGEST)), frame=3, run_id=U64)
+        Command.RESYNC, b"left", b"front", bytes.fromhex(DIGEST), confirmer=b"right"),
+        frame=3, run_id=U64)
     frame = FrameMessage(1, FrameInput(np.float32(1 / 60), MATRIX), params=(0.25,))
     assert encode(frame, SESSION) == craft(Kind.FRAME, frame_body(
         f32_bits(1 / 60), MATRIX, params=(0.25,)))
@@ -916,7 +929,7 @@ REJECTIONS = [
      "bad-value"),
     ("display-phase-3", craft(Kind.DISPLAY, name(b"front") + bytes([3]) + bytes(8)), None,
      "bad-value"),
-    ("block-request-query-4", craft(Kind.BLOCK_REQUEST, block_request_body(query=4)), None,
+    ("block-request-query-5", craft(Kind.BLOCK_REQUEST, block_request_body(query=5)), None,
      "bad-value"),
     ("block-request-level-3", craft(Kind.BLOCK_REQUEST, block_request_body(
         query=BlockQuery.TREE, part=3)), None, "bad-value"),

@@ -48,7 +48,7 @@ from cavesim.core.wire.payloads.state_transfer import (
 )
 
 MAGIC = b"CVSM"
-VERSION = 14  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
+VERSION = 15  # 2: frames carry the head pose; 3: snapshots stream as a header and chunks,
 # a node's info (its GPU, whether it is swap-locked) answers a query, and displaying walls
 # take part in the swap barrier; 4: a run id in the header, the master's signature, requests
 # (block requests and replies came later as new kinds, which an older build refuses as such);
@@ -65,7 +65,9 @@ VERSION = 14  # 2: frames carry the head pose; 3: snapshots stream as a header a
 # 12: it counts its adaptive tracers' substeps (frames as in 11); 13: a report is a fixed
 # core and a tagged tail of counters (cavesim/core/counters.py: id, value count, values), an
 # id its receiver does not know skipped, so a new counter moves this version no more (frames
-# as in 11); 14: a card may name an operator, the only member whose session controls count
+# as in 11); 14: a card may name an operator, the only member whose session controls count;
+# 15: a RESYNC names the wall that confirms the state, which a block request may ask for
+# the cryptographic digest of records (DIGEST)
 HEADER = struct.Struct("<4sBBBBQQQI")  # magic, version, kind, flags, reserved (0), ...
 # Only VERSION is spoken or read. A frame log keeps its frames in layouts of its own and
 # reads its older records itself (cavesim.core.framelog), so VERSION moves without it.

@@ -33,7 +33,8 @@ _INFO_NONCE = struct.Struct("<Q")  # an info request's own nonce, after the node
 
 
 class Command(IntEnum):
-    RESYNC = 1  # target loads `source`'s state of the frame, whose checksum is `digest`
+    RESYNC = 1  # target loads `source`'s state of the frame, whose checksum is `digest`,
+    # confirmed by `confirmer` (none: no second wall holds it)
     STOP = 2  # every node ends cleanly
     SWAP = 3  # every swap-locked wall has drawn the frame: show it
     WELCOME = 4  # target joins this run (the header's run id) of the scene `digest` names;
@@ -79,6 +80,7 @@ class ControlMessage:
     digest: str = ""  # RESYNC: the state to load's checksum; WELCOME: the scene's digest
     nonce: int = 0  # WELCOME: the nonce the target last sent in its info
     engine: Engine | None = None  # WELCOME of a node that probed its path: the run's path
+    confirmer: str = ""  # RESYNC: the second wall holding the state, which confirms it
 
 
 @dataclass(frozen=True)
@@ -156,8 +158,9 @@ def write_control(m: ControlMessage) -> bytes:
         raise ValueError("a control message cannot name the all-zero digest (it means none)")
     if not 0 <= m.nonce < 2**64:
         raise ValueError(f"nonce must be in [0, 2**64), got {m.nonce}")
-    return bytes([m.command]) + name_bytes(m.target, True) + name_bytes(
-        m.source, True) + _CONTROL_TAIL.pack(digest, m.nonce, _ENGINE_CODES[m.engine])
+    return bytes([m.command]) + b"".join(name_bytes(name, True) for name in (
+        m.target, m.source, m.confirmer)) + _CONTROL_TAIL.pack(digest, m.nonce,
+                                                               _ENGINE_CODES[m.engine])
 
 
 def read_control(frame: int, payload: bytes) -> ControlMessage:
@@ -165,6 +168,7 @@ def read_control(frame: int, payload: bytes) -> ControlMessage:
         raise ProtocolError("bad-payload", "control message without a known command")
     target, rest = read_name(payload[1:], optional=True)
     source, rest = read_name(rest, optional=True)
+    confirmer, rest = read_name(rest, optional=True)
     if len(rest) != _CONTROL_TAIL.size:
         raise ProtocolError("bad-payload", f"control message ends in {len(rest)} bytes, "
                                            f"expected {_CONTROL_TAIL.size}")
@@ -173,7 +177,8 @@ def read_control(frame: int, payload: bytes) -> ControlMessage:
         raise ProtocolError("bad-value", f"control message names engine {engine}: only "
                                          f"{', '.join(map(str, _ENGINES))} are defined")
     return ControlMessage(frame, Command(payload[0]), target, source,
-                          digest.hex() if any(digest) else "", nonce, _ENGINES[engine])
+                          digest.hex() if any(digest) else "", nonce, _ENGINES[engine],
+                          confirmer)
 
 
 def write_info_request(m: InfoRequest) -> bytes:

@@ -1,8 +1,9 @@
 """A node's state on the wire, asked for by a resyncing node or the master's forensics: a
 state request answered by a snapshot's header and chunks, and block requests answered by
-the items of the checksum's tree or whole records. A request ends in a fresh nonce (a node
-takes each nonce once: a replayed request is refused) and the name of its asker (whose
-serving budget it is charged to)."""
+the items of the checksum's tree, whole records, or the cryptographic digest of records (a
+resync's confirmation). A request ends in a fresh nonce (a node takes each nonce once: a
+replayed request is refused) and the name of its asker (whose serving budget it is charged
+to)."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from enum import IntEnum
 import numpy as np
 
 from cavesim.core.digest.history import HISTORY_FRAMES
+from cavesim.core.digest.records_digest import DIGEST_BYTES
 from cavesim.core.digest.shape import ITEM_WORDS, RECORD_WORDS
 from cavesim.core.errors import ProtocolError
 from cavesim.core.limits import MAX_EMITTERS, MAX_PARTICLES
@@ -77,9 +79,13 @@ class BlockQuery(IntEnum):
     # with the state's seed and counts; no indices: the whole level
     HISTORY = 2  # fold-1 items (part 1) of every frame its history ring holds up to `frame`
     RECORDS = 3  # whole records of one stream (part: 0 particles, 1 emitters)
+    DIGEST = 4  # the cryptographic digest of records of one stream (part as RECORDS): those
+    # named; no indices: the whole live stream (cavesim/core/digest/records_digest.py)
 
 
-_PARTS = {BlockQuery.TREE: (0, 1, 2), BlockQuery.HISTORY: (1,), BlockQuery.RECORDS: (0, 1)}
+_PARTS = {BlockQuery.TREE: (0, 1, 2), BlockQuery.HISTORY: (1,), BlockQuery.RECORDS: (0, 1),
+          BlockQuery.DIGEST: (0, 1)}
+_WHOLE = (BlockQuery.TREE, BlockQuery.DIGEST)  # may name no indices: all there are
 
 
 @dataclass(frozen=True)
@@ -126,6 +132,8 @@ class BlockReply:
         """Bytes of one item or record of the reply's data."""
         if self.query is BlockQuery.RECORDS:
             return RECORD_WORDS[self.part] * 4
+        if self.query is BlockQuery.DIGEST:
+            return DIGEST_BYTES
         return ITEM_WORDS[self.part] * 4
 
 
@@ -216,10 +224,10 @@ def write_block_request(m: BlockRequest) -> bytes:
     if m.part not in _PARTS[m.query] or len(indices) > MAX_BLOCK_INDICES \
             or (indices.size and (indices[0] < 0 or indices[-1] >= 2**32
                                   or np.any(np.diff(indices) <= 0))) \
-            or (m.query is not BlockQuery.TREE and not indices.size):
+            or (m.query not in _WHOLE and not indices.size):
         raise ValueError(f"a {m.query.name} block request names part {m.part} (allowed: "
                          f"{_PARTS[m.query]}) and 1 to {MAX_BLOCK_INDICES} ascending indices "
-                         f"(a TREE request may name none), got {len(indices)}")
+                         f"(a TREE or DIGEST request may name none), got {len(indices)}")
     return name_bytes(m.node) + _BLOCK_REQUEST.pack(
         digest_bytes(m.digest), m.query, m.part, len(indices)) + indices.astype(
         "<u4").tobytes() + write_asked(m.asker, m.nonce)
@@ -239,9 +247,9 @@ def read_block_request(frame: int, payload: bytes) -> BlockRequest:
                                            f"{len(rest)} bytes (at most {MAX_BLOCK_INDICES})")
     asker, nonce = read_asked(rest[end:], "block request")
     indices = np.frombuffer(rest, "<u4", count, _BLOCK_REQUEST.size).astype(np.int64)
-    if np.any(np.diff(indices) <= 0) or (query != BlockQuery.TREE and not count):
+    if np.any(np.diff(indices) <= 0) or (query not in _WHOLE and not count):
         raise ProtocolError("bad-value", "block request indices must be ascending, and only "
-                                         "a TREE request may name none")
+                                         "a TREE or DIGEST request may name none")
     return BlockRequest(frame, node, digest.hex(), BlockQuery(query), part,
                         tuple(indices.tolist()), asker, nonce)
 
