@@ -48,6 +48,7 @@ from cavesim.core.wire import (
 )
 from cavesim.core.wire.envelope import run_started
 from cavesim.core.wire.payloads.from_nodes import Status
+from cavesim.tools.signals import signal_of
 from nodes import lockstep
 from nodes.lockstep import LOSS_POLICIES, Membership, Vote
 from nodes.master.admission import INFO_RETRY, Admission
@@ -72,6 +73,7 @@ from nodes.master.user_requests import UserRequests
 
 log = logging.getLogger("cavesim.master")
 STOP_WAIT = 5.0  # s for the nodes to leave after STOP
+INTERRUPTED_STOP_WAIT = 0.5  # s of it after an interruption: whoever ends the nodes goes on
 GONE_GRACE = 1.0  # s to hear why, when every member is gone at once
 
 
@@ -387,7 +389,8 @@ def run_master(config: MasterConfig, link: Link,
     (`abandon`: leave without a word, as a master that dies would; the harness's
     master-kill).
 
-    Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
+    Ctrl-C (or SIGTERM, SIGHUP: `cavesim.tools.signals`) ends the run early (`interrupted`,
+    and which `signal`); either way the nodes are told to stop.
     `checkpoint` gets the record as the run starts and after every frame (it keeps
     report.json current).
     """
@@ -397,12 +400,14 @@ def run_master(config: MasterConfig, link: Link,
         checkpoint(master.record)  # from the start: a run whose walls never join has one too
         master.wait_for_walls()
         master.run(progress, checkpoint)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interruption:
         master.record.interrupted = True
-        log.warning("interrupted at frame %d", master.record.frames)
+        master.record.signal = signal_of(interruption)
+        log.warning("interrupted by %s at frame %d", master.record.signal,
+                    master.record.frames)
     finally:
         if not abandon:
-            master.stop()
+            master.stop(INTERRUPTED_STOP_WAIT if master.record.interrupted else STOP_WAIT)
         master.record.master_rejected = dict(link.rejects.counts)
         master.record.master_dropped = link.dropped
     return master.record
