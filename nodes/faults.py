@@ -14,14 +14,17 @@ NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "i
 # far above what it counted, with its state's true checksum (an insider that lies)
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood", "report-forgery", "query-replay", "tracking-replay",
-                  "second-master", "snapshot-collision", "oversize", "control-forgery")
+                  "second-master", "snapshot-collision", "oversize", "control-forgery",
+                  "count-forgery")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
 # snapshots to a node it makes diverge, flood the nodes with junk and state queries, report
 # in every other wall's name with one wall's key, replay the walls' own queries during a
 # resync, replay an earlier run's tracking, start a second master beside the first, serve
 # a state whose checksum collides with the named one, send messages larger than the
-# transport takes, and pause, reset and stop the run with one wall's key
+# transport takes, pause, reset and stop the run with one wall's key, and report a node's
+# frame with its stolen key, the real checksum and counts far above the real ones
+# (nodes/check/count_forgery.py)
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 WHOLE_CLUSTER = ("rogue", "replay-attack", "master-kill", "flood", "report-forgery",
                  "tracking-replay", "second-master", "oversize", "control-forgery")

@@ -3,10 +3,10 @@
 Nodes run as child processes (node faults are passed to them as --inject); the master
 runs in this process so the harness can act between frames: kill and restart a node,
 attack the session as a rogue peer (`nodes/check/rogue.py`: junk, replayed signed
-traffic, an earlier run's messages, forged snapshots, session controls under a wall's key),
-or kill the master and have a new one take the nodes over. Afterwards every fault is
-matched with what the master recorded: when it was detected, which node was named, when it
-healed; an attack also says what was refused and what became of the run.
+traffic, an earlier run's messages, forged snapshots and counts, session controls under a
+wall's key), or kill the master and have a new one take the nodes over. Afterwards every
+fault is matched with what the master recorded: when it was detected, which node was named,
+when it healed; an attack also says what was refused and what became of the run.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from cavesim.core.scene import load_scene
 from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import TRACKER, WALL, generate
 from cavesim.core.wire.network import NetworkSettings
+from nodes.check.count_forgery import CountForgery
 from nodes.check.findings import check_report
 from nodes.check.rogue import RoguePeer
 from nodes.check.state_forgers import StateForgers
@@ -52,7 +53,7 @@ from nodes.master.run_record import RunRecord
 
 ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-forgery",
                 "query-replay", "tracking-replay", "second-master", "snapshot-collision",
-                "oversize", "control-forgery")  # a RoguePeer's
+                "oversize", "control-forgery", "count-forgery")  # a RoguePeer's
 STATE_FORGERIES = ("snapshot-forgery", "snapshot-collision")  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
@@ -201,6 +202,7 @@ class _Harness:
         # at its frame ("before") and at the frame "until" ("after")
         self.measured: dict[str, dict] = {}
         self.second_master: dict = {}  # what became of a second master's start
+        self.count_forgeries: dict[str, CountForgery] = {}  # per fault (as text)
         self.record: RunRecord | None = None  # the running master's record, as it goes
         self.link: ZenohMasterLink | None = None  # the running master's link
         # per control-forgery: each request it sent, and whether the master counted it refused
@@ -267,6 +269,11 @@ class _Harness:
             case "report-forgery":
                 rogue.in_other_walls_names(self.credentials.issue(WALL, rogue.walls[0]),
                                            rogue.current_run(), k)
+            case "count-forgery":
+                forgery = self.count_forgeries[str(fault)] = CountForgery(
+                    rogue, self.credentials.issue(WALL, fault.node),
+                    cluster.nodes[fault.node].pid, k)
+                forgery.start()
             case "tracking-replay":
                 rogue.replay_tracking(self.credentials.issue(TRACKER, "tracker"),
                                       rogue.current_run(), TRACKING_REPLAYS)
@@ -401,6 +408,8 @@ class _Harness:
 
     def close(self) -> None:
         self._end_replays()
+        for forgery in self.count_forgeries.values():
+            forgery.join()
         if self.forgers is not None:
             self.forgers.close()
         if self.rogue is not None:

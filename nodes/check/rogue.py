@@ -22,6 +22,8 @@ import logging
 import threading
 import time
 from collections import Counter, defaultdict
+from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 import zenoh
@@ -48,6 +50,7 @@ from cavesim.core.wire.envelope import HEADER, SIGNED, Message, new_run_id
 from cavesim.core.wire.network import MAX_MESSAGE_BYTES, NetworkSettings, open_session
 
 log = logging.getLogger("cavesim.rogue")
+T = TypeVar("T")
 FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
 FORGED_HEAD = HeadState((7.0, 7.0, 7.0))  # the pose of the tracking messages it replays
 TAKEN_HEAD = HeadState((0.5, -0.5, 1.625))  # of the one fresh message it sends (float32 exact)
@@ -87,7 +90,7 @@ class RoguePeer:
         # key kind ("frame", "control", "report") -> (key, bytes) as they were sent
         self.captured: dict[str, list[tuple[str, bytes]]] = defaultdict(list)
         self.sent: Counter[str] = Counter()  # what it sent, by what it was
-        self._lock = threading.Lock()
+        self._lock = threading.Condition()  # notified at each message captured
         self._declarations: list = []
 
     # -- listening -------------------------------------------------------------------------
@@ -104,6 +107,25 @@ class RoguePeer:
     def _keep(self, kind: str, key: str, data: bytes) -> None:
         with self._lock:
             self.captured[kind].append((key, data))
+            self._lock.notify_all()
+
+    def captured_count(self, kind: str) -> int:
+        with self._lock:
+            return len(self.captured[kind])
+
+    def await_captured(self, kind: str, since: int, found: Callable[[bytes], T | None],
+                       deadline: float) -> T | None:
+        """What `found` makes of the first message of `kind` captured after the first
+        `since` of which it makes something (None: none until the monotonic `deadline`)."""
+        with self._lock:
+            while True:
+                for _, data in self.captured[kind][since:]:
+                    if (made := found(data)) is not None:
+                        return made
+                since = len(self.captured[kind])
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._lock.wait(left):
+                    return None
 
     def capture_queries(self) -> None:
         """Keep every state and block query sent on the session from now on (a queryable of

@@ -151,6 +151,23 @@ def test_a_walls_key_can_neither_pause_reset_nor_stop_the_run(tmp_path):
     assert not report["run"]["user_stopped"] and report["divergences"] == 0
 
 
+def test_counts_forged_with_a_stolen_wall_key_are_named_and_left_out(tmp_path):
+    """The forged report reaches the master before the wall's own every time (the harness
+    holds the wall until the master has acted on it): the wall is named with the forged
+    counts, report.json keeps the agreed ones, and the run goes on."""
+    report = check(tmp_path, ["count-forgery@20:left"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["count-forgery@20:left"])
+    (forgery,) = report["faults"]
+    detection = forgery["detection"]
+    assert detection["resynced_before_its_own_report"] and detection["copied_from"] != "left"
+    real = detection["real_counts"]["capacity_drops"]
+    assert detection["forged_counts"] == {"capacity_drops": [v + INFLATION for v in real]}
+    assert detection["disputed_at_the_frame"]["capacity_drops"]["agreed"] == real
+    assert report["run"]["counters"]["capacity_drops"]["total"] < INFLATION
+    assert report["rogue_messages_sent"]["forged-count-report"] == 1
+    assert report["run"]["frames"] == 60 and report["run"]["losses"] == []
+
+
 def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
     report = check(tmp_path, ["second-master@20"], frames=60, scene=MINIMAL)
     assert_each_fault_caught(report, ["second-master@20"])

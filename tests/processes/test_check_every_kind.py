@@ -24,7 +24,7 @@ pytestmark = pytest.mark.slow
 def test_every_kind_at_once_is_detected_healed_and_leaves_nothing_behind(tmp_path):
     session = f"every{os.getpid()}"
     done = subprocess.run([sys.executable, "-m", "cavesim", "check", "--every-kind",
-                           "--frames", "1800", "--scene", str(MINIMAL), "--out",
+                           "--frames", "1980", "--scene", str(MINIMAL), "--out",
                            str(tmp_path), "--session", session],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
