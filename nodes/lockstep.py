@@ -19,6 +19,7 @@ LOSS_POLICIES = ("continue", "pause")  # drop a lost member and go on, or wait f
 MASTER_LOSS_POLICIES = ("wait", "exit")  # a node whose master is gone: wait for a new one, or exit
 RESYNC_MODES = ("delta", "full")  # a node's resync: a delta first (else the full snapshot)
 MASTER_GONE = "the master is gone"  # a node's log line says so (the harness looks for it)
+NODE_UP = "up on EGL device"  # a node's log line once it listens and is announced (as well)
 
 
 @dataclass(frozen=True)

@@ -51,6 +51,7 @@ from cavesim.core.wire.network import MAX_MESSAGE_BYTES, NetworkSettings, open_s
 
 log = logging.getLogger("cavesim.rogue")
 T = TypeVar("T")
+ANSWER_SECONDS = 10.0  # s a replayed query is open: long enough that every wall takes it
 FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
 FORGED_HEAD = HeadState((7.0, 7.0, 7.0))  # the pose of the tracking messages it replays
 TAKEN_HEAD = HeadState((0.5, -0.5, 1.625))  # of the one fresh message it sends (float32 exact)
@@ -90,7 +91,8 @@ class RoguePeer:
         # key kind ("frame", "control", "report") -> (key, bytes) as they were sent
         self.captured: dict[str, list[tuple[str, bytes]]] = defaultdict(list)
         self.sent: Counter[str] = Counter()  # what it sent, by what it was
-        self._lock = threading.Condition()  # notified at each message captured
+        self._lock = threading.Condition()  # notified at each message captured, query taken
+        self._open_queries = 0  # replayed queries not yet taken by the walls asked
         self._declarations: list = []
 
     # -- listening -------------------------------------------------------------------------
@@ -229,7 +231,7 @@ class RoguePeer:
         for (key, data), _ in zip(itertools.cycle(captured), range(most)):
             if time.monotonic() > stop:
                 break
-            self.zenoh.get(key, lambda reply: None, payload=data, timeout=0.5)
+            self._ask(key, data)
             with self._lock:
                 self.sent["replayed-query"] += 1
 
@@ -239,9 +241,30 @@ class RoguePeer:
         for i in range(count):
             wall = self.walls[(i + 1) % len(self.walls)]
             request = StateRequest(1, wall, "6" * 32, asker=member.member.name)
-            self.zenoh.get(self.keys.state(wall), lambda reply: None,
-                           payload=encode(request, self.name, member, earlier), timeout=0.5)
-        self.sent["earlier-run-query"] += count
+            self._ask(self.keys.state(wall), encode(request, self.name, member, earlier))
+        with self._lock:
+            self.sent["earlier-run-query"] += count
+
+    def _ask(self, key: str, payload: bytes) -> None:
+        """A query whose answer nobody reads; it is open until every wall asked has taken
+        it (answered, refused or dropped) or ANSWER_SECONDS have passed."""
+        with self._lock:
+            self._open_queries += 1
+        self.zenoh.get(key, zenoh.handlers.Callback(lambda reply: None, self._answered),
+                       payload=payload, timeout=ANSWER_SECONDS)
+
+    def _answered(self) -> None:
+        with self._lock:
+            self._open_queries -= 1
+            self._lock.notify_all()
+
+    def await_answered(self) -> int:
+        """Wait until every query sent by `replay_queries` and `earlier_run_queries` has
+        been taken by the walls asked (each counted its refusal before it let go of the
+        query), at most ANSWER_SECONDS past the last; how many are still open."""
+        with self._lock:
+            self._lock.wait_for(lambda: not self._open_queries, ANSWER_SECONDS)
+            return self._open_queries
 
     def replay_tracking(self, tracker: Credentials, run_id: int, count: int) -> None:
         """Tracking messages the master must not take: `count` captured from an earlier run

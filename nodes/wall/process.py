@@ -64,7 +64,7 @@ from cavesim.gpu.render.unfold import slots_of
 from cavesim.gpu.window import WallWindow, open_window
 from cavesim.tools.bench.engine_probe import probe_engines
 from nodes.faults import Fault
-from nodes.lockstep import MASTER_LOSS_POLICIES, RESYNC_MODES
+from nodes.lockstep import MASTER_LOSS_POLICIES, NODE_UP, RESYNC_MODES
 from nodes.wall.frame_step import FrameStep
 from nodes.wall.frame_timer import FrameTimer
 from nodes.wall.inbox import (
@@ -231,9 +231,9 @@ def main(config: NodeConfig) -> int:
         node = WallNode(config, session)
         declarations = node.declare()
         gpu = node.gpu
-        log.info("%s: up on EGL device %d (%s): %s, %s, OpenGL %s; engine path %s",
-                 config.name, gpu["device"], gpu["kind"], gpu["renderer"], gpu["vendor"],
-                 gpu["version"], node.system.engine)
+        log.info("%s: %s %d (%s): %s, %s, OpenGL %s; engine path %s", config.name, NODE_UP,
+                 gpu["device"], gpu["kind"], gpu["renderer"], gpu["vendor"], gpu["version"],
+                 node.system.engine)
         try:
             node.run()
             node.finish_trajectories()

@@ -232,6 +232,14 @@ def test_a_million_particle_snapshot_streams_in_chunks_and_heals(tmp_path):
     assert "resynced to frame 3 from front: 1000000 particles in 40 chunks" in log
 
 
+def test_a_node_killed_near_the_end_rejoins_however_long_its_start_takes(tmp_path):
+    """The minimal scene's 40 frames after the kill take well under the second its new
+    process needs to start: the harness waits until the new node is up before frame 20."""
+    report = check(tmp_path, ["kill@20:left"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["kill@20:left"])
+    assert [j["node"] for j in report["run"]["joins"]] == ["left"]
+
+
 def test_pause_policy_holds_the_barrier_until_the_lost_node_is_back(tmp_path):
     report = check(tmp_path, ["kill@15:left"], frames=60, on_loss="pause")
     assert_each_fault_caught(report, ["kill@15:left"])
