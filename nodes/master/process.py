@@ -73,7 +73,6 @@ from nodes.master.user_requests import UserRequests
 
 log = logging.getLogger("cavesim.master")
 STOP_WAIT = 5.0  # s for the nodes to leave after STOP
-INTERRUPTED_STOP_WAIT = 0.5  # s of it after an interruption: whoever ends the nodes goes on
 GONE_GRACE = 1.0  # s to hear why, when every member is gone at once
 
 
@@ -407,7 +406,7 @@ def run_master(config: MasterConfig, link: Link,
                     master.record.frames)
     finally:
         if not abandon:
-            master.stop(INTERRUPTED_STOP_WAIT if master.record.interrupted else STOP_WAIT)
+            master.stop()
         master.record.master_rejected = dict(link.rejects.counts)
         master.record.master_dropped = link.dropped
     return master.record
