@@ -14,6 +14,7 @@ command's start until it can write a report saying how it ended (`hold_start`, l
 from __future__ import annotations
 
 import signal
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -52,14 +53,22 @@ class _Holds:
             return
         raise Interrupted(name)
 
+    # a signal interrupts the main thread alone: the other threads hold nothing
     def enter(self) -> None:
-        self.depth += 1
+        if _in_main_thread():
+            self.depth += 1
 
     def leave(self) -> None:
+        if not _in_main_thread():
+            return
         self.depth -= 1
         if not self.depth and self.pending is not None:
             name, self.pending = self.pending, None
             raise Interrupted(name)
+
+
+def _in_main_thread() -> bool:
+    return threading.current_thread() is threading.main_thread()
 
 
 _holds = _Holds()
@@ -69,7 +78,11 @@ _holds = _Holds()
 def stop_signals() -> Iterator[None]:
     """Within the block, SIGINT, SIGTERM and SIGHUP raise `Interrupted` (or wait, in a
     held block); the handlers before it come back at its end, and a signal still held then
-    is dropped (the command has ended anyway)."""
+    is dropped (the command has ended anyway). Only the main thread handles signals: in
+    another (a command run by a test's thread) the block changes nothing."""
+    if not _in_main_thread():
+        yield
+        return
     previous = {number: signal.signal(number, _holds.arrived) for number in STOP_SIGNALS}
     try:
         yield
@@ -92,7 +105,7 @@ def held() -> Iterator[None]:
 def hold_start() -> None:
     """Hold stopping signals until `release_start`: a command's start, before it can write
     a report that says how it ended."""
-    if not _holds.start:
+    if not _holds.start and _in_main_thread():
         _holds.start = True
         _holds.enter()
 
@@ -100,6 +113,6 @@ def hold_start() -> None:
 def release_start() -> None:
     """End the start's hold (nothing when there is none): a signal that came meanwhile is
     raised here."""
-    if _holds.start:
+    if _holds.start and _in_main_thread():
         _holds.start = False
         _holds.leave()
