@@ -15,15 +15,16 @@ NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "i
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood", "report-forgery", "query-replay", "tracking-replay",
                   "second-master", "snapshot-collision", "oversize", "colliding-source",
-                  "control-forgery")
+                  "control-forgery", "count-forgery")
 # the harness does them from outside: kill and restart a node, publish junk, replay signed
 # traffic and an earlier run's messages, kill the master and start a new one, serve forged
 # snapshots to a node it makes diverge, flood the nodes with junk and state queries, report
 # in every other wall's name with one wall's key, replay the walls' own queries during a
 # resync, replay an earlier run's tracking, start a second master beside the first, serve
 # a state whose checksum collides with the named one (under another wall's key, or as the
-# resync's source itself), send messages larger than the transport takes, and pause, reset
-# and stop the run with one wall's key
+# resync's source itself), send messages larger than the transport takes, pause, reset
+# and stop the run with one wall's key, and report a node's frame with its stolen key,
+# the real checksum and counts far above the real ones (nodes/check/count_forgery.py)
 KINDS = NODE_FAULTS + HARNESS_FAULTS
 NODE_PARTS = ("withhold",)  # what a node does for the harness's attacks, no fault of its
 # own: at `withhold@K` it does not answer the first state query of frame K (the resync's

@@ -334,6 +334,38 @@ def _collisions_shown(fault: Fault, harness, served_as: str) -> dict:
                 fault.node, 0)}
 
 
+def _count_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A wall's report forged with its stolen key (the real checksum, counts far above the
+    real ones), reaching the master before the wall's own: detected when the master named
+    that wall at the frame with the forged counts as its disputed ones, healed when the
+    counts it kept hold none of them and the wall went on in the run (resynced)."""
+    forgery = harness.count_forgeries[str(fault)]
+    hit = next((d for d in record.divergences
+                if d.frame == forgery.frame and fault.node in d.nodes), None)
+    disputed = (hit.counters or {}).get(fault.node, {}) if hit else {}
+    named = bool(forgery.forged) and all(disputed.get(name, {}).get("values") == values
+                                         for name, values in forgery.forged.items())
+    kept = _largest_kept(record, forgery.forged)
+    clean = named and all(kept.get(name, 0) < min(values)
+                          for name, values in forgery.forged.items())
+    healed_at = _resynced(record, fault.node, forgery.frame) \
+        if clean and _none_lost_since(record, forgery.frame) else None
+    return Evidence(
+        forgery.frame if named else None, [fault.node] if named else [], healed_at,
+        detection={**forgery.summary(), "disputed_at_the_frame": disputed,
+                   "largest_kept": kept},
+        outcome=f"{fault.node}'s forged counts {forgery.forged} were named and out-voted: "
+                f"the run kept the agreed ones (largest {kept})" if clean
+        else f"the forged counts of {fault.node} were not both named and left out")
+
+
+def _largest_kept(record: RunRecord, names) -> dict[str, int]:
+    """The largest value the run's counter book kept of each counter of `names`."""
+    books = {book.row.name: book for book in record.counters.rows.values()} \
+        if record.counters is not None else {}
+    return {name: max(n for n, _ in books[name].largest) for name in names if name in books}
+
+
 def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """Messages larger than the transport takes: detected when none reached a node (from
     just before them to the measurement after, each counted the junk under the limit, and
@@ -412,6 +444,7 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "colliding-source": _colliding_source,
     "oversize": _oversize,
     "control-forgery": _control_forgery,
+    "count-forgery": _count_forgery,
     "master-kill": _master_kill,
 }
 

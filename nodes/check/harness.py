@@ -3,15 +3,16 @@
 Nodes run as child processes (node faults are passed to them as --inject); the master
 runs in this process so the harness can act between frames: kill and restart a node,
 attack the session as a rogue peer (`nodes/check/rogue.py`: junk, replayed signed
-traffic, an earlier run's messages, forged snapshots, session controls under a wall's key),
-or kill the master and have a new one take the nodes over. Afterwards every fault is
-matched with what the master recorded: when it was detected, which node was named, when it
-healed; an attack also says what was refused and what became of the run.
+traffic, an earlier run's messages, forged snapshots and counts, session controls under a
+wall's key), or kill the master and have a new one take the nodes over. Afterwards every
+fault is matched with what the master recorded: when it was detected, which node was named,
+when it healed; an attack also says what was refused and what became of the run.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import logging
 import threading
 import time
 from collections import Counter
@@ -28,6 +29,7 @@ from cavesim.core.scene import load_scene
 from cavesim.core.wire import Credentials, FrameMessage, SessionKeys, encode
 from cavesim.core.wire.credentials import TRACKER, WALL, generate
 from cavesim.core.wire.network import NetworkSettings
+from nodes.check.count_forgery import CountForgery
 from nodes.check.findings import check_report
 from nodes.check.rogue import RoguePeer
 from nodes.check.state_forgers import StateForgers
@@ -52,9 +54,11 @@ from nodes.master.link import ZenohMasterLink, open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
 
+log = logging.getLogger("cavesim.check")
 ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-forgery",
                 "query-replay", "tracking-replay", "second-master", "snapshot-collision",
-                "oversize", "colliding-source", "control-forgery")  # a RoguePeer's
+                "oversize", "colliding-source", "control-forgery", "count-forgery")
+# a RoguePeer's
 STATE_FORGERIES = ("snapshot-forgery", *COLLISIONS)  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
@@ -62,14 +66,13 @@ COLLISION_PACE = 1.2  # s at least between a collision's divergences: a node ser
 # asker one state a second (burst 2), and the victim and each forger ask once or twice per
 # divergence
 REPLAY_SECONDS, REPLAY_MOST = 3.0, 1_000  # how long and how many queries are replayed
-REPLAY_SETTLE = 1.0  # s the nodes have to count the last replayed queries before going on
 EARLIER_RUN_QUERIES = 20
 TRACKING_REPLAYS = 100  # tracking messages of each kind the master must refuse
+NODE_START = 60.0  # s a restarted node has to come up
 SECOND_MASTER_FRAMES = 20  # frames a second master that missed the first one signs
 OVERSIZE_MESSAGES, OVERSIZE_BYTES, OVERSIZE_QUERIES = 45, 64 * 2**20, 5
 UNDER_LIMIT_JUNK = 1  # junk frames just under the transport's limit, sent with them
 REFUSAL_WAIT = 5.0  # s at most a frame waits for the master to count a forged control
-NODE_START = 60.0  # s a killed node's restart may take to open its context
 
 
 @dataclass(frozen=True)
@@ -118,6 +121,24 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     finally:
         harness.close()
     return check_report(plan.walls, faults, record, harness, killed, plan.out)
+
+
+Counted = Callable[[dict[str, int], dict[str, int]], bool]  # (refused before, now) -> due
+
+
+def _all_refused(messages: int) -> Counted:
+    """Due once the nodes together refused `messages` more than before."""
+    return lambda before, now: sum(now.values()) - sum(before.values()) >= messages
+
+
+def _each_refused(messages: int) -> Counted:
+    """Due once every node refused `messages` more than before."""
+    return lambda before, now: all(n - before.get(w, 0) >= messages for w, n in now.items())
+
+
+def _victim_refused(node: str) -> Counted:
+    """Due once `node` refused something more than before."""
+    return lambda before, now: now.get(node, 0) > before.get(node, 0)
 
 
 def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
@@ -193,6 +214,9 @@ def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harne
             harness.attach(link)
             killed = run_master(first, link, progress, lambda k: harness.before_frame(
                 cluster, k), harness.checkpoint, abandon=True)
+        if killed.interrupted:  # a stopping signal: no new master, and the nodes end now
+            cluster.stop(at_once=True)
+            return RunRecord(config.walls, interrupted=True, signal=killed.signal), killed
         harness.master_killed(cluster)
         second = dataclasses.replace(config, frames=config.frames - frame + 1)
         with open_master_link(second) as link, cluster.watch(link.events):
@@ -219,12 +243,14 @@ class _Harness:
         # at its frame ("before") and at the frame "until" ("after")
         self.measured: dict[str, dict] = {}
         self.second_master: dict = {}  # what became of a second master's start
+        self.count_forgeries: dict[str, CountForgery] = {}  # per fault (as text)
         self.record: RunRecord | None = None  # the running master's record, as it goes
         self.link: ZenohMasterLink | None = None  # the running master's link
         # per control-forgery: each request it sent, and whether the master counted it refused
         self.forged_controls: dict[str, list[dict]] = {}
         self._replaying: list[threading.Thread] = []
         self._paced: dict[str, float] = {}  # fault -> when its last divergence was sent
+        self._counted: dict[str, Counted] = {}  # fault -> when its second measurement is due
 
     def checkpoint(self, record: RunRecord) -> None:
         self.record = record
@@ -248,9 +274,9 @@ class _Harness:
                 self._forge_control(fault, k)
             if fault.frame == k:
                 self._do(fault, cluster, k)
-        for measured in self.measured.values():
-            if k == measured["until"]:
-                measured["after"] = self._measure(cluster)
+        for fault, measured in self.measured.items():
+            if "after" not in measured and k >= measured["until"]:
+                self._measure_after(fault, measured, cluster, k)
 
     def _connect(self, cluster: LocalCluster) -> None:
         walls = tuple(cluster.nodes)
@@ -274,17 +300,13 @@ class _Harness:
         rogue = self.rogue
         match fault.kind:
             case "kill":
-                started = self._starts(cluster, fault.node)
-                cluster.kill_node(fault.node)  # restarted, it rejoins
-                cluster.start_node(fault.node, extra=_node_arguments(
-                    self.faults, self.node_args, fault.node, self.master.walls, after=k))
-                self._await_start(cluster, fault.node, started)
+                self._restart(cluster, fault.node, k)  # it rejoins
             case "rogue":
                 self._forge(cluster.session, k)
             case "replay-attack":
                 self._replay(k)
             case "snapshot-forgery":
-                self._measure_from(fault, cluster, k + RESYNCED)
+                self._measure_from(fault, cluster, k + RESYNCED, _victim_refused(fault.node))
                 self.forgers.serve_forgeries(self._insiders(fault.node), self.emitters,
                                              range(k, k + DIVERGENCE_GAP))
                 rogue.flood(0, FORGERY_QUERIES)
@@ -293,6 +315,11 @@ class _Harness:
             case "report-forgery":
                 rogue.in_other_walls_names(self.credentials.issue(WALL, rogue.walls[0]),
                                            rogue.current_run(), k)
+            case "count-forgery":
+                forgery = self.count_forgeries[str(fault)] = CountForgery(
+                    rogue, self.credentials.issue(WALL, fault.node),
+                    cluster.nodes[fault.node].pid, k)
+                forgery.start()
             case "tracking-replay":
                 rogue.replay_tracking(self.credentials.issue(TRACKER, "tracker"),
                                       rogue.current_run(), TRACKING_REPLAYS)
@@ -300,10 +327,12 @@ class _Harness:
                 self.second_master = self._start_a_second_master(cluster)
                 rogue.as_a_second_master(self.credentials, k, SECOND_MASTER_FRAMES)
             case "flood":
-                measured = self._measure_from(fault, cluster, k + SETTLE)
+                measured = self._measure_from(fault, cluster, k + SETTLE,
+                                              _all_refused(FLOOD_MESSAGES))
                 measured["seconds"] = round(rogue.flood(FLOOD_MESSAGES, FLOOD_QUERIES), 3)
             case "oversize":
-                measured = self._measure_from(fault, cluster, k + SETTLE)
+                measured = self._measure_from(fault, cluster, k + SETTLE,
+                                              _each_refused(UNDER_LIMIT_JUNK))
                 started = time.monotonic()
                 rogue.oversize(OVERSIZE_MESSAGES, OVERSIZE_BYTES, UNDER_LIMIT_JUNK,
                                OVERSIZE_QUERIES)
@@ -325,6 +354,23 @@ class _Harness:
             time.sleep(0.005)
         self.forged_controls.setdefault(str(fault), []).append(
             {"frame": k, "request": request, "refused": refused})
+
+    def _restart(self, cluster: LocalCluster, node: str, k: int) -> None:
+        """Kill `node`'s process and start a new one, and wait (NODE_START at most) until
+        it is up and announced: the master then admits it within a few frames, where its
+        start (seconds on a busy machine) would race the run's end."""
+        log_file = cluster.log_path(node)
+        logged = log_file.stat().st_size if log_file.exists() else 0
+        cluster.kill_node(node)
+        cluster.start_node(node, extra=_node_arguments(self.faults, self.node_args, node,
+                                                       self.master.walls, after=k))
+        deadline = time.monotonic() + NODE_START
+        while time.monotonic() < deadline and cluster.nodes[node].poll() is None:
+            with open(log_file, "rb") as file:
+                file.seek(logged)
+                if NODE_UP.encode() in file.read():
+                    return
+            time.sleep(0.05)
 
     def _pace(self, fault: Fault) -> None:
         """Wait until COLLISION_PACE has passed since `fault`'s last divergence."""
@@ -389,14 +435,31 @@ class _Harness:
             for thread in self._replaying:
                 thread.join(REPLAY_SECONDS + 1.0)
             self._replaying.clear()
-            time.sleep(REPLAY_SETTLE)  # the nodes' next reports count every one
+            # each replayed query taken by the walls asked: their next reports count it
+            if open_queries := self.rogue.await_answered():
+                log.warning("%d replayed queries were not taken by the walls", open_queries)
 
-    def _measure_from(self, fault: Fault, cluster: LocalCluster, until: int) -> dict:
-        """Measure the nodes now and again before frame `until` (the last frame at most)."""
+    def _measure_from(self, fault: Fault, cluster: LocalCluster, until: int,
+                      counted: Counted | None = None) -> dict:
+        """Measure the nodes now and again before frame `until` (the last frame at most),
+        or, with `counted`, before the first frame from then on at which the nodes' reports
+        say they counted what the fault sent (`counted(before, now)`; the last frame at
+        most): what a node counts reaches the master with its next report, however busy
+        the machine. `until` becomes the frame of the second measurement."""
         measured = self.measured[str(fault)] = {"frame": fault.frame,
                                                 "until": min(until, self.master.frames),
                                                 "before": self._measure(cluster)}
+        if counted is not None:
+            self._counted[str(fault)] = counted
         return measured
+
+    def _measure_after(self, fault: str, measured: dict, cluster: LocalCluster,
+                       k: int) -> None:
+        now = self._measure(cluster)
+        counted = self._counted.get(fault)
+        if counted is None or counted(measured["before"]["refused"], now["refused"]) \
+                or k >= self.master.frames:
+            measured["after"], measured["until"] = now, k
 
     def _measure(self, cluster: LocalCluster) -> dict:
         """Each node's resident memory and its peak so far (MB), log size (bytes) and the
@@ -408,18 +471,6 @@ class _Harness:
                                 for w, p in cluster.nodes.items()},
                 "log_bytes": {w: cluster.log_path(w).stat().st_size for w in cluster.nodes},
                 "refused": {w: refused.get(w, 0) for w in cluster.nodes}}
-
-    @staticmethod
-    def _starts(cluster: LocalCluster, wall: str) -> int:
-        """How often `wall`'s node has opened its context (its log says so)."""
-        return cluster.log_path(wall).read_text(errors="replace").count(NODE_UP)
-
-    def _await_start(self, cluster: LocalCluster, wall: str, started: int) -> None:
-        """Hold the run until `wall`'s restarted node has opened its context (at most
-        NODE_START seconds): it then rejoins within a few frames, before the next fault."""
-        deadline = time.monotonic() + NODE_START
-        while self._starts(cluster, wall) <= started and time.monotonic() < deadline:
-            time.sleep(0.05)
 
     def master_killed(self, cluster: LocalCluster, timeout: float = 10.0) -> None:
         """Wait until every node has logged the master's loss (they notice it on liveliness)."""
@@ -439,6 +490,8 @@ class _Harness:
 
     def close(self) -> None:
         self._end_replays()
+        for forgery in self.count_forgeries.values():
+            forgery.join()
         if self.forgers is not None:
             self.forgers.close()
         if self.rogue is not None:

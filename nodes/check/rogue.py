@@ -22,6 +22,8 @@ import logging
 import threading
 import time
 from collections import Counter, defaultdict
+from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 import zenoh
@@ -48,6 +50,8 @@ from cavesim.core.wire.envelope import HEADER, SIGNED, Message, new_run_id
 from cavesim.core.wire.network import MAX_MESSAGE_BYTES, NetworkSettings, open_session
 
 log = logging.getLogger("cavesim.rogue")
+T = TypeVar("T")
+ANSWER_SECONDS = 10.0  # s a replayed query is open: long enough that every wall takes it
 FLAGS_AT = 6  # the header's flags byte: after the magic, the version and the kind
 FORGED_HEAD = HeadState((7.0, 7.0, 7.0))  # the pose of the tracking messages it replays
 TAKEN_HEAD = HeadState((0.5, -0.5, 1.625))  # of the one fresh message it sends (float32 exact)
@@ -87,7 +91,8 @@ class RoguePeer:
         # key kind ("frame", "control", "report") -> (key, bytes) as they were sent
         self.captured: dict[str, list[tuple[str, bytes]]] = defaultdict(list)
         self.sent: Counter[str] = Counter()  # what it sent, by what it was
-        self._lock = threading.Lock()
+        self._lock = threading.Condition()  # notified at each message captured, query taken
+        self._open_queries = 0  # replayed queries not yet taken by the walls asked
         self._declarations: list = []
 
     # -- listening -------------------------------------------------------------------------
@@ -104,6 +109,25 @@ class RoguePeer:
     def _keep(self, kind: str, key: str, data: bytes) -> None:
         with self._lock:
             self.captured[kind].append((key, data))
+            self._lock.notify_all()
+
+    def captured_count(self, kind: str) -> int:
+        with self._lock:
+            return len(self.captured[kind])
+
+    def await_captured(self, kind: str, since: int, found: Callable[[bytes], T | None],
+                       deadline: float) -> T | None:
+        """What `found` makes of the first message of `kind` captured after the first
+        `since` of which it makes something (None: none until the monotonic `deadline`)."""
+        with self._lock:
+            while True:
+                for _, data in self.captured[kind][since:]:
+                    if (made := found(data)) is not None:
+                        return made
+                since = len(self.captured[kind])
+                left = deadline - time.monotonic()
+                if left <= 0 or not self._lock.wait(left):
+                    return None
 
     def capture_queries(self) -> None:
         """Keep every state and block query sent on the session from now on (a queryable of
@@ -207,7 +231,7 @@ class RoguePeer:
         for (key, data), _ in zip(itertools.cycle(captured), range(most)):
             if time.monotonic() > stop:
                 break
-            self.zenoh.get(key, lambda reply: None, payload=data, timeout=0.5)
+            self._ask(key, data)
             with self._lock:
                 self.sent["replayed-query"] += 1
 
@@ -217,9 +241,30 @@ class RoguePeer:
         for i in range(count):
             wall = self.walls[(i + 1) % len(self.walls)]
             request = StateRequest(1, wall, "6" * 32, asker=member.member.name)
-            self.zenoh.get(self.keys.state(wall), lambda reply: None,
-                           payload=encode(request, self.name, member, earlier), timeout=0.5)
-        self.sent["earlier-run-query"] += count
+            self._ask(self.keys.state(wall), encode(request, self.name, member, earlier))
+        with self._lock:
+            self.sent["earlier-run-query"] += count
+
+    def _ask(self, key: str, payload: bytes) -> None:
+        """A query whose answer nobody reads; it is open until every wall asked has taken
+        it (answered, refused or dropped) or ANSWER_SECONDS have passed."""
+        with self._lock:
+            self._open_queries += 1
+        self.zenoh.get(key, zenoh.handlers.Callback(lambda reply: None, self._answered),
+                       payload=payload, timeout=ANSWER_SECONDS)
+
+    def _answered(self) -> None:
+        with self._lock:
+            self._open_queries -= 1
+            self._lock.notify_all()
+
+    def await_answered(self) -> int:
+        """Wait until every query sent by `replay_queries` and `earlier_run_queries` has
+        been taken by the walls asked (each counted its refusal before it let go of the
+        query), at most ANSWER_SECONDS past the last; how many are still open."""
+        with self._lock:
+            self._lock.wait_for(lambda: not self._open_queries, ANSWER_SECONDS)
+            return self._open_queries
 
     def replay_tracking(self, tracker: Credentials, run_id: int, count: int) -> None:
         """Tracking messages the master must not take: `count` captured from an earlier run

@@ -7,7 +7,7 @@ import argparse
 import json
 
 from cavesim.core.wire.credentials import MASTER
-from cavesim.tools.signals import sigterm_as_interrupt
+from cavesim.tools.signals import release_start
 from nodes.arguments import (
     DEFAULT_SCENE,
     INTERRUPTED,
@@ -64,7 +64,7 @@ def add(commands) -> None:
     parser.add_argument("--verbose", action="store_true")
     add_mixed_hardware_arguments(parser, master=True)
     add_network_arguments(parser)
-    parser.set_defaults(handler=run)
+    parser.set_defaults(handler=run, holds_start=True)  # until its report is open
 
 
 def run(args: argparse.Namespace, console) -> int:
@@ -92,13 +92,14 @@ def run(args: argparse.Namespace, console) -> int:
         if args.progress:
             print(json.dumps({"frame": k, "frames": args.frames, "live": live}), flush=True)
 
-    with sigterm_as_interrupt():
-        if args.report is None:
-            record = run_master(config, progress)
-        else:
-            with ReportFile(args.report) as report:
-                record = run_master(config, progress, report.checkpoint)
-                report.finish(record.summary(), record.interrupted, record.user_stopped)
+    if args.report is None:
+        release_start()
+        record = run_master(config, progress)
+    else:
+        with ReportFile(args.report) as report:
+            release_start()  # a signal that came while it started is written into the report
+            record = run_master(config, progress, report.checkpoint)
+            report.finish(record.summary(), record.interrupted, record.user_stopped)
     if record.interrupted:
         return INTERRUPTED
     return lost_walls_code(record.final.lost if record.final else (), args.on_loss, "master")

@@ -14,7 +14,6 @@ from cavesim.core.wire.credentials import OPERATOR, WALL
 from cavesim.core.wire.key_files import read_key_file
 from cavesim.core.wire.payloads.state_transfer import MAX_CHUNK_PARTICLES
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
-from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     DEFAULT_SCENE,
     UsageError,
@@ -131,8 +130,7 @@ def run(args: argparse.Namespace, console) -> int:
                         master_wait=args.master_wait, resync=args.resync,
                         drift_sample=node_sample_from(args, "node"),
                         trajectories=trajectories, trajectory_folder=trajectory_folder)
-    with sigterm_as_interrupt():
-        return run_node(config)
+    return run_node(config)
 
 
 def _operator_key(args: argparse.Namespace, wall: Credentials | None) -> Credentials | None:

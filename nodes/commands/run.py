@@ -30,7 +30,7 @@ from cavesim.tools.reports.run_tables import (
     gpu_table,
     summary_table,
 )
-from cavesim.tools.signals import sigterm_as_interrupt
+from cavesim.tools.signals import release_start
 from nodes.arguments import (
     DEFAULT_SCENE,
     INTERRUPTED,
@@ -137,6 +137,7 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     return its final content."""
     plan.out.mkdir(parents=True, exist_ok=True)
     with ReportFile(plan.out / "report.json") as report_file:
+        release_start()  # a signal that came while it started is written into the report
         with rated_progress(console) as progress:
             walls = sum(len(w) for w in plan.nodes.values())
             nodes = len(plan.members)
@@ -151,7 +152,7 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
             record = run_cluster(plan.cluster(), lambda k, live: progress.update(
                 task, completed=k, live=f"{live:,} live"), checkpoint=checkpoint)
             if record.interrupted:
-                console.print("[yellow]interrupted: the cluster was stopped")
+                console.print(f"[yellow]interrupted ({record.signal}): the cluster was stopped")
             elif record.user_stopped:
                 console.print(f"the run ended at the user's request after frame "
                               f"{record.frames} (Esc in the preview window)")
@@ -169,8 +170,9 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
             if plan.trajectories is not None:  # its node finished it at STOP, or said why not
                 report["trajectories"] = str(trajectories) if trajectories.exists() else None
         report_file.finish(report, record.interrupted, record.user_stopped)
-    frame_log, logs = plan.out / FRAME_LOG, plan.out / "logs"
-    check_written(report_file.path, frame_log, logs)
+    logs = plan.out / "logs"
+    frame_log = plan.out / FRAME_LOG if report["frames"] else None  # none before frame 1
+    check_written(report_file.path, logs, *([frame_log] if frame_log else []))
     if plan.trajectories is not None and not report["trajectories"]:
         console.print(f"[yellow]{TRAJECTORIES} was not written: see "
                       f"{logs / (plan.trajectory_node + '.log')}")
@@ -183,7 +185,8 @@ def run_walls(plan: RunPlan, console: Console) -> dict:
     if report.get("flight"):
         console.print(demo_table(report))
     written = f", {report['trajectories']}" if report.get("trajectories") else ""
-    console.print(f"wrote {report_file.path}, {frame_log}{written}, logs in {logs}")
+    logged = f", {frame_log}" if frame_log else ""
+    console.print(f"wrote {report_file.path}{logged}{written}, logs in {logs}")
     return report
 
 
@@ -261,7 +264,7 @@ def add(commands) -> None:
                              "run (never written into --out)")
     add_mixed_hardware_arguments(parser, master=True)
     add_trajectory_arguments(parser)
-    parser.set_defaults(handler=run)
+    parser.set_defaults(handler=run, holds_start=True)  # until report.json is open
 
 
 def run(args: argparse.Namespace, console) -> int:
@@ -278,7 +281,7 @@ def run(args: argparse.Namespace, console) -> int:
     tolerance = tolerance_from(args, tuple(nodes), "run")
     trajectories = trajectories_requested(args, "run")
     frames = args.frames or default_frames(scene)
-    with own_folder(args.out, "run", args.force) as folder, sigterm_as_interrupt():
+    with own_folder(args.out, "run", args.force) as folder:
         plan = RunPlan(nodes, args.scene, frames, folder.path, args.session, credentials,
                        on_loss=args.on_loss or "continue",
                        cave=None if args.walls else args.cave, render_every=args.render_every,

@@ -9,7 +9,6 @@ import json
 from cavesim.core.errors import TrackerError
 from cavesim.core.output import writing
 from cavesim.core.wire.credentials import TRACKER
-from cavesim.tools.signals import sigterm_as_interrupt
 from nodes.arguments import (
     UsageError,
     add_network_arguments,
@@ -59,9 +58,8 @@ def tracker(args: argparse.Namespace, console) -> int:
         raise UsageError(f"cavesim tracker: error: argument --map: {e}") from e
     if args.report:
         output_file(args.report, "tracker", "--report")
-    with sigterm_as_interrupt():
-        counts = run_tracker(TrackerConfig(args.dtrack, mapping, args.bind, args.session,
-                                           network, key, args.max_rate))
+    counts = run_tracker(TrackerConfig(args.dtrack, mapping, args.bind, args.session, network,
+                                       key, args.max_rate))
     console.print(f"tracker: {counts.datagrams} datagrams, {counts.published} published; "
                   f"rejected: {_by_name(counts.rejected)}; missing (last pose kept): "
                   f"{_by_name(counts.missing)}", markup=False, soft_wrap=True)

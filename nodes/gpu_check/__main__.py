@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 from cavesim.core.errors import CavesimError
-from cavesim.tools.signals import sigterm_as_interrupt
+from cavesim.tools.signals import stop_signals
 from nodes.arguments import INTERRUPTED, RUN_ERROR, USAGE_ERROR
 from nodes.gpu_check import stages as run
 from nodes.gpu_check.summary import lines, report, write
@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[{time.monotonic() - started:6.0f} s] {text}", flush=True)
 
     try:
-        with sigterm_as_interrupt():
+        with stop_signals():
             for step in _steps(args, say):
                 stage = step()
                 done.append(stage)

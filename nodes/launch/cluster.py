@@ -42,14 +42,18 @@ def run_cluster(plan: ClusterPlan,
                 before_frame: Callable[[LocalCluster, int], None] | None = None,
                 checkpoint: Callable[[RunRecord], None] | None = None,
                 on_link: Callable[[ZenohMasterLink], None] = lambda link: None) -> RunRecord:
-    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node;
-    `checkpoint` gets the record after every frame, `on_link` the master's link once it is
-    open (what it refused so far, while the run goes: the harness waits on it)."""
-    with started_cluster(plan) as (cluster, config), open_master_link(config) as link, \
-            cluster.watch(link.events):
-        on_link(link)
-        hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
-        return run_master(config, link, progress, hook, checkpoint)
+    """Start a node per wall, run the master to the end (or Ctrl-C), stop every node
+    (interrupted: at once, as a node still starting never took the STOP); `checkpoint` gets
+    the record after every frame, `on_link` the master's link once it is open (what it
+    refused so far, while the run goes: the harness waits on it)."""
+    with started_cluster(plan) as (cluster, config):
+        with open_master_link(config) as link, cluster.watch(link.events):
+            on_link(link)
+            hook = None if before_frame is None else (lambda k: before_frame(cluster, k))
+            record = run_master(config, link, progress, hook, checkpoint)
+        if record.interrupted:
+            cluster.stop(at_once=True)
+        return record
 
 
 @contextmanager

@@ -1,10 +1,12 @@
 """Starting, watching and stopping wall-node processes on this machine.
 
 Every child runs in a session of its own, so a Ctrl-C reaches the launcher alone (and its
-in-process master, which tells the nodes to STOP); whatever is still there at the end
-is interrupted, then killed. While a run needs them, a watcher thread looks at every
-child: one that exits becomes a `ProcessEnded` event for the master, naming that
-process, its own last error line and its log.
+in-process master, which tells the nodes to STOP); whatever is still there at the end gets
+SIGTERM, and TERMINATE_SECONDS later its whole session SIGKILL: after an interruption or a
+failure that is at once, so that no node outlives the launcher by more than that. While a
+run needs them, a watcher thread looks at every child: one that exits becomes a
+`ProcessEnded` event for the master, naming that process, its own last error line and its
+log.
 """
 
 from __future__ import annotations
@@ -16,18 +18,21 @@ import socket
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from cavesim.core.wire.credentials import OPERATOR, WALL, member_file
+from cavesim.tools.signals import held
 from nodes.faults import Fault
 from nodes.master.events import Event, ProcessEnded
 
 PROC = Path("/proc")  # what the kernel says of each process
 
-GRACE_SECONDS = 10.0
+GRACE_SECONDS = 10.0  # s the nodes have to leave on the master's STOP at the end of a run
+TERMINATE_SECONDS = 1.0  # s a node has after SIGTERM before its session is killed
 WATCH_SECONDS = 0.1  # how often the watcher looks at the children
 _LOG_TAIL_BYTES = 8192
 
@@ -149,11 +154,21 @@ class LocalCluster:
     def stop(self, at_once: bool = False) -> None:
         """End every node; nothing is left running.
 
-        The nodes leave on the master's STOP; `at_once` interrupts them right away (after a
-        failure the STOP may never have reached them) instead of a grace period first.
+        The nodes leave on the master's STOP, within GRACE_SECONDS; `at_once` (a failure or
+        an interruption: the STOP may never have reached them, and a node still starting
+        does not take it) ends them right away. A stopping signal waits until they are gone.
         """
-        for process in self.nodes.values():
-            _wait_or_kill(process, patience=0.0 if at_once else GRACE_SECONDS, interrupt=True)
+        with held():
+            processes = list(self.nodes.values())
+            _wait_all(processes, 0.0 if at_once else GRACE_SECONDS)
+            left = [process for process in processes if process.poll() is None]
+            for process in left:
+                _signal_session(process, signal.SIGTERM)
+            _wait_all(left, TERMINATE_SECONDS)
+            for process in left:
+                if process.poll() is None:
+                    _signal_session(process, signal.SIGKILL)
+                    process.wait()
 
     def __enter__(self) -> LocalCluster:
         return self
@@ -186,23 +201,21 @@ def last_error(log: Path) -> str:
     return line.removeprefix("cavesim: error: ")
 
 
-def _wait_or_kill(process: subprocess.Popen, patience: float, interrupt: bool = False) -> None:
-    """Give `process` `patience` seconds to end; then (if `interrupt`) a SIGINT and half the
-    grace period; then SIGKILL to its whole session."""
-    try:
-        process.wait(timeout=patience)
-        return
-    except subprocess.TimeoutExpired:
-        pass
-    if interrupt:
-        process.send_signal(signal.SIGINT)
+def _wait_all(processes: list[subprocess.Popen], seconds: float) -> None:
+    """Wait until every one of `processes` has ended, or `seconds` have passed."""
+    deadline = time.monotonic() + seconds
+    for process in processes:
         try:
-            process.wait(timeout=GRACE_SECONDS / 2)
-            return
+            process.wait(timeout=max(0.0, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
             pass
-    os.killpg(process.pid, signal.SIGKILL)
-    process.wait()
+
+
+def _signal_session(process: subprocess.Popen, number: int) -> None:
+    """Send signal `number` to every process of `process`'s session (its children too; it
+    leads the session, and is not reaped yet, so its id is not another's)."""
+    with suppress(ProcessLookupError):  # it has just ended
+        os.killpg(process.pid, number)
 
 
 def resident_mb(pid: int, peak: bool = False) -> float | None:

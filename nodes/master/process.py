@@ -17,9 +17,11 @@ Only frame k's reports are kept. It takes typed events from a link (Zenoh in a r
 memory in the tests: `settings.py`) and leaves the rules to `nodes/lockstep.py`; it needs
 no GL.
 
-One master per session: a master that finds another's liveliness token before its first
-frame refuses to start; one already running keeps its run and counts the other
-(`other-master`), whose WELCOME its nodes refuse.
+One master per session: a master that finds another's liveliness token keeps its run if it
+is running, or if its run started first (the smaller run id: an id begins with its start
+time), and counts the other (`other-master`), whose WELCOME its nodes refuse while it is
+alive; a master still waiting for its walls beside one that started first refuses to start,
+in one line naming it. Of two masters that meet, exactly one keeps the session.
 
 In the mixed-hardware mode the vote is each member's drift from an authority instead of its
 checksum (`nodes/master/tolerance.py`), no forensics run (every wall's bits differ), and the
@@ -44,7 +46,9 @@ from cavesim.core.wire import (
     FrameMessage,
     ReportMessage,
 )
+from cavesim.core.wire.envelope import run_started
 from cavesim.core.wire.payloads.from_nodes import Status
+from cavesim.tools.signals import signal_of
 from nodes import lockstep
 from nodes.lockstep import LOSS_POLICIES, Membership, Vote
 from nodes.master.admission import INFO_RETRY, Admission
@@ -156,17 +160,20 @@ class Master:
                 raise ClusterError(failure)
 
     def _other_master(self, run_id: int, key: str) -> None:
-        """One master per session: before its first frame, this master refuses to start
-        beside another (ClusterError); once running, it keeps its run (its nodes refuse the
-        other's WELCOME while it is alive) and counts the other."""
+        """One master per session: still waiting for its walls, this master refuses to
+        start beside one whose run started first (ClusterError); running, or first, it
+        keeps its run (its nodes refuse the other's WELCOME while it is alive) and counts
+        the other."""
         ours, session = self.link.run_id, self.config.session
-        if self.frame == 0:
+        if self.frame == 0 and run_id < ours:
             self.refused = True
-            raise ClusterError(f"another master's run {run_id:016x} is on session {session}: "
-                               f"refusing to start run {ours:016x}; stop that master first")
+            raise ClusterError(f"another master's run {run_id:016x}, started first (at "
+                               f"{run_started(run_id)}), is on session {session}: refusing "
+                               f"to start run {ours:016x}; stop that master first")
+        why = "whose nodes refuse the other" if self.frame else "which started first"
         self.link.rejects.reject(ProtocolError(
             "other-master", f"another master's run {run_id:016x} came on session {session}; "
-            f"keeping run {ours:016x}, whose nodes refuse the other"), key)
+            f"keeping run {ours:016x}, {why}"), key)
 
     # -- the run ---------------------------------------------------------------------------
 
@@ -385,7 +392,8 @@ def run_master(config: MasterConfig, link: Link,
     (`abandon`: leave without a word, as a master that dies would; the harness's
     master-kill).
 
-    Ctrl-C ends the run early (`interrupted`); either way the nodes are told to stop.
+    Ctrl-C (or SIGTERM, SIGHUP: `cavesim.tools.signals`) ends the run early (`interrupted`,
+    and which `signal`); either way the nodes are told to stop.
     `checkpoint` gets the record as the run starts and after every frame (it keeps
     report.json current).
     """
@@ -395,9 +403,11 @@ def run_master(config: MasterConfig, link: Link,
         checkpoint(master.record)  # from the start: a run whose walls never join has one too
         master.wait_for_walls()
         master.run(progress, checkpoint)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as interruption:
         master.record.interrupted = True
-        log.warning("interrupted at frame %d", master.record.frames)
+        master.record.signal = signal_of(interruption)
+        log.warning("interrupted by %s at frame %d", master.record.signal,
+                    master.record.frames)
     finally:
         if not abandon:
             master.stop()

@@ -6,8 +6,11 @@ every frame; the file is replaced atomically (`cavesim.core.output.write_atomica
 the start and the first frame, then at most once every CHECKPOINT_SECONDS, and never more
 often than keeps its writing under 1/BUDGET_RATIO of the run (the summary grows with the
 run). Its `ended` field tells a reader what the file is: RUNNING in a checkpoint (the
-master may be gone since), then FINISHED, INTERRUPTED or FAILED (with the `error` line)
-once the run is over.
+master may be gone since), then FINISHED, STOPPED, INTERRUPTED (with the `signal`) or FAILED
+(with the `error` line) once the run is over, and `ended_during` when: START_UP (before its
+first frame: the processes starting, the walls joining) or RUN. The file says it even when
+the run ends before its record exists (an interruption or an error while it starts): then
+with START_UP's few fields.
 
 A full disk must not leave a checkpoint saying RUNNING behind: an atomic replacement needs
 room for a whole new file, while the frame log's small appends still fit in its last
@@ -25,10 +28,12 @@ from pathlib import Path
 
 from cavesim.core.errors import OutputError
 from cavesim.core.output import write_atomically, writing
+from cavesim.tools.signals import held, signal_of
 from nodes.master.run_record import RunRecord
 
 RUNNING, FINISHED, INTERRUPTED, FAILED = "running", "finished", "interrupted", "failed"
 STOPPED = "stopped"  # at the user's request (Esc in the preview window)
+START_UP, RUN = "start-up", "run"  # ended_during: before the first frame, or after
 CHECKPOINT_SECONDS = 1.0
 BUDGET_RATIO = 20  # a checkpoint that took t seconds waits at least BUDGET_RATIO * t
 RESERVE_MARGIN = 16 * 1024  # bytes held beyond twice the last checkpoint: the final fields
@@ -92,7 +97,9 @@ class ReportFile:
 
     def _write(self, report: dict, ended: str) -> int:
         """Replace the file; its size in bytes. On a full disk the reserve makes room."""
-        text = json.dumps({"ended": ended, **report}, indent=2) + "\n"
+        during = {} if ended == RUNNING else {
+            "ended_during": RUN if report.get("frames") else START_UP}
+        text = json.dumps({"ended": ended, **during, **report}, indent=2) + "\n"
         try:
             write_atomically(self.path, text)
         except OutputError:
@@ -105,8 +112,13 @@ class ReportFile:
         return self
 
     def __exit__(self, kind, error, trace) -> None:
-        if error is not None and self._record is not None:
-            ended = INTERRUPTED if isinstance(error, KeyboardInterrupt) else FAILED
-            with suppress(OutputError):  # the run's own error is the one to tell
-                self._write({**self._record.summary(), "error": str(error)}, ended)
-        self._reserve.release()
+        with held():  # a second signal does not cut the last report off
+            if error is not None:
+                report = self._record.summary() if self._record is not None else {"frames": 0}
+                if isinstance(error, KeyboardInterrupt):
+                    ended, why = INTERRUPTED, {"interrupted": True, "signal": signal_of(error)}
+                else:
+                    ended, why = FAILED, {"error": str(error)}
+                with suppress(OutputError):  # the run's own error is the one to tell
+                    self._write({**report, **why}, ended)
+            self._reserve.release()

@@ -179,6 +179,7 @@ class RunRecord:
     run_id: int = 0  # the master's, in every message of the run
     frames: int = 0
     interrupted: bool = False
+    signal: str | None = None  # the stopping signal that interrupted it, e.g. "SIGTERM"
     user_stopped: bool = False  # an operator's stop ended the run (the preview's Esc)
     paused_frames: int = 0  # frames the user held (dt 0)
     clamped_inputs: int = 0  # tracked wand positions pulled back into reach
@@ -234,6 +235,7 @@ class RunRecord:
             "capacity": self.capacity,
             "frames": self.frames,
             "interrupted": self.interrupted,
+            "signal": self.signal,
             "user_stopped": self.user_stopped,
             "paused_frames": self.paused_frames,
             "nodes": list(self.walls),

@@ -151,6 +151,23 @@ def test_a_walls_key_can_neither_pause_reset_nor_stop_the_run(tmp_path):
     assert not report["run"]["user_stopped"] and report["divergences"] == 0
 
 
+def test_counts_forged_with_a_stolen_wall_key_are_named_and_left_out(tmp_path):
+    """The forged report reaches the master before the wall's own every time (the harness
+    holds the wall until the master has acted on it): the wall is named with the forged
+    counts, report.json keeps the agreed ones, and the run goes on."""
+    report = check(tmp_path, ["count-forgery@20:left"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["count-forgery@20:left"])
+    (forgery,) = report["faults"]
+    detection = forgery["detection"]
+    assert detection["resynced_before_its_own_report"] and detection["copied_from"] != "left"
+    real = detection["real_counts"]["capacity_drops"]
+    assert detection["forged_counts"] == {"capacity_drops": [v + INFLATION for v in real]}
+    assert detection["disputed_at_the_frame"]["capacity_drops"]["agreed"] == real
+    assert report["run"]["counters"]["capacity_drops"]["total"] < INFLATION
+    assert report["rogue_messages_sent"]["forged-count-report"] == 1
+    assert report["run"]["frames"] == 60 and report["run"]["losses"] == []
+
+
 def test_a_second_master_is_refused_and_no_wall_hops(tmp_path):
     report = check(tmp_path, ["second-master@20"], frames=60, scene=MINIMAL)
     assert_each_fault_caught(report, ["second-master@20"])
@@ -228,6 +245,14 @@ def test_a_million_particle_snapshot_streams_in_chunks_and_heals(tmp_path):
     assert report["run"]["live_particles"]["max"] == 1_000_000
     log = (tmp_path / "logs" / "left.log").read_text()
     assert "resynced to frame 3 from front: 1000000 particles in 40 chunks" in log
+
+
+def test_a_node_killed_near_the_end_rejoins_however_long_its_start_takes(tmp_path):
+    """The minimal scene's 40 frames after the kill take well under the second its new
+    process needs to start: the harness waits until the new node is up before frame 20."""
+    report = check(tmp_path, ["kill@20:left"], frames=60, scene=MINIMAL)
+    assert_each_fault_caught(report, ["kill@20:left"])
+    assert [j["node"] for j in report["run"]["joins"]] == ["left"]
 
 
 def test_pause_policy_holds_the_barrier_until_the_lost_node_is_back(tmp_path):

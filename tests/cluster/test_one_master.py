@@ -1,7 +1,7 @@
 """One master per session, with real processes: a second master started with the same
-session and key beside a running one is refused on both sides, and no node leaves the
-first run for it (the master-kill takeover, where the first master is gone, is in
-test_trust.py)."""
+session and key beside a running one (which started first) is refused on both sides, and
+no node leaves the first run for it (the master-kill takeover, where the first master is
+gone, is in test_trust.py)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import pytest
 from master_process import progress_until, spawn_master
 
 from cavesim.core.wire.credentials import generate
+from cavesim.core.wire.envelope import run_started
 from cavesim.core.wire.key_files import write_key_files
 from nodes.launch.launcher import LocalCluster
 
@@ -47,9 +48,10 @@ def test_a_second_master_of_the_session_is_refused_and_no_node_leaves_the_first(
     assert still_running  # the second master was refused while the first one ran
     second_run = json.loads((second_out / "report.json").read_text())["run_id"]
     second_line = (second_out / "logs" / "master.log").read_text().strip().splitlines()[-1]
-    assert second_line == (f"cavesim: error: another master's run {first_run} is on "
-                           f"session {session}: refusing to start run {second_run}; stop "
-                           f"that master first")
+    assert second_line == (f"cavesim: error: another master's run {first_run}, started "
+                           f"first (at {run_started(int(first_run, 16))}), is on session "
+                           f"{session}: refusing to start run {second_run}; stop that "
+                           f"master first")
 
     assert exits == dict.fromkeys(WALLS, 0)
     report = json.loads((tmp_path / "report.json").read_text())

@@ -24,6 +24,7 @@ from cavesim.core.wire import ReportMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.reports.run_tables import mode_rows
 from nodes import cli
+from nodes.arguments import USAGE_ERROR
 from nodes.commands.run import RunPlan
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.tolerance import (
@@ -334,7 +335,7 @@ def test_jitter_changes_the_bits_but_hardly_the_positions_and_shove_breaches(fou
      "argument --velocity-tolerance: expected m/s in"),
 ])
 def test_bad_mixed_hardware_flags_are_one_line_usage_errors(args, message, capsys):
-    assert cli.main(args) == cli.USAGE_ERROR
+    assert cli.main(args) == USAGE_ERROR
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert message in line
 

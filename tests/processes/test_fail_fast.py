@@ -16,6 +16,7 @@ import pytest
 
 from cavesim.core.errors import ClusterError
 from nodes import cli
+from nodes.arguments import RUN_ERROR
 from nodes.commands import numerics
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.launch.launcher import last_error
@@ -177,13 +178,13 @@ def test_a_bug_reaches_a_terminal_as_one_line_and_a_log_with_its_traceback(monke
     monkeypatch.delenv(cli.TRACEBACK_VARIABLE, raising=False)
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)
-    assert cli.main(["stability"]) == cli.RUN_ERROR
+    assert cli.main(["stability"]) == RUN_ERROR
     assert assert_one_clear_line(terminal.getvalue()) == (
         "cavesim: error: internal error, ZeroDivisionError: x (a bug; set "
         "CAVESIM_TRACEBACK=1 for the traceback)")
     log = io.StringIO()
     monkeypatch.setattr(sys, "stderr", log)
-    assert cli.main(["stability"]) == cli.RUN_ERROR
+    assert cli.main(["stability"]) == RUN_ERROR
     assert "Traceback" in log.getvalue()
     assert log.getvalue().strip().splitlines()[-1].startswith("cavesim: error: internal error")
 

@@ -28,7 +28,7 @@ from cavesim.core.wire import FrameMessage
 from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.log_replay import replay
 from nodes import cli
-from nodes.arguments import USAGE_ERROR
+from nodes.arguments import RUN_ERROR, USAGE_ERROR
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.master.process import MasterConfig
 
@@ -215,7 +215,7 @@ def test_replay_stops_at_a_corrupt_record_and_fails(tmp_path, capsys, real_log):
     (tmp_path / "flipped.log").write_bytes(data)
     code = cli.main(["replay", str(tmp_path / "flipped.log"), "--scene", str(MINIMAL)])
     output = " ".join(capsys.readouterr().out.split())
-    assert code == cli.RUN_ERROR
+    assert code == RUN_ERROR
     assert "10 frames replayed: every checksum reproduced" in output
     assert f"corrupt record at byte {start} (its checksum does not match), after 10 " \
            f"whole records" in output

@@ -6,7 +6,7 @@ import math
 import pytest
 from master_process import spawn_master
 
-from cavesim.core.clock import Clock, check_dt
+from cavesim.core.clock import DROP_LOG_INTERVAL, Clock, check_dt
 
 
 class FakeTime:
@@ -49,6 +49,26 @@ def test_a_one_second_hitch_is_clamped_and_caught_up_in_bounded_substeps():
     clock.wait_for_frame()
     assert time.t > burst_start, "then it waits again instead of racing on"
     assert clock.dropped_seconds == pytest.approx(0.9 + (0.1 - 3 * 0.02), abs=1e-6)
+
+
+def test_a_cluster_slower_than_real_time_logs_its_drops_once_a_second(caplog):
+    """Behind on every tick (each frame takes 3 dt), the clock writes at most one line per
+    DROP_LOG_INTERVAL of its own time; each later line says how many drops it folds in,
+    and the total dropped."""
+    time = FakeTime()
+    clock = Clock(0.01, realtime=True, max_substeps=1, now=time.now, sleep=time.sleep)
+    with caplog.at_level("WARNING", logger="cavesim.clock"):
+        for _ in range(500):  # 15 s of the clock's time
+            clock.wait_for_frame()
+            time.t += 0.03  # the frame's work
+    lines = [r.getMessage() for r in caplog.records]
+    assert 14 <= len(lines) <= 16  # one a second, not one a frame
+    assert lines[0].startswith("real-time clock 0.020 s behind: dropped (0.020 s dropped")
+    folded = [int(line.split("; ")[1].split()[0]) for line in lines[1:]]
+    assert all(n >= DROP_LOG_INTERVAL / 0.03 - 2 for n in folded)
+    told = len(lines) + sum(folded)  # every drop up to the last line, each 0.020 s
+    assert lines[-1].endswith(f"({told * 0.02:.3f} s dropped in all)")
+    assert clock.dropped_seconds == pytest.approx(499 * 0.02, abs=1e-6)  # every tick's
 
 
 @pytest.mark.parametrize("dt", [0.0, -0.01, math.nan, math.inf, 1.0])

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from nodes import cli
-from nodes.arguments import USAGE_ERROR, UsageError
+from nodes.arguments import RUN_ERROR, USAGE_ERROR, UsageError
 from nodes.run_folder import LOCK, MARKER, claim, default_folder, link_latest
 
 NOON = datetime.datetime(2026, 11, 28, 12, 0, 5)
@@ -148,7 +148,7 @@ def test_a_command_without_out_writes_a_fresh_folder_its_latest_link_names(
     module, name = work.rsplit(".", 1)
     monkeypatch.setattr(importlib.import_module(module), name, _stop)
     monkeypatch.chdir(tmp_path)
-    assert cli.main(argv) == cli.RUN_ERROR
+    assert cli.main(argv) == RUN_ERROR
     assert "stopped where the work begins" in capsys.readouterr().err
     (folder,) = (tmp_path / "out").glob(f"{command}-2*")
     assert (folder / MARKER).is_file()

@@ -22,8 +22,10 @@ import hashlib
 import hmac
 import secrets
 import struct
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from datetime import UTC, datetime
 from enum import IntEnum
 from typing import NamedTuple
 
@@ -157,9 +159,24 @@ class Envelope:
                                                 f"{self.signer or 'no member'}")
 
 
-def new_run_id() -> int:
-    """A run's id: 64 random bits (never 0, which means "no run")."""
-    return secrets.randbits(64) or 1
+RUN_RANDOM_BITS = 22  # below the start time's milliseconds: 4 million ids per millisecond
+
+
+def new_run_id(now_ns: int | None = None) -> int:
+    """A run's id: the milliseconds since the Unix epoch at which it starts (`now_ns`, by
+    default this host's clock), then RUN_RANDOM_BITS random bits. An earlier run's id is
+    smaller (two masters that meet keep the one that started first) and two runs' ids
+    differ; never 0, which means "no run"."""
+    now_ns = time.time_ns() if now_ns is None else now_ns
+    started = (now_ns // 1_000_000) % (1 << (64 - RUN_RANDOM_BITS))
+    return (started << RUN_RANDOM_BITS | secrets.randbits(RUN_RANDOM_BITS)) or 1
+
+
+def run_started(run_id: int) -> str:
+    """When the run of `run_id` started, in UTC, to the millisecond (as its master's host
+    told the time)."""
+    started = datetime.fromtimestamp((run_id >> RUN_RANDOM_BITS) / 1000, UTC)
+    return started.strftime("%Y-%m-%d %H:%M:%S.%f")[:-3] + " UTC"
 
 
 def session_id(session: str) -> int:

@@ -31,7 +31,6 @@ from cavesim.tools.bench.render_cost import (
     measure_render,
 )
 from cavesim.tools.bench.report import Ended
-from cavesim.tools.signals import sigterm_as_interrupt
 
 HEADERS = ("workload", "particles", "wall px", "wall m", "draws", "p50 ms", "p90 ms",
            "draws/s", "M particles/s")
@@ -76,8 +75,7 @@ def run_render_bench(scene: Scene, front: Wall, resolutions: list[tuple[int, int
                      f"{', '.join(f'{w}x{h}' for w, h in resolutions)}; {WARMUP_DRAWS} "
                      f"warm-up draws, then {draws} timed")
         try:
-            with sigterm_as_interrupt():
-                measure_render(ctx, scene, front, resolutions, sizes, frame, draws, measured)
+            measure_render(ctx, scene, front, resolutions, sizes, frame, draws, measured)
             ended = Ended.COMPLETE
         except KeyboardInterrupt:
             ended = Ended.INTERRUPTED

@@ -24,7 +24,6 @@ from cavesim.tools.bench.display import path_line, plan_line, progress_bar, say,
 from cavesim.tools.bench.figures import PATHS, SizeFigures
 from cavesim.tools.bench.measure import BenchPlan, Timing, measure_size
 from cavesim.tools.bench.report import Ended, build_report, write_reports
-from cavesim.tools.signals import sigterm_as_interrupt
 
 DEFAULT_SIZES = (1_000_000, 10_000_000)  # and the largest capacity the context allows
 QUICK_SIZES = (100_000, 1_000_000)  # `--quick`: each capped at the largest capacity
@@ -75,7 +74,7 @@ def _measure_all(ctx: moderngl.Context, scene: Scene, sizes: list[int], plan: Be
     """Measure into `measured`, saving after each size; how the measuring ended."""
     started, total, done = time.monotonic(), len(sizes) * len(PATHS), itertools.count(1)
     try:
-        with sigterm_as_interrupt(), progress_bar(console) as progress:
+        with progress_bar(console) as progress:
             task = progress.add_task("bench", total=total)
             for count in sizes:
                 progress.update(task, description=f"{count:,} particles")
