@@ -18,6 +18,7 @@ from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire.credentials import WALL
 from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
 from nodes.check.state_forgers import FORGERIES
+from nodes.check.straggler import straggler_findings
 from nodes.faults import (
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
@@ -26,7 +27,8 @@ from nodes.faults import (
     bitflip_target,
     divergence_frames,
 )
-from nodes.master.run_record import Divergence, RunRecord
+from nodes.master.budgets import LAG
+from nodes.master.run_record import Divergence, Loss, RunRecord
 
 
 def check_report(walls: tuple[str, ...], faults: tuple[Fault, ...], record: RunRecord,
@@ -123,13 +125,14 @@ def _divergence(fault: Fault, record: RunRecord, harness, killed, out: Path) -> 
 
 def _stall(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """A node that misses the barrier: the stall of that frame naming it, healed once the
-    run went past the frame."""
+    run went past the frame with the node in (one late frame is within its lag budget)."""
     hit = next((s for s in record.stalls
                 if s.frame == fault.frame and fault.node in s.nodes), None)
     if hit is None:
         return Evidence()
+    given_up = any(loss == Loss(fault.frame, fault.node, LAG) for loss in record.losses)
     return Evidence(hit.frame, sorted(hit.nodes),
-                    fault.frame if record.frames > fault.frame else None)
+                    fault.frame if record.frames > fault.frame and not given_up else None)
 
 
 def _loss(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
@@ -306,6 +309,14 @@ def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Ev
                 f"any was buffered; each node counted only the {under} under it")
 
 
+def _straggler(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A node slower than --max-lag every frame: named, given up within the lag budget,
+    the others' rate back, its restarted node in again (`straggler.py`)."""
+    named, healed, detection, outcome = straggler_findings(
+        fault, record, harness.frame_times.get(str(fault), {}))
+    return Evidence(named, [fault.node] if named else [], healed, detection, outcome)
+
+
 def _master_kill(fault: Fault, record: RunRecord, harness, killed: RunRecord,
                  out: Path) -> Evidence:
     """A killed master: detected when every node noticed, healed when a new master ran
@@ -327,6 +338,7 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "bitflip": _divergence, "seed": _divergence, "stale": _divergence,
     "jitter": _divergence, "shove": _divergence, "inflate": _divergence,
     "drop": _stall, "slow": _stall,
+    "straggler": _straggler,
     "kill": _loss,
     "rogue": _attack, "replay-attack": _attack,
     "snapshot-forgery": _forgery,

@@ -6,7 +6,8 @@ attack the session as a rogue peer (`nodes/check/rogue.py`: junk, replayed signe
 traffic, an earlier run's messages, forged snapshots), or kill the master and have a new
 one take the nodes over. Afterwards every fault is matched with what the master recorded:
 when it was detected, which node was named, when it healed; an attack also says what was
-refused and what became of the run.
+refused and what became of the run. The master runs with the harness's --max-lag, and a
+breach budget with room for the divergences the plan makes each node have.
 """
 
 from __future__ import annotations
@@ -32,19 +33,25 @@ from nodes.check.findings import check_report
 from nodes.check.rogue import RoguePeer
 from nodes.check.state_forgers import StateForgers
 from nodes.faults import (
+    CHECK_MAX_LAG,
     DIVERGENCE_GAP,
     DIVERGENCES,
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
     NODE_FAULTS,
+    RATE_FRAMES,
     SETTLE,
+    SLOW_DELAY,
+    STRAGGLE_FACTOR,
     WHOLE_CLUSTER,
     Fault,
     divergence_frames,
+    last_action,
 )
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
 from nodes.lockstep import MASTER_GONE
+from nodes.master.budgets import BREACH, BUDGETS, LAG, Budget
 from nodes.master.link import open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
@@ -76,7 +83,10 @@ class CheckPlan:
     out: Path
     session: str = "check"
     barrier_timeout: float = 0.5
-    slow_delay: float = 1.5
+    slow_delay: float = SLOW_DELAY
+    max_lag: float = CHECK_MAX_LAG
+    lag_budget: Budget = BUDGETS[LAG]
+    breach_budget: Budget = BUDGETS[BREACH]  # the harness adds room for its own divergences
     on_loss: str = "continue"
     check_every: int = 1
     snapshot_chunk: int | None = None  # particles per snapshot reply (None: the nodes' default)
@@ -92,14 +102,17 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     faults = tuple(f if f.node or f.kind in WHOLE_CLUSTER else Fault(f.kind, f.frame,
                                                                      plan.walls[-1])
                    for f in plan.faults)
-    node_args = ("--slow-delay", str(plan.slow_delay), "--resync", plan.resync)
+    node_args = ("--slow-delay", str(plan.slow_delay), "--straggle-delay",
+                 str(STRAGGLE_FACTOR * plan.max_lag), "--resync", plan.resync)
     if plan.snapshot_chunk is not None:
         node_args += ("--snapshot-chunk", str(plan.snapshot_chunk))
     master = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
                           credentials=credentials, barrier_timeout=plan.barrier_timeout,
                           on_loss=plan.on_loss, check_every=plan.check_every,
                           frame_log=plan.out / FRAME_LOG, forensics=plan.out,
-                          node_walls=plan.node_walls)
+                          node_walls=plan.node_walls, max_lag=plan.max_lag,
+                          lag_budget=plan.lag_budget,
+                          breach_budget=with_room(plan.breach_budget, faults))
     kill = master_kill_frame(faults)
     cluster = ClusterPlan(master, plan.out, {wall: _node_arguments(faults, node_args, wall)
                                              for wall in plan.walls})
@@ -115,13 +128,20 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     return check_report(plan.walls, faults, record, harness, killed, plan.out)
 
 
+def with_room(budget: Budget, faults: tuple[Fault, ...]) -> Budget:
+    """`budget`, or more: as many breaches as the plan makes one node have (a collision's
+    eight divergences among them), so that the harness's own faults give no node up."""
+    planned = Counter(own.node for f in faults for own in _injected(f))
+    return Budget(max(budget.most, *planned.values(), 1), budget.window)
+
+
 def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
     """The frame of the plan's master-kill (None without one); ValueError when a fault the
-    nodes do themselves comes at or after it (the new master's run numbers its frames from
-    1 again: a node could not tell which frame was meant)."""
+    nodes do themselves comes at or after it, or a straggler's restart (the new master's
+    run numbers its frames from 1 again: a node could not tell which frame was meant)."""
     kill = next((f.frame for f in faults if f.kind == "master-kill"), None)
     late = [str(f) for f in faults if kill is not None and any(
-        own.frame >= kill for own in _injected(f))]
+        last_action(own) >= kill for own in _injected(f))]
     if late:
         raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
                          f"master-kill@{kill} (the new master's run counts frames from 1)")
@@ -200,6 +220,8 @@ class _Harness:
         self.record: RunRecord | None = None  # the running master's record, as it goes
         self._replaying: list[threading.Thread] = []
         self._paced: dict[str, float] = {}  # fault -> when its last divergence was sent
+        # per straggler (as text): when each frame around it began (monotonic s)
+        self.frame_times: dict[str, dict[int, float]] = {}
 
     def checkpoint(self, record: RunRecord) -> None:
         self.record = record
@@ -208,6 +230,8 @@ class _Harness:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
             self._connect(cluster)
         for fault in self.faults:
+            if fault.kind == "straggler":
+                self._straggler(fault, cluster, k)
             if fault.kind == "snapshot-collision" and k in divergence_frames(fault):
                 self._pace(fault)
             if fault.kind == "query-replay" and k == divergence_frames(fault)[1]:
@@ -269,6 +293,17 @@ class _Harness:
                 rogue.oversize(OVERSIZE_MESSAGES, OVERSIZE_BYTES, UNDER_LIMIT_JUNK,
                                OVERSIZE_QUERIES)
                 measured["seconds"] = round(time.monotonic() - started, 3)
+
+    def _straggler(self, fault: Fault, cluster: LocalCluster, k: int) -> None:
+        """Time the frames from RATE_FRAMES before a straggler to its node's restart, and
+        restart that node (given up by then: out until its node joins anew), without it."""
+        restart = last_action(fault)
+        if fault.frame - RATE_FRAMES <= k <= restart:
+            self.frame_times.setdefault(str(fault), {})[k] = time.monotonic()
+        if k == restart:
+            cluster.kill_node(fault.node)
+            cluster.start_node(fault.node, extra=_node_arguments(
+                self.faults, self.node_args, fault.node, after=k))
 
     def _pace(self, fault: Fault) -> None:
         """Wait until COLLISION_PACE has passed since `fault`'s last divergence."""
