@@ -25,8 +25,8 @@ from cavesim.gpu.engine import FrameInput, ParticleSystem
 from cavesim.tools.reports.run_tables import mode_rows
 from nodes import cli
 from nodes.commands.run import RunPlan
-from nodes.master.process import MasterConfig, run_master
 from nodes.master.budgets import BREACH, WINDOW, Budget
+from nodes.master.process import MasterConfig, run_master
 from nodes.master.tolerance import (
     BIT_EXACT,
     MIXED_HARDWARE,
