@@ -21,10 +21,10 @@ def add_arguments(parser: argparse.ArgumentParser, max_lag: float = DEFAULT_MAX_
     group.add_argument("--max-lag", type=number_in(float, *MAX_LAG_RANGE, "seconds"),
                        default=max_lag,
                        help=f"a wall whose report of a frame comes this long after half the "
-                            f"walls' held the barrier: it is named (the log, report.json's "
-                            f"lags); default {max_lag:g} s, half the master's barrier timeout "
-                            f"and far above what walls of one run differ by on llvmpipe; on a "
-                            f"CAVE whose GPUs keep 60 Hz, 0.1 (6 frames)")
+                            f"walls' lags: it is named (the log, report.json's lags) and "
+                            f"counted against --lag-budget; default {max_lag:g} s, half the "
+                            f"default barrier timeout; on a CAVE whose GPUs keep 60 Hz, 0.1 "
+                            f"(6 frames): docs/guide/running-a-cave.md")
     for name, what, which in ((LAG, "lags", "past --max-lag"),
                               (BREACH, "breaches", "divergences, or in the mixed-hardware "
                                                    "mode drifts past the tolerance")):

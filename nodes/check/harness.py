@@ -43,6 +43,7 @@ from nodes.faults import (
     SETTLE,
     SLOW_DELAY,
     STRAGGLE_FACTOR,
+    STRAGGLER_RESTART,
     WHOLE_CLUSTER,
     Fault,
     divergence_frames,
@@ -143,8 +144,9 @@ def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
     late = [str(f) for f in faults if kill is not None and any(
         last_action(own) >= kill for own in _injected(f))]
     if late:
-        raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
-                         f"master-kill@{kill} (the new master's run counts frames from 1)")
+        raise ValueError(f"{', '.join(late)}: a node's own fault (and a straggler's restart, "
+                         f"{STRAGGLER_RESTART} frames on) must come before the master-kill@"
+                         f"{kill} (the new master's run counts frames from 1)")
     return kill
 
 

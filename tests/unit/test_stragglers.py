@@ -166,6 +166,11 @@ def test_the_budgets_and_the_bound_come_from_the_flags_in_either_mode():
      "argument --max-lag: expected seconds in [0.001, 3600.0], got '0'"),
     (["run", "--lag-budget", "0"], "argument --lag-budget: expected lags in [1, 10000]"),
     (["check", "--max-lag", "soon"], "argument --max-lag: expected seconds in"),
+    (["check", "--frames", "40", "--inject", "straggler@20:front"],
+     "straggler@20:front restarts its node at frame 50, after the last frame 40"),
+    (["check", "--frames", "90", "--inject", "straggler@20:front", "--inject", "master-kill@45"],
+     "straggler@20:front: a node's own fault (and a straggler's restart, 30 frames on) must "
+     "come before the master-kill@45"),
 ])
 def test_bad_limits_are_one_line_usage_errors(args, message, capsys):
     assert cli.main(args) == cli.USAGE_ERROR
