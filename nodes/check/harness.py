@@ -130,8 +130,9 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
 
 
 def with_room(budget: Budget, faults: tuple[Fault, ...]) -> Budget:
-    """`budget`, or more: as many breaches as the plan makes one node have (a collision's
-    eight divergences among them), so that the harness's own faults give no node up."""
+    """`budget`, or more: room for as many breaches as the faults the plan has one node do
+    itself (each diverges once at most; a collision's are eight), so that the harness's own
+    faults give no node up."""
     planned = Counter(own.node for f in faults for own in _injected(f))
     return Budget(max(budget.most, *planned.values(), 1), budget.window)
 

@@ -4,8 +4,8 @@ tree's history, and reports k with the phases' times; a repeated frame repeats t
 frame ahead of ours reports BEHIND (at most every BEHIND_EVERY) and waits for a resync, and
 so does our next frame when a newer one came after it (the master went on without us: a
 member never gets frame k + 1 before it reported k), so that a node left out of the
-lock-step (evicted, given up) does not step every frame behind the others, nor hold the
-master's sends when its queue is full. The node's own injected faults act here
+lock-step (evicted, given up) does not step every frame queued behind the others' and takes
+the master's STOP when it comes. The node's own injected faults act here
 (`nodes/faults.py`), and the trajectories follow each step after its report.
 """
 
