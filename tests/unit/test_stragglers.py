@@ -130,7 +130,7 @@ def test_a_wall_that_lags_every_frame_is_named_and_given_up_and_the_others_go_on
 def test_a_wall_late_once_is_named_but_stays_in():
     link = MemoryLink(WALLS)
     link.walls["right"].late[12] = 1.5  # a `slow` frame
-    record = run(link, max_lag=0.25)
+    record = run(link)
     assert [(lag.frame, lag.node) for lag in record.lags] == [(12, "right")]
     assert not record.losses and record.final.all_walls_in and record.final.agree
 
