@@ -26,13 +26,12 @@ from nodes.master.budgets import LAG, Budget, Tally
 
 log = logging.getLogger("cavesim.master")
 # s. A CAVE at 60 Hz has 17 ms a frame, and a healthy wall on its own GPU reports within a
-# few ms of the others. On llvmpipe a frame a wall draws costs 0.1-0.5 s at the demo's
-# 480 px and about twice that at projector resolution, by the wall's content
-# (docs/2026-11-28-render-cost.md): the walls of a healthy run differ by up to about half a
-# second there, and the default must not give one of them up. One second is half the
-# default --barrier-timeout (a lag is named before it is a stall) and 60 frames of a CAVE:
-# a wall that lags it every frame holds the CAVE under 1 frame/s. On a CAVE whose GPUs keep
-# 60 Hz, give --max-lag 0.1 (6 frames).
+# few ms of the others. On llvmpipe the four walls of flex4_hd (projector resolution) drew
+# a frame in 0.27 to 0.49 s (p50; 0.58 s at most), by their content: the walls of a healthy
+# run differ by up to about a third of a second there, and the default must not give one
+# of them up. One second is half the default --barrier-timeout (a lag is named before it
+# is a stall) and 60 frames of a CAVE: a wall that lags it every frame holds the CAVE under
+# 1 frame/s. On a CAVE whose GPUs keep 60 Hz, give --max-lag 0.1 (6 frames).
 DEFAULT_MAX_LAG = 1.0
 
 
