@@ -4,7 +4,7 @@
 #
 #   deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display] [--scene FILE]
 #                    [--group-by cave|wall|gpu] [--frames F] [--out DIR] [--session NAME]
-#                    [--keys DIR]
+#                    [--keys DIR] [--max-lag SECONDS]
 #                    [--config FILE] [--realtime] [--mixed-hardware] [--insecure]
 #                    [--dry-run]
 #
@@ -46,6 +46,9 @@
 # config/zenoh/multihost.json5 (a short lease and fast reconnects for a LAN; the endpoints
 # still come from the hosts file), and --realtime has the master pace frames by the wall
 # clock, as a CAVE's displays need (default: as fast as the barrier allows).
+# --max-lag SECONDS goes to the master (or `cavesim run`): a wall whose report of a frame
+# comes that long after half the walls' is named, and given up when it does so too often
+# (docs/guide/running-a-cave.md; default 1 s, 0.1 on a CAVE whose GPUs keep 60 Hz).
 # --keys DIR signs every message: DIR holds what `cavesim keys --out DIR --walls ...` made
 # for the node names; the master reads DIR/master.key (on the master host only), each node
 # its own DIR/wall-NAME.key (which cannot sign frames or commands, nor speak for another
@@ -67,7 +70,7 @@ DEFAULT_PORT=7447  # = cavesim.core.limits.DEFAULT_MASTER_PORT (tests/processes/
 usage() {
     echo "usage: deploy/launch.sh [--hosts FILE] [--walls N | --cave FILE] [--display]" \
          "[--scene FILE] [--group-by cave|wall|gpu] [--frames F] [--out DIR]" \
-         "[--session NAME] [--keys DIR]" \
+         "[--session NAME] [--keys DIR] [--max-lag SECONDS]" \
          "[--config FILE] [--realtime] [--mixed-hardware] [--insecure] [--dry-run]" >&2
     echo "(the comment at the top of deploy/launch.sh explains them and the hosts file)" >&2
     exit 2
@@ -80,11 +83,11 @@ die() {  # a usage or input error: one line, exit 2
 
 hosts_file="" walls="" scene="config/scenes/brownout.toml" frames=600 out=""
 session="run" keys="" zenoh_config="" realtime=0 dry_run=0 cave="" display=0 mixed=0
-insecure=0 group_by=""
+insecure=0 group_by="" max_lag=""
 while (($#)); do
     case "$1" in
         --hosts | --walls | --scene | --frames | --out | --session | --keys | --config \
-            | --cave | --group-by)
+            | --cave | --group-by | --max-lag)
             (($# >= 2)) || die "argument $1: expected a value"
             case "$1" in
                 --hosts) hosts_file="$2" ;;
@@ -97,6 +100,7 @@ while (($#)); do
                 --config) zenoh_config="$2" ;;
                 --cave) cave="$2" ;;
                 --group-by) group_by="$2" ;;
+                --max-lag) max_lag="$2" ;;
             esac
             shift 2 ;;
         --realtime) realtime=1; shift ;;
@@ -112,6 +116,8 @@ done
 [[ -z "$walls" || "$walls" =~ ^[1-9][0-9]*$ ]] \
     || die "argument --walls: expected a number >= 1, got '$walls'"
 [[ "$frames" =~ ^[1-9][0-9]*$ ]] || die "argument --frames: expected a number >= 1, got '$frames'"
+[[ -z "$max_lag" || "$max_lag" =~ ^[0-9]+(\.[0-9]+)?$ ]] \
+    || die "argument --max-lag: expected seconds (e.g. 0.1), got '$max_lag'"
 ((!display)) || [ -n "$cave" ] || die "argument --display: needs --cave FILE (the walls' windows)"
 [ ! -e "$out" ] || [ -d "$out" ] \
     || die "argument --out: '$out' is a file; give a folder (a new one is made)"
@@ -140,6 +146,7 @@ if [ -z "$hosts_file" ]; then
     ((!display)) || command+=(--display)
     [ -z "$group_by" ] || command+=(--group-by "$group_by")
     ((!mixed)) || command+=(--mixed-hardware)
+    [ -z "$max_lag" ] || command+=(--max-lag "$max_lag")
     [ -z "$keys" ] || command+=(--key-file "$keys/master.key")
     if ((dry_run)); then
         [ -x "$root/.venv/bin/cavesim" ] || show "$root/deploy/setup.sh"
@@ -243,6 +250,7 @@ master_command=("${master_via[@]}" "$remote" master --walls "$node_list" --frame
                 --report "$out/report.json" --frame-log "$out/frames.log")
 [ -z "$keys" ] || master_command+=(--key-file "$keys/master.key")
 ((!realtime)) || master_command+=(--realtime)
+[ -z "$max_lag" ] || master_command+=(--max-lag "$max_lag")
 node_command() {  # node_command I: the command of node I, in the global array `command`
     eval "command=(${node_vias[$1]})"
     command+=("$remote" node --node "${node_names[$1]}" "${common[@]}"

@@ -8,10 +8,12 @@ from dataclasses import dataclass
 
 from cavesim.core.records import PARTICLE_WORDS
 
-NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "inflate")
+NODE_FAULTS = ("bitflip", "seed", "drop", "stale", "slow", "jitter", "shove", "inflate",
+               "straggler")
 # the node does them to itself; jitter and shove make it drift, as another GPU's rounding
 # would and far beyond any tolerance (nodes/wall/drift_sample.py); inflate reports counters
-# far above what it counted, with its state's true checksum (an insider that lies)
+# far above what it counted, with its state's true checksum (an insider that lies); slow
+# holds one frame's report, a straggler every frame's from its own on
 HARNESS_FAULTS = ("kill", "rogue", "replay-attack", "master-kill", "snapshot-forgery",
                   "flood", "report-forgery", "query-replay", "tracking-replay",
                   "second-master", "snapshot-collision", "oversize", "colliding-source",
@@ -50,6 +52,15 @@ DIVERGENCE_GAP = 10
 EVERY_KIND_SPACING = 71  # frames between the faults of `every_kind`: past the slowest
 # kind's effects and the measurements after them (a flood's and an oversize's SETTLE frames)
 FLIPPED_BIT = 20  # of the word a bitflip changes: a mantissa bit of a float32 field
+SLOW_DELAY = 1.5  # s a `slow` fault holds a report back (tests use a shorter barrier)
+STRAGGLE_DELAY = 2.0  # s a `straggler` adds to each frame: twice the master's --max-lag
+# the harness restarts a straggler's node this many frames after its fault: past the lags
+# that give it up (the lag budget's 5 and one) and the frames the others' rate is measured
+# over once it is out; the new process, without the fault, joins anew
+STRAGGLER_RESTART = 30
+CHECK_MAX_LAG = 0.25  # s, the harness's --max-lag: half its barrier timeout, as the master's
+STRAGGLE_FACTOR = 2  # the harness's straggler takes this many times --max-lag more a frame
+RATE_FRAMES = 20  # frames before a straggler's fault over which the others' rate is measured
 _SPEC = re.compile(r"(?P<kind>[a-z-]+)@(?P<frame>\d+)(?::(?P<node>[A-Za-z0-9_-]+))?")
 
 
@@ -77,6 +88,14 @@ def divergence_frames(fault: Fault) -> tuple[int, ...]:
     """The frames at which the harness makes the node of `fault` diverge for it."""
     return tuple(fault.frame + i * DIVERGENCE_GAP
                  for i in range(DIVERGENCES.get(fault.kind, 1)))
+
+
+def last_action(fault: Fault) -> int:
+    """The last frame at which the harness acts for `fault`: its last divergence, or the
+    restart of a straggler's node."""
+    if fault.kind == "straggler":
+        return fault.frame + STRAGGLER_RESTART
+    return divergence_frames(fault)[-1]
 
 
 def every_kind(frames: int, walls: tuple[str, ...]) -> tuple[Fault, ...]:

@@ -10,9 +10,6 @@ from cavesim.core.drift import DEFAULT_SAMPLE, MAX_SAMPLE
 from cavesim.core.wire.key_expressions import check_name
 from nodes.arguments import UsageError, number_in
 from nodes.master.tolerance import (
-    BREACH_BUDGET_RANGE,
-    BREACH_WINDOW,
-    DEFAULT_BREACH_BUDGET,
     DEFAULT_POSITION_TOLERANCE,
     DEFAULT_RESYNC_EVERY,
     DEFAULT_VELOCITY_TOLERANCE,
@@ -21,8 +18,7 @@ from nodes.master.tolerance import (
     Tolerance,
 )
 
-MASTER_FLAGS = ("authority", "resync_every", "position_tolerance", "velocity_tolerance",
-                "breach_budget")
+MASTER_FLAGS = ("authority", "resync_every", "position_tolerance", "velocity_tolerance")
 
 
 def wall_name(text: str) -> str:
@@ -57,10 +53,6 @@ def add_arguments(parser: argparse.ArgumentParser, master: bool) -> None:
     group.add_argument("--velocity-tolerance", type=number_in(float, *TOLERANCE_RANGE, "m/s"),
                        help=f"largest |Δvelocity| from the authority before a resync "
                             f"(default {DEFAULT_VELOCITY_TOLERANCE:g} m/s)")
-    group.add_argument("--breach-budget", type=number_in(int, *BREACH_BUDGET_RANGE, "breaches"),
-                       help=f"breaches a wall may have in {BREACH_WINDOW} frames; one more and "
-                            f"it is given up, not resynced again (default "
-                            f"{DEFAULT_BREACH_BUDGET})")
 
 
 def tolerance_from(args: argparse.Namespace, walls: tuple[str, ...],
@@ -77,8 +69,7 @@ def tolerance_from(args: argparse.Namespace, walls: tuple[str, ...],
     return Tolerance(authority, _or(args.resync_every, DEFAULT_RESYNC_EVERY),
                      _or(args.drift_sample, DEFAULT_SAMPLE),
                      _or(args.position_tolerance, DEFAULT_POSITION_TOLERANCE),
-                     _or(args.velocity_tolerance, DEFAULT_VELOCITY_TOLERANCE),
-                     _or(args.breach_budget, DEFAULT_BREACH_BUDGET))
+                     _or(args.velocity_tolerance, DEFAULT_VELOCITY_TOLERANCE))
 
 
 def node_sample_from(args: argparse.Namespace, command: str) -> int:

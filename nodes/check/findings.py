@@ -10,25 +10,33 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from dataclasses import dataclass
 from pathlib import Path
 
 from cavesim.core.record_diff import field_bit
 from cavesim.core.records import PARTICLE_DTYPE
 from cavesim.core.wire.credentials import WALL
+from nodes.check import forgery_findings
+from nodes.check.evidence import (
+    Evidence,
+    diverged_at,
+    first_divergence,
+    live_at,
+    none_lost_since,
+    refused_meanwhile,
+    resynced_at,
+)
 from nodes.check.rogue import FORGED_HEAD, TAKEN_HEAD
-from nodes.check.state_forgers import COLLIDING, COLLIDING_SOURCE, FORGERIES
+from nodes.check.straggler import straggler_findings
 from nodes.faults import (
-    CONTROL_REQUESTS,
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
-    RESYNCED,
     SETTLE,
     Fault,
     bitflip_target,
     divergence_frames,
 )
-from nodes.master.run_record import Divergence, RunRecord
+from nodes.master.budgets import LAG
+from nodes.master.run_record import Divergence, Loss, RunRecord
 
 
 def check_report(walls: tuple[str, ...], faults: tuple[Fault, ...], record: RunRecord,
@@ -81,21 +89,6 @@ def _in_plan_frames(fault: Fault, record: RunRecord, harness,
     return {**outcome, **shifted, "fault": str(fault), "frame": fault.frame}
 
 
-@dataclass(frozen=True)
-class Evidence:
-    """What a run's record shows of one fault: when the master noticed it (None: never),
-    whom it named, when the node was whole again (None: never); for the attacks, what was
-    refused (`detection`) and what became of the run (`outcome`); for a bitflip, whether the
-    forensics named its particle, field and bit (`localisation`)."""
-
-    detected: int | None = None
-    named: list[str] = dataclasses.field(default_factory=list)
-    healed_at: int | None = None
-    detection: dict = dataclasses.field(default_factory=dict)
-    outcome: str = ""
-    localisation: dict | None = None
-
-
 def _outcome(fault: Fault, record: RunRecord, harness,
              killed: RunRecord | None, out: Path) -> dict:
     """`fault`'s entry in check.json, from the evidence its kind leaves (`EVIDENCE`)."""
@@ -114,24 +107,25 @@ def _outcome(fault: Fault, record: RunRecord, harness,
 def _divergence(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """A node that computes something else: the first divergence naming it, healed by its
     resync; a bitflip must also be localised."""
-    hit = _first_divergence(record, fault)
-    localisation = localised(fault, hit, _live_at(record, fault, hit), out) \
+    hit = first_divergence(record, fault)
+    localisation = localised(fault, hit, live_at(record, fault, hit), out) \
         if fault.kind == "bitflip" else None
     if hit is None:
         return Evidence(localisation=localisation)
-    return Evidence(hit.frame, list(hit.nodes), _resynced(record, fault.node, hit.frame),
+    return Evidence(hit.frame, list(hit.nodes), resynced_at(record, fault.node, hit.frame),
                     localisation=localisation)
 
 
 def _stall(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """A node that misses the barrier: the stall of that frame naming it, healed once the
-    run went past the frame."""
+    run went past the frame with the node in (one late frame is within its lag budget)."""
     hit = next((s for s in record.stalls
                 if s.frame == fault.frame and fault.node in s.nodes), None)
     if hit is None:
         return Evidence()
+    given_up = any(loss == Loss(fault.frame, fault.node, LAG) for loss in record.losses)
     return Evidence(hit.frame, sorted(hit.nodes),
-                    fault.frame if record.frames > fault.frame else None)
+                    fault.frame if record.frames > fault.frame and not given_up else None)
 
 
 def _loss(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
@@ -142,7 +136,7 @@ def _loss(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Eviden
         return Evidence()
     rejoined = next((j.frame for j in record.joins
                      if j.node == fault.node and j.frame >= hit.frame),
-                    _resynced(record, fault.node, hit.frame))
+                    resynced_at(record, fault.node, hit.frame))
     return Evidence(hit.frame, [fault.node], rejoined)
 
 
@@ -157,44 +151,13 @@ def _attack(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evid
                 f"divergence(s): no replayed or forged message was stepped or obeyed")
 
 
-def _forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """Forged snapshots served to a diverged node: detected when it refused them, healed by
-    a resync to the state the master named."""
-    forged = {f"{kind}-snapshot": harness.forgers.sent[f"{kind}-snapshot"]
-              for kind in FORGERIES if harness.forgers.sent.get(f"{kind}-snapshot")}
-    refused = refused_meanwhile(harness.measured[str(fault)]).get(fault.node, 0)
-    detection = {"forged_snapshots_served": forged, "refused_by_node": refused}
-    hit = _first_divergence(record, fault)
-    if not (hit and refused):
-        return Evidence(detection=detection, outcome=f"{fault.node} was not healed")
-    healed_at = _resynced(record, fault.node, hit.frame)
-    return Evidence(hit.frame, [fault.node], healed_at, detection,
-                    f"{fault.node} loaded only the state the master named"
-                    if healed_at is not None else f"{fault.node} was not healed")
-
-
-def _report_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """Reports in other walls' names: detected when the master refused them by their
-    signer, healed when no report of theirs made a divergence."""
-    forged = harness.rogue.sent.get("report-in-another-wall's-name", 0)
-    refused = record.master_rejected.get("wrong-signer", 0)
-    caught = fault.frame if forged and refused >= forged else None
-    judged = _diverged_at(record, fault.frame)
-    return Evidence(
-        caught, healed_at=caught if not judged else None,
-        detection={"forged_reports": forged, "refused_by_master_as_wrong_signer": refused},
-        outcome=f"no divergence at frame {fault.frame}: no wall was judged by a report it did "
-                f"not sign" if not judged else f"walls {judged} were judged at frame "
-                                                   f"{fault.frame}")
-
-
 def _flood(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
     """A flood: detected when the nodes counted every junk message, healed when no node
     was lost."""
     refused = sum(record.node_rejected.values())
     return Evidence(
         fault.frame if refused >= FLOOD_MESSAGES else None,
-        healed_at=fault.frame if _none_lost_since(record, fault.frame) else None,
+        healed_at=fault.frame if none_lost_since(record, fault.frame) else None,
         detection={**harness.measured[str(fault)], "refused_by_nodes": refused},
         outcome=f"{FLOOD_MESSAGES:,} junk messages and {FLOOD_QUERIES:,} unsigned state "
                 f"queries in {harness.measured[str(fault)].get('seconds')} s: counted, logged "
@@ -256,8 +219,8 @@ def _second_master(fault: Fault, record: RunRecord, harness, killed, out: Path) 
     counted = record.master_rejected.get("other-master", 0)
     refused = second.get("refused")
     window = range(fault.frame, fault.frame + SETTLE)
-    stayed = _none_lost_since(record, fault.frame) and not any(
-        _diverged_at(record, k) for k in window)
+    stayed = none_lost_since(record, fault.frame) and not any(
+        diverged_at(record, k) for k in window)
     return Evidence(
         fault.frame if refused and "\n" not in refused and counted >= 2 else None,
         healed_at=fault.frame if stayed else None,
@@ -267,103 +230,6 @@ def _second_master(fault: Fault, record: RunRecord, harness, killed, out: Path) 
                    "refused_by_nodes": sum(record.node_rejected.values())},
         outcome=f"every wall stayed in run {record.run_id:016x}, in agreement"
         if stayed else "a wall left the run or diverged")
-
-
-def _collision(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """A state whose checksum is the named one, served under other walls' keys to a node
-    that diverged (the wall asked withholds its first answer, so the twin comes alone):
-    detected when the node refused the twin (at least) once per divergence, healed when its
-    resync loaded the real state."""
-    detection = _collisions_shown(fault, harness, COLLIDING)
-    hit = _first_divergence(record, fault)
-    frames = divergence_frames(fault)  # the first query of each came to a twin alone
-    served, refused = detection["colliding_snapshots_served"], detection["refused_by_node"]
-    if not (hit and {c["frame"] for c in detection["collisions"]} == set(frames)
-            and len(frames) <= min(served, refused)):
-        return Evidence(detection=detection, outcome=f"{fault.node} was not shown a collision")
-    healed_at = _resynced(record, fault.node, divergence_frames(fault)[-1])
-    return Evidence(hit.frame, [fault.node], healed_at, detection,
-                    f"{fault.node} refused each state with the named checksum by its signer "
-                    f"and loaded the real one" if healed_at is not None
-                    else f"{fault.node} was not healed")
-
-
-def _colliding_source(fault: Fault, record: RunRecord, harness, killed, out: Path
-                      ) -> Evidence:
-    """The resync's source itself an insider (its key) serving a state with the named
-    checksum: detected when the node refused each twin served (the second wall's digest
-    differs), healed when, at each divergence, every try from that source failed and the
-    next holder's state, confirmed by another wall, was loaded; nothing colliding was ever
-    committed (the node diverged at no other frame)."""
-    detection = _collisions_shown(fault, harness, COLLIDING_SOURCE)
-    frames = divergence_frames(fault)
-    tries = {k: [r for r in record.resyncs if r.node == fault.node and r.frame == k]
-             for k in frames}
-    detection["resyncs"] = [r.to_json() for k in frames for r in tries[k]]
-    served, refused = detection["colliding_snapshots_served"], detection["refused_by_node"]
-    hit = _first_divergence(record, fault)
-    source = tries[frames[0]][0].source if tries[frames[0]] else None
-    refused_each_time = [c["frame"] for c in detection["collisions"]] == list(frames) \
-        and len(frames) == served <= refused
-    healed_each_time = all(
-        ks and ks[-1].ok and ks[-1].source != source and ks[-1].confirmer is not None
-        and not any(r.ok for r in ks if r.source == source) for ks in tries.values())
-    planted = [d.frame for d in record.divergences if fault.node in d.nodes
-               and fault.frame <= d.frame <= frames[-1] + RESYNCED and d.frame not in frames]
-    if not (hit and refused_each_time):
-        return Evidence(detection=detection,
-                        outcome=f"{fault.node} was not shown the source's collision each time")
-    healed = healed_each_time and not planted
-    return Evidence(hit.frame, [fault.node], frames[-1] if healed else None, detection,
-                    f"{fault.node} refused {source}'s colliding state at each of its "
-                    f"{len(frames)} divergences (unconfirmed by a second wall) and loaded the "
-                    f"real one from another holder, confirmed" if healed
-                    else f"{fault.node} committed a colliding state, or was not healed "
-                         f"(divergences at {planted})")
-
-
-def _collisions_shown(fault: Fault, harness, served_as: str) -> dict:
-    """The twins made for `fault`'s divergences, how many were served, and what its node
-    refused meanwhile."""
-    frames = divergence_frames(fault)
-    made = [c for c in harness.forgers.collisions if c["frame"] in frames
-            and c["colliding_checksum"] == c["named_checksum"]]
-    served = sum(harness.forgers.twins_sent[served_as, k] for k in frames)
-    return {"collisions": made, "colliding_snapshots_served": served,
-            "refused_by_node": refused_meanwhile(harness.measured[str(fault)]).get(
-                fault.node, 0)}
-
-
-def _count_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """A wall's report forged with its stolen key (the real checksum, counts far above the
-    real ones), reaching the master before the wall's own: detected when the master named
-    that wall at the frame with the forged counts as its disputed ones, healed when the
-    counts it kept hold none of them and the wall went on in the run (resynced)."""
-    forgery = harness.count_forgeries[str(fault)]
-    hit = next((d for d in record.divergences
-                if d.frame == forgery.frame and fault.node in d.nodes), None)
-    disputed = (hit.counters or {}).get(fault.node, {}) if hit else {}
-    named = bool(forgery.forged) and all(disputed.get(name, {}).get("values") == values
-                                         for name, values in forgery.forged.items())
-    kept = _largest_kept(record, forgery.forged)
-    clean = named and all(kept.get(name, 0) < min(values)
-                          for name, values in forgery.forged.items())
-    healed_at = _resynced(record, fault.node, forgery.frame) \
-        if clean and _none_lost_since(record, forgery.frame) else None
-    return Evidence(
-        forgery.frame if named else None, [fault.node] if named else [], healed_at,
-        detection={**forgery.summary(), "disputed_at_the_frame": disputed,
-                   "largest_kept": kept},
-        outcome=f"{fault.node}'s forged counts {forgery.forged} were named and out-voted: "
-                f"the run kept the agreed ones (largest {kept})" if clean
-        else f"the forged counts of {fault.node} were not both named and left out")
-
-
-def _largest_kept(record: RunRecord, names) -> dict[str, int]:
-    """The largest value the run's counter book kept of each counter of `names`."""
-    books = {book.row.name: book for book in record.counters.rows.values()} \
-        if record.counters is not None else {}
-    return {name: max(n for n, _ in books[name].largest) for name in names if name in books}
 
 
 def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
@@ -378,37 +244,19 @@ def _oversize(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Ev
                                           for n in by_node.values())
     return Evidence(
         fault.frame if caught else None,
-        healed_at=fault.frame if _none_lost_since(record, fault.frame) else None,
+        healed_at=fault.frame if none_lost_since(record, fault.frame) else None,
         detection={**measured, "oversize_sent": oversize,
                    "junk_under_the_limit_sent": under, "refused_by_nodes": by_node},
         outcome=f"{oversize} messages and queries over the transport's limit dropped before "
                 f"any was buffered; each node counted only the {under} under it")
 
 
-def _control_forgery(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
-    """A wall's key asking the master to pause, reset and stop the run, one a frame:
-    detected when the master counted each refused as no operator's (`not-an-operator`)
-    before the frame it asked for was made, healed when none took effect (no pause, reset
-    or stop recorded, no frame held, and the run went on past the last of them)."""
-    after_a_kill = killed is not None and record is not killed  # its frames are the new run's
-    planned = dataclasses.replace(fault, frame=fault.frame + killed.frames) if after_a_kill \
-        else fault
-    forged = harness.forged_controls.get(str(planned), [])
-    caught = len(forged) == len(CONTROL_REQUESTS) and all(f["refused"] for f in forged)
-    obeyed = [action.to_json() for action in record.user_actions]
-    went_on = not (obeyed or record.paused_frames or record.user_stopped) \
-        and record.frames >= fault.frame + len(CONTROL_REQUESTS) - 1
-    return Evidence(
-        fault.frame if caught else None,
-        healed_at=fault.frame if went_on else None,
-        detection={"sent": forged, "refused_by_master_as_not_an_operator":
-                   record.master_rejected.get("not-an-operator", 0),
-                   "controls_taken": obeyed, "paused_frames": record.paused_frames,
-                   "user_stopped": record.user_stopped},
-        outcome=f"no control of a wall's key took effect: {record.frames} frames ran, none "
-                f"paused or reset, and the run was not stopped" if went_on else
-                f"the run obeyed a wall's key: {obeyed}, {record.paused_frames} frame(s) "
-                f"paused, stopped: {record.user_stopped}")
+def _straggler(fault: Fault, record: RunRecord, harness, killed, out: Path) -> Evidence:
+    """A node slower than --max-lag every frame: named, given up within the lag budget,
+    the others' rate back, its restarted node in again (`straggler.py`)."""
+    named, healed, detection, outcome = straggler_findings(
+        fault, record, harness.frame_times.get(str(fault), {}))
+    return Evidence(named, [fault.node] if named else [], healed, detection, outcome)
 
 
 def _master_kill(fault: Fault, record: RunRecord, harness, killed: RunRecord,
@@ -432,19 +280,20 @@ EVIDENCE = {  # fault kind -> where the run's record shows it
     "bitflip": _divergence, "seed": _divergence, "stale": _divergence,
     "jitter": _divergence, "shove": _divergence, "inflate": _divergence,
     "drop": _stall, "slow": _stall,
+    "straggler": _straggler,
     "kill": _loss,
     "rogue": _attack, "replay-attack": _attack,
-    "snapshot-forgery": _forgery,
+    "snapshot-forgery": forgery_findings.state_forgery,
     "flood": _flood,
-    "report-forgery": _report_forgery,
+    "report-forgery": forgery_findings.report_forgery,
     "query-replay": _query_replay,
     "tracking-replay": _tracking_replay,
     "second-master": _second_master,
-    "snapshot-collision": _collision,
-    "colliding-source": _colliding_source,
+    "snapshot-collision": forgery_findings.collision,
+    "colliding-source": forgery_findings.colliding_source,
     "oversize": _oversize,
-    "control-forgery": _control_forgery,
-    "count-forgery": _count_forgery,
+    "control-forgery": forgery_findings.control_forgery,
+    "count-forgery": forgery_findings.count_forgery,
     "master-kill": _master_kill,
 }
 
@@ -486,37 +335,3 @@ def named_fields(report: dict, node: str | None) -> list[dict]:
     return found
 
 
-def _none_lost_since(record: RunRecord, frame: int) -> bool:
-    """Whether the run went past `frame` and lost no wall from then on."""
-    return record.frames >= frame and not any(loss.frame >= frame for loss in record.losses)
-
-
-def _diverged_at(record: RunRecord, frame: int) -> list[str]:
-    """The walls named by a divergence at `frame`."""
-    return sorted({n for d in record.divergences if d.frame == frame for n in d.nodes})
-
-
-def refused_meanwhile(measured: dict) -> dict[str, int]:
-    """Per node, the messages it refused between a fault's two measurements (none without
-    the second: the run ended first)."""
-    before, after = measured["before"]["refused"], measured.get("after", {}).get("refused", {})
-    return {wall: after[wall] - before.get(wall, 0) for wall in after}
-
-
-def _live_at(record: RunRecord, fault: Fault, hit: Divergence | None) -> int | None:
-    """The live count of the fault's node after its frame: as its divergence at that frame
-    says, else as the run's series does (None if a long run's series skipped that frame)."""
-    if hit is not None and hit.frame == fault.frame:
-        return hit.particles.get(fault.node)
-    series = record.live_particles
-    return dict(zip(series.frames(), series, strict=True)).get(fault.frame)
-
-
-def _resynced(record: RunRecord, node: str, frame: int) -> int | None:
-    return next((r.frame for r in record.resyncs
-                 if r.node == node and r.frame >= frame and r.ok), None)
-
-
-def _first_divergence(record: RunRecord, fault: Fault) -> Divergence | None:
-    return next((d for d in record.divergences
-                 if d.frame >= fault.frame and fault.node in d.nodes), None)

@@ -6,7 +6,9 @@ attack the session as a rogue peer (`nodes/check/rogue.py`: junk, replayed signe
 traffic, an earlier run's messages, forged snapshots and counts, session controls under a
 wall's key), or kill the master and have a new one take the nodes over. Afterwards every
 fault is matched with what the master recorded: when it was detected, which node was named,
-when it healed; an attack also says what was refused and what became of the run.
+when it healed; an attack also says what was refused and what became of the run. The
+master runs with the harness's --max-lag, and a breach budget with room for the
+divergences the plan makes each node have.
 """
 
 from __future__ import annotations
@@ -31,25 +33,36 @@ from cavesim.core.wire.credentials import TRACKER, WALL, generate
 from cavesim.core.wire.network import NetworkSettings
 from nodes.check.count_forgery import CountForgery
 from nodes.check.findings import check_report
+from nodes.check.node_plan import (
+    STATE_FORGERIES,
+    master_kill_frame,
+    node_arguments,
+    resync_roles,
+    with_room,
+)
 from nodes.check.rogue import RoguePeer
 from nodes.check.state_forgers import StateForgers
 from nodes.faults import (
+    CHECK_MAX_LAG,
     COLLISIONS,
     CONTROL_REQUESTS,
     DIVERGENCE_GAP,
-    DIVERGING,
     FLOOD_MESSAGES,
     FLOOD_QUERIES,
-    NODE_FAULTS,
+    RATE_FRAMES,
     RESYNCED,
     SETTLE,
+    SLOW_DELAY,
+    STRAGGLE_FACTOR,
     WHOLE_CLUSTER,
     Fault,
     divergence_frames,
+    last_action,
 )
 from nodes.launch.cluster import ClusterPlan, run_cluster, started_cluster
 from nodes.launch.launcher import LocalCluster, resident_mb
 from nodes.lockstep import MASTER_GONE, NODE_UP
+from nodes.master.budgets import BREACH, BUDGETS, LAG, Budget
 from nodes.master.link import ZenohMasterLink, open_master_link
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.run_record import RunRecord
@@ -59,7 +72,6 @@ ROGUE_FAULTS = ("rogue", "replay-attack", "snapshot-forgery", "flood", "report-f
                 "query-replay", "tracking-replay", "second-master", "snapshot-collision",
                 "oversize", "colliding-source", "control-forgery", "count-forgery")
 # a RoguePeer's
-STATE_FORGERIES = ("snapshot-forgery", *COLLISIONS)  # served to a node's resync
 REPLAYED_PER_KIND = 20  # captured frames, reports and commands played back
 FORGERY_QUERIES = 50  # unsigned state queries sent with the forged snapshots
 COLLISION_PACE = 1.2  # s at least between a collision's divergences: a node serves each
@@ -84,7 +96,10 @@ class CheckPlan:
     out: Path
     session: str = "check"
     barrier_timeout: float = 0.5
-    slow_delay: float = 1.5
+    slow_delay: float = SLOW_DELAY
+    max_lag: float = CHECK_MAX_LAG
+    lag_budget: Budget = BUDGETS[LAG]
+    breach_budget: Budget = BUDGETS[BREACH]  # the harness adds room for its own divergences
     on_loss: str = "continue"
     check_every: int = 1
     snapshot_chunk: int | None = None  # particles per snapshot reply (None: the nodes' default)
@@ -100,17 +115,20 @@ def run_check(plan: CheckPlan, progress: Callable[[int, int], None] = lambda k, 
     faults = tuple(f if f.node or f.kind in WHOLE_CLUSTER else Fault(f.kind, f.frame,
                                                                      plan.walls[-1])
                    for f in plan.faults)
-    node_args = ("--slow-delay", str(plan.slow_delay), "--resync", plan.resync)
+    node_args = ("--slow-delay", str(plan.slow_delay), "--straggle-delay",
+                 str(STRAGGLE_FACTOR * plan.max_lag), "--resync", plan.resync)
     if plan.snapshot_chunk is not None:
         node_args += ("--snapshot-chunk", str(plan.snapshot_chunk))
     master = MasterConfig(plan.walls, plan.scene, plan.frames, plan.session,
                           credentials=credentials, barrier_timeout=plan.barrier_timeout,
                           on_loss=plan.on_loss, check_every=plan.check_every,
                           frame_log=plan.out / FRAME_LOG, forensics=plan.out,
-                          node_walls=plan.node_walls)
+                          node_walls=plan.node_walls, max_lag=plan.max_lag,
+                          lag_budget=plan.lag_budget,
+                          breach_budget=with_room(plan.breach_budget, faults))
     kill = master_kill_frame(faults)
     cluster = ClusterPlan(master, plan.out, {
-        wall: _node_arguments(faults, node_args, wall, plan.walls) for wall in plan.walls})
+        wall: node_arguments(faults, node_args, wall, plan.walls) for wall in plan.walls})
     harness = _Harness(faults, node_args, master)
     try:
         if kill is None:
@@ -139,66 +157,6 @@ def _each_refused(messages: int) -> Counted:
 def _victim_refused(node: str) -> Counted:
     """Due once `node` refused something more than before."""
     return lambda before, now: now.get(node, 0) > before.get(node, 0)
-
-
-def master_kill_frame(faults: tuple[Fault, ...]) -> int | None:
-    """The frame of the plan's master-kill (None without one); ValueError when a fault the
-    nodes do themselves comes at or after it (the new master's run numbers its frames from
-    1 again: a node could not tell which frame was meant)."""
-    kill = next((f.frame for f in faults if f.kind == "master-kill"), None)
-    late = [str(f) for f in faults if kill is not None and any(
-        own.frame >= kill for own in _injected(f))]
-    if late:
-        raise ValueError(f"{', '.join(late)}: a node's own fault must come before the "
-                         f"master-kill@{kill} (the new master's run counts frames from 1)")
-    return kill
-
-
-def _node_arguments(faults: tuple[Fault, ...], common: tuple[str, ...], wall: str,
-                    walls: tuple[str, ...], after: int = 0) -> tuple[str, ...]:
-    """`wall`'s node's arguments: the `common` ones, what it must do itself for the faults
-    after frame `after` (a restarted node is not given those it has passed: its own, and its
-    part as another's resync source) and how it resyncs."""
-    own = [str(f) for fault in faults for f in (*_injected(fault), *_withheld(fault, walls))
-           if f.node == wall and f.frame > after]
-    return (*common, *(arg for f in own for arg in ("--inject", f)),
-            *_full_resync(faults, wall))
-
-
-def _full_resync(faults: tuple[Fault, ...], wall: str) -> tuple[str, ...]:
-    """A wall that forged states are served to resyncs by full snapshot only (a delta
-    would heal it before any snapshot was asked for); the last --resync counts."""
-    if any(f.kind in STATE_FORGERIES and f.node == wall for f in faults):
-        return ("--resync", "full")
-    return ()
-
-
-def _injected(fault: Fault) -> tuple[Fault, ...]:
-    """What the node itself must do for `fault`: its own faults, and the divergences of the
-    kinds that make their node diverge (DIVERGING: forged states are served to its resync,
-    queries replayed against it)."""
-    if fault.kind in NODE_FAULTS:
-        return (fault,)
-    if fault.kind in DIVERGING:
-        return tuple(Fault("bitflip", k, fault.node) for k in divergence_frames(fault))
-    return ()
-
-
-def resync_roles(fault: Fault, walls: tuple[str, ...]) -> tuple[str, str]:
-    """(source, confirmer) of the first try to resync the node of a collision: the first two
-    other walls, as the master names them (`lockstep.holders`, all walls agreeing)."""
-    source, confirmer, *_ = (w for w in walls if w != fault.node)
-    return source, confirmer
-
-
-def _withheld(fault: Fault, walls: tuple[str, ...]) -> tuple[Fault, ...]:
-    """What a collision's resync source does for it: it withholds its answer to the first
-    state query of each divergence's frame, so that the forged twin comes alone and is
-    judged every time."""
-    if fault.kind not in COLLISIONS:
-        return ()
-    source, _ = resync_roles(fault, walls)
-    return tuple(Fault("withhold", k, source) for k in divergence_frames(fault))
 
 
 def _past_a_master_kill(plan: ClusterPlan, frame: int, progress, harness: _Harness
@@ -251,6 +209,8 @@ class _Harness:
         self._replaying: list[threading.Thread] = []
         self._paced: dict[str, float] = {}  # fault -> when its last divergence was sent
         self._counted: dict[str, Counted] = {}  # fault -> when its second measurement is due
+        # per straggler (as text): when each frame around it began (monotonic s)
+        self.frame_times: dict[str, dict[int, float]] = {}
 
     def checkpoint(self, record: RunRecord) -> None:
         self.record = record
@@ -263,6 +223,8 @@ class _Harness:
         if self.rogue is None and any(f.kind in ROGUE_FAULTS for f in self.faults):
             self._connect(cluster)
         for fault in self.faults:
+            if fault.kind == "straggler":
+                self._straggler(fault, cluster, k)
             if fault.kind in COLLISIONS and k in divergence_frames(fault):
                 self._pace(fault)
             if fault.kind == "query-replay" and k == divergence_frames(fault)[1]:
@@ -362,7 +324,7 @@ class _Harness:
         log_file = cluster.log_path(node)
         logged = log_file.stat().st_size if log_file.exists() else 0
         cluster.kill_node(node)
-        cluster.start_node(node, extra=_node_arguments(self.faults, self.node_args, node,
+        cluster.start_node(node, extra=node_arguments(self.faults, self.node_args, node,
                                                        self.master.walls, after=k))
         deadline = time.monotonic() + NODE_START
         while time.monotonic() < deadline and cluster.nodes[node].poll() is None:
@@ -371,6 +333,15 @@ class _Harness:
                 if NODE_UP.encode() in file.read():
                     return
             time.sleep(0.05)
+
+    def _straggler(self, fault: Fault, cluster: LocalCluster, k: int) -> None:
+        """Time the frames from RATE_FRAMES before a straggler to its node's restart, and
+        restart that node (given up by then: out until its node joins anew), without it."""
+        restart = last_action(fault)
+        if fault.frame - RATE_FRAMES <= k <= restart:
+            self.frame_times.setdefault(str(fault), {})[k] = time.monotonic()
+        if k == restart:
+            self._restart(cluster, fault.node, k)
 
     def _pace(self, fault: Fault) -> None:
         """Wait until COLLISION_PACE has passed since `fault`'s last divergence."""

@@ -23,13 +23,17 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
+from nodes.budget_flags import add_arguments as add_budget_arguments
+from nodes.budget_flags import limits_from
 from nodes.faults import (
+    CHECK_MAX_LAG,
     COLLISIONS,
     CONTROL_REQUESTS,
     KINDS,
     MIN_COLLISION_WALLS,
     divergence_frames,
     every_kind,
+    last_action,
 )
 from nodes.lockstep import LOSS_POLICIES, RESYNC_MODES
 from nodes.run_folder import add_arguments as add_out_arguments
@@ -56,6 +60,7 @@ def add(commands) -> None:
                         help="also inject a fault of every kind, spread evenly over --frames "
                              "(the master-kill last)")
     parser.add_argument("--barrier-timeout", type=seconds, default=0.5)
+    add_budget_arguments(parser, max_lag=CHECK_MAX_LAG)
     parser.add_argument("--on-loss", choices=LOSS_POLICIES, default="continue")
     parser.add_argument("--check-every", type=frame_count, default=1)
     parser.add_argument("--resync", choices=RESYNC_MODES, default="delta",
@@ -68,7 +73,8 @@ def add(commands) -> None:
 
 def check(args: argparse.Namespace, console) -> int:
     from nodes.check.findings import check_passed
-    from nodes.check.harness import CheckPlan, master_kill_frame, run_check
+    from nodes.check.harness import CheckPlan, run_check
+    from nodes.check.node_plan import master_kill_frame
     from nodes.check.table import check_table
 
     node_walls = _cave_nodes(args.cave) if args.cave else {w: (w,) for w in
@@ -99,6 +105,9 @@ def check(args: argparse.Namespace, console) -> int:
             raise UsageError(f"cavesim check: error: argument --inject: {f} makes its node "
                              f"diverge again at frame {last}, after the last frame "
                              f"{args.frames}")
+        if (last := last_action(f)) > args.frames:
+            raise UsageError(f"cavesim check: error: argument --inject: {f} restarts its node "
+                             f"at frame {last}, after the last frame {args.frames}")
     try:
         master_kill_frame(tuple(args.inject))
     except ValueError as e:
@@ -111,7 +120,7 @@ def check(args: argparse.Namespace, console) -> int:
         plan = CheckPlan(walls, args.scene, args.frames, tuple(args.inject), folder.path,
                          args.session, args.barrier_timeout, on_loss=args.on_loss,
                          check_every=args.check_every, resync=args.resync,
-                         node_walls=node_walls)
+                         node_walls=node_walls, **limits_from(args))
         with Progress(console=console) as progress:
             task = progress.add_task(f"check, {len(walls)} nodes", total=args.frames)
             report = run_check(plan, lambda k, live: progress.update(task, completed=k))

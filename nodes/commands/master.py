@@ -23,6 +23,8 @@ from nodes.arguments import (
     seconds,
     wall_list,
 )
+from nodes.budget_flags import add_arguments as add_budget_arguments
+from nodes.budget_flags import limits_from
 from nodes.lockstep import LOSS_POLICIES
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import tolerance_from
@@ -62,6 +64,7 @@ def add(commands) -> None:
     parser.add_argument("--frame-log", type=output_path, help="record every frame's inputs here")
     parser.add_argument("--progress", action="store_true", help="JSON progress lines on stdout")
     parser.add_argument("--verbose", action="store_true")
+    add_budget_arguments(parser)
     add_mixed_hardware_arguments(parser, master=True)
     add_network_arguments(parser)
     parser.set_defaults(handler=run, holds_start=True)  # until its report is open
@@ -86,7 +89,8 @@ def run(args: argparse.Namespace, console) -> int:
                           clock_seed=args.clock_seed, frame_log=args.frame_log, dt=args.dt,
                           realtime=args.realtime, max_frame_time=args.max_frame_time,
                           max_substeps=args.max_substeps,
-                          forensics=args.report.parent if args.report else None)
+                          forensics=args.report.parent if args.report else None,
+                          **limits_from(args))
 
     def progress(k: int, live: int) -> None:
         if args.progress:

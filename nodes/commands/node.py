@@ -30,6 +30,7 @@ from nodes.arguments import (
     trajectory_node_request,
     wall_list,
 )
+from nodes.faults import SLOW_DELAY, STRAGGLE_DELAY
 from nodes.lockstep import MASTER_LOSS_POLICIES, RESYNC_MODES
 from nodes.mixed_hardware import add_arguments as add_mixed_hardware_arguments
 from nodes.mixed_hardware import node_sample_from
@@ -45,7 +46,13 @@ def add(commands) -> None:
     parser.add_argument("--scene", type=scene_file, default=DEFAULT_SCENE)
     parser.add_argument("--inject", type=node_fault_spec, action="append", default=[],
                         help="fault to inject into this node, KIND@FRAME (testing)")
-    parser.add_argument("--slow-delay", type=seconds, default=1.5)
+    parser.add_argument("--slow-delay", type=seconds, default=SLOW_DELAY,
+                        help=f"how long a `slow` fault holds its frame's report (testing; "
+                             f"default {SLOW_DELAY:g} s)")
+    parser.add_argument("--straggle-delay", type=seconds, default=STRAGGLE_DELAY,
+                        help=f"how much longer each frame takes from a `straggler` fault's on "
+                             f"(testing; default {STRAGGLE_DELAY:g} s, twice the master's "
+                             f"default --max-lag)")
     parser.add_argument("--cave", type=cave_file,
                         help="CAVE geometry (.toml) to draw the node's walls of")
     parser.add_argument("--draws", type=wall_list,
@@ -120,7 +127,8 @@ def run(args: argparse.Namespace, console) -> int:
     config = NodeConfig(name=args.node, scene=args.scene, session=args.session,
                         network=network, credentials=credentials, operator=operator,
                         faults=tuple(args.inject),
-                        slow_delay=args.slow_delay, cave=args.cave,
+                        slow_delay=args.slow_delay, straggle_delay=args.straggle_delay,
+                        cave=args.cave,
                         render_every=args.render_every, images=args.images,
                         walls=_walls_of(args), stereo=args.stereo,
                         chunk_particles=args.snapshot_chunk, gpu=args.gpu,

@@ -48,6 +48,8 @@ from nodes.arguments import (
     wall_count,
     wall_names,
 )
+from nodes.budget_flags import add_arguments as add_budget_arguments
+from nodes.budget_flags import limits_from
 from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.launch.gpus import GROUPINGS, by_gpu
 from nodes.lockstep import LOSS_POLICIES
@@ -82,6 +84,8 @@ class RunPlan:
     engine: Engine | None = None  # every wall's particle engine path (None: the scene's)
     tolerance: Tolerance | None = None  # the mixed-hardware mode (None: bit-exact)
     trajectories: tuple[int, int] | None = None  # (N, K): the first wall's node writes them
+    limits: Mapping[str, object] = field(default_factory=dict)  # the master's --max-lag and
+    # budgets (nodes/budget_flags.py; none: the defaults)
 
     @property
     def members(self) -> tuple[str, ...]:
@@ -122,7 +126,7 @@ class RunPlan:
         master = MasterConfig(self.members, self.scene, self.frames, self.session,
                               credentials=self.credentials, on_loss=self.on_loss,
                               tolerance=self.tolerance, frame_log=self.out / FRAME_LOG,
-                              forensics=self.out, node_walls=self.nodes)
+                              forensics=self.out, node_walls=self.nodes, **self.limits)
         drawing = frozenset(self.members) if self.draws or self.display \
             else frozenset({PREVIEW} & set(self.members))
         mixed = node_arguments(self.tolerance)
@@ -262,6 +266,7 @@ def add(commands) -> None:
                              "each node gets its own wall's key, and the --preview window an "
                              "operator's key too (its pause, reset and Esc), issued for the "
                              "run (never written into --out)")
+    add_budget_arguments(parser)
     add_mixed_hardware_arguments(parser, master=True)
     add_trajectory_arguments(parser)
     parser.set_defaults(handler=run, holds_start=True)  # until report.json is open
@@ -287,7 +292,7 @@ def run(args: argparse.Namespace, console) -> int:
                        cave=None if args.walls else args.cave, render_every=args.render_every,
                        stereo=args.stereo, gpus=gpus, display=args.display,
                        preview=args.preview, engine=args.engine, tolerance=tolerance,
-                       trajectories=trajectories)
+                       trajectories=trajectories, limits=limits_from(args))
         report = run_walls(plan, console)
     if report["interrupted"]:
         return INTERRUPTED

@@ -4,16 +4,19 @@ Only checked messages of the run become events: refusals are counted by the link
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 
 from cavesim.core.wire import DisplayMessage, InfoMessage, ReportMessage
 
 
 @dataclass(frozen=True)
 class Reported:
-    """A wall's report of a frame (stepped, resynced or repeated)."""
+    """A wall's report of a frame (stepped, resynced or repeated), and when the link took
+    it (monotonic s: a lag is measured by it, not by when the master got round to it)."""
 
     report: ReportMessage
+    at: float = field(default_factory=time.monotonic)
 
 
 @dataclass(frozen=True)

@@ -8,10 +8,12 @@ scene's start state and report JOINED (`admission.py`); an old WELCOME cannot be
 matrix, the tracked or scripted head, the scene driver's state), publish them, wait until
 every member has reported k (the barrier: on a timeout, record who is stalled and send the
 frame again; a member silent past `evict_after` is evicted under --on-loss continue, or the
-run ends once it has been silent `max_pause` under --on-loss pause), agree on the
-checksums and the counters and record a divergence with what differs in each odd node's
-state (`agreement.py`, desync forensics in `forensics.py`), resync the odd nodes from a
-healthy one (`resyncs.py`: a node whose resyncs fail too often is given up), admit walls
+run ends once it has been silent `max_pause` under --on-loss pause; a member that reported
+`max_lag` after half the members is named, and given up past the lag budget:
+`stragglers.py`), agree on the checksums and the counters and record a divergence with what
+differs in each odd node's state (`agreement.py`, desync forensics in `forensics.py`),
+resync the odd nodes from a healthy one (`resyncs.py`: a node whose resyncs fail too often
+is given up, and so is one that diverges past the breach budget: `budgets.py`), admit walls
 that joined or fell behind, book the agreed counters (`counter_book.py`), log the frame.
 Only frame k's reports are kept. It takes typed events from a link (Zenoh in a real run,
 memory in the tests: `settings.py`) and leaves the rules to `nodes/lockstep.py`; it needs
@@ -53,6 +55,7 @@ from nodes import lockstep
 from nodes.lockstep import LOSS_POLICIES, Membership, Vote
 from nodes.master.admission import INFO_RETRY, Admission
 from nodes.master.agreement import Agreement
+from nodes.master.budgets import BREACH, LAG, Tally
 from nodes.master.counter_book import AGREED, AUTHORITY, CounterBook
 from nodes.master.events import (
     Described,
@@ -68,6 +71,7 @@ from nodes.master.frame_inputs import FrameInputs
 from nodes.master.resyncs import Resyncs
 from nodes.master.run_record import FinalAgreement, Join, Loss, RunRecord, Stall, UserAction
 from nodes.master.settings import Link, MasterConfig
+from nodes.master.stragglers import Stragglers
 from nodes.master.tolerance import ToleranceMode
 from nodes.master.user_requests import UserRequests
 
@@ -110,6 +114,10 @@ class Master:
         self.record.tolerance = self.tolerance
         self.agreement = Agreement(self.record, widths(scene), config.check_every,
                                    self.tolerance, config.forensics, link.ask_blocks)
+        self.stragglers = Stragglers(config.max_lag, config.lag_budget, self.record.lags)
+        self.breaches = Tally(BREACH, config.breach_budget, "diverged")
+        self.record.max_lag = config.max_lag
+        self.record.budgets = (self.breaches, self.stragglers.tally)
 
     # -- events ----------------------------------------------------------------------------
 
@@ -130,9 +138,10 @@ class Master:
                 log.info("%s joined run %016x", report.node, self.link.run_id)
             case Reported(report) if report.status is Status.BEHIND:
                 self.membership = self.membership.fell_behind(report.node)
-            case Reported(report):
+            case Reported(report, at):
                 if report.frame == self.frame:
                     self.reports[report.node] = report
+                    self.stragglers.reported(report.node, at)
                 if report.status is Status.STEPPED:
                     self.record.frame_cost.add(report.node, report.cost_us)
                 self.last_received[report.node] = max(report.frame,
@@ -265,8 +274,10 @@ class Master:
 
     def _barrier(self, k: int, message: FrameMessage) -> float:
         """Publish frame k and wait until every member reported it; the seconds it took.
-        A member silent past the limits is evicted (continue) or ends the run (pause)."""
+        A member silent past the limits is evicted (continue) or ends the run (pause); one
+        that lagged past its budget is given up."""
         self.frame, self.reports = k, {}
+        self.stragglers.begin(k, self.membership.members)
         sent = time.monotonic()
         self._send_frame(k, message)
         deadline = sent + self.config.barrier_timeout
@@ -284,7 +295,10 @@ class Master:
             deadline = time.monotonic() + self.config.barrier_timeout
         if not self.membership.members:
             self._say_why_all_are_gone(k)
-        return time.monotonic() - sent
+        done = time.monotonic()
+        for node in self.stragglers.end(done, self.membership.alive):
+            self._give_up(k, node, LAG)
+        return done - sent
 
     def _say_why_all_are_gone(self, k: int) -> None:
         """Every member left: give a node process that failed the moment it takes its
@@ -313,12 +327,15 @@ class Master:
 
     def _agree(self, k: int) -> Vote:
         """Vote on the members' checksums and counters of frame k (`agreement.py`) and
-        resync the odd ones; give up those over the mixed-hardware mode's breach budget."""
+        resync the odd ones, but give up those past the breach budget."""
         vote = self.agreement.vote(k, self.membership.members, self.reports)
-        for node in vote.odd:  # the tolerance mode's periodic resyncs name no one
-            self._resync(k, node, vote.source, vote.agreed, vote.odd)
-        for node in () if self.tolerance is None else self.tolerance.over_budget:
-            self._give_up(k, node, "breach-budget")
+        # a breach is an odd node named (the tolerance mode's periodic resyncs name no one)
+        over = [n for n in vote.odd if n in vote.named and self.breaches.over(k, n)]
+        for node in vote.odd:
+            if node not in over:
+                self._resync(k, node, vote.source, vote.agreed, vote.odd)
+        for node in over:
+            self._give_up(k, node, BREACH)
         return vote
 
     def _release_swap(self, k: int) -> None:

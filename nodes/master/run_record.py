@@ -16,13 +16,15 @@ from cavesim.core.bounded import DecimatedSeries, FirstEntries, LogHistogram
 from cavesim.core.drivers import FlightSample
 from cavesim.core.frame_cost import NOT_TIMED_US, PHASES
 from nodes.lockstep import UNCONFIRMED
+from nodes.master.budgets import Tally
 from nodes.master.counter_book import CounterBook
+from nodes.master.stragglers import Lag
 from nodes.master.swaps import SwapBook
 from nodes.master.tolerance import BIT_EXACT, MIXED_HARDWARE, ToleranceMode
 
 RENDER = PHASES.index("render")
 
-EVENT_LISTS = ("divergences", "resyncs", "stalls", "losses", "joins", "user_actions")
+EVENT_LISTS = ("divergences", "resyncs", "stalls", "lags", "losses", "joins", "user_actions")
 
 
 @dataclass(frozen=True)
@@ -191,6 +193,8 @@ class RunRecord:
     divergences: FirstEntries[Divergence] = field(default_factory=FirstEntries)
     resyncs: FirstEntries[Resync] = field(default_factory=FirstEntries)
     stalls: FirstEntries[Stall] = field(default_factory=FirstEntries)
+    lags: FirstEntries[Lag] = field(default_factory=FirstEntries)  # members that held the
+    # barrier past --max-lag
     losses: FirstEntries[Loss] = field(default_factory=FirstEntries)
     joins: FirstEntries[Join] = field(default_factory=FirstEntries)
     user_actions: FirstEntries[UserAction] = field(default_factory=FirstEntries)
@@ -208,6 +212,8 @@ class RunRecord:
     node_walls: dict[str, tuple[str, ...]] = field(default_factory=dict)  # as MasterConfig's
     capacity: int = 0  # the scene's particles at most
     counters: CounterBook | None = None  # the run's counters, as the walls agreed on them
+    max_lag: float | None = None  # s: the master's --max-lag
+    budgets: tuple[Tally, ...] = ()  # the breach and lag budgets, and whom they gave up
 
     def frame_done(self, k: int, barrier_seconds: float, live: int) -> None:
         """Frame k (the next one) went through the barrier in `barrier_seconds` and the
@@ -264,6 +270,8 @@ class RunRecord:
             "master_events_dropped": self.master_dropped,
             "gpus": {wall: self.gpus[wall] for wall in self.walls if wall in self.gpus},
             "swap": self.swaps.summary(),
+            "max_lag_seconds": self.max_lag,
+            "budgets": {tally.name: tally.summary() for tally in self.budgets},
             **({} if self.tolerance is None else {"tolerance": self.tolerance.summary()}),
             "counters": {} if self.counters is None else self.counters.summary(),
         }

@@ -19,7 +19,9 @@ from cavesim.core.wire import (
 )
 from cavesim.core.wire.network import NetworkSettings
 from cavesim.core.wire.rejects import RejectCounter
+from nodes.master.budgets import BREACH, BUDGETS, LAG, Budget
 from nodes.master.events import Event
+from nodes.master.stragglers import DEFAULT_MAX_LAG
 from nodes.master.tolerance import Tolerance
 from nodes.master.user_requests import Controller
 
@@ -39,6 +41,9 @@ class MasterConfig:
     on_loss: str = "continue"  # drop a lost node and go on, or "pause" until it is back
     evict_after: float = 10.0  # s a member may stay silent in the barrier (continue)
     max_pause: float = 300.0  # s the barrier holds for a silent member (pause)
+    max_lag: float = DEFAULT_MAX_LAG  # s a member may report after half the members did
+    lag_budget: Budget = BUDGETS[LAG]  # lags of a member before it is given up
+    breach_budget: Budget = BUDGETS[BREACH]  # divergences (breaches) before it is given up
     check_every: int = 1
     tolerance: Tolerance | None = None  # mixed hardware: drift from an authority, not bits
     frame_log: Path | None = None

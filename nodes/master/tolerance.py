@@ -8,14 +8,14 @@ count, breaches: it is named and resynced from the authority at once. Every `res
 frames each node whose bits differ from the authority's is resynced from it, which also
 bounds the drift of the particles no sample sees.
 
-Both are bounded, as their samples may be wrong or forged. A node that breaches more than
-`breach_budget` times in `breach_window` frames is named (in the log and report.json) and
-given up, not resynced again, until its node joins anew; the periodic resyncs are one per
-node every `resync_every` frames. A report whose sample is missing or of the wrong size is
-refused and counted per node (the first of each node's refusals is logged): it is not
-compared in that frame, and never ends the run. Without a checksum vote this is weaker
-than the bit-exact mode, so it is named in the log and in report.json, with the drift per
-node over time, the breaches and the resyncs (`ToleranceMode.summary`).
+Both are bounded, as their samples may be wrong or forged. A breach counts against the
+breach budget of either mode (`budgets.py`: past it the node is given up, not resynced
+again); the periodic resyncs are one per node every `resync_every` frames. A report whose
+sample is missing or of the wrong size is refused and counted per node (the first of each
+node's refusals is logged): it is not compared in that frame, and never ends the run.
+Without a checksum vote this is weaker than the bit-exact mode, so it is named in the log
+and in report.json, with the drift per node over time, the breaches and the resyncs
+(`ToleranceMode.summary`).
 
 The rules are pure (`judge`); `ToleranceMode` keeps the record. `nodes/master/process.py`
 carries out the resyncs the vote names, as for a bit-exact divergence.
@@ -25,9 +25,9 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import Counter, deque
+from collections import Counter
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from cavesim.core.bounded import DecimatedSeries, FirstEntries
 from cavesim.core.drift import (
@@ -54,26 +54,18 @@ DEFAULT_POSITION_TOLERANCE = 2e-3  # m
 DEFAULT_VELOCITY_TOLERANCE = 1e-2  # m/s
 TOLERANCE_RANGE = (1e-9, 1e3)  # m and m/s
 DRIFT_POINTS = 1024  # per node: the drift series is decimated beyond this many comparisons
-# a wall resynced after every breach stays in step while its GPU drifts now and then; more
-# than 5 breaches in 10 s at 60 Hz is a broken GPU or forged samples, not drift
-DEFAULT_BREACH_BUDGET = 5  # breaches per node in BREACH_WINDOW frames
-BREACH_BUDGET_RANGE = (1, 10_000)
-BREACH_WINDOW = 600  # frames
 
 
 @dataclass(frozen=True)
 class Tolerance:
     """The mode's settings: `authority` (a wall), resync every `resync_every` frames,
-    samples of `sample` records, tolerances in m and m/s, at most `breach_budget` breaches
-    of a node in `breach_window` frames."""
+    samples of `sample` records, tolerances in m and m/s."""
 
     authority: str
     resync_every: int = DEFAULT_RESYNC_EVERY
     sample: int = DEFAULT_SAMPLE
     position: float = DEFAULT_POSITION_TOLERANCE
     velocity: float = DEFAULT_VELOCITY_TOLERANCE
-    breach_budget: int = DEFAULT_BREACH_BUDGET
-    breach_window: int = BREACH_WINDOW
 
     def __post_init__(self) -> None:
         low, high = RESYNC_EVERY_RANGE
@@ -83,13 +75,6 @@ class Tolerance:
         if not 1 <= self.sample <= MAX_SAMPLE:
             raise ValueError(f"sample must be in [1, {MAX_SAMPLE}] records, got "
                              f"{self.sample!r}")
-        low, high = BREACH_BUDGET_RANGE
-        if not low <= self.breach_budget <= high:
-            raise ValueError(f"breach_budget must be in [{low}, {high}] breaches, got "
-                             f"{self.breach_budget!r}")
-        if self.breach_window < 1:
-            raise ValueError(f"breach_window must be at least 1 frame, got "
-                             f"{self.breach_window!r}")
         low, high = TOLERANCE_RANGE
         for name in ("position", "velocity"):
             if not low <= getattr(self, name) <= high:
@@ -99,8 +84,7 @@ class Tolerance:
     def to_json(self) -> dict:
         return {"authority": self.authority, "resync_every_frames": self.resync_every,
                 "sample_records": self.sample, "position_tolerance_m": self.position,
-                "velocity_tolerance_m_s": self.velocity, "breach_budget": self.breach_budget,
-                "breach_window_frames": self.breach_window}
+                "velocity_tolerance_m_s": self.velocity}
 
 
 @dataclass(frozen=True)
@@ -227,15 +211,12 @@ class ToleranceMode:
         self.periodic_resyncs = 0
         self.handovers: FirstEntries[dict] = FirstEntries()  # acting authority changes
         self.refused_samples: Counter[str] = Counter()
-        self.recent_breaches: dict[str, deque[int]] = {wall: deque() for wall in walls}
-        self.given_up: list[dict] = []  # walls that breached past the budget
-        self.over_budget: tuple[str, ...] = ()  # of the last vote: the master gives them up
         self._acting = tolerance.authority
 
     def vote(self, k: int, members: tuple[str, ...], reports: Mapping[str, ReportMessage],
              compare: bool = True) -> Vote:
-        """Frame k's vote: the acting authority's state; odd, the nodes to resync from it
-        (`over_budget`: the breached to give up instead)."""
+        """Frame k's vote: the acting authority's state; odd, the nodes to resync from it;
+        named, the breached."""
         judgement = judge(k, members, reports, self.tolerance, compare)
         for node, problem in judgement.refused.items():
             if not self.refused_samples[node]:
@@ -251,37 +232,16 @@ class ToleranceMode:
             self._acting = authority
         for node, drift in judgement.drifts.items():
             self.drift[node].add(k, drift)
-        self.over_budget = tuple(n for n in judgement.vote.named if self._past_budget(k, n))
         for node in judgement.vote.named:
             drift = judgement.drifts[node]
             self.breaches.append(Breach(k, node, authority, drift))
             log.warning("frame %d: %s breached the tolerance against the authority %s: "
                         "position max %.3g m (tolerance %g), velocity max %.3g m/s "
-                        "(tolerance %g), live %d / %d; %s", k, node,
-                        authority, drift.position_max, self.tolerance.position,
-                        drift.velocity_max, self.tolerance.velocity, drift.particles,
-                        drift.authority_particles, "past its budget" if node in
-                        self.over_budget else f"resyncing it from {authority}")
+                        "(tolerance %g), live %d / %d", k, node, authority,
+                        drift.position_max, self.tolerance.position, drift.velocity_max,
+                        self.tolerance.velocity, drift.particles, drift.authority_particles)
         self.periodic_resyncs += len(judgement.periodic)
-        vote = judgement.vote
-        return replace(vote, odd=tuple(n for n in vote.odd if n not in self.over_budget))
-
-    def _past_budget(self, k: int, node: str) -> bool:
-        """Note `node`'s breach at k; whether that is one past its budget (it is named)."""
-        recent, window = self.recent_breaches[node], self.tolerance.breach_window
-        recent.append(k)
-        while recent[0] <= k - window:
-            recent.popleft()
-        if len(recent) <= self.tolerance.breach_budget:
-            return False
-        self.given_up.append({"frame": k, "node": node, "breaches": len(recent),
-                              "window_frames": window})
-        log.warning("frame %d: %s breached the tolerance %d times in %d frames (--breach-"
-                    "budget %d): given up, not resynced again, until its node joins anew; "
-                    "check its GPU, and who else holds the session's key", k, node,
-                    len(recent), window, self.tolerance.breach_budget)
-        recent.clear()
-        return True
+        return judgement.vote
 
     def summary(self) -> dict:
         """report.json's "tolerance": the settings, drift per node, breaches, resyncs."""
@@ -293,6 +253,5 @@ class ToleranceMode:
                 "breach_total": self.breaches.total,
                 "periodic_resyncs": self.periodic_resyncs,
                 "authority_handovers": list(self.handovers),
-                "refused_samples": dict(sorted(self.refused_samples.items())),
-                "given_up": self.given_up}
+                "refused_samples": dict(sorted(self.refused_samples.items()))}
 

@@ -1,9 +1,12 @@
 """A wall node's frames (a part of `WallNode`, nodes/wall/process.py): frame k steps the
 state, takes its checksum (the frame's one wait) and the frame's counters, keeps the checksum
 tree's history, and reports k with the phases' times; a repeated frame repeats the report; a
-frame ahead of ours reports BEHIND (at most every BEHIND_EVERY) and waits for a resync. The
-node's own injected faults act here (`nodes/faults.py`), and the trajectories follow each
-step after its report.
+frame ahead of ours reports BEHIND (at most every BEHIND_EVERY) and waits for a resync, and
+so does our next frame when a newer one came after it (the master went on without us: a
+member never gets frame k + 1 before it reported k), so that a node left out of the
+lock-step (evicted, given up) does not step every frame queued behind the others' and takes
+the master's STOP when it comes. The node's own injected faults act here
+(`nodes/faults.py`), and the trajectories follow each step after its report.
 """
 
 from __future__ import annotations
@@ -64,6 +67,8 @@ class FrameStep:
         k = message.frame
         if k == self.done and self.last_report is not None:
             self._publish(dataclasses.replace(self.last_report, status=Status.REPEATED))
+        elif self.done < k < self.view.heard:  # a newer frame is out: the run went on
+            self._behind(self.view.heard)
         elif k == self.done + 1:
             if self._fault("drop", k):  # lose this copy; the master's retransmit gets through
                 log.warning("%s: fault: dropped frame %d", self.config.name, k)
@@ -124,6 +129,11 @@ class FrameStep:
         self.timer.lap("history")
         if self._fault("slow", k):
             time.sleep(self.config.slow_delay)
+        if self._fault("straggler", k):
+            log.warning("%s: fault: every frame from %d on takes %g s more", self.config.name,
+                        k, self.config.straggle_delay)
+        if any(f.kind == "straggler" and f.frame <= k for f in self.config.faults):
+            time.sleep(self.config.straggle_delay)
         counted = entries(self.system.counters())  # read after the checksum's wait
         if self._fault("inflate", k):
             counted = inflated(counted)

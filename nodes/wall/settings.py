@@ -11,9 +11,7 @@ from cavesim.core.trajectories import TrajectoryRequest
 from cavesim.core.wire import Credentials
 from cavesim.core.wire.network import NetworkSettings
 from cavesim.core.wire.snapshot import CHUNK_PARTICLES
-from nodes.faults import Fault
-
-SLOW_DELAY = 1.5  # s a `slow` fault holds a report back (tests use a shorter barrier)
+from nodes.faults import SLOW_DELAY, STRAGGLE_DELAY, Fault
 
 
 @dataclass(frozen=True)
@@ -26,6 +24,7 @@ class NodeConfig:
     operator: Credentials | None = None  # operator-NAME.key: signs what the preview sends
     faults: tuple[Fault, ...] = ()
     slow_delay: float = SLOW_DELAY
+    straggle_delay: float = STRAGGLE_DELAY
     cave: Path | None = None  # draw this node's walls of this CAVE ...
     walls: tuple[str, ...] = ()  # ... these (default: the one called `name`) ...
     render_every: int = 0  # ... every K frames (0: never) ...

@@ -14,8 +14,11 @@ from master_process import spawn_master
 from cavesim.tools.log_replay import replay
 from nodes.check.harness import CheckPlan, run_check
 from nodes.cluster_bench.resync import SCENE as RESYNC_SCENE
-from nodes.faults import INFLATION, parse_fault
+from nodes.faults import CHECK_MAX_LAG, INFLATION, parse_fault
+from nodes.launch.cluster import ClusterPlan, run_cluster
 from nodes.launch.launcher import LocalCluster
+from nodes.master.budgets import BUDGETS, LAG
+from nodes.master.process import MasterConfig
 
 ROOT = Path(__file__).parents[2]
 DUST_DEVIL = ROOT / "config" / "scenes" / "dust_devil.toml"
@@ -77,6 +80,41 @@ def test_process_faults_are_detected_and_healed(tmp_path):
     assert report["divergences"] == 0
     assert sum(report["rogue_messages_sent"].values()) == 4
     assert sum(report["run"]["rejected_messages"]["nodes"].values()) >= 4 * 3
+
+
+def test_a_straggler_is_given_up_within_its_budget_and_one_slow_frame_is_not(tmp_path):
+    """A node 2 x --max-lag slow every frame is named at its first, given up at the one past
+    the lag budget, and the others' rate is back; a node slow once is named and stays."""
+    faults = ["straggler@30:left", "slow@90:right"]
+    report = check(tmp_path, faults, frames=120, scene=MINIMAL)
+    straggler, slow = report["faults"]
+    budget = BUDGETS[LAG].most
+    assert (straggler["detected_frame"], straggler["named"]) == (30, ["left"])
+    assert straggler["healed"] and straggler["healed_frame"] == 30 + budget + 1, straggler
+    detection = straggler["detection"]
+    assert [lag["frame"] for lag in detection["lags"]] == list(range(30, 30 + budget + 1))
+    rates = detection["frames_per_second"]
+    assert rates["while_straggling"] < 1 / CHECK_MAX_LAG < rates["after_given_up"], rates
+    assert (slow["detected_frame"], slow["named"], slow["healed"]) == (90, ["right"], True)
+    run = report["run"]
+    assert [lag["node"] for lag in run["lags"] if lag["frame"] == 90] == ["right"]
+    assert [(loss["node"], loss["detected_by"]) for loss in run["losses"]] == [("left", LAG)]
+    assert report["final"]["agree"] and run["frames"] == 120
+
+
+def test_a_wall_given_up_steps_no_queued_frame_and_leaves_at_the_stop(tmp_path):
+    """A straggler given up (0.5 s a frame) goes on getting the others' frames faster than
+    it steps them: it must skip to the newest and take the STOP, not step every frame queued
+    before it until the launcher interrupts it."""
+    config = MasterConfig(WALLS, MINIMAL, 60, f"gone{os.getpid()}", max_lag=0.1)
+    record = run_cluster(ClusterPlan(config, tmp_path, {"left": (
+        "--inject", "straggler@10", "--straggle-delay", "0.5")}))
+    assert [(loss.frame, loss.node, loss.detected_by) for loss in record.losses] == [
+        (10 + BUDGETS[LAG].most, "left", LAG)]
+    assert record.frames == 60 and record.final.agree
+    log = (tmp_path / "logs" / "left.log").read_text()
+    assert f"is ahead of our frame {10 + BUDGETS[LAG].most}" in log
+    assert "interrupted" not in log and "Traceback" not in log
 
 
 def test_attacks_and_a_killed_master_are_refused_and_survived(tmp_path):

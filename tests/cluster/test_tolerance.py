@@ -26,10 +26,10 @@ from cavesim.tools.reports.run_tables import mode_rows
 from nodes import cli
 from nodes.arguments import USAGE_ERROR
 from nodes.commands.run import RunPlan
+from nodes.master.budgets import BREACH, WINDOW, Budget
 from nodes.master.process import MasterConfig, run_master
 from nodes.master.tolerance import (
     BIT_EXACT,
-    BREACH_WINDOW,
     MIXED_HARDWARE,
     Tolerance,
     ToleranceMode,
@@ -222,23 +222,25 @@ def test_reports_without_a_sample_are_counted_and_never_end_the_run():
 def test_a_wall_that_keeps_breaching_is_given_up_not_resynced_forever():
     link = MemoryLink(WALLS, sample=4)
     link.walls["left"].nudge_at.update({k: LARGE for k in range(3, 300)})
-    record = run(link, frames=300, tolerance=Tolerance("front", sample=4, breach_budget=4))
+    record = run(link, frames=300, tolerance=Tolerance("front", sample=4),
+                 breach_budget=Budget(4, WINDOW))
     left_resyncs = [r.frame for r in record.resyncs if r.node == "left"]
     assert left_resyncs == [3, 4, 5, 6]  # the budget's 4, then the 5th breach gives it up
     (loss,) = record.losses
     assert (loss.frame, loss.node, loss.detected_by) == (7, "left", "breach-budget")
-    tolerance = record.summary()["tolerance"]
-    assert tolerance["breach_total"] == 5 and tolerance["breach_budget"] == 4
-    assert tolerance["given_up"] == [{"frame": 7, "node": "left", "breaches": 5,
-                                      "window_frames": BREACH_WINDOW}]
+    summary = record.summary()
+    assert summary["tolerance"]["breach_total"] == 5
+    assert summary["budgets"][BREACH] == {
+        "most": 4, "window_frames": WINDOW, "given_up_total": 1,
+        "given_up": [{"frame": 7, "node": "left", "events": 5, "window_frames": WINDOW}]}
     assert record.frames == 300 and record.final.lost == ("left",) and record.final.agree
 
 
 def test_breaches_further_apart_than_the_window_stay_within_the_budget():
     link = MemoryLink(WALLS, sample=4)
     link.walls["left"].nudge_at.update({k: LARGE for k in range(3, 40, 10)})
-    record = run(link, frames=40, tolerance=Tolerance("front", sample=4, breach_budget=1,
-                                                      breach_window=10))
+    record = run(link, frames=40, tolerance=Tolerance("front", sample=4),
+                 breach_budget=Budget(1, 10))
     assert [r.frame for r in record.resyncs] == [3, 13, 23, 33] and not record.losses
 
 
@@ -327,8 +329,6 @@ def test_jitter_changes_the_bits_but_hardly_the_positions_and_shove_breaches(fou
      "argument --resync-every: expected frames in [1, 100000], got '0'"),
     (["master", "--walls", "front", "--mixed-hardware", "--drift-sample", "2000"],
      "argument --drift-sample: expected records in [1, 1024], got '2000'"),
-    (["master", "--walls", "front", "--breach-budget", "3"],
-     "cavesim master: error: argument --breach-budget: only with --mixed-hardware"),
     (["run", "--mixed-hardware", "--breach-budget", "0"],
      "argument --breach-budget: expected breaches in [1, 10000], got '0'"),
     (["run", "--mixed-hardware", "--velocity-tolerance", "nan"],
@@ -342,9 +342,8 @@ def test_bad_mixed_hardware_flags_are_one_line_usage_errors(args, message, capsy
 
 def test_the_master_takes_the_first_wall_as_authority_and_the_defaults():
     args = cli.build_parser().parse_args(["master", "--walls", "left,front", "--mixed-hardware",
-                                          "--velocity-tolerance", "0.5", "--breach-budget", "9"])
-    assert tolerance_from(args, args.walls, "master") == Tolerance("left", velocity=0.5,
-                                                                    breach_budget=9)
+                                          "--velocity-tolerance", "0.5"])
+    assert tolerance_from(args, args.walls, "master") == Tolerance("left", velocity=0.5)
     plain = cli.build_parser().parse_args(["master", "--walls", "left,front"])
     assert tolerance_from(plain, plain.walls, "master") is None
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from master_process import running
 
-from nodes.faults import KINDS
+from nodes.faults import EVERY_KIND_SPACING, KINDS
 
 ROOT = Path(__file__).parents[2]
 MINIMAL = ROOT / "config" / "scenes" / "minimal.toml"
@@ -23,8 +23,9 @@ pytestmark = pytest.mark.slow
 
 def test_every_kind_at_once_is_detected_healed_and_leaves_nothing_behind(tmp_path):
     session = f"every{os.getpid()}"
+    frames = len(KINDS) * EVERY_KIND_SPACING  # the fewest that keep every kind apart
     done = subprocess.run([sys.executable, "-m", "cavesim", "check", "--every-kind",
-                           "--frames", "1710", "--scene", str(MINIMAL), "--out",
+                           "--frames", str(frames), "--scene", str(MINIMAL), "--out",
                            str(tmp_path), "--session", session],
                           cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]

@@ -173,6 +173,18 @@ def test_mixed_hardware_reaches_the_master_and_every_node_or_cavesim_run(tmp_pat
     assert "--mixed-hardware" in shlex.split(done.stdout.splitlines()[-1])
 
 
+def test_max_lag_reaches_the_master_or_cavesim_run(tmp_path):
+    done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure",
+                  "--max-lag", "0.1")
+    assert done.returncode == 0, done.stderr
+    found = commands(done.stdout)
+    assert flag(found["master"], "--max-lag") == "0.1"
+    assert not any("--max-lag" in found[wall] for wall in ("front", "left", "floor"))
+    done = launch("--dry-run", "--walls", "2", "--max-lag", "0.25")
+    assert done.returncode == 0, done.stderr
+    assert flag(shlex.split(done.stdout.splitlines()[-1]), "--max-lag") == "0.25"
+
+
 def test_display_needs_a_cave():
     done = launch("--dry-run", "--display")
     assert done.returncode == 2
@@ -214,6 +226,7 @@ def test_hosts_without_keys_refuse_to_run_unsigned_unless_insecure(tmp_path):
     (["--session", "a.b"], "argument --session"),
     (["--bogus"], "unknown argument --bogus"),
     (["--group-by", "gpu"], "argument --group-by: only without --hosts"),
+    (["--max-lag", "1s"], "argument --max-lag: expected seconds (e.g. 0.1), got '1s'"),
 ])
 def test_bad_arguments_exit_2(tmp_path, args, message):
     done = launch("--hosts", str(hosts_file(tmp_path, HOSTS)), "--dry-run", "--insecure", *args)

@@ -8,6 +8,8 @@ small float32 rule, whose digest is the GPU checksum's numpy twin: such walls an
 master's block questions as a node does (desync forensics), and a bit flip is a real one.
 With `sample`, each report carries a drift sample (the mixed-hardware mode): every sampled
 particle sits at x = the wall's `offset`, which a nudge moves (and changes its bits).
+A wall may report a frame late: its report carries the time the link would have taken it,
+that many seconds after the others' (a straggler, without a sleep).
 With `counting`, each report of a frame k it stepped carries the minimal scene's one counter,
 capacity_drops = k % 3, as an honest wall counts it; a wall may inflate it (an insider that
 lies with its state's true digest), count nothing, or add counters the run does not know.
@@ -139,6 +141,7 @@ class MemoryWall:
     counts_nothing: bool = False  # its engine path cannot count here: it reports none
     unknown_counters: tuple = ()  # (id, values) entries of counters the run does not know
     planted: bool = False  # it loaded a colliding state: its next frame differs
+    late: dict[int, float] = field(default_factory=dict)  # frame -> s its report comes late
 
 
 class MemoryLink:
@@ -272,7 +275,8 @@ class MemoryLink:
         particles = wall.done if wall.records is None else len(wall.records.particles)
         self.events.put(Reported(ReportMessage(wall.done, wall.name, wall.digest, particles,
                                                0, MEMORY_COST, status=status,
-                                               sample=self._sample(wall), counters=counters)))
+                                               sample=self._sample(wall), counters=counters),
+                                 time.monotonic() + wall.late.get(wall.done, 0.0)))
 
     def _counters(self, wall: MemoryWall) -> tuple:
         """The counters of the frame `wall` just stepped, as its report carries them."""

@@ -63,7 +63,7 @@ def test_event_lists_keep_their_first_entries_and_count_every_one():
     report = record.summary()
     assert [d["frame"] for d in report["divergences"]] == list(range(1, 1001))
     assert report["event_totals"] == {"divergences": 5000, "resyncs": 0, "stalls": 1,
-                                      "losses": 0, "joins": 0, "user_actions": 0}
+                                      "lags": 0, "losses": 0, "joins": 0, "user_actions": 0}
     assert report["stalls"] == [{"frame": 3, "nodes": {
         "left": {"last_frame_sent": 3, "last_frame_received": 2}}}]
 

@@ -22,6 +22,7 @@ def summary_table(report: dict) -> Table:
         ("divergences", report["event_totals"]["divergences"]),
         ("resyncs", report["event_totals"]["resyncs"]),
         ("stalls", report["event_totals"]["stalls"]),
+        ("lags past --max-lag", report["event_totals"].get("lags", 0)),
         ("rejected messages", sum(report["rejected_messages"]["master"].values())
          + sum(report["rejected_messages"]["nodes"].values())),
     ]
