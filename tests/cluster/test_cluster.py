@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -113,7 +114,8 @@ def test_a_wall_given_up_steps_no_queued_frame_and_leaves_at_the_stop(tmp_path):
         (10 + BUDGETS[LAG].most, "left", LAG)]
     assert record.frames == 60 and record.final.agree
     log = (tmp_path / "logs" / "left.log").read_text()
-    assert f"is ahead of our frame {10 + BUDGETS[LAG].most}" in log
+    skipped = [int(ours) for ours in re.findall(r"is ahead of our frame (\d+)", log)]
+    assert skipped and 10 + BUDGETS[LAG].most <= skipped[0] < record.frames  # not all stepped
     assert "interrupted" not in log and "Traceback" not in log
 
 
