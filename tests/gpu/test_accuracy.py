@@ -24,6 +24,7 @@ from cavesim.core.substeps import DP54_A, DP54_B4, DP54_B5, DP54_C
 from cavesim.core.twin.integrators import INTEGRATORS
 from cavesim.core.twin.tracers import TRACERS
 from cavesim.tools.numerics import METHODS, QUICK_DTS, run_command
+from cavesim.tools.numerics.accuracy import run_accuracy
 from cavesim.tools.numerics.adaptive import dormand_prince
 from cavesim.tools.numerics.cases import (
     CATMULL_ROM_ORDER_LIMIT,
@@ -37,6 +38,7 @@ from cavesim.tools.numerics.cases import (
     TIME_INTERPOLATION_ORDER,
     TRACER_PARTICLES,
     rotating_case,
+    rotating_tracer_case,
     smooth_vortex_case,
     tracer_case,
     uniform_case,
@@ -83,6 +85,15 @@ def quick_run(gl_session, tmp_path_factory):
     result = run_command(REPO_ROOT / HELICOPTER_SCENE, out, console, RUN_PARTICLES,
                          quick=True, ctx=gl_session)
     return result, out, console.file.getvalue()
+
+
+@pytest.fixture(scope="module")
+def tracer_run(gl_session, tmp_path_factory):
+    """The tracer cases alone over the quick dts."""
+    folder = tmp_path_factory.mktemp("tracer")
+    return run_accuracy([tracer_case(TRACER_PARTICLES, folder),
+                         rotating_tracer_case(TRACER_PARTICLES)], QUICK_DTS, folder / "out",
+                        Console(file=io.StringIO(), width=200), gl_session, workers=1)
 
 
 def summary_of(result, case: str, method):
@@ -343,10 +354,10 @@ def test_portable_arithmetic_costs_time_not_accuracy(quick_run):
 
 
 @pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
-def test_tracer_orders_match_the_tracer_methods(quick_run, method):
+def test_tracer_orders_match_the_tracer_methods(tracer_run, method):
     """Each integrator's tracers converge at its tracer method's order, not its own: the
     trapezoid and Verlet are order 1 and 2 with inertia, Heun's (2) without."""
-    summary = summary_of(quick_run[0], TRACER, method)
+    summary = summary_of(tracer_run, TRACER, method)
     expected = method.integrator.tracer_method.order
     assert summary.order == summary.expected == expected
     assert len(summary.fit_dts) >= MIN_FIT_POINTS
@@ -358,26 +369,24 @@ def test_tracer_orders_match_the_tracer_methods(quick_run, method):
 
 @pytest.mark.parametrize("method", [m for m in METHODS if m.integrator in ROTATING_METHODS],
                          ids=lambda m: m.name)
-def test_tracers_in_a_time_series_converge_at_most_at_its_order_in_time(quick_run, method):
+def test_tracers_in_a_time_series_converge_at_most_at_its_order_in_time(tracer_run, method):
     """Tracers in the turning flow's snapshots: Euler's tracers at 1, the others at the
     time interpolation's 2, RK4's too."""
-    summary = summary_of(quick_run[0], ROTATING_TRACER, method)
+    summary = summary_of(tracer_run, ROTATING_TRACER, method)
     expected = min(method.integrator.tracer_method.order, TIME_INTERPOLATION_ORDER)
     assert summary.expected == expected and len(summary.fit_dts) >= MIN_FIT_POINTS
     assert abs(summary.observed - expected) <= HELD_ORDER_TOLERANCE, summary
     assert summary.verdict == "ok"
 
 
-def test_tracers_on_the_gpu_follow_the_float64_twin(quick_run):
+def test_tracers_on_the_gpu_follow_the_float64_twin(tracer_run):
     """The GPU's tracer error is the twin's plus float32's, which stays below 1e-7 m."""
-    result = quick_run[0]
-    rows = [r for r in result.rows if r.case == TRACER]
+    rows = [r for r in tracer_run.rows if r.case == TRACER]
     assert len(rows) == len(METHODS) * len(QUICK_DTS)
     for row in rows:
         assert row.float32_rms < 1e-7 and row.arithmetic_rms < 1e-7, row
         assert row.gpu_rms <= row.twin_rms + row.float32_rms + 1e-12, row
-    tracers = (TRACER, ROTATING_TRACER)  # closed form: no DP sweep, no reference check
-    assert not [r for r in (*result.sweep, *result.reference_accuracy) if r.case in tracers]
+    assert not tracer_run.sweep and not tracer_run.reference_accuracy  # closed form, no DP
 
 
 @pytest.mark.parametrize("method", METHODS, ids=lambda m: m.name)
