@@ -265,10 +265,12 @@ def test_tracers_mixed_with_inertial_classes_have_the_portable_twins_bits(lockst
     smoke_beside_grains(lockstep, terrain, integrator.value)
 
 
+@pytest.mark.slow
 def test_adaptive_tracers_have_the_portable_twins_bits_and_substeps(lockstep, terrain):
     """The smoke stepped by RK45 in substeps: the same bits and the same substeps taken and
     retaken as the portable twin, on both paths, with a tolerance that makes the fast
-    tracers divide their frames and grow their substeps again."""
+    tracers divide their frames and grow their substeps again. Slow: the only test of the
+    adaptive substeps' bits against the portable twin."""
     run = smoke_beside_grains(lockstep, terrain, "etd2rk", tracer_method="rk45",
                               tracer_tolerance=1e-9)
     assert all(run.substeps_counted[engine] == SMALL_FRAMES for engine in ENGINE_PATHS)
@@ -277,9 +279,11 @@ def test_adaptive_tracers_have_the_portable_twins_bits_and_substeps(lockstep, te
         last
 
 
+@pytest.mark.slow
 def test_adaptive_tracers_in_a_time_series_have_the_portable_twins_bits(lockstep):
     """Smoke by RK45 in config/fields/pulsing_vortex.nc: its substeps take the flow between
-    the stages, where the series' place runs linearly in time, the same on every path."""
+    the stages, where the series' place runs linearly in time, the same on every path.
+    Slow: the only test of substeps between a series' snapshots against the twin."""
     path = Path(__file__).parents[2] / "config" / "fields" / "pulsing_vortex.nc"
     smoke = dict(FOUNTAIN, position=[2.0, 0.0, 3.0], speed=0.5, speed_spread=0.2,
                  lifetime=[1.5, 2.5], particle_class="smoke")
@@ -413,8 +417,12 @@ def test_portable_shaders_use_no_operation_the_spec_leaves_to_the_driver(tmp_pat
     assert not any(found.values()), {name: ops for name, ops in found.items() if ops}
 
 
+@pytest.mark.slow
 @pytest.mark.requires("glslang")
 def test_the_same_check_finds_them_in_native_arithmetic(tmp_path):
+    """The check of the portable builds' operations is not blind: on the same pass in
+    native arithmetic it finds the operations the spec leaves to the driver. Slow: it
+    compiles a whole particle pass to glslang's tree."""
     spec, defines = portable_builds()[0]
     native = {**defines, "ARITHMETIC": ARITHMETIC_IDS[Arithmetic.NATIVE]}
     trees = intermediate_trees(stages([(spec, native)])[:1], tmp_path)

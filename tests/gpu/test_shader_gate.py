@@ -31,6 +31,7 @@ from cavesim.gpu.engine.programs import (
 )
 from cavesim.gpu.gate_cover import FEATURES, PASSES, particle_cover
 from cavesim.gpu.gl import context
+from cavesim.gpu.gl.arithmetic_probe import ARITHMETIC_PROBE
 from cavesim.gpu.render.programs import DUST
 from cavesim.gpu.shader_conditionals import Conditionals
 from cavesim.gpu.shader_gate import (
@@ -73,6 +74,8 @@ def written_scenes(folder: Path) -> list[Path]:
     return paths
 
 
+pytestmark = pytest.mark.xdist_group("shader_gate")  # the cover and its builds, made once
+
 @pytest.fixture(scope="module")
 def scenes(tmp_path_factory):
     return load_scenes([*scene_files(), *written_scenes(tmp_path_factory.mktemp("scenes"))])
@@ -111,6 +114,11 @@ def test_each_engine_path_builds_the_particle_pass_in_at_most_400_variants(cover
                    if b.spec in PASSES)
     assert any(dict(b.defines).get("CLASS_COUNT") == MAX_PARTICLE_CLASSES
                for b in builds if b.spec == DUST)
+
+
+def test_the_gate_covers_the_arithmetic_probe_in_both_modes(builds):
+    modes = {dict(b.defines)["ARITHMETIC"] for b in builds if b.spec == ARITHMETIC_PROBE}
+    assert modes == {0, 1}
 
 
 def test_every_scene_shipped_or_under_tests_is_built_as_it_is(scenes, builds):
